@@ -1,0 +1,1 @@
+"""teleteach: teaching robots high- and low-level skills through teleoperation."""

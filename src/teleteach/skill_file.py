@@ -1,0 +1,151 @@
+"""The file format of a taught skill: what the GUI records, the BT library accepts and the robot replays.
+
+A skill file is a numpy ``.npz`` archive (no pickles) with, for N samples:
+
+- ``time`` (N,) [s], strictly increasing, starting anywhere;
+- ``stiffness`` (N, 3, 3) [N/m], translational stiffness K_T in the robot base frame, SPD;
+- ``equilibrium_pose`` (N, 7): commanded reference x_r (x, y, z [m], qx, qy, qz, qw) in the base frame;
+- ``cartesian_pose`` (N, 7): measured end-effector pose x_a, same layout;
+- ``meta``: a JSON string with ``name``, ``kind`` (stiffness | shared_control | dmp),
+  ``rotational_stiffness`` [Nm/rad] and free-form provenance.
+
+:func:`load` validates everything, so a file that loads is safe to execute.
+"""
+
+import dataclasses
+import io
+import json
+import pathlib
+from typing import Any, Dict, Union
+
+import numpy as np
+
+from teleteach.datadir import atomic_write_bytes
+
+KINDS = ("stiffness", "shared_control", "dmp")
+
+
+class SkillFileError(ValueError):
+    """A skill file is missing, unreadable or describes something unsafe to execute."""
+
+
+@dataclasses.dataclass
+class Skill:
+    """A demonstrated (or learned) skill: stiffness and poses over time."""
+
+    name: str
+    kind: str
+    time: np.ndarray
+    stiffness: np.ndarray
+    equilibrium_pose: np.ndarray
+    cartesian_pose: np.ndarray
+    rotational_stiffness: float = 30.0
+    provenance: Dict[str, Any] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        self.time = np.asarray(self.time, dtype=float)
+        self.stiffness = np.asarray(self.stiffness, dtype=float)
+        self.equilibrium_pose = np.asarray(self.equilibrium_pose, dtype=float)
+        self.cartesian_pose = np.asarray(self.cartesian_pose, dtype=float)
+        validate(self)
+
+    @property
+    def duration(self) -> float:
+        """Length of the demonstration [s]."""
+        return float(self.time[-1] - self.time[0])
+
+
+def validate(skill: Skill) -> None:
+    """Raise :class:`SkillFileError` naming the first thing that is wrong with ``skill``."""
+    if not skill.name or not skill.name.isidentifier():
+        raise SkillFileError(f"skill name {skill.name!r} must be a non-empty identifier (letters, digits, _)")
+    if skill.kind not in KINDS:
+        raise SkillFileError(f"unknown skill kind {skill.kind!r}; expected one of {', '.join(KINDS)}")
+    count = skill.time.shape[0] if skill.time.ndim == 1 else -1
+    if count < 2:
+        raise SkillFileError(f"time must be a 1-D array of at least 2 samples, got shape {skill.time.shape}")
+    expected = {"stiffness": (count, 3, 3), "equilibrium_pose": (count, 7), "cartesian_pose": (count, 7)}
+    for field, shape in expected.items():
+        value = getattr(skill, field)
+        if value.shape != shape:
+            raise SkillFileError(f"{field} has shape {value.shape}, expected {shape}")
+    for field in ("time", *expected):
+        bad = np.flatnonzero(~np.isfinite(getattr(skill, field)).reshape(count, -1).all(axis=1))
+        if bad.size:
+            raise SkillFileError(f"{field} is not finite (NaN or inf) at sample {bad[0]}")
+    steps = np.flatnonzero(np.diff(skill.time) <= 0)
+    if steps.size:
+        raise SkillFileError(f"time is not strictly increasing at sample {steps[0] + 1}")
+    asymmetry = np.abs(skill.stiffness - skill.stiffness.transpose(0, 2, 1)).max(axis=(1, 2))
+    bad = np.flatnonzero(asymmetry > 1e-6 * (1.0 + np.abs(skill.stiffness).max()))
+    if bad.size:
+        raise SkillFileError(f"stiffness is not symmetric at sample {bad[0]}")
+    smallest = np.linalg.eigvalsh(skill.stiffness)[:, 0]
+    bad = np.flatnonzero(smallest <= 0.0)
+    if bad.size:
+        raise SkillFileError(
+            f"stiffness is not positive definite at sample {bad[0]} (smallest eigenvalue {smallest[bad[0]]:.3g})"
+        )
+    for field in ("equilibrium_pose", "cartesian_pose"):
+        norms = np.linalg.norm(getattr(skill, field)[:, 3:], axis=1)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-3)
+        if bad.size:
+            raise SkillFileError(f"{field} quaternion is not unit length at sample {bad[0]} (norm {norms[bad[0]]:.4f})")
+    if not (np.isfinite(skill.rotational_stiffness) and skill.rotational_stiffness >= 0):
+        raise SkillFileError(f"rotational_stiffness must be finite and >= 0, got {skill.rotational_stiffness}")
+
+
+def save(skill: Skill, path: Union[str, pathlib.Path]) -> pathlib.Path:
+    """Validate ``skill`` and write it atomically to ``path`` (``.npz`` appended if missing)."""
+    validate(skill)
+    path = pathlib.Path(path)
+    if path.suffix != ".npz":
+        path = path.with_name(path.name + ".npz")
+    meta = {
+        "name": skill.name,
+        "kind": skill.kind,
+        "rotational_stiffness": skill.rotational_stiffness,
+        "provenance": skill.provenance,
+    }
+    buffer = io.BytesIO()
+    np.savez_compressed(
+        buffer,
+        time=skill.time,
+        stiffness=skill.stiffness,
+        equilibrium_pose=skill.equilibrium_pose,
+        cartesian_pose=skill.cartesian_pose,
+        meta=np.array(json.dumps(meta)),
+    )
+    atomic_write_bytes(path, buffer.getvalue())
+    return path
+
+
+def load(path: Union[str, pathlib.Path]) -> Skill:
+    """Read and validate a skill file; raise :class:`SkillFileError` saying what is wrong."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        raise SkillFileError(f"skill file {path} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            arrays = {key: archive[key] for key in archive.files}
+        meta = json.loads(str(arrays.pop("meta")))
+    except KeyError as error:
+        raise SkillFileError(f"skill file {path} has no {error} entry") from None
+    except Exception as error:  # any parse failure is reported the same way
+        raise SkillFileError(f"skill file {path} cannot be read: {error}") from None
+    missing = {"time", "stiffness", "equilibrium_pose", "cartesian_pose"} - set(arrays)
+    if missing:
+        raise SkillFileError(f"skill file {path} lacks {', '.join(sorted(missing))}")
+    try:
+        return Skill(
+            name=meta["name"],
+            kind=meta["kind"],
+            time=arrays["time"],
+            stiffness=arrays["stiffness"],
+            equilibrium_pose=arrays["equilibrium_pose"],
+            cartesian_pose=arrays["cartesian_pose"],
+            rotational_stiffness=float(meta.get("rotational_stiffness", 30.0)),
+            provenance=meta.get("provenance", {}),
+        )
+    except KeyError as error:
+        raise SkillFileError(f"skill file {path}: meta lacks {error}") from None
