@@ -1,0 +1,1 @@
+"""Stiffness ellipsoid maths, impedance law, joint trajectory controller, controller manager, validation."""

@@ -1,0 +1,211 @@
+"""Cartesian impedance control (thesis eq 5) with the safety features of franka_human_friendly_controllers.
+
+tau = J^T (-K e - D J dq) + N (k_ns (q_ns - q) - 2 sqrt(k_ns) dq) + g(q) + C(q, dq) dq, with the pose error e
+clipped per axis (attractor clipping), K and D filtered toward their targets each tick, the torque rate limited,
+and the stiffness from the ellipsoid (eqs 1-4) with eq 7 or mass-aware damping.
+"""
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from teleteach.control import stiffness as ellipsoid
+
+UNIT_MASS = "unit_mass"
+MASS_AWARE = "mass_aware"
+DAMPING_KINDS = (UNIT_MASS, MASS_AWARE)
+FILTER_DONE = 1e-6  # [N/m, Ns/m, ...] gains this close to their targets count as arrived
+
+
+@dataclass
+class RobotState:
+    """What a controller reads each tick, in base_link.
+
+    Attributes:
+        time: simulated time [s].
+        q: arm joint positions [rad] (7).
+        dq: arm joint velocities [rad/s] (7).
+        position: TCP position [m].
+        quaternion: TCP orientation (x, y, z, w).
+        jacobian: 6x7 TCP Jacobian (linear rows first).
+        model_torque: g(q) + C(q, dq) dq [Nm] (7).
+        mass_matrix: returns the 7x7 joint-space inertia [kg m^2]; called only when a controller needs it.
+    """
+
+    time: float
+    q: np.ndarray
+    dq: np.ndarray
+    position: np.ndarray
+    quaternion: np.ndarray
+    jacobian: np.ndarray
+    model_torque: np.ndarray
+    mass_matrix: Callable[[], np.ndarray] = field(repr=False, default=None)
+
+
+@dataclass
+class JointCommand:
+    """A controller's output: joint torques [Nm] (effort) or joint targets [rad] with velocities [rad/s]."""
+
+    effort: Optional[np.ndarray] = None
+    position: Optional[np.ndarray] = None
+    velocity: Optional[np.ndarray] = None
+
+
+@dataclass
+class ImpedanceParams:
+    """Gains and limits of the Cartesian impedance controller (config/controllers.yaml documents each)."""
+
+    rotational_stiffness: float = 30.0
+    max_stiffness: float = 3000.0
+    initial_eigenvalues: tuple = (500.0, 500.0, 500.0)
+    damping: str = MASS_AWARE
+    translational_damping_ratio: float = 1.0
+    rotational_damping_ratio: float = 1.0
+    nullspace_stiffness: float = 2.0
+    max_position_error: float = 0.05
+    max_orientation_error: float = 0.15
+    stiffness_filter: float = 0.005
+    max_torque_step: float = 1.0
+    model_update_period: int = 10
+
+    def __post_init__(self):
+        if self.damping not in DAMPING_KINDS:
+            raise ValueError(f"damping must be one of {DAMPING_KINDS}, got '{self.damping}'")
+        if not 0.0 < self.stiffness_filter <= 1.0:
+            raise ValueError("stiffness_filter must be in (0, 1]")
+        if self.model_update_period < 1:
+            raise ValueError("model_update_period must be >= 1 tick")
+
+
+def orientation_error(quaternion, reference):
+    """Axis-angle vector [rad] of the rotation from reference to quaternion, in the base frame (both x, y, z, w)."""
+    x, y, z, w = quaternion
+    rx, ry, rz, rw = reference
+    if x * rx + y * ry + z * rz + w * rw < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    # q * conj(q_ref)
+    ex = -w * rx + x * rw - y * rz + z * ry
+    ey = -w * ry + x * rz + y * rw - z * rx
+    ez = -w * rz - x * ry + y * rx + z * rw
+    ew = w * rw + x * rx + y * ry + z * rz
+    sine = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if sine < 1e-12:
+        return np.array([2.0 * ex, 2.0 * ey, 2.0 * ez])
+    scale = 2.0 * math.atan2(sine, ew) / sine
+    return np.array([ex * scale, ey * scale, ez * scale])
+
+
+class CartesianImpedanceController:
+    """The impedance law; commands arrive already validated (teleteach.control.validation).
+
+    Args:
+        params: gains and limits.
+    """
+
+    type = "teleteach/CartesianImpedanceController"
+    hardware_interface = "hardware_interface::EffortJointInterface"
+
+    def __init__(self, params: ImpedanceParams):
+        self.params = params
+        self.eigenvalues = ellipsoid.clamp_eigenvalues(params.initial_eigenvalues, params.max_stiffness)
+        self.eigenvectors = np.eye(3)
+        self.stiffness_target = self._target_stiffness()
+        self.stiffness = self.stiffness_target.copy()
+        self.damping_target = np.zeros((6, 6))
+        self.damping = np.zeros((6, 6))
+        self.equilibrium_position = np.zeros(3)
+        self.equilibrium_quaternion = np.array([0.0, 0.0, 0.0, 1.0])
+        self.nullspace_posture = np.zeros(7)
+        self.nullspace_projector = np.eye(7)
+        self.last_torque = np.zeros(7)
+        self._ticks = 0
+        self._ratios = np.array([params.translational_damping_ratio] * 3 + [params.rotational_damping_ratio] * 3)
+        self._error_limit = np.array([params.max_position_error] * 3 + [params.max_orientation_error] * 3)
+        self._negative_error_limit = -self._error_limit
+        self._filtering = True
+        self._nullspace_damping = 2.0 * math.sqrt(params.nullspace_stiffness)
+        self.set_stiffness(self.eigenvalues, self.eigenvectors)
+
+    def _target_stiffness(self):
+        return ellipsoid.stiffness_matrix(self.eigenvalues, self.eigenvectors, self.params.rotational_stiffness)
+
+    def set_stiffness(self, eigenvalues, eigenvectors):
+        """New ellipsoid: principal stiffnesses [N/m] and principal axes (quaternion or 3x3); K filters toward it."""
+        self.eigenvalues = ellipsoid.clamp_eigenvalues(eigenvalues, self.params.max_stiffness)
+        self.eigenvectors = ellipsoid.as_rotation(eigenvectors)
+        self.stiffness_target = self._target_stiffness()
+        if self.params.damping == UNIT_MASS:
+            self.damping_target = ellipsoid.damping_unit_mass(self.stiffness_target, self._ratios)
+        self._filtering = True
+
+    def set_equilibrium(self, position, quaternion):
+        """New reference pose x_r in base_link (position [m], unit quaternion x, y, z, w)."""
+        self.equilibrium_position = np.array(position, dtype=float)
+        self.equilibrium_quaternion = np.array(quaternion, dtype=float)
+
+    def starting(self, state: RobotState):
+        """Bumpless start: hold the current pose and posture, stiffness already at its target, torque = model."""
+        self.set_equilibrium(state.position, state.quaternion)
+        self.nullspace_posture = state.q.copy()
+        self.stiffness = self.stiffness_target.copy()
+        self._update_model(state)
+        self.damping = self.damping_target.copy()
+        self.last_torque = state.model_torque.copy()
+        self._ticks = 0
+
+    def _update_model(self, state):
+        jacobian = state.jacobian
+        self.nullspace_projector = np.eye(7) - jacobian.T @ np.linalg.solve(
+            jacobian @ jacobian.T + 1e-6 * np.eye(6), jacobian
+        )
+        if self.params.damping == MASS_AWARE:
+            inertia = ellipsoid.cartesian_inertia_blocks(jacobian, state.mass_matrix())
+            self.damping_target = ellipsoid.damping_mass_aware(self.stiffness_target, inertia, self._ratios)
+        self._check_filter()
+
+    def update(self, state: RobotState) -> JointCommand:
+        """One control tick: joint torques [Nm] for the state."""
+        params = self.params
+        self._ticks += 1
+        if self._ticks % params.model_update_period == 0:
+            self._update_model(state)
+        # Pose error, clipped per axis so a far reference pulls with a bounded force (attractor clipping)
+        error = np.concatenate(
+            (
+                state.position - self.equilibrium_position,
+                orientation_error(state.quaternion, self.equilibrium_quaternion),
+            )
+        )
+        error = np.minimum(np.maximum(error, self._negative_error_limit), self._error_limit)
+        # Cartesian spring-damper (eq 5 with x_r velocity zero): the arm is pushed with -(K e + D x_dot)
+        spring_damper = self.stiffness @ error + self.damping @ (state.jacobian @ state.dq)
+        # Posture spring in the nullspace of the task
+        nullspace = self.nullspace_projector @ (
+            params.nullspace_stiffness * (self.nullspace_posture - state.q) - self._nullspace_damping * state.dq
+        )
+        # Gravity and Coriolis from the model
+        torque = nullspace + state.model_torque - state.jacobian.T @ spring_damper
+        # Saturate the torque rate to avoid discontinuities
+        step = params.max_torque_step
+        torque = self.last_torque + np.minimum(np.maximum(torque - self.last_torque, -step), step)
+        self.last_torque = torque
+        # Filter the gains toward their targets (until they arrive)
+        if self._filtering:
+            rate = params.stiffness_filter
+            self.stiffness += rate * (self.stiffness_target - self.stiffness)
+            self.damping += rate * (self.damping_target - self.damping)
+        return JointCommand(effort=torque)
+
+    def _check_filter(self):
+        """Snap the gains onto their targets once they are there, so converged ticks skip the filter."""
+        if (
+            np.max(np.abs(self.stiffness_target - self.stiffness)) < FILTER_DONE
+            and np.max(np.abs(self.damping_target - self.damping)) < FILTER_DONE
+        ):
+            self.stiffness[:] = self.stiffness_target
+            self.damping[:] = self.damping_target
+            self._filtering = False
+        else:
+            self._filtering = True

@@ -1,0 +1,132 @@
+"""The simulated robot without ROS: world + controller manager + validated command entry points.
+
+The ROS node (teleteach.sim.ros_node) calls these methods from its callbacks and `tick()` from its loop; tests and
+benchmarks call them directly.
+"""
+
+import pathlib
+
+import numpy as np
+import yaml
+
+from teleteach.control import validation
+from teleteach.control.impedance import CartesianImpedanceController, ImpedanceParams
+from teleteach.control.joint_trajectory import JointTrajectoryController
+from teleteach.control.manager import ControllerManager
+from teleteach.sim import panda
+from teleteach.sim.scene import Scene, load_scene
+from teleteach.sim.world import SupermarketWorld
+
+DEFAULT_CONTROLLER_FILE = pathlib.Path(__file__).resolve().parents[3] / "config" / "controllers.yaml"
+IMPEDANCE = "cartesian_impedance_controller"
+TRAJECTORY = "position_joint_trajectory_controller"
+BASE_FRAME = "base_link"
+
+
+def load_controller_config(path=None):
+    """The controller settings (config/controllers.yaml by default) as a dict."""
+    return yaml.safe_load(pathlib.Path(path or DEFAULT_CONTROLLER_FILE).read_text())
+
+
+class RobotSim:
+    """The Panda on its mobile base in the supermarket, with its controllers.
+
+    Args:
+        scene: the scene (default: config/supermarket.yaml).
+        config: controller settings (default: config/controllers.yaml), as load_controller_config() returns.
+        gui: pybullet's own window.
+    """
+
+    def __init__(self, scene: Scene = None, config=None, gui=False):
+        self.scene = scene or load_scene()
+        self.config = config or load_controller_config()
+        simulation, gripper, base = self.config["simulation"], self.config["gripper"], self.config["base"]
+        trajectory = self.config[TRAJECTORY]
+        self.world = SupermarketWorld(
+            self.scene,
+            gui=gui,
+            time_step=float(simulation["time_step"]),
+            position_gain=float(trajectory["position_gain"]),
+            velocity_gain=float(trajectory["velocity_gain"]),
+            finger_force=float(gripper["force"]),
+            finger_speed=float(gripper["speed"]),
+            base_speed=float(base["max_speed"]),
+            base_turn_rate=float(base["max_turn_rate"]),
+            grasp_assist=bool(simulation["grasp_assist"]),
+            solver_residual_threshold=float(simulation["solver_residual_threshold"]),
+        )
+        self.max_age = float(self.config["command_validation"]["max_age"])
+        impedance_params = dict(self.config[IMPEDANCE])
+        impedance_params["initial_eigenvalues"] = tuple(impedance_params["initial_eigenvalues"])
+        self.impedance = CartesianImpedanceController(ImpedanceParams(**impedance_params))
+        self.trajectory = JointTrajectoryController()
+        self.manager = ControllerManager({TRAJECTORY: self.trajectory, IMPEDANCE: self.impedance}, panda.ARM_JOINTS)
+        self._eigenvalues = self.impedance.eigenvalues.copy()
+        self._eigenvectors = np.array([0.0, 0.0, 0.0, 1.0])
+        self.state = self.world.read_state()
+        initial = simulation["initial_controller"]
+        if initial != "none":
+            ok, message = self.manager.switch([initial], [], 2, self.state)
+            if not ok:
+                raise ValueError(f"initial_controller: {message}")
+
+    @property
+    def time(self):
+        """Simulated time [s]."""
+        return self.world.time
+
+    def close(self):
+        """Release pybullet."""
+        self.world.close()
+
+    def tick(self):
+        """One 1 kHz step: read the state, run the active controller, step physics (only while it holds the arm)."""
+        self.state = self.world.read_state()
+        command = self.manager.update(self.state)
+        self.world.step(command)
+
+    def run(self, seconds):
+        """Tick for a simulated duration [s]."""
+        for _ in range(int(round(seconds / self.world.time_step))):
+            self.tick()
+
+    # ------------------------------------------------------------ commands: each validated, or InvalidCommandError
+    def command_eigenvalues(self, values, stamp=0.0):
+        """Principal stiffnesses [N/m] (/eigenvalues); clamped to the maximum."""
+        validation.check_stamp(stamp, self.time, self.max_age)
+        self._eigenvalues = validation.validate_eigenvalues(values, self.impedance.params.max_stiffness)
+        self.impedance.set_stiffness(self._eigenvalues, self._eigenvectors)
+
+    def command_eigenvectors(self, quaternion, stamp=0.0):
+        """Orientation of the principal axes (/eigenvectors), quaternion (x, y, z, w) in base_link."""
+        validation.check_stamp(stamp, self.time, self.max_age)
+        self._eigenvectors = validation.validate_quaternion(quaternion, "eigenvectors")
+        self.impedance.set_stiffness(self._eigenvalues, self._eigenvectors)
+
+    def command_equilibrium(self, frame_id, position, quaternion, stamp=0.0):
+        """Reference pose x_r (/equilibrium_pose) in base_link."""
+        validation.check_stamp(stamp, self.time, self.max_age)
+        position, quaternion = validation.validate_pose(frame_id, BASE_FRAME, position, quaternion)
+        self.impedance.set_equilibrium(position, quaternion)
+
+    def command_trajectory(self, joint_names, points, stamp=0.0):
+        """Joint trajectory: points are (positions [rad], velocities [rad/s] or [], time_from_start [s])."""
+        validation.check_stamp(stamp, self.time, self.max_age)
+        times, positions, velocities = validation.validate_joint_trajectory(
+            joint_names, points, panda.ARM_JOINTS, panda.LOWER_LIMITS, panda.UPPER_LIMITS
+        )
+        start = stamp if stamp != 0.0 else self.time
+        self.trajectory.set_trajectory(start, times, positions, velocities, self.time)
+
+    def command_gripper(self, width):
+        """Finger opening width [m], 0 .. 0.08."""
+        self.world.set_gripper_width(validation.validate_gripper_width(width, panda.MAX_FINGER_WIDTH))
+
+    def command_base_goal(self, frame_id, position, quaternion, stamp=0.0):
+        """Base goal in world (x, y and yaw of the pose)."""
+        validation.check_stamp(stamp, self.time, self.max_age)
+        self.world.set_base_goal(*validation.validate_base_goal(frame_id, position, quaternion))
+
+    def switch_controllers(self, start, stop, strictness):
+        """ros_control switch; returns (ok, message). The started controller holds the current state."""
+        return self.manager.switch(list(start), list(stop), strictness, self.world.read_state())

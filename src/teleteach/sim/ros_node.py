@@ -1,0 +1,336 @@
+"""ROS layer of robot_sim: topics, TF, services and the real-time loop around teleteach.sim.robot_sim.RobotSim.
+
+Callbacks unpack messages and hand plain values to RobotSim under one lock; RobotSim validates them. A rejected
+message is logged (throttled) and announced on ~rejected; the last good command stays in force.
+"""
+
+import math
+import threading
+import time
+import warnings
+
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped, QuaternionStamped, TransformStamped, Vector3Stamped, WrenchStamped
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64, String
+from tf2_msgs.msg import TFMessage
+from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import Marker, MarkerArray
+
+from teleteach.control.validation import InvalidCommandError
+from teleteach.msg import ControllerState, HardwareInterfaceResources
+from teleteach.sim import panda
+from teleteach.sim.robot_sim import BASE_FRAME, RobotSim, load_controller_config
+from teleteach.sim.scene import load_scene
+from teleteach.sim.urdf import robot_description
+from teleteach.srv import ListControllers, ListControllersResponse, SwitchController, SwitchControllerResponse
+
+JOINT_NAMES = list(panda.ARM_JOINTS + panda.FINGER_JOINTS)
+
+
+def _synchronous_publisher(topic, message_type):
+    """A publisher that writes in the caller's thread.
+
+    rospy's queued publishers hand every message to a writer thread and yield the GIL (time.sleep(0)), which costs
+    the 1 kHz loop far more than the write itself.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return rospy.Publisher(topic, message_type, queue_size=None)
+
+
+def _stamp(msg):
+    return msg.header.stamp.to_sec()
+
+
+def _xyz(vector):
+    return [vector.x, vector.y, vector.z]
+
+
+def _xyzw(quaternion):
+    return [quaternion.x, quaternion.y, quaternion.z, quaternion.w]
+
+
+class RobotSimNode:
+    """robot_sim: the simulated Panda on its mobile base, its controller manager, and the supermarket.
+
+    Args:
+        sim: the simulation.
+        real_time_factor: simulated seconds per wall-clock second; 0 runs as fast as possible.
+        clock_rate: /clock publication rate [Hz of simulated time].
+
+    ROS Publishers:
+        /clock, /joint_states, /cartesian_pose (200 Hz, base_link), /force_torque_ext (100 Hz, base_link, contact
+        wrench on the end effector about the TCP), /teleteach/scene (MarkerArray, 10 Hz, world), /diagnostics
+        (1 Hz: real-time factor, step cost, running controller), ~rejected (String: each rejected command), TF
+        world -> base_link (100 Hz).
+
+    ROS Subscribers:
+        /eigenvalues, /eigenvectors, /equilibrium_pose, /position_joint_trajectory_controller/command,
+        /gripper/command, /base/goal.
+
+    ROS Services:
+        /controller_manager/switch_controller, /controller_manager/list_controllers.
+    """
+
+    def __init__(self, sim: RobotSim, real_time_factor=1.0, clock_rate=250.0):
+        self.sim = sim
+        self.real_time_factor = float(real_time_factor)
+        dt = sim.world.time_step
+        self._clock_every = max(1, int(round(1.0 / (clock_rate * dt))))
+        self._lock = threading.Lock()
+        self._step_seconds = 0.0
+        self._steps = 0
+        self._rejected = 0
+        rospy.set_param(
+            "/robot_description", robot_description(sim.scene.robot.mount_height, sim.scene.robot.base_size)
+        )
+        self._clock = _synchronous_publisher("/clock", Clock)
+        self._joint_states = _synchronous_publisher("/joint_states", JointState)
+        self._cartesian_pose = _synchronous_publisher("/cartesian_pose", PoseStamped)
+        self._force_torque = _synchronous_publisher("/force_torque_ext", WrenchStamped)
+        self._tf = _synchronous_publisher("/tf", TFMessage)
+        self._scene = rospy.Publisher("/teleteach/scene", MarkerArray, queue_size=1, latch=True)
+        self._diagnostics = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=1)
+        self._rejections = rospy.Publisher("~rejected", String, queue_size=10)
+        self._subscribers = [
+            rospy.Subscriber("/eigenvalues", Vector3Stamped, self._guard("/eigenvalues", self._on_eigenvalues)),
+            rospy.Subscriber("/eigenvectors", QuaternionStamped, self._guard("/eigenvectors", self._on_eigenvectors)),
+            rospy.Subscriber("/equilibrium_pose", PoseStamped, self._guard("/equilibrium_pose", self._on_equilibrium)),
+            rospy.Subscriber(
+                "/position_joint_trajectory_controller/command",
+                JointTrajectory,
+                self._guard("/position_joint_trajectory_controller/command", self._on_trajectory),
+            ),
+            rospy.Subscriber("/gripper/command", Float64, self._guard("/gripper/command", self._on_gripper)),
+            rospy.Subscriber("/base/goal", PoseStamped, self._guard("/base/goal", self._on_base_goal)),
+        ]
+        self._services = [
+            rospy.Service("/controller_manager/switch_controller", SwitchController, self._on_switch),
+            rospy.Service("/controller_manager/list_controllers", ListControllers, self._on_list),
+        ]
+
+    @classmethod
+    def from_params(cls):
+        """Build the node from its private parameters.
+
+        ~gui, ~real_time_factor, ~scene_file, ~controllers_file, ~clock_rate, ~initial_controller.
+        """
+        scene = load_scene(rospy.get_param("~scene_file", "") or None)
+        config = load_controller_config(rospy.get_param("~controllers_file", "") or None)
+        initial = rospy.get_param("~initial_controller", "")
+        if initial:
+            config["simulation"]["initial_controller"] = initial
+        sim = RobotSim(scene, config, gui=bool(rospy.get_param("~gui", False)))
+        return cls(sim, rospy.get_param("~real_time_factor", 1.0), rospy.get_param("~clock_rate", 250.0))
+
+    # ---------------------------------------------------------------------------------------------- callbacks
+    def _guard(self, topic, apply):
+        def callback(msg):
+            try:
+                with self._lock:
+                    apply(msg)
+            except (InvalidCommandError, ValueError, TypeError) as error:
+                self._rejected += 1
+                self._rejections.publish(String(data=f"{topic}: {error}"))
+                rospy.logwarn_throttle(1.0, f"robot_sim rejected a message on {topic}: {error}")
+
+        return callback
+
+    def _on_eigenvalues(self, msg):
+        self.sim.command_eigenvalues(_xyz(msg.vector), _stamp(msg))
+
+    def _on_eigenvectors(self, msg):
+        self.sim.command_eigenvectors(_xyzw(msg.quaternion), _stamp(msg))
+
+    def _on_equilibrium(self, msg):
+        self.sim.command_equilibrium(
+            msg.header.frame_id, _xyz(msg.pose.position), _xyzw(msg.pose.orientation), _stamp(msg)
+        )
+
+    def _on_trajectory(self, msg):
+        points = [(point.positions, point.velocities, point.time_from_start.to_sec()) for point in msg.points]
+        self.sim.command_trajectory(msg.joint_names, points, _stamp(msg))
+
+    def _on_gripper(self, msg):
+        self.sim.command_gripper(msg.data)
+
+    def _on_base_goal(self, msg):
+        self.sim.command_base_goal(
+            msg.header.frame_id, _xyz(msg.pose.position), _xyzw(msg.pose.orientation), _stamp(msg)
+        )
+
+    def _on_switch(self, request):
+        with self._lock:
+            ok, message = self.sim.switch_controllers(
+                request.start_controllers, request.stop_controllers, request.strictness
+            )
+        log = rospy.loginfo if ok else rospy.logwarn
+        log(
+            f"robot_sim switch_controller start={list(request.start_controllers)} "
+            f"stop={list(request.stop_controllers)}: {'ok' if ok else 'failed'} ({message})"
+        )
+        return SwitchControllerResponse(ok=ok)
+
+    def _on_list(self, _request):
+        with self._lock:
+            infos = self.sim.manager.list_controllers()
+        return ListControllersResponse(
+            controller=[
+                ControllerState(
+                    name=info.name,
+                    state=info.state,
+                    type=info.type,
+                    claimed_resources=[
+                        HardwareInterfaceResources(
+                            hardware_interface=info.hardware_interface, resources=list(info.resources)
+                        )
+                    ],
+                )
+                for info in infos
+            ]
+        )
+
+    # ------------------------------------------------------------------------------------------------- loop
+    def spin(self):
+        """Tick the simulation until shutdown, paced to the real-time factor."""
+        wall_start, sim_start = time.monotonic(), self.sim.time
+        report_wall, report_sim = wall_start, sim_start
+        while not rospy.is_shutdown():
+            started = time.perf_counter()
+            with self._lock:
+                self.sim.tick()
+            self._step_seconds += time.perf_counter() - started
+            self._steps += 1
+            self._publish(self.sim.world.ticks)
+            now = time.monotonic()
+            if self._steps % 1000 == 0:
+                factor = (self.sim.time - report_sim) / max(now - report_wall, 1e-9)
+                self._report(factor)
+                report_wall, report_sim = now, self.sim.time
+            if self.real_time_factor > 0.0:
+                ahead = (self.sim.time - sim_start) / self.real_time_factor - (now - wall_start)
+                if ahead > 0.002:
+                    time.sleep(ahead)
+                elif ahead < -0.2:
+                    # Too slow to keep up: run on without trying to catch up with lost time.
+                    wall_start, sim_start = now, self.sim.time
+
+    def _report(self, factor):
+        mean_us = 1e6 * self._step_seconds / max(self._steps, 1)
+        running = self.sim.manager.running or "none"
+        rospy.loginfo_throttle(
+            10.0,
+            f"robot_sim real-time factor {factor:.2f}, step {mean_us:.0f} us, "
+            f"controller {running}, rejected commands {self._rejected}",
+        )
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.OK,
+            name="robot_sim",
+            hardware_id="pybullet",
+            message=f"real-time factor {factor:.2f}",
+            values=[
+                KeyValue("real_time_factor", f"{factor:.3f}"),
+                KeyValue("mean_step_us", f"{mean_us:.1f}"),
+                KeyValue("running_controller", running),
+                KeyValue("rejected_commands", str(self._rejected)),
+            ],
+        )
+        self._diagnostics.publish(DiagnosticArray(header=self._header(""), status=[status]))
+        self._step_seconds, self._steps = 0.0, 0
+
+    def _header(self, frame_id):
+        msg = PoseStamped().header
+        msg.stamp = rospy.Time.from_sec(self.sim.time)
+        msg.frame_id = frame_id
+        return msg
+
+    def _publish(self, tick):
+        if tick % self._clock_every == 0:
+            self._clock.publish(Clock(clock=rospy.Time.from_sec(self.sim.time)))
+        if tick % 5 == 0:
+            state = self.sim.state
+            pose = PoseStamped(header=self._header(BASE_FRAME))
+            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = state.position
+            orientation = pose.pose.orientation
+            orientation.x, orientation.y, orientation.z, orientation.w = state.quaternion
+            self._cartesian_pose.publish(pose)
+        if tick % 10 == 0:
+            with self._lock:
+                positions, velocities, efforts = self.sim.world.joint_states()
+                force, torque = self.sim.world.external_wrench()
+                base = self.sim.world.base_pose.copy()
+            self._joint_states.publish(
+                JointState(
+                    header=self._header(""), name=JOINT_NAMES, position=positions, velocity=velocities, effort=efforts
+                )
+            )
+            wrench = WrenchStamped(header=self._header(BASE_FRAME))
+            wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.force.z = force
+            wrench.wrench.torque.x, wrench.wrench.torque.y, wrench.wrench.torque.z = torque
+            self._force_torque.publish(wrench)
+            self._publish_base_tf(base)
+        if tick % 100 == 0:
+            self._publish_scene()
+
+    def _publish_base_tf(self, base):
+        x, y, yaw = base
+        transform = TransformStamped(header=self._header("world"), child_frame_id=BASE_FRAME)
+        transform.transform.translation.x, transform.transform.translation.y = x, y
+        rotation = transform.transform.rotation
+        rotation.x, rotation.y, rotation.z, rotation.w = 0.0, 0.0, *_half_angle(yaw)
+        self._tf.publish(TFMessage(transforms=[transform]))
+
+    def _publish_scene(self):
+        markers = MarkerArray()
+        header = self._header("world")
+        scene = self.sim.scene
+        for index, part in enumerate(scene.shelf):
+            markers.markers.append(
+                _box_marker(
+                    header, "shelf", index, part.center, (0, 0, 0, 1), part.size, (0.55, 0.4, 0.25, 1.0), part.name
+                )
+            )
+        table = scene.pick_table
+        markers.markers.append(
+            _box_marker(header, "table", 0, table.center, (0, 0, 0, 1), table.size, (0.5, 0.5, 0.5, 1.0), table.name)
+        )
+        gap = scene.gap
+        markers.markers.append(
+            _box_marker(
+                header,
+                "gap",
+                0,
+                gap.position,
+                (0, 0, *_half_angle(gap.yaw)),
+                (0.06, gap.width, 0.002),
+                (0.1, 0.8, 0.1, 0.5),
+                "gap",
+            )
+        )
+        with self._lock:
+            poses = self.sim.world.product_poses()
+        for index, product in enumerate(scene.products):
+            position, quaternion = poses[product.name]
+            markers.markers.append(
+                _box_marker(
+                    header, "products", index, position, quaternion, product.size, (0.8, 0.2, 0.2, 1.0), product.name
+                )
+            )
+        self._scene.publish(markers)
+
+
+def _half_angle(yaw):
+    return math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+
+
+def _box_marker(header, namespace, marker_id, position, quaternion, size, colour, text):
+    marker = Marker(header=header, ns=namespace, id=marker_id, type=Marker.CUBE, action=Marker.ADD, text=text)
+    marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = (float(v) for v in position)
+    orientation = marker.pose.orientation
+    orientation.x, orientation.y, orientation.z, orientation.w = (float(v) for v in quaternion)
+    marker.scale.x, marker.scale.y, marker.scale.z = size
+    marker.color.r, marker.color.g, marker.color.b, marker.color.a = colour
+    return marker

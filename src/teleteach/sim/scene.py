@@ -1,0 +1,148 @@
+"""The supermarket scene description (config/supermarket.yaml) as plain data, shared by the sim and the skills."""
+
+import math
+import pathlib
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Tuple
+
+import yaml
+
+DEFAULT_SCENE_FILE = pathlib.Path(__file__).resolve().parents[3] / "config" / "supermarket.yaml"
+
+
+class SceneError(ValueError):
+    """The scene file is missing something or holds a wrong value."""
+
+
+@dataclass(frozen=True)
+class Box:
+    """A static box: centre [m] and full edge lengths [m] in world."""
+
+    name: str
+    center: Tuple[float, float, float]
+    size: Tuple[float, float, float]
+    friction: float
+
+
+@dataclass(frozen=True)
+class Product:
+    """A product: an upright box that physics moves."""
+
+    name: str
+    position: Tuple[float, float, float]
+    yaw: float
+    size: Tuple[float, float, float]
+    mass: float
+    friction: float
+
+
+@dataclass(frozen=True)
+class BasePose:
+    """A pose of base_link in world: x [m], y [m], yaw [rad]."""
+
+    x: float
+    y: float
+    yaw: float
+
+    def quaternion(self):
+        """The (x, y, z, w) quaternion of the yaw."""
+        return (0.0, 0.0, math.sin(self.yaw / 2.0), math.cos(self.yaw / 2.0))
+
+
+@dataclass(frozen=True)
+class Gap:
+    """The free slot on the shelf: target product centre [m], yaw [rad], free width [m], tolerance [m]."""
+
+    position: Tuple[float, float, float]
+    yaw: float
+    width: float
+    tolerance: float
+
+
+@dataclass(frozen=True)
+class RobotSetup:
+    """How the Panda sits on the mobile base, and where it starts."""
+
+    mount_height: float
+    base_size: Tuple[float, float, float]
+    ready_joint_positions: Tuple[float, ...]
+    start_gripper_width: float
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything config/supermarket.yaml describes."""
+
+    robot: RobotSetup
+    base_poses: Dict[str, BasePose]
+    floor_friction: float
+    shelf: List[Box]
+    pick_table: Box
+    products: List[Product]
+    gap: Gap
+
+    def product(self, name):
+        """The product called name (KeyError if there is none)."""
+        for product in self.products:
+            if product.name == name:
+                return product
+        raise KeyError(f"no product '{name}' in the scene")
+
+
+def load_scene(path: Optional[str] = None) -> Scene:
+    """Read the scene file (default: the package's config/supermarket.yaml).
+
+    Raises:
+        SceneError: the file is missing a key or holds a value of the wrong shape.
+    """
+    path = pathlib.Path(path) if path else DEFAULT_SCENE_FILE
+    try:
+        data = yaml.safe_load(path.read_text())
+        return _parse(data)
+    except (KeyError, TypeError, ValueError) as error:
+        raise SceneError(f"{path}: {error!r}") from error
+
+
+def _triple(values):
+    if len(values) != 3:
+        raise ValueError(f"expected 3 values, got {values}")
+    return tuple(float(value) for value in values)
+
+
+def _parse(data):
+    robot = data["robot"]
+    defaults = data["product_defaults"]
+    products = [
+        Product(
+            name=str(item["name"]),
+            position=_triple(item["position"]),
+            yaw=float(item.get("yaw", 0.0)),
+            size=_triple(item.get("size", defaults["size"])),
+            mass=float(item.get("mass", defaults["mass"])),
+            friction=float(item.get("friction", defaults["friction"])),
+        )
+        for item in data["products"]
+    ]
+    shelf_friction = float(data["shelf"]["friction"])
+    table = data["pick_table"]
+    gap = data["gap"]
+    return Scene(
+        robot=RobotSetup(
+            mount_height=float(robot["mount_height"]),
+            base_size=_triple(robot["base_size"]),
+            ready_joint_positions=tuple(float(value) for value in robot["ready_joint_positions"]),
+            start_gripper_width=float(robot["start_gripper_width"]),
+        ),
+        base_poses={
+            name: BasePose(float(pose["x"]), float(pose["y"]), float(pose["yaw"]))
+            for name, pose in data["base_poses"].items()
+        },
+        floor_friction=float(data["floor"]["friction"]),
+        shelf=[
+            Box(str(part["name"]), _triple(part["center"]), _triple(part["size"]), shelf_friction)
+            for part in data["shelf"]["parts"]
+        ],
+        pick_table=Box("pick_table", _triple(table["center"]), _triple(table["size"]), float(table["friction"])),
+        products=products,
+        gap=Gap(_triple(gap["position"]), float(gap["yaw"]), float(gap["width"]), float(gap["tolerance"])),
+    )

@@ -1,0 +1,48 @@
+"""The URDF on /robot_description: the mobile base (base_link) with pybullet_data's Panda on it.
+
+Mesh paths become absolute file:// URIs into the installed pybullet_data, so RViz and robot_state_publisher need
+no network and no ROS package for the meshes.
+"""
+
+import xml.etree.ElementTree as ElementTree
+
+from teleteach.sim import panda
+from teleteach.sim.scene import load_scene
+
+MESH_PREFIX = "package://meshes/"
+
+
+def robot_description(mount_height=None, base_size=None):
+    """The URDF text of base_link + Panda (panda_link0 mount_height [m] above base_link, a base box base_size [m])."""
+    robot_setup = load_scene().robot
+    mount_height = robot_setup.mount_height if mount_height is None else mount_height
+    base_size = robot_setup.base_size if base_size is None else base_size
+    robot = ElementTree.fromstring(panda.PANDA_URDF.read_text())
+    robot.set("name", "teleteach_panda")
+    mesh_root = "file://" + str(panda.PANDA_URDF.parent / "meshes") + "/"
+    for mesh in robot.iter("mesh"):
+        mesh.set("filename", mesh.get("filename").replace(MESH_PREFIX, mesh_root))
+    for element in robot.iter():
+        # pybullet's xacro output puts colour-less materials into <collision>: not URDF, drop them
+        if element.tag == "collision":
+            for material in element.findall("material"):
+                element.remove(material)
+    header = f"""<robot>
+  <material name="panda_white"><color rgba="0.95 0.95 0.95 1.0"/></material>
+  <material name="base_grey"><color rgba="0.25 0.25 0.3 1.0"/></material>
+  <link name="base_link">
+    <visual>
+      <origin xyz="0 0 {base_size[2] / 2.0}" rpy="0 0 0"/>
+      <geometry><box size="{base_size[0]} {base_size[1]} {base_size[2]}"/></geometry>
+      <material name="base_grey"/>
+    </visual>
+  </link>
+  <joint name="base_link_to_panda_link0" type="fixed">
+    <parent link="base_link"/>
+    <child link="panda_link0"/>
+    <origin xyz="0 0 {mount_height}" rpy="0 0 0"/>
+  </joint>
+</robot>"""
+    for index, element in enumerate(ElementTree.fromstring(header)):
+        robot.insert(index, element)
+    return '<?xml version="1.0"?>\n' + ElementTree.tostring(robot, encoding="unicode")

@@ -1,0 +1,114 @@
+"""Every kind of bad command is rejected with its reason (teleteach.control.validation), and RobotSim keeps the
+last good command."""
+
+import math
+
+import numpy as np
+import pytest
+from sim_support import robot_sim_for_module
+
+from teleteach.control import validation as v
+from teleteach.sim import panda
+
+
+@pytest.fixture(scope="module")
+def robot_sim():
+    yield from robot_sim_for_module()
+
+
+UNIT = [0.0, 0.0, 0.0, 1.0]
+
+
+@pytest.mark.parametrize(
+    ("call", "reason"),
+    [
+        (lambda: v.validate_eigenvalues([1.0, math.nan, 1.0], 3000.0), "NaN or inf"),
+        (lambda: v.validate_eigenvalues([1.0, math.inf, 1.0], 3000.0), "NaN or inf"),
+        (lambda: v.validate_eigenvalues([1.0, -0.1, 1.0], 3000.0), "negative stiffness"),
+        (lambda: v.validate_eigenvalues([1.0, 1.0], 3000.0), "must have 3 values"),
+        (lambda: v.validate_quaternion([0.0, 0.0, 0.0, 0.0]), "is zero"),
+        (lambda: v.validate_quaternion([0.0, 0.0, 0.0, 1.1]), "not unit"),
+        (lambda: v.validate_quaternion([0.0, math.nan, 0.0, 1.0]), "NaN or inf"),
+        (lambda: v.validate_pose("world", "base_link", [0.0, 0.0, 0.5], UNIT), "frame 'world' is wrong"),
+        (lambda: v.validate_pose("base_link", "base_link", [0.0, math.inf, 0.5], UNIT), "NaN or inf"),
+        (lambda: v.check_stamp(10.0, 12.5, 1.0), "stale stamp"),
+        (lambda: v.check_stamp(15.0, 12.5, 1.0), "stale stamp"),
+        (lambda: v.validate_gripper_width(0.09, 0.08), "gripper width"),
+        (lambda: v.validate_gripper_width(math.nan, 0.08), "gripper width"),
+        (lambda: v.validate_base_goal("base_link", [1.0, 0.0, 0.0], UNIT), "frame 'base_link' is wrong"),
+        (lambda: v.validate_base_goal("world", [1.0, 0.0, 0.0], [0.7071068, 0.0, 0.0, 0.7071068]), "about z only"),
+    ],
+)
+def test_rejections_say_why(call, reason):
+    with pytest.raises(v.InvalidCommandError, match=reason):
+        call()
+
+
+def test_accepted_values_are_cleaned():
+    np.testing.assert_allclose(v.validate_eigenvalues([5000.0, 0.0, 10.0], 3000.0), [3000.0, 0.0, 10.0])
+    np.testing.assert_allclose(np.linalg.norm(v.validate_quaternion([0.0, 0.0, 0.0, 1.0005])), 1.0)
+    v.check_stamp(0.0, 100.0, 1.0)  # zero stamp = now
+    v.check_stamp(99.5, 100.0, 1.0)
+    assert v.validate_base_goal("/world", [1.0, 2.0, 0.0], [0.0, 0.0, 1.0, 0.0])[2] == pytest.approx(math.pi)
+
+
+def _points(*rows):
+    return [(positions, velocities, t) for positions, velocities, t in rows]
+
+
+@pytest.mark.parametrize(
+    ("names", "points", "reason"),
+    [
+        (panda.ARM_JOINTS[:6], _points(([0.0] * 6, [], 1.0)), "joint names"),
+        (panda.ARM_JOINTS, [], "no points"),
+        (panda.ARM_JOINTS, _points(([0.0] * 3 + [-1.0, 0.0, 1.0, math.nan], [], 1.0)), "NaN or inf"),
+        (panda.ARM_JOINTS, _points(([0.0] * 3 + [0.5, 0.0, 1.0, 0.0], [], 1.0)), "joint limits"),
+        (
+            panda.ARM_JOINTS,
+            _points(([0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0], [], 1.0), ([0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0], [], 1.0)),
+            "increase strictly",
+        ),
+        (
+            panda.ARM_JOINTS,
+            _points(
+                ([0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0], [0.0] * 7, 1.0), ([0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0], [], 2.0)
+            ),
+            "every point or for none",
+        ),
+    ],
+)
+def test_trajectory_rejections(names, points, reason):
+    with pytest.raises(v.InvalidCommandError, match=reason):
+        v.validate_joint_trajectory(names, points, panda.ARM_JOINTS, panda.LOWER_LIMITS, panda.UPPER_LIMITS)
+
+
+def test_trajectory_columns_are_reordered_to_the_controller_joints():
+    names = list(reversed(panda.ARM_JOINTS))
+    q = [0.1, -0.2, 0.3, -1.0, 0.5, 1.0, 0.7]
+    times, positions, velocities = v.validate_joint_trajectory(
+        names, _points((list(reversed(q)), [], 1.0)), panda.ARM_JOINTS, panda.LOWER_LIMITS, panda.UPPER_LIMITS
+    )
+    np.testing.assert_allclose(positions[0], q)
+    assert velocities is None and times.tolist() == [1.0]
+
+
+def test_robot_sim_keeps_the_last_good_command(robot_sim):
+    sim = robot_sim
+    controller = sim.impedance
+    sim.command_eigenvalues([100.0, 200.0, 300.0])
+    sim.command_equilibrium("base_link", [0.3, 0.0, 0.8], UNIT)
+    stiffness, position = controller.stiffness_target.copy(), controller.equilibrium_position.copy()
+    bad = [
+        lambda: sim.command_eigenvalues([100.0, -1.0, 300.0]),
+        lambda: sim.command_eigenvectors([0.0, 0.0, 0.0, 0.0]),
+        lambda: sim.command_equilibrium("world", [0.5, 0.0, 0.8], UNIT),
+        lambda: sim.command_equilibrium("base_link", [0.5, 0.0, math.nan], UNIT),
+        lambda: sim.command_equilibrium("base_link", [0.5, 0.0, 0.8], UNIT, stamp=sim.time + 5.0),
+        lambda: sim.command_gripper(-0.01),
+        lambda: sim.command_trajectory(["panda_joint1"], [([0.1], [], 1.0)]),
+    ]
+    for call in bad:
+        with pytest.raises(v.InvalidCommandError):
+            call()
+    np.testing.assert_allclose(controller.stiffness_target, stiffness)
+    np.testing.assert_allclose(controller.equilibrium_position, position)

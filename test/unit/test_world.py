@@ -1,0 +1,166 @@
+"""The pybullet world: scene file, base_link frame (Jacobian), kinematics for the skills, URDF, base drive, grasp."""
+
+import pathlib
+import xml.etree.ElementTree as ElementTree
+
+import numpy as np
+import pytest
+from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module
+
+from teleteach.sim import panda
+from teleteach.sim.kinematics import IKError, PandaKinematics
+from teleteach.sim.scene import load_scene
+from teleteach.sim.urdf import robot_description
+
+
+@pytest.fixture(scope="module")
+def robot_sim():
+    yield from robot_sim_for_module()
+
+
+DOWN = [1.0, 0.0, 0.0, 0.0]  # TCP z pointing down, fingers closing along base_link y
+
+
+@pytest.fixture(scope="module")
+def kinematics():
+    model = PandaKinematics()
+    yield model
+    model.close()
+
+
+def test_scene_has_two_levels_a_gap_between_close_products_and_a_pick_table():
+    scene = load_scene()
+    boards = [part for part in scene.shelf if part.name.startswith("board")]
+    assert len(boards) >= 2
+    gap = scene.gap
+    board_tops = [part.center[2] + part.size[2] / 2 for part in boards]
+    product_height = scene.product("product_shelf_3").size[2]
+    assert min(abs(gap.position[2] - product_height / 2 - top) for top in board_tops) < 1e-9
+    same_level = sorted(
+        (p for p in scene.products if abs(p.position[2] - gap.position[2]) < 1e-9 and p.position[0] > 1.5),
+        key=lambda p: p.position[1],
+    )
+    ys = [p.position[1] for p in same_level]
+    spacing = np.diff(ys)
+    width = same_level[0].size[1]
+    # Expect neighbours 1 cm apart, and exactly one slot that is free, at the gap's y
+    assert np.sum(spacing > width + 0.02) == 1
+    left = max(y for y in ys if y < gap.position[1])
+    right = min(y for y in ys if y > gap.position[1])
+    assert right - left - width == pytest.approx(gap.width)
+    assert len([p for p in scene.products if p.name.startswith("product_pick")]) >= 2
+    assert {"pick", "place_perpendicular", "place_45deg"} <= set(scene.base_poses)
+
+
+def test_jacobian_is_in_base_link_with_a_yawed_base(robot_sim):
+    sim = robot_sim
+    sim.world.teleport_base(sim.scene.base_poses["place_45deg"])
+    state = sim.world.read_state()
+    kinematics = PandaKinematics(sim.scene.robot.mount_height)
+    dq = np.array([0.3, -0.2, 0.1, 0.2, -0.1, 0.2, 0.1]) * 1e-4
+    # Expect J dq = the finite difference of the TCP in base_link, and the kinematics model to agree
+    moved, _ = kinematics.forward(state.q + dq)
+    here, quaternion = kinematics.forward(state.q)
+    np.testing.assert_allclose(state.jacobian[:3] @ dq, moved - here, rtol=1e-3, atol=1e-8)
+    np.testing.assert_allclose(here, state.position, atol=1e-6)
+    assert abs(np.dot(quaternion, state.quaternion)) == pytest.approx(1.0, abs=1e-6)
+    np.testing.assert_allclose(kinematics.jacobian(state.q), state.jacobian, atol=1e-9)
+    kinematics.close()
+    sim.world.teleport_base(sim.scene.base_poses["start"])
+
+
+def test_inverse_kinematics_round_trip(kinematics):
+    target = np.array([0.55, 0.1, 0.6])
+    joints = kinematics.inverse(target, DOWN)
+    position, quaternion = kinematics.forward(joints)
+    np.testing.assert_allclose(position, target, atol=1e-3)
+    assert abs(np.dot(quaternion, DOWN)) == pytest.approx(1.0, abs=1e-5)
+    assert np.all(joints >= panda.LOWER_LIMITS) and np.all(joints <= panda.UPPER_LIMITS)
+    with pytest.raises(IKError):
+        kinematics.inverse([2.0, 0.0, 0.6], DOWN)
+
+
+def test_urdf_has_base_link_and_resolvable_meshes():
+    robot = ElementTree.fromstring(robot_description())
+    links = {link.get("name") for link in robot.findall("link")}
+    joints = {joint.get("name") for joint in robot.findall("joint")}
+    assert {"base_link", "panda_link0", "panda_hand", "panda_grasptarget"} <= links
+    assert set(panda.ARM_JOINTS + panda.FINGER_JOINTS) <= joints
+    children = {joint.find("child").get("link") for joint in robot.findall("joint")}
+    assert links - children == {"base_link"}  # the root
+    meshes = [mesh.get("filename") for mesh in robot.iter("mesh")]
+    assert meshes and all(m.startswith("file://") and pathlib.Path(m[len("file://") :]).is_file() for m in meshes)
+
+
+def test_base_drives_at_capped_speed(robot_sim):
+    sim = robot_sim
+    start = sim.world.base_pose.copy()
+    sim.command_base_goal("world", [start[0] - 0.5, start[1], 0.0], [0.0, 0.0, 0.0, 1.0])
+    sim.run(0.5)
+    assert np.linalg.norm(sim.world.base_pose[:2] - start[:2]) == pytest.approx(0.25, abs=1e-3)  # 0.5 m/s cap
+    sim.run(1.0)
+    np.testing.assert_allclose(sim.world.base_pose, [start[0] - 0.5, start[1], 0.0], atol=1e-9)
+    sim.command_base_goal("world", [start[0], start[1], 0.0], [0.0, 0.0, 0.0, 1.0])
+    sim.run(1.1)
+
+
+def test_pick_lifts_the_product_and_it_rides_along_with_the_base(robot_sim, kinematics):
+    sim = robot_sim
+    product = sim.scene.product("product_pick_1")
+    top = np.array(product.position) + np.array(
+        [0.0, 0.0, product.size[2] / 2]
+    )  # base at the origin: world = base_link
+    names = list(panda.ARM_JOINTS)
+
+    def move(position, seconds):
+        joints = kinematics.inverse(position, DOWN, seed=sim.state.q)
+        sim.command_trajectory(names, [(joints.tolist(), [0.0] * 7, seconds)])
+        sim.run(seconds + 0.3)
+
+    sim.command_gripper(0.08)
+    move(top + np.array([0.0, 0.0, 0.10]), 1.5)
+    move(top - np.array([0.0, 0.0, 0.025]), 1.0)
+    sim.command_gripper(0.0)
+    sim.run(0.8)
+    assert sim.world.grasped == "product_pick_1"
+    move(top + np.array([0.0, 0.0, 0.15]), 1.0)
+    lifted = sim.world.product_poses()["product_pick_1"][0]
+    assert lifted[2] - product.position[2] == pytest.approx(0.175, abs=0.01)
+    # the product rides along when the base drives
+    sim.command_base_goal("world", [-0.3, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
+    sim.run(1.0)
+    carried = sim.world.product_poses()["product_pick_1"][0]
+    np.testing.assert_allclose(carried - lifted, [-0.3, 0.0, 0.0], atol=0.01)
+    # opening releases it: it falls to the floor
+    sim.command_gripper(0.08)
+    sim.run(1.5)
+    assert sim.world.grasped is None
+    assert sim.world.product_poses()["product_pick_1"][0][2] < 0.1
+
+
+def test_contact_wrench_balances_the_spring(robot_sim, kinematics):
+    sim = robot_sim
+    running = sim.manager.running
+    if running != TRAJECTORY:
+        assert sim.switch_controllers([TRAJECTORY], [running] if running else [], 2)[0]
+    # the ready posture first: teleporting the base must not put the arm into the shelf
+    sim.command_trajectory(panda.ARM_JOINTS, [(list(sim.scene.robot.ready_joint_positions), [0.0] * 7, 1.0)])
+    sim.run(1.2)
+    sim.world.teleport_base(sim.scene.base_poses["place_perpendicular"])
+    spot, board_top = [0.62, -0.45], 0.65  # on board_high, clear of the products (base_link)
+    above = kinematics.inverse([*spot, board_top + 0.05], DOWN, seed=sim.state.q)
+    sim.command_trajectory(panda.ARM_JOINTS, [(above.tolist(), [0.0] * 7, 1.5)])
+    sim.run(2.0)
+    assert sim.switch_controllers([IMPEDANCE], [TRAJECTORY], 2)[0]
+    sim.command_eigenvalues([800.0, 800.0, 800.0])
+    sim.command_equilibrium("base_link", [*spot, board_top - 0.03], DOWN)
+    sim.run(2.0)
+    force, _ = sim.world.external_wrench()
+    # Expect the board to push up with what the spring pulls down: K (z - z_ref), the fingers resting on the board
+    stretch = sim.state.position[2] - (board_top - 0.03)
+    assert 0.0 < stretch < 0.05  # below the attractor clipping
+    spring = 800.0 * stretch
+    assert force[2] == pytest.approx(spring, rel=0.05)
+    assert sim.switch_controllers([TRAJECTORY], [IMPEDANCE], 2)[0]
+    sim.command_trajectory(panda.ARM_JOINTS, [(above.tolist(), [0.0] * 7, 0.5)])
+    sim.run(0.7)
