@@ -1,0 +1,163 @@
+"""How the predefined skills move (config/skills_motion.yaml), as validated plain data."""
+
+import pathlib
+from dataclasses import dataclass, fields
+from typing import Dict, Optional, Tuple
+
+import yaml
+
+DEFAULT_MOTION_FILE = pathlib.Path(__file__).resolve().parents[3] / "config" / "skills_motion.yaml"
+
+
+class MotionConfigError(ValueError):
+    """The motion file is missing a key or holds a wrong value."""
+
+
+@dataclass(frozen=True)
+class ArmConfig:
+    """Arm motion limits and tolerances ([rad/s], [m/s], [s], [rad], [m])."""
+
+    joint_speed: float
+    linear_speed: float
+    angular_speed: float
+    min_duration: float
+    sample_period: float
+    cartesian_step: float
+    goal_tolerance: float
+    settle_timeout: float
+    ik_tolerance: float
+    max_ik_step: float
+
+
+@dataclass(frozen=True)
+class GripperConfig:
+    """Finger openings [m] and timing [s]."""
+
+    open_width: float
+    release_width: float
+    grasp_width: float
+    position_tolerance: float
+    settle_time: float
+    timeout: float
+
+
+@dataclass(frozen=True)
+class BaseConfig:
+    """Mobile base tolerances [m], [rad] and timeout sizing [m/s], [s]."""
+
+    position_tolerance: float
+    yaw_tolerance: float
+    expected_speed: float
+    timeout: float
+
+
+@dataclass(frozen=True)
+class GraspConfig:
+    """Where the TCP holds a product and how it approaches and lifts it [m], [rad]."""
+
+    height_above_center: float
+    approach_height: float
+    lift_height: float
+    yaw: float
+    hold_tolerance: float
+    table_tolerance: float
+
+
+@dataclass(frozen=True)
+class PlaceConfig:
+    """The straight insertion into the gap and the retreat [m]."""
+
+    approach_distance: float
+    clearance: float
+    retreat_distance: float
+    height_tolerance: float
+
+
+@dataclass(frozen=True)
+class ReplayConfig:
+    """Playback of a demonstrated stiffness skill: rate [Hz], approach tolerance [m], settle time [s]."""
+
+    rate: float
+    approach_tolerance: float
+    settle_time: float
+
+
+@dataclass(frozen=True)
+class MotionConfig:
+    """Everything config/skills_motion.yaml holds."""
+
+    position_controller: str
+    impedance_controller: str
+    arm: ArmConfig
+    gripper: GripperConfig
+    base: BaseConfig
+    postures: Dict[str, Tuple[float, ...]]
+    grasp: GraspConfig
+    place: PlaceConfig
+    skills: Dict[str, Dict[str, str]]
+    replay: ReplayConfig
+
+
+def load_motion_config(path: Optional[str] = None) -> MotionConfig:
+    """Read and validate the motion file (default: the package's config/skills_motion.yaml).
+
+    Raises:
+        MotionConfigError: a key is missing or a value is of the wrong kind or out of range.
+    """
+    path = pathlib.Path(path) if path else DEFAULT_MOTION_FILE
+    try:
+        data = yaml.safe_load(path.read_text())
+        return _parse(data)
+    except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError) as error:
+        raise MotionConfigError(f"{path}: {error!r}") from None
+
+
+def _section(cls, data, positive=(), non_negative=()):
+    values = {}
+    for field in fields(cls):
+        value = float(data[field.name])
+        if field.name in positive and not value > 0.0:
+            raise ValueError(f"{field.name} must be > 0, got {value}")
+        if field.name in non_negative and not value >= 0.0:
+            raise ValueError(f"{field.name} must be >= 0, got {value}")
+        values[field.name] = value
+    return cls(**values)
+
+
+def _parse(data):
+    arm = _section(ArmConfig, data["arm"], positive=[field.name for field in fields(ArmConfig)])
+    gripper = _section(
+        GripperConfig, data["gripper"], non_negative=["grasp_width"], positive=["position_tolerance", "timeout"]
+    )
+    for name in ("open_width", "release_width", "grasp_width"):
+        if not 0.0 <= getattr(gripper, name) <= 0.08:
+            raise ValueError(f"gripper.{name} must be within [0, 0.08] m")
+    base = _section(BaseConfig, data["base"], positive=[field.name for field in fields(BaseConfig)])
+    postures = {}
+    for name, values in data["postures"].items():
+        if len(values) != 7:
+            raise ValueError(f"posture {name} needs 7 joint positions, got {len(values)}")
+        postures[name] = tuple(float(value) for value in values)
+    for name in ("look", "carry"):
+        if name not in postures:
+            raise KeyError(f"postures.{name}")
+    grasp = _section(GraspConfig, data["grasp"], positive=["hold_tolerance", "table_tolerance", "approach_height"])
+    place = _section(PlaceConfig, data["place"], positive=["approach_distance", "height_tolerance"])
+    replay = _section(ReplayConfig, data["replay"], positive=["approach_tolerance"], non_negative=["settle_time"])
+    if replay.rate < 100.0:
+        raise ValueError(f"replay.rate must be >= 100 Hz, got {replay.rate}")
+    skills = {
+        str(name): {str(key): str(value) for key, value in entry.items()} for name, entry in data["skills"].items()
+    }
+    return MotionConfig(
+        position_controller=str(data["controllers"]["position"]),
+        impedance_controller=str(data["controllers"]["impedance"]),
+        arm=arm,
+        gripper=gripper,
+        base=base,
+        postures=postures,
+        grasp=grasp,
+        place=place,
+        skills=skills,
+        replay=replay,
+    )

@@ -1,0 +1,287 @@
+"""The predefined pick-and-place skills of the thesis' behaviour tree (Appendix B.2), on the position controller.
+
+Each skill is a short sequence of motions (:mod:`teleteach.skills.motion`) and ends by checking the world: a skill
+succeeds only when the products, the gripper and the base are where the skill was meant to put them.
+"""
+
+import math
+from dataclasses import dataclass
+from typing import Dict, Optional, Tuple
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from teleteach.sim.scene import Scene
+from teleteach.skills.config import MotionConfig
+from teleteach.skills.motion import TOP_DOWN, Motion, world_to_base, yaw_rotation
+from teleteach.skills.robot import SkillError
+
+# The skills of the predefined tree, in the order the tree runs them.
+PREDEFINED_SKILLS = (
+    "LookToShelf",
+    "PickItem",
+    "MoveBase",
+    "PlaceItem",
+    "DropItem",
+    "MoveBaseToStart",
+    "LookToShelfAgain",
+    "PickItem2",
+    "MoveBase2",
+    "Idle",
+)
+
+POSTURE_TOLERANCE = 0.05  # [rad] closer than this to a posture = already there
+
+
+def up(height):
+    """A vertical offset of height [m]."""
+    return np.array([0.0, 0.0, height])
+
+
+@dataclass
+class WorldView:
+    """What the skills ask about the world: scene geometry plus the robot's live view of it.
+
+    Args:
+        motion: the running skill's motions (robot, kinematics, config).
+        scene: the supermarket scene description.
+    """
+
+    motion: Motion
+    scene: Scene
+
+    @property
+    def config(self) -> MotionConfig:
+        """The motion configuration."""
+        return self.motion.config
+
+    def product_position(self, name) -> np.ndarray:
+        """Where product name is now (world) [m], or SkillError when the scene does not report it."""
+        position = self.motion.robot.product_positions().get(name)
+        if position is None:
+            raise SkillError(f"{name} is not in the scene")
+        return np.asarray(position, dtype=float)
+
+    def on_table(self, name) -> bool:
+        """Whether product name stands on the pick table."""
+        position = self.motion.robot.product_positions().get(name)
+        if position is None:
+            return False
+        table = self.scene.pick_table
+        height = self.scene.product(name).size[2]
+        top = table.center[2] + table.size[2] / 2.0
+        inside = all(abs(position[axis] - table.center[axis]) <= table.size[axis] / 2.0 for axis in (0, 1))
+        return inside and abs(position[2] - (top + height / 2.0)) <= self.config.grasp.table_tolerance
+
+    def expected_in_hand(self) -> np.ndarray:
+        """Where a held product's centre should be (world) [m]: height_above_center along the TCP's z (down)."""
+        position, rotation = self.motion.tcp_world()
+        return position + rotation.apply([0.0, 0.0, self.config.grasp.height_above_center])
+
+    def held_product(self) -> Tuple[Optional[str], float]:
+        """The product the fingers hold (name or None) and its distance from the expected place in the hand [m]."""
+        width = self.motion.robot.gripper_width()
+        if not 0.005 < width < self.config.gripper.open_width - 0.005:
+            return None, math.inf
+        expected = self.expected_in_hand()
+        distances = {
+            name: float(np.linalg.norm(np.asarray(position) - expected))
+            for name, position in self.motion.robot.product_positions().items()
+        }
+        if not distances:
+            return None, math.inf
+        name = min(distances, key=distances.get)
+        if distances[name] > self.config.grasp.hold_tolerance:
+            return None, distances[name]
+        return name, distances[name]
+
+    def gap_error(self, name) -> Tuple[float, float]:
+        """Horizontal [m] and vertical [m] distance of product name's centre from the gap's target."""
+        offset = self.product_position(name) - np.asarray(self.scene.gap.position)
+        return float(math.hypot(offset[0], offset[1])), float(abs(offset[2]))
+
+    def in_gap(self, name) -> bool:
+        """Whether product name stands in the gap, within the scene's tolerance."""
+        horizontal, vertical = self.gap_error(name)
+        return horizontal <= self.scene.gap.tolerance and vertical <= self.config.place.height_tolerance
+
+    def into_shelf(self) -> np.ndarray:
+        """Horizontal unit vector in base_link pointing into the shelf at the gap (the gap's x axis)."""
+        return yaw_rotation(self.scene.gap.yaw - self.motion.robot.base_pose()[2]).apply([1.0, 0.0, 0.0])
+
+    def top_down(self, yaw_world) -> Rotation:
+        """TCP orientation in base_link pointing down, rotated by yaw_world [rad] (world) about the vertical."""
+        base_yaw = self.motion.robot.base_pose()[2]
+        return yaw_rotation(yaw_world - base_yaw + self.config.grasp.yaw) * TOP_DOWN
+
+
+class PredefinedSkill:
+    """A predefined skill: run() does the motions and returns the success message, or raises SkillError.
+
+    Args:
+        name: the skill's name (its action server is /skills/<name>).
+        settings: the skill's entry in config/skills_motion.yaml `skills` (product, base_pose).
+    """
+
+    def __init__(self, name: str, settings: Dict[str, str]):
+        self.name = name
+        self.settings = dict(settings)
+
+    def run(self, world: WorldView) -> str:
+        """Execute the skill."""
+        raise NotImplementedError
+
+
+class LookToShelf(PredefinedSkill):
+    """Open the gripper and raise the hand to look ahead (thesis: look at the shelf before picking)."""
+
+    def run(self, world: WorldView) -> str:
+        """Open the gripper, then move to the look posture."""
+        motion = world.motion
+        motion.execution.phase("open gripper", 0.2)
+        motion.gripper(world.config.gripper.open_width)
+        motion.execution.phase("look posture", 0.8)
+        motion.move_joints(world.config.postures["look"])
+        return "looking at the shelf, gripper open"
+
+
+class PickItem(PredefinedSkill):
+    """Pick the configured product from the table: approach from above, grasp, lift, tuck the arm in."""
+
+    def run(self, world: WorldView) -> str:
+        """Pick the product; succeed only when it is held above the table."""
+        product = self.settings.get("product")
+        if not product:
+            raise SkillError(f"{self.name} has no product configured")
+        motion, grasp = world.motion, world.config.grasp
+        if not world.on_table(product):
+            raise SkillError(f"{product} is not on the table")
+        held, _ = world.held_product()
+        if held is not None:
+            raise SkillError(f"the gripper already holds {held}")
+        centre = world_to_base(motion.robot.base_pose(), world.product_position(product))
+        orientation = world.top_down(world.scene.product(product).yaw)
+        grasp_point = centre + up(grasp.height_above_center)
+        motion.execution.phase("open gripper", 0.1)
+        motion.gripper(world.config.gripper.open_width)
+        motion.execution.phase("approach", 0.25)
+        motion.move_to_pose(grasp_point + up(grasp.approach_height), orientation)
+        motion.execution.phase("descend", 0.15)
+        motion.move_linear(grasp_point, orientation)
+        motion.execution.phase("grasp", 0.1)
+        width = motion.gripper(world.config.gripper.grasp_width)
+        motion.execution.phase("lift", 0.15)
+        motion.move_linear(grasp_point + up(grasp.lift_height), orientation)
+        motion.execution.phase("carry posture", 0.25)
+        motion.move_joints(world.config.postures["carry"])
+        held, distance = world.held_product()
+        if held != product:
+            raise SkillError(
+                f"{product} is not in the gripper after grasping (finger opening {width:.3f} m, "
+                f"nearest product {distance:.3f} m from the fingers)"
+            )
+        return f"{product} picked ({1000.0 * distance:.1f} mm from its place between the fingers)"
+
+
+class MoveBase(PredefinedSkill):
+    """Tuck the arm in and drive the base to the configured pose of the scene."""
+
+    def run(self, world: WorldView) -> str:
+        """Drive; succeed when TF puts base_link at the pose."""
+        name = self.settings.get("base_pose", "")
+        if name not in world.scene.base_poses:
+            raise SkillError(f"{self.name}: unknown base pose '{name}' (scene has {sorted(world.scene.base_poses)})")
+        target = world.scene.base_poses[name]
+        motion = world.motion
+        carry = np.asarray(world.config.postures["carry"])
+        motion.execution.phase("carry posture", 0.2)
+        if np.abs(motion.robot.joint_positions() - carry).max() > POSTURE_TOLERANCE:
+            motion.move_joints(carry)
+        motion.execution.phase(f"drive to {name}", 0.8)
+        motion.move_base(target.x, target.y, target.yaw)
+        return f"base at {name} ({target.x:.2f}, {target.y:.2f}, {target.yaw:.2f})"
+
+
+class PlaceItem(PredefinedSkill):
+    """Slide the held product straight into the gap, just above the board, and set it down (still held)."""
+
+    def run(self, world: WorldView) -> str:
+        """Place; succeed when the held product stands in the gap."""
+        motion, place = world.motion, world.config.place
+        product, _ = world.held_product()
+        if product is None:
+            raise SkillError("no product in the gripper to place")
+        base_pose = motion.robot.base_pose()
+        tcp_position, tcp_rotation = motion.tcp_world()
+        in_hand = tcp_rotation.inv().apply(world.product_position(product) - tcp_position)
+        orientation = world.top_down(world.scene.gap.yaw)
+        gap = world_to_base(base_pose, world.scene.gap.position)
+        placed = gap - orientation.apply(in_hand)
+        direction = world.into_shelf()
+        inserted = placed + up(place.clearance)
+        motion.execution.phase("approach the gap", 0.4)
+        motion.move_to_pose(inserted - place.approach_distance * direction, orientation)
+        motion.execution.phase("insert", 0.4)
+        motion.move_linear(inserted, orientation)
+        motion.execution.phase("set down", 0.2)
+        motion.move_linear(placed, orientation)
+        horizontal, vertical = world.gap_error(product)
+        if not world.in_gap(product):
+            raise SkillError(f"{product} is not in the gap: {horizontal:.3f} m beside, {vertical:.3f} m above/below")
+        return f"{product} placed in the gap ({1000.0 * horizontal:.1f} mm from its centre)"
+
+
+class DropItem(PredefinedSkill):
+    """Release the held product, pull the hand straight back out of the shelf and tuck the arm in."""
+
+    def run(self, world: WorldView) -> str:
+        """Release; succeed when the product stays in the gap and the hand is away from it."""
+        motion, place = world.motion, world.config.place
+        product, _ = world.held_product()
+        if product is None:
+            raise SkillError("no product in the gripper to drop")
+        motion.execution.phase("release", 0.25)
+        motion.gripper(world.config.gripper.release_width)
+        tcp, orientation = motion.tcp_pose()
+        direction = world.into_shelf()
+        motion.execution.phase("retreat", 0.4)
+        motion.move_linear(tcp - place.retreat_distance * direction, orientation)
+        motion.execution.phase("carry posture", 0.35)
+        motion.move_joints(world.config.postures["carry"])
+        horizontal, vertical = world.gap_error(product)
+        if world.held_product()[0] == product:
+            raise SkillError(f"{product} is still in the gripper after releasing it")
+        if not world.in_gap(product):
+            raise SkillError(
+                f"{product} was released but is not in the gap: {horizontal:.3f} m beside, {vertical:.3f} m off"
+            )
+        return f"{product} is on the shelf, {1000.0 * horizontal:.1f} mm from the gap's centre"
+
+
+class Idle(PredefinedSkill):
+    """Hold the arm where it is (the tree's last leaf: nothing left to do)."""
+
+    def run(self, world: WorldView) -> str:
+        """Hold the current posture."""
+        world.motion.execution.phase("idle", 1.0)
+        world.motion.hold()
+        return "idle: holding the arm"
+
+
+SKILL_CLASSES = {
+    "LookToShelf": LookToShelf,
+    "PickItem": PickItem,
+    "MoveBase": MoveBase,
+    "PlaceItem": PlaceItem,
+    "DropItem": DropItem,
+    "MoveBaseToStart": MoveBase,
+    "LookToShelfAgain": LookToShelf,
+    "PickItem2": PickItem,
+    "MoveBase2": MoveBase,
+    "Idle": Idle,
+}
+
+
+def create_skills(config: MotionConfig) -> Dict[str, PredefinedSkill]:
+    """The predefined skills by name, each with its settings from the motion configuration."""
+    return {name: SKILL_CLASSES[name](name, config.skills.get(name, {})) for name in PREDEFINED_SKILLS}

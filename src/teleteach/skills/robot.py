@@ -1,0 +1,128 @@
+"""The small robot interface the skills run on, and how a running skill reports and gets stopped.
+
+The ROS layer (:mod:`teleteach.skills.ros_robot`) implements :class:`Robot` over topics, TF and services; anything
+else that can report joint states, product poses and the base pose and take joint trajectories, gripper widths and
+base goals (a simulation stepped in-process, for example) can run the same skills.
+"""
+
+import abc
+from typing import Callable, Dict, Optional, Sequence, Tuple
+
+import numpy as np
+
+HOLD_TIME = 0.05  # [s] a hold point lies this far ahead (a point at time 0 would already be in the past)
+
+
+class SkillError(RuntimeError):
+    """A skill cannot do its job; the message says why (it becomes the action result's message)."""
+
+
+class PreemptedError(Exception):
+    """The client cancelled the goal or sent a new one."""
+
+
+class Robot(abc.ABC):
+    """What the skills read from and command to the robot. Times are the robot's clock (sim time) [s]."""
+
+    @abc.abstractmethod
+    def now(self) -> float:
+        """Current time [s]."""
+
+    @abc.abstractmethod
+    def sleep(self, seconds: float) -> None:
+        """Let seconds of robot time pass."""
+
+    @abc.abstractmethod
+    def joint_positions(self) -> np.ndarray:
+        """panda_joint1..7 [rad]; raises SkillError when none has been received."""
+
+    @abc.abstractmethod
+    def gripper_width(self) -> float:
+        """Measured finger opening (both fingers together) [m]."""
+
+    @abc.abstractmethod
+    def base_pose(self) -> Tuple[float, float, float]:
+        """base_link in world: x [m], y [m], yaw [rad]; raises SkillError when unknown."""
+
+    @abc.abstractmethod
+    def product_positions(self) -> Dict[str, np.ndarray]:
+        """Product name -> centre position [m] in world, as the scene reports them now."""
+
+    @abc.abstractmethod
+    def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
+        """Measured TCP pose in base_link: position [m], quaternion (x, y, z, w)."""
+
+    @abc.abstractmethod
+    def active_controllers(self) -> Sequence[str]:
+        """Names of the running controllers."""
+
+    @abc.abstractmethod
+    def switch_controllers(self, start: Sequence[str], stop: Sequence[str]) -> None:
+        """STRICT switch; raises SkillError with the controller manager's answer when it refuses."""
+
+    @abc.abstractmethod
+    def send_joint_trajectory(self, times: np.ndarray, positions: np.ndarray, velocities: np.ndarray) -> None:
+        """Replace the position controller's trajectory (times from now [s], positions [rad], velocities [rad/s])."""
+
+    @abc.abstractmethod
+    def command_gripper(self, width: float) -> None:
+        """Open the fingers to width [m]."""
+
+    @abc.abstractmethod
+    def command_base(self, x: float, y: float, yaw: float) -> None:
+        """Drive base_link to (x [m], y [m], yaw [rad]) in world."""
+
+    @abc.abstractmethod
+    def command_stiffness(self, eigenvalues: np.ndarray, eigenvectors: np.ndarray, stamp: float) -> None:
+        """Impedance controller: principal stiffnesses [N/m] and the quaternion (x, y, z, w) of their axes."""
+
+    @abc.abstractmethod
+    def command_equilibrium(self, position: np.ndarray, quaternion: np.ndarray, stamp: float) -> None:
+        """Impedance controller: reference pose in base_link (position [m], quaternion (x, y, z, w))."""
+
+    def hold(self, positions: np.ndarray) -> None:
+        """Stop the arm where it is: a one-point trajectory to positions [rad], reached within HOLD_TIME."""
+        positions = np.asarray(positions, dtype=float)[None, :]
+        self.send_joint_trajectory(np.array([HOLD_TIME]), positions, np.zeros_like(positions))
+
+
+class Execution:
+    """The link between a running skill and whoever asked for it: feedback out, preemption in.
+
+    Args:
+        preempt_requested: returns True when the skill must stop.
+        feedback: called with (progress 0..1, phase name).
+    """
+
+    def __init__(
+        self,
+        preempt_requested: Optional[Callable[[], bool]] = None,
+        feedback: Optional[Callable[[float, str], None]] = None,
+    ):
+        self._preempt_requested = preempt_requested or (lambda: False)
+        self._feedback = feedback or (lambda progress, phase: None)
+        self._phase = ""
+        self._start = 0.0
+        self._weight = 0.0
+        self.progress = 0.0
+
+    def check(self) -> None:
+        """Raise PreemptedError when the skill must stop."""
+        if self._preempt_requested():
+            raise PreemptedError()
+
+    def phase(self, name: str, weight: float) -> None:
+        """Start the next phase, which covers the following weight (0..1) of the overall progress."""
+        self._start = min(1.0, self._start + self._weight) if self._phase else 0.0
+        self._phase, self._weight = name, weight
+        self.report(0.0)
+
+    def report(self, fraction: float) -> None:
+        """Progress within the current phase (0..1)."""
+        self.progress = min(1.0, self._start + self._weight * min(max(fraction, 0.0), 1.0))
+        self._feedback(self.progress, self._phase)
+
+    def complete(self, phase: str) -> None:
+        """The whole skill is done."""
+        self._phase, self._start, self._weight = phase, 1.0, 0.0
+        self.report(1.0)

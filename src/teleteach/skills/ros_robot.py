@@ -1,0 +1,235 @@
+"""The robot interface over ROS.
+
+In: /joint_states, TF world->base_link, /teleteach/scene, /cartesian_pose. Out: joint trajectories, gripper, base
+goals, stiffness and equilibrium commands, controller switches.
+
+Topic and service names are the ROS graph contract (DESIGN.md section 3, interfaces of the robot simulation).
+"""
+
+import threading
+import time
+from typing import Dict, Sequence, Tuple
+
+import numpy as np
+import rospy
+import tf2_ros
+from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from visualization_msgs.msg import MarkerArray
+
+from teleteach.sim import panda
+from teleteach.skills.motion import yaw_rotation
+from teleteach.skills.robot import Robot, SkillError
+from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
+
+WORLD_FRAME = "world"
+BASE_FRAME = "base_link"
+PRODUCTS_NAMESPACE = "products"
+SERVICE_TIMEOUT = 5.0  # [s] wall time to wait for the controller manager
+SCENE_FRESHNESS = 0.15  # [s] sim time: a scene older than this when asked is waited for
+SCENE_WAIT = 2.0  # [s] wall time to wait for a fresh scene before using the last one
+CONNECTION_WAIT = 3.0  # [s] wall time to wait for a command topic's subscriber (robot_sim) to connect
+STATE_WAIT = 10.0  # [s] wall time to wait for the first /joint_states (robot_sim may still be starting)
+
+
+class RosRobot(Robot):
+    """Robot interface over topics, TF and the controller manager services.
+
+    ROS Publishers: /position_joint_trajectory_controller/command, /gripper/command, /base/goal, /eigenvalues,
+    /eigenvectors, /equilibrium_pose.
+    ROS Subscribers: /joint_states, /teleteach/scene, /cartesian_pose; TF world->base_link.
+    ROS Services (called): /controller_manager/switch_controller, /controller_manager/list_controllers.
+    """
+
+    def __init__(self):
+        self._lock = threading.Condition()
+        self._joints = None
+        self._fingers = None
+        self._products = {}
+        self._scene_stamp = -1.0
+        self._cartesian = None
+        self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
+        self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
+        self._trajectory = rospy.Publisher(
+            "/position_joint_trajectory_controller/command", JointTrajectory, queue_size=1
+        )
+        self._gripper = rospy.Publisher("/gripper/command", Float64, queue_size=1)
+        self._base = rospy.Publisher("/base/goal", PoseStamped, queue_size=1)
+        self._eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=10)
+        self._eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=10)
+        self._equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
+        self._switch = rospy.ServiceProxy("/controller_manager/switch_controller", SwitchController)
+        self._list = rospy.ServiceProxy("/controller_manager/list_controllers", ListControllers)
+        rospy.Subscriber("/joint_states", JointState, self._on_joint_states, queue_size=1)
+        rospy.Subscriber("/teleteach/scene", MarkerArray, self._on_scene, queue_size=1)
+        rospy.Subscriber("/cartesian_pose", PoseStamped, self._on_cartesian_pose, queue_size=1)
+
+    # ------------------------------------------------------------------------------------------- callbacks
+    def _on_joint_states(self, msg):
+        positions = dict(zip(msg.name, msg.position))
+        try:
+            joints = np.array([positions[name] for name in panda.ARM_JOINTS])
+        except KeyError:
+            return  # another publisher's partial joint state
+        fingers = sum(positions.get(name, 0.0) for name in panda.FINGER_JOINTS)
+        if np.all(np.isfinite(joints)):
+            with self._lock:
+                self._joints, self._fingers = joints, float(fingers)
+                self._lock.notify_all()
+
+    def _on_scene(self, msg):
+        products = {}
+        for marker in msg.markers:
+            if marker.ns == PRODUCTS_NAMESPACE and marker.text and marker.header.frame_id.lstrip("/") == WORLD_FRAME:
+                position = marker.pose.position
+                products[marker.text] = np.array([position.x, position.y, position.z])
+        stamps = [marker.header.stamp.to_sec() for marker in msg.markers if marker.ns == PRODUCTS_NAMESPACE]
+        with self._lock:
+            self._products = products
+            self._scene_stamp = max(stamps) if stamps else rospy.get_time()
+            self._lock.notify_all()
+
+    def _on_cartesian_pose(self, msg):
+        if msg.header.frame_id.lstrip("/") != BASE_FRAME:
+            return
+        position, orientation = msg.pose.position, msg.pose.orientation
+        with self._lock:
+            self._cartesian = (
+                np.array([position.x, position.y, position.z]),
+                np.array([orientation.x, orientation.y, orientation.z, orientation.w]),
+            )
+
+    # ----------------------------------------------------------------------------------------------- state
+    def now(self) -> float:
+        """ROS time (sim time under /use_sim_time) [s]."""
+        return rospy.get_time()
+
+    def sleep(self, seconds: float) -> None:
+        """rospy.sleep: follows /clock."""
+        rospy.sleep(seconds)
+
+    def joint_positions(self) -> np.ndarray:
+        """Latest panda_joint1..7 [rad]."""
+        with self._lock:
+            self._wait_for_joint_states()
+            return self._joints.copy()
+
+    def gripper_width(self) -> float:
+        """Latest finger opening [m]."""
+        with self._lock:
+            self._wait_for_joint_states()
+            return self._fingers
+
+    def _wait_for_joint_states(self) -> None:
+        """Wait (lock held) for the first /joint_states, so a skill asked while robot_sim starts does not fail."""
+        self._lock.wait_for(lambda: self._joints is not None or rospy.is_shutdown(), timeout=STATE_WAIT)
+        if self._joints is None:
+            raise SkillError(f"no /joint_states received in {STATE_WAIT:.0f} s: is robot_sim running?")
+
+    def base_pose(self) -> Tuple[float, float, float]:
+        """TF world->base_link as (x [m], y [m], yaw [rad])."""
+        try:
+            transform = self._tf_buffer.lookup_transform(WORLD_FRAME, BASE_FRAME, rospy.Time(0), rospy.Duration(1.0))
+        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as error:
+            raise SkillError(f"no transform {WORLD_FRAME} -> {BASE_FRAME}: {error}") from None
+        translation, rotation = transform.transform.translation, transform.transform.rotation
+        yaw = 2.0 * np.arctan2(rotation.z, rotation.w)
+        return float(translation.x), float(translation.y), float(np.arctan2(np.sin(yaw), np.cos(yaw)))
+
+    def product_positions(self) -> Dict[str, np.ndarray]:
+        """Product centres in world from the latest /teleteach/scene no older than SCENE_FRESHNESS."""
+        wanted = self.now() - SCENE_FRESHNESS
+        with self._lock:
+            self._lock.wait_for(lambda: self._scene_stamp >= wanted or rospy.is_shutdown(), timeout=SCENE_WAIT)
+            return {name: position.copy() for name, position in self._products.items()}
+
+    def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
+        """Latest /cartesian_pose (TCP in base_link)."""
+        with self._lock:
+            if self._cartesian is None:
+                raise SkillError("no /cartesian_pose received yet: is robot_sim running?")
+            return self._cartesian[0].copy(), self._cartesian[1].copy()
+
+    # ------------------------------------------------------------------------------------------ controllers
+    def active_controllers(self) -> Sequence[str]:
+        """Running controllers according to list_controllers."""
+        try:
+            self._list.wait_for_service(SERVICE_TIMEOUT)
+            response = self._list()
+        except (rospy.ROSException, rospy.ServiceException) as error:
+            raise SkillError(f"/controller_manager/list_controllers failed: {error}") from None
+        return [controller.name for controller in response.controller if controller.state == "running"]
+
+    def switch_controllers(self, start: Sequence[str], stop: Sequence[str]) -> None:
+        """STRICT switch_controller; SkillError when refused or unreachable."""
+        request = SwitchControllerRequest(
+            start_controllers=list(start), stop_controllers=list(stop), strictness=SwitchControllerRequest.STRICT
+        )
+        try:
+            self._switch.wait_for_service(SERVICE_TIMEOUT)
+            response = self._switch(request)
+        except (rospy.ROSException, rospy.ServiceException) as error:
+            raise SkillError(f"/controller_manager/switch_controller failed: {error}") from None
+        if not response.ok:
+            raise SkillError(f"the controller manager refused to start {list(start)} and stop {list(stop)} (STRICT)")
+
+    # ---------------------------------------------------------------------------------------------- commands
+    @staticmethod
+    def _publish(publisher, msg):
+        """Publish once the robot listens: a message sent before the connection exists would be lost."""
+        deadline = time.monotonic() + CONNECTION_WAIT
+        while publisher.get_num_connections() == 0:
+            if time.monotonic() > deadline or rospy.is_shutdown():
+                raise SkillError(f"nobody subscribes to {publisher.resolved_name}: is robot_sim running?")
+            time.sleep(0.01)
+        publisher.publish(msg)
+
+    def send_joint_trajectory(self, times, positions, velocities) -> None:
+        """JointTrajectory starting on reception (header stamp 0, ros_control convention)."""
+        msg = JointTrajectory(joint_names=list(panda.ARM_JOINTS))
+        msg.points = [
+            JointTrajectoryPoint(
+                positions=list(map(float, point)),
+                velocities=list(map(float, velocity)),
+                time_from_start=rospy.Duration.from_sec(float(time)),
+            )
+            for time, point, velocity in zip(times, positions, velocities)
+        ]
+        self._publish(self._trajectory, msg)
+
+    def command_gripper(self, width: float) -> None:
+        """Finger opening [m]."""
+        self._publish(self._gripper, Float64(data=float(width)))
+
+    def command_base(self, x: float, y: float, yaw: float) -> None:
+        """Base goal in world."""
+        msg = PoseStamped()
+        msg.header.frame_id, msg.header.stamp = WORLD_FRAME, rospy.Time.now()
+        msg.pose.position.x, msg.pose.position.y = float(x), float(y)
+        quaternion = yaw_rotation(yaw).as_quat()
+        orientation = msg.pose.orientation
+        orientation.x, orientation.y, orientation.z, orientation.w = (float(value) for value in quaternion)
+        self._publish(self._base, msg)
+
+    def command_stiffness(self, eigenvalues, eigenvectors, stamp: float) -> None:
+        """/eigenvalues [N/m] and /eigenvectors (quaternion of the principal axes), base_link."""
+        values = Vector3Stamped()
+        values.header.frame_id, values.header.stamp = BASE_FRAME, rospy.Time.from_sec(stamp)
+        values.vector.x, values.vector.y, values.vector.z = (float(value) for value in eigenvalues)
+        vectors = QuaternionStamped()
+        vectors.header = values.header
+        quaternion = vectors.quaternion
+        quaternion.x, quaternion.y, quaternion.z, quaternion.w = (float(value) for value in eigenvectors)
+        self._publish(self._eigenvectors, vectors)
+        self._publish(self._eigenvalues, values)
+
+    def command_equilibrium(self, position, quaternion, stamp: float) -> None:
+        """/equilibrium_pose in base_link."""
+        msg = PoseStamped()
+        msg.header.frame_id, msg.header.stamp = BASE_FRAME, rospy.Time.from_sec(stamp)
+        msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = (float(value) for value in position)
+        orientation = msg.pose.orientation
+        orientation.x, orientation.y, orientation.z, orientation.w = (float(value) for value in quaternion)
+        self._publish(self._equilibrium, msg)

@@ -1,0 +1,103 @@
+"""Runs one skill at a time on a robot and turns everything that can happen into an outcome (never an exception)."""
+
+import threading
+from dataclasses import dataclass
+from typing import Dict
+
+import yaml
+
+from teleteach.sim.scene import Scene
+from teleteach.skills.config import MotionConfig
+from teleteach.skills.motion import InverseKinematics, Motion
+from teleteach.skills.predefined import PREDEFINED_SKILLS, WorldView, create_skills
+from teleteach.skills.replay import StiffnessReplay
+from teleteach.skills.robot import Execution, PreemptedError, Robot, SkillError
+
+REPLAY_SKILL = "ReplaySkill"
+SKILL_NAMES = (*PREDEFINED_SKILLS, REPLAY_SKILL)
+
+
+@dataclass
+class Outcome:
+    """How a skill ended: success, the message for the action result, and whether it was preempted."""
+
+    success: bool
+    message: str
+    preempted: bool = False
+
+
+def parse_settings(parameters: str) -> Dict[str, str]:
+    """A predefined skill's goal parameters: empty, or a yaml mapping overriding its settings (product, base_pose)."""
+    try:
+        values = yaml.safe_load(parameters or "")
+    except yaml.YAMLError as error:
+        raise SkillError(f"parameters are not valid yaml: {error}") from None
+    if values is None:
+        return {}
+    if not isinstance(values, dict) or not all(isinstance(value, str) for value in values.values()):
+        raise SkillError(
+            f"parameters must be a yaml mapping of names, e.g. {{product: product_pick_2}}, got {values!r}"
+        )
+    return {str(key): value for key, value in values.items()}
+
+
+class SkillRunner:
+    """The skills over one robot; one skill runs at a time (the arm has one owner).
+
+    Args:
+        robot: the robot interface.
+        config: the motion configuration.
+        scene: the supermarket scene.
+        kinematics: Panda forward kinematics and Jacobian in base_link (teleteach.sim.kinematics.PandaKinematics).
+    """
+
+    def __init__(self, robot: Robot, config: MotionConfig, scene: Scene, kinematics):
+        self.robot = robot
+        self.config = config
+        self.scene = scene
+        self.ik = InverseKinematics(kinematics, tolerance=config.arm.ik_tolerance)
+        self.skills = create_skills(config)
+        self.replay = StiffnessReplay()
+        self._lock = threading.Lock()
+        self.running = None
+
+    def execute(self, name: str, parameters: str = "", execution: Execution = None) -> Outcome:
+        """Run skill name to its end; the outcome says whether the world is now as the skill promises."""
+        execution = execution or Execution()
+        if name not in SKILL_NAMES:
+            return Outcome(False, f"unknown skill '{name}'; known: {', '.join(SKILL_NAMES)}")
+        if not self._lock.acquire(blocking=False):
+            return Outcome(False, f"cannot run {name}: {self.running} is running")
+        self.running = name
+        motion = Motion(self.robot, self.config, self.ik, execution)
+        try:
+            if name == REPLAY_SKILL:
+                message = self.replay.run(motion, parameters)
+            else:
+                skill = self.skills[name]
+                settings = parse_settings(parameters)
+                if settings:
+                    skill = type(skill)(name, {**skill.settings, **settings})
+                motion.ensure_position_control()
+                message = skill.run(WorldView(motion, self.scene))
+            execution.complete("done")
+            return Outcome(True, message)
+        except PreemptedError:
+            self._stop(motion)
+            return Outcome(False, f"{name} preempted: the arm holds where it was", preempted=True)
+        except SkillError as error:
+            self._stop(motion)
+            return Outcome(False, str(error))
+        except Exception as error:  # a broken robot link must not take the server down
+            self._stop(motion)
+            return Outcome(False, f"{name} failed: {error}")
+        finally:
+            self.running = None
+            self._lock.release()
+
+    @staticmethod
+    def _stop(motion: Motion) -> None:
+        try:
+            motion.hold()
+        except Exception:  # nothing more to do: the robot itself is unreachable
+            pass

@@ -1,0 +1,90 @@
+"""The robot interface over the in-process simulation (teleteach.sim.robot_sim.RobotSim), without ROS.
+
+The skills then run against the same physics, controllers and command validation as behind the ROS node; time
+passes only when a skill waits (sleep() steps the simulation), so runs are deterministic and faster than real time.
+"""
+
+from typing import Dict, Sequence, Tuple
+
+import numpy as np
+
+from teleteach.control.manager import STRICT
+from teleteach.sim import panda
+from teleteach.sim.robot_sim import RobotSim
+from teleteach.skills.motion import yaw_rotation
+from teleteach.skills.robot import Robot, SkillError
+
+
+class SimRobot(Robot):
+    """Robot interface of a RobotSim stepped by the skills' own waits.
+
+    Args:
+        sim: the simulated robot (its world, controllers and validated commands).
+    """
+
+    def __init__(self, sim: RobotSim):
+        self.sim = sim
+
+    def now(self) -> float:
+        """Simulated time [s]."""
+        return self.sim.time
+
+    def sleep(self, seconds: float) -> None:
+        """Step the simulation for seconds [s]."""
+        self.sim.run(max(seconds, self.sim.world.time_step))
+
+    def joint_positions(self) -> np.ndarray:
+        """panda_joint1..7 [rad]."""
+        return np.array(self.sim.world.joint_states()[0][:7])
+
+    def gripper_width(self) -> float:
+        """Both fingers' opening [m]."""
+        positions = self.sim.world.joint_states()[0]
+        return float(positions[7] + positions[8])
+
+    def base_pose(self) -> Tuple[float, float, float]:
+        """base_link in world (x [m], y [m], yaw [rad])."""
+        x, y, yaw = self.sim.world.base_pose
+        return float(x), float(y), float(yaw)
+
+    def product_positions(self) -> Dict[str, np.ndarray]:
+        """Product centres in world [m]."""
+        return {name: pose[0] for name, pose in self.sim.world.product_poses().items()}
+
+    def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
+        """TCP in base_link as the controllers see it."""
+        state = self.sim.world.read_state()
+        return state.position.copy(), state.quaternion.copy()
+
+    def active_controllers(self) -> Sequence[str]:
+        """The running controller, if any."""
+        running = self.sim.manager.running
+        return [running] if running else []
+
+    def switch_controllers(self, start: Sequence[str], stop: Sequence[str]) -> None:
+        """STRICT switch; SkillError with the manager's reason when refused."""
+        ok, message = self.sim.switch_controllers(start, stop, STRICT)
+        if not ok:
+            raise SkillError(f"controller switch (start {list(start)}, stop {list(stop)}) refused: {message}")
+
+    def send_joint_trajectory(self, times, positions, velocities) -> None:
+        """Replace the joint trajectory (times from now)."""
+        points = [(list(p), list(v), float(t)) for t, p, v in zip(times, positions, velocities)]
+        self.sim.command_trajectory(panda.ARM_JOINTS, points, stamp=self.sim.time)
+
+    def command_gripper(self, width: float) -> None:
+        """Finger opening [m]."""
+        self.sim.command_gripper(width)
+
+    def command_base(self, x: float, y: float, yaw: float) -> None:
+        """Base goal in world."""
+        self.sim.command_base_goal("world", [x, y, 0.0], yaw_rotation(yaw).as_quat(), stamp=self.sim.time)
+
+    def command_stiffness(self, eigenvalues, eigenvectors, stamp: float) -> None:
+        """Principal stiffnesses [N/m] and their axes' quaternion."""
+        self.sim.command_eigenvectors(eigenvectors, stamp)
+        self.sim.command_eigenvalues(eigenvalues, stamp)
+
+    def command_equilibrium(self, position, quaternion, stamp: float) -> None:
+        """Impedance reference in base_link."""
+        self.sim.command_equilibrium("base_link", position, quaternion, stamp)

@@ -1,0 +1,198 @@
+"""The skills on the real in-process simulation (pybullet physics, controller manager, command validation), no ROS."""
+
+import math
+
+import numpy as np
+import pybullet
+import pytest
+from scipy.spatial.transform import Rotation
+
+from teleteach import skill_file
+from teleteach.sim.kinematics import PandaKinematics
+from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY, RobotSim
+from teleteach.skills.config import load_motion_config
+from teleteach.skills.predefined import PREDEFINED_SKILLS
+from teleteach.skills.robot import Execution
+from teleteach.skills.runner import SkillRunner
+from teleteach.skills.sim_robot import SimRobot
+
+
+@pytest.fixture(scope="module")
+def kinematics():
+    model = PandaKinematics(0.40)
+    yield model
+    model.close()
+
+
+@pytest.fixture
+def sim():
+    simulation = RobotSim()
+    yield simulation
+    simulation.close()
+
+
+@pytest.fixture
+def runner(sim, kinematics):
+    return SkillRunner(SimRobot(sim), load_motion_config(), sim.scene, kinematics)
+
+
+def product_position(sim, name):
+    return sim.world.product_poses()[name][0]
+
+
+def gap_offset(sim, name):
+    offset = product_position(sim, name) - np.array(sim.scene.gap.position)
+    return math.hypot(offset[0], offset[1]), abs(offset[2])
+
+
+def test_the_predefined_sequence_puts_the_product_in_the_gap(sim, runner):
+    for name in PREDEFINED_SKILLS:
+        feedback = []
+        outcome = runner.execute(
+            name, "", Execution(feedback=lambda progress, phase, into=feedback: into.append(progress))
+        )
+        assert outcome.success, f"{name}: {outcome.message}"
+        assert feedback[-1] == pytest.approx(1.0)
+        assert np.all(np.diff(feedback) >= -1e-9), f"{name}: progress went backwards"
+        if name == "PickItem":
+            # Expect: the simulation's own grasp holds product_pick_1
+            assert sim.world.grasped == "product_pick_1"
+        if name == "DropItem":
+            horizontal, vertical = gap_offset(sim, "product_pick_1")
+            assert horizontal <= sim.scene.gap.tolerance
+            assert vertical < 0.02
+            assert sim.world.grasped is None
+    # Expect: the first product still stands in the gap; the second one is in the hand at the 45-degree pose
+    horizontal, vertical = gap_offset(sim, "product_pick_1")
+    assert horizontal <= sim.scene.gap.tolerance and vertical < 0.02
+    assert sim.world.grasped == "product_pick_2"
+    # Expect: nothing else was knocked over or pushed on the way
+    for product in sim.scene.products:
+        if product.name not in ("product_pick_1", "product_pick_2"):
+            assert np.linalg.norm(product_position(sim, product.name) - product.position) < 0.005, product.name
+    target = sim.scene.base_poses["place_45deg"]
+    np.testing.assert_allclose(sim.world.base_pose, [target.x, target.y, target.yaw], atol=0.01)
+
+
+def test_pick_fails_saying_the_product_is_not_on_the_table(sim, runner):
+    body = sim.world.products["product_pick_1"]
+    pybullet.resetBasePositionAndOrientation(body, [0.0, 1.5, 0.07], [0, 0, 0, 1], physicsClientId=sim.world.client)
+    before = np.array(sim.world.joint_states()[0][:7])
+    outcome = runner.execute("PickItem")
+    assert not outcome.success and not outcome.preempted
+    assert outcome.message == "product_pick_1 is not on the table"
+    np.testing.assert_allclose(sim.world.joint_states()[0][:7], before, atol=1e-3)
+
+
+def test_place_and_drop_without_a_product_fail(runner):
+    assert runner.execute("PlaceItem").message == "no product in the gripper to place"
+    assert runner.execute("DropItem").message == "no product in the gripper to drop"
+
+
+def test_goal_parameters_choose_the_product(sim, runner):
+    outcome = runner.execute("PickItem", "{product: product_pick_2}")
+    assert outcome.success, outcome.message
+    assert sim.world.grasped == "product_pick_2"
+    assert runner.execute("PickItem", "{product: 3}").message.startswith("parameters must be a yaml mapping")
+
+
+def test_a_preempted_skill_stops_and_holds_the_arm(sim, runner):
+    look = np.array(runner.config.postures["look"])
+    stop_at = sim.time + 0.6
+    outcome = runner.execute("LookToShelf", "", Execution(preempt_requested=lambda: sim.time > stop_at))
+    assert outcome.preempted and not outcome.success
+    stopped = np.array(sim.world.joint_states()[0][:7])
+    sim.run(1.0)
+    after = np.array(sim.world.joint_states()[0][:7])
+    assert np.abs(after - stopped).max() < 0.02  # [rad] it holds (the fingers may still open)
+    assert np.abs(after - look).max() > 0.1  # and did not go on to the goal
+    assert sim.manager.running == TRAJECTORY
+
+
+def test_a_skill_first_switches_back_to_the_position_controller(sim, runner):
+    ok, message = sim.switch_controllers([IMPEDANCE], [TRAJECTORY], 2)
+    assert ok, message
+    outcome = runner.execute("LookToShelf")
+    assert outcome.success, outcome.message
+    assert sim.manager.running == TRAJECTORY
+    np.testing.assert_allclose(sim.world.joint_states()[0][:7], runner.config.postures["look"], atol=0.01)
+
+
+def test_unknown_skill_is_refused(runner):
+    outcome = runner.execute("Dance")
+    assert not outcome.success and outcome.message.startswith("unknown skill 'Dance'")
+
+
+def write_skill(sim, path, duration=1.0, step=(0.05, 0.0, 0.0)):
+    position, quaternion = sim.world.read_state().position, sim.world.read_state().quaternion
+    count = 21
+    fractions = np.linspace(0.0, 1.0, count)[:, None]
+    positions = position + fractions * np.array(step)
+    poses = np.hstack([positions, np.tile(quaternion, (count, 1))])
+    rotated = Rotation.from_euler("z", math.pi / 4).as_matrix()
+    final = rotated @ np.diag([300.0, 1500.0, 1000.0]) @ rotated.T
+    stiffness = np.array([(1 - f) * np.diag([800.0, 800.0, 800.0]) + f * final for f in fractions[:, 0]])
+    skill = skill_file.Skill("place_45", "stiffness", np.linspace(0.0, duration, count), stiffness, poses, poses)
+    return skill_file.save(skill, path), final, positions[-1]
+
+
+class StampRecordingRobot(SimRobot):
+    """The in-process robot, also noting when each stiffness command was stamped."""
+
+    def __init__(self, sim):
+        super().__init__(sim)
+        self.stamps = []
+
+    def command_stiffness(self, eigenvalues, eigenvectors, stamp):
+        self.stamps.append(stamp)
+        super().command_stiffness(eigenvalues, eigenvectors, stamp)
+
+
+def test_replay_plays_stiffness_and_reference_then_switches_back(sim, kinematics, tmp_path):
+    robot = StampRecordingRobot(sim)
+    runner = SkillRunner(robot, load_motion_config(), sim.scene, kinematics)
+    path, final_stiffness, final_position = write_skill(sim, tmp_path / "place_45")
+    feedback = []
+    outcome = runner.execute(
+        "ReplaySkill",
+        f"{{data_file: {path}, kind: stiffness}}",
+        Execution(feedback=lambda progress, phase: feedback.append(phase)),
+    )
+    assert outcome.success, outcome.message
+    assert "final end-effector error" in outcome.message
+    assert "replay" in feedback and "switch to impedance control" in feedback
+    # Expect: at least 100 Hz over the recorded second, stamps following the recording's timing
+    played = np.diff(robot.stamps[1:])
+    assert played.max() <= 0.01 + 1e-9 and played.min() > 0.0
+    assert robot.stamps[-1] - robot.stamps[1] == pytest.approx(1.0, abs=1e-6)
+    # Expect: the controller rebuilt the recorded final stiffness from the eigendecomposition it received
+    np.testing.assert_allclose(sim.impedance.stiffness_target[:3, :3], final_stiffness, atol=1e-6)
+    np.testing.assert_allclose(sim.world.read_state().position, final_position, atol=0.01)
+    assert sim.manager.running == TRAJECTORY
+
+
+def test_replay_of_a_bad_skill_file_fails_with_its_error(sim, runner, tmp_path):
+    broken = tmp_path / "broken.npz"
+    broken.write_bytes(b"not a skill")
+    outcome = runner.execute("ReplaySkill", f"{{data_file: {broken}, kind: stiffness}}")
+    assert not outcome.success
+    assert outcome.message.startswith(f"skill file {broken} cannot be read")
+    missing = runner.execute("ReplaySkill", f"{{data_file: {tmp_path / 'none.npz'}}}")
+    assert missing.message == f"skill file {tmp_path / 'none.npz'} does not exist"
+    path, _, _ = write_skill(sim, tmp_path / "place")
+    assert "holds a 'stiffness' skill" in runner.execute("ReplaySkill", f"{{data_file: {path}, kind: dmp}}").message
+    assert sim.manager.running == TRAJECTORY
+
+
+def test_a_preempted_replay_switches_back_to_position_control(sim, runner, tmp_path):
+    path, _, _ = write_skill(sim, tmp_path / "long", duration=3.0)
+    stop_at = sim.time + 1.0
+    outcome = runner.execute(
+        "ReplaySkill", f"{{data_file: {path}}}", Execution(preempt_requested=lambda: sim.time > stop_at)
+    )
+    assert outcome.preempted
+    assert sim.manager.running == TRAJECTORY
+    held = sim.world.read_state().position
+    sim.run(0.5)
+    assert np.linalg.norm(sim.world.read_state().position - held) < 0.005
+    assert IMPEDANCE != sim.manager.running
