@@ -1,0 +1,352 @@
+"""The ROS layer of the teaching tree (py_trees_ros conventions, for ROS 1 where py_trees_ros is not available).
+
+:class:`ActionSkill` leaves are actionlib clients of ``/skills/<Skill>`` (demonstrated skills: ``/skills/ReplaySkill``
+with ``parameters`` = yaml ``{data_file, kind}``). :class:`BehaviourTreeNode` ticks a
+:class:`~teleteach.bt.teaching.TeachingTree`, serves ``/change_tree`` and ``/behaviour_tree/add_skill``, listens to
+``/behaviour_tree/pause`` and publishes the latched topics of DESIGN.md section 3 after each tick that changed
+something.
+"""
+
+import io
+import pathlib
+import struct
+import sys
+import time
+import typing
+
+import actionlib
+import py_trees
+import rospy
+import yaml
+from actionlib_msgs.msg import GoalStatus
+from py_trees.common import Status
+from std_msgs.msg import Bool, String
+
+from teleteach import datadir
+from teleteach.bt.behaviours import SkillLeaf
+from teleteach.bt.library import SkillEntry, SkillLibrary
+from teleteach.bt.teaching import NodeRecord, TeachingTree, TreeStore
+from teleteach.bt.tree import load_tree
+from teleteach.msg import (
+    Behaviour,
+    BehaviourTree,
+    ExecuteSkillAction,
+    ExecuteSkillGoal,
+    HelpRequest,
+)
+from teleteach.msg import (
+    SkillLibrary as SkillLibraryMsg,
+)
+from teleteach.srv import AddSkill, AddSkillResponse, ChangeTree, ChangeTreeResponse
+
+REPLAY_SKILL = "ReplaySkill"
+_STATUS = {
+    Status.INVALID: Behaviour.INVALID,
+    Status.RUNNING: Behaviour.RUNNING,
+    Status.SUCCESS: Behaviour.SUCCESS,
+    Status.FAILURE: Behaviour.FAILURE,
+}
+_TYPE = {
+    "selector": Behaviour.SELECTOR,
+    "sequence": Behaviour.SEQUENCE,
+    "parallel": Behaviour.PARALLEL,
+    "pause": Behaviour.BEHAVIOUR,
+    "skill": Behaviour.BEHAVIOUR,
+}
+
+
+class PreserializedTree(BehaviourTree):
+    """A BehaviourTree message whose behaviours are already serialised (one cached bytes block per node).
+
+    Serialising 1000 Behaviour messages field by field holds the GIL for ~10 ms; unchanged nodes keep their bytes,
+    so publishing costs little more than the nodes that changed. On the wire it is a plain teleteach/BehaviourTree.
+    """
+
+    __slots__ = ("parts",)
+
+    def __init__(self, parts: typing.List[bytes]):
+        super().__init__()
+        self.parts = parts
+
+    def serialize(self, buff: typing.BinaryIO) -> None:
+        """Header and array length as genpy writes them, then the cached behaviours."""
+        head = io.BytesIO()
+        BehaviourTree(header=self.header).serialize(head)
+        buff.write(head.getvalue()[:-4])  # drop the empty array's length
+        buff.write(struct.pack("<I", len(self.parts)))
+        buff.write(b"".join(self.parts))
+
+
+class ActionClients:
+    """One actionlib client per skill server, shared by all leaves of that skill (each leaf has its own goal)."""
+
+    def __init__(self, namespace: str = "/skills"):
+        self.namespace = namespace.rstrip("/")
+        self._clients: typing.Dict[str, actionlib.ActionClient] = {}
+
+    def get(self, server: str) -> actionlib.ActionClient:
+        """The client of ``<namespace>/<server>``, created on first use."""
+        if server not in self._clients:
+            self._clients[server] = actionlib.ActionClient(f"{self.namespace}/{server}", ExecuteSkillAction)
+        return self._clients[server]
+
+    @staticmethod
+    def ready(client: actionlib.ActionClient) -> bool:
+        """Whether the server is connected, without waiting (ActionClient.wait_for_server's test, done once)."""
+        status = client.last_status_msg
+        if status is None:
+            return False
+        server_id = status._connection_header["callerid"]
+        if not (client.pub_goal.impl.has_connection(server_id) and client.pub_cancel.impl.has_connection(server_id)):
+            return False
+        result = any(c.callerid_pub == server_id for c in client.result_sub.impl.connections)
+        feedback = any(c.callerid_pub == server_id for c in client.feedback_sub.impl.connections)
+        return result and feedback
+
+
+class ActionSkill(SkillLeaf):
+    """A leaf that executes its skill as an action goal: sent in initialise, polled in update, cancelled on interrupt.
+
+    A server that is not up within ``server_timeout`` seconds fails the skill with a message (never blocks a tick).
+
+    Args:
+        name: unique leaf name
+        entry: the library skill
+        clients: the shared action clients
+        server_timeout: [s] how long to wait for the server before failing
+    """
+
+    def __init__(self, name: str, entry: SkillEntry, clients: ActionClients, server_timeout: float = 2.0):
+        super().__init__(name, entry.name, entry.kind, entry.data_file)
+        self.clients = clients
+        self.server_timeout = server_timeout
+        self.server = REPLAY_SKILL if entry.demonstrated else entry.name
+        self.goal = ExecuteSkillGoal(skill=entry.name)
+        if entry.demonstrated:
+            self.goal.parameters = yaml.safe_dump({"data_file": entry.data_file, "kind": entry.kind})
+        self.goal_handle: typing.Optional[actionlib.ClientGoalHandle] = None
+        self.started_at = 0.0
+        self.progress = ""
+
+    def start(self) -> None:
+        """Remember when we asked; the goal leaves as soon as the server is connected (see :meth:`poll`)."""
+        self.goal_handle = None
+        self.progress = ""
+        self.started_at = time.monotonic()
+
+    def poll(self) -> typing.Tuple[Status, str]:
+        """Send the goal once the server is up, then follow it."""
+        server = f"{self.clients.namespace}/{self.server}"
+        if self.goal_handle is None:
+            client = self.clients.get(self.server)
+            if ActionClients.ready(client):
+                self.goal_handle = client.send_goal(self.goal, feedback_cb=self._feedback)
+                return Status.RUNNING, f"goal sent to {server}"
+            waited = time.monotonic() - self.started_at
+            if waited > self.server_timeout:
+                return Status.FAILURE, f"no action server {server} (waited {waited:.1f} s)"
+            return Status.RUNNING, f"waiting for {server}"
+        if self.goal_handle.get_comm_state() != actionlib.CommState.DONE:
+            return Status.RUNNING, self.progress or f"{self.skill} running"
+        state = self.goal_handle.get_goal_status()
+        result = self.goal_handle.get_result()
+        message = (result.message if result is not None else "") or self.goal_handle.get_goal_status_text()
+        if state == GoalStatus.SUCCEEDED and result is not None and result.success:
+            return Status.SUCCESS, message or f"{self.skill} done"
+        state_name = GoalStatus.to_string(state) if hasattr(GoalStatus, "to_string") else str(state)
+        return Status.FAILURE, message or f"{self.skill} ended in state {state_name}"
+
+    def cancel(self) -> None:
+        """Cancel the goal if it is out."""
+        if self.goal_handle is not None and self.goal_handle.get_comm_state() != actionlib.CommState.DONE:
+            self.goal_handle.cancel()
+
+    def _feedback(self, _handle: actionlib.ClientGoalHandle, feedback: typing.Any) -> None:
+        self.progress = f"{self.skill}: {feedback.phase} ({100.0 * feedback.progress:.0f} %)"
+
+
+class BehaviourTreeNode:
+    """Ticks the teaching tree and connects it to ROS.
+
+    Args:
+        tree: the teaching tree
+        tick_rate: [Hz]
+
+    ROS Publishers (all latched):
+        * **/behaviour_tree/log/tree** (teleteach/BehaviourTree): every node with ids, type, status, message
+        * **/behaviour_tree/tip** (teleteach/Behaviour): the deepest running node
+        * **/behaviour_tree/ascii/tree**, **/behaviour_tree/ascii/snapshot**, **/behaviour_tree/dot/tree**
+          (std_msgs/String): py_trees.display renderings (made only while somebody subscribes)
+        * **/behaviour_tree/skill_library** (teleteach/SkillLibrary)
+        * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered
+
+    ROS Subscribers:
+        * **/behaviour_tree/pause** (std_msgs/Bool): writes the blackboard's pause flag
+
+    ROS Services:
+        * **/change_tree** (teleteach/ChangeTree), **/behaviour_tree/add_skill** (teleteach/AddSkill)
+    """
+
+    def __init__(self, tree: TeachingTree, tick_rate: float = 10.0):
+        self.tree = tree
+        self.tick_rate = tick_rate
+        # Publishing a 1000-node log/tree is ~10 ms of pure Python; a short GIL switch interval keeps /change_tree
+        # answers from waiting behind it (5 ms slices by default).
+        sys.setswitchinterval(0.0005)
+        latched = {"queue_size": 1, "latch": True}
+        self.log_publisher = rospy.Publisher("/behaviour_tree/log/tree", BehaviourTree, **latched)
+        self.tip_publisher = rospy.Publisher("/behaviour_tree/tip", Behaviour, **latched)
+        self.ascii_tree_publisher = rospy.Publisher("/behaviour_tree/ascii/tree", String, **latched)
+        self.snapshot_publisher = rospy.Publisher("/behaviour_tree/ascii/snapshot", String, **latched)
+        self.dot_publisher = rospy.Publisher("/behaviour_tree/dot/tree", String, **latched)
+        self.library_publisher = rospy.Publisher("/behaviour_tree/skill_library", SkillLibraryMsg, **latched)
+        self.help_publisher = rospy.Publisher("/behaviour_tree/help_request", HelpRequest, **latched)
+        self._published_library = -1
+        self._published_help: typing.Any = ()
+        self._structure_rendered = {self.ascii_tree_publisher: -1, self.dot_publisher: -1}
+        self._snapshot_dirty = True
+        self._messages: typing.Dict[str, typing.Tuple[NodeRecord, bytes]] = {}
+        self._fresh_messages: typing.Dict[str, typing.Tuple[NodeRecord, bytes]] = {}
+        rospy.Subscriber("/behaviour_tree/pause", Bool, self._on_pause, queue_size=10)
+        self.change_service = rospy.Service("/change_tree", ChangeTree, self._on_change_tree)
+        self.add_skill_service = rospy.Service("/behaviour_tree/add_skill", AddSkill, self._on_add_skill)
+
+    @classmethod
+    def from_params(cls) -> "BehaviourTreeNode":
+        """Build from the private parameters (see launch/bt.launch)."""
+        config = pathlib.Path(_package_path()) / "config"
+        library = SkillLibrary.load(rospy.get_param("~skills", str(config / "skills.yaml")))
+        spec = load_tree(rospy.get_param("~tree", str(config / "tree.yaml")), library)
+        data_root = datadir.data_dir(rospy.get_param("~data_dir", "") or None)
+        store = TreeStore(data_root / "trees")
+        if rospy.get_param("~resume", False):
+            spec, library = store.restore(spec, library)
+            rospy.loginfo("behaviour_tree: resumed the tree and library saved in %s", store.directory)
+        clients = ActionClients(rospy.get_param("~skill_namespace", "/skills"))
+        for server in [entry.name for entry in library if not entry.demonstrated] + [REPLAY_SKILL]:
+            clients.get(server)  # connect early: the first goal of each skill leaves without waiting
+        timeout = float(rospy.get_param("~server_timeout", 2.0))
+
+        def make_leaf(name: str, entry: SkillEntry) -> ActionSkill:
+            return ActionSkill(name, entry, clients, server_timeout=timeout)
+
+        tree = TeachingTree(spec, library, make_leaf, store=store, data_root=data_root)
+        return cls(tree, tick_rate=float(rospy.get_param("~tick_rate", 10.0)))
+
+    def spin(self) -> None:
+        """Tick at the tick rate until shutdown, publishing whatever changed."""
+        self.publish(changed=True)
+        rate = rospy.Rate(self.tick_rate)
+        while not rospy.is_shutdown():
+            self.publish(changed=self.tree.tick())
+            try:
+                rate.sleep()
+            except rospy.ROSTimeMovedBackwardsException:
+                continue  # the simulation clock was reset: keep ticking
+            except rospy.ROSInterruptException:
+                break
+        with self.tree.lock:
+            self.tree.tree.interrupt()  # cancels the running goal
+        if self.tree.store is not None:
+            self.tree.store.flush()
+
+    def publish(self, changed: bool) -> None:
+        """Publish the topics whose content changed (heavy renderings only for subscribers)."""
+        tree = self.tree
+        revision = tree.revision
+        if changed:
+            records, tip = tree.records()
+            self._fresh_messages = {}
+            stamp = rospy.Time.now()
+            message = PreserializedTree([self._bytes_of(record) for record in records])
+            message.header.stamp = stamp
+            self._messages = self._fresh_messages
+            self.log_publisher.publish(message)
+            self.tip_publisher.publish(_behaviour(tip) if tip is not None else Behaviour())
+            self._snapshot_dirty = True
+        if self._snapshot_dirty and self.snapshot_publisher.get_num_connections() > 0:
+            self.snapshot_publisher.publish(String(data=self._render_snapshot()))
+            self._snapshot_dirty = False
+        for publisher, render in (
+            (self.ascii_tree_publisher, lambda: py_trees.display.ascii_tree(tree.root)),
+            (self.dot_publisher, lambda: py_trees.display.dot_tree(tree.root).to_string()),
+        ):
+            if self._structure_rendered[publisher] != revision and publisher.get_num_connections() > 0:
+                with tree.lock:
+                    text = render()
+                publisher.publish(String(data=text))
+                self._structure_rendered[publisher] = revision
+        if tree.library_revision != self._published_library:
+            self._published_library = tree.library_revision
+            entries = tree.library_entries()
+            library = SkillLibraryMsg(
+                names=[entry.name for entry in entries],
+                kinds=[entry.kind for entry in entries],
+                data_files=[entry.data_file for entry in entries],
+            )
+            library.header.stamp = rospy.Time.now()
+            self.library_publisher.publish(library)
+        help_request = tree.help_request
+        if help_request != self._published_help:
+            self._published_help = help_request
+            message = HelpRequest()
+            message.header.stamp = rospy.Time.now()
+            if help_request is not None:
+                message.node_name, message.reason = help_request
+                rospy.logwarn("behaviour_tree: '%s' failed (%s); paused, asking the operator", *help_request)
+            self.help_publisher.publish(message)
+
+    def _bytes_of(self, record: NodeRecord) -> bytes:
+        """The serialised Behaviour of a record, reused while the record is the same object (unchanged node)."""
+        cached = self._messages.get(record.own_id)
+        if cached is None or cached[0] is not record:
+            buffer = io.BytesIO()
+            _behaviour(record).serialize(buffer)
+            cached = (record, buffer.getvalue())
+        self._fresh_messages[record.own_id] = cached
+        return cached[1]
+
+    def _render_snapshot(self) -> str:
+        tree = self.tree
+        with tree.lock:
+            return py_trees.display.ascii_tree(
+                tree.root,
+                show_status=True,
+                visited=tree.snapshot_visitor.visited,
+                previously_visited=tree.snapshot_visitor.previously_visited,
+            )
+
+    def _on_pause(self, message: Bool) -> None:
+        self.tree.set_pause(bool(message.data))
+
+    def _on_change_tree(self, request: ChangeTree._request_class) -> ChangeTreeResponse:
+        result = self.tree.change(request.node_name, request.operation, request.index, request.parent)
+        log = rospy.loginfo if result.success else rospy.logwarn
+        log("behaviour_tree: /change_tree %s %s: %s", request.operation, request.node_name, result.message)
+        return ChangeTreeResponse(success=result.success, message=result.message, new_node_name=result.new_node_name)
+
+    def _on_add_skill(self, request: AddSkill._request_class) -> AddSkillResponse:
+        success, message = self.tree.add_skill(request.name, request.kind, request.data_file)
+        (rospy.loginfo if success else rospy.logwarn)("behaviour_tree: add_skill %s: %s", request.name, message)
+        return AddSkillResponse(success=success, message=message)
+
+
+def _behaviour(record: NodeRecord) -> Behaviour:
+    return Behaviour(
+        name=record.name,
+        class_name=record.class_name,
+        own_id=record.own_id,
+        parent_id=record.parent_id,
+        tip_id=record.tip_id,
+        child_ids=list(record.child_ids),
+        type=_TYPE[record.kind],
+        status=_STATUS[record.status],
+        message=record.message,
+        is_active=record.is_active,
+    )
+
+
+def _package_path() -> str:
+    import rospkg
+
+    return rospkg.RosPack().get_path("teleteach")

@@ -1,0 +1,331 @@
+"""The tree the operator teaches: ticking, pausing, online edits, the skill library, help requests and persistence.
+
+Everything here runs without ROS (the ROS layer in :mod:`teleteach.bt.ros` only wires topics and services to it).
+One re-entrant lock serialises ticks with edits, so an edit always lands between two ticks.
+
+Help requests (thesis requirement 6b): when a skill fails, its leaf does not fail the tree; the tree pauses
+(blackboard ``pause``), :attr:`TeachingTree.help_request` names the leaf and the reason, and nothing runs until the
+operator unpauses. What happens then depends on the operator's edits while paused:
+
+- nothing changed: the failed skill is retried;
+- the failed leaf was removed: its parent continues with the node now at its place (a replacement inserted at
+  that index, the next sibling, or - if it was the last child - the parent is done);
+- a node was inserted right in front of the failed leaf: that node runs first, then the failed skill is retried.
+"""
+
+import os
+import pathlib
+import tempfile
+import threading
+import typing
+
+import py_trees
+import yaml
+from py_trees.common import Status
+
+from teleteach.bt.behaviours import PAUSE_KEY, SkillLeaf
+from teleteach.bt.editor import ChangeResult, TreeEditor
+from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
+from teleteach.bt.tree import LeafFactory, TreeSpec, create_root, dump_live_yaml, load_tree, node_type
+
+TREE_FILE = "current_tree.yaml"
+LIBRARY_FILE = "skill_library.yaml"
+
+
+class HelpRequest(typing.NamedTuple):
+    """The robot asks the operator for a contingency plan."""
+
+    node_name: str
+    reason: str
+
+
+class NodeRecord(typing.NamedTuple):
+    """One node as the log/tree topic reports it (py_trees_msgs/Behaviour fields)."""
+
+    name: str
+    class_name: str
+    own_id: str
+    parent_id: str
+    tip_id: str
+    child_ids: typing.Tuple[str, ...]
+    kind: str  # selector | sequence | parallel | pause | skill
+    status: Status
+    message: str
+    is_active: bool
+
+
+class VisitedNodes(py_trees.visitors.SnapshotVisitor):
+    """py_trees' SnapshotVisitor that also keeps the visited behaviours, so change detection costs O(visited)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.nodes: typing.Dict[typing.Any, py_trees.behaviour.Behaviour] = {}
+        self.previous_nodes: typing.Dict[typing.Any, py_trees.behaviour.Behaviour] = {}
+
+    def initialise(self) -> None:
+        """Shift this tick's nodes to the previous ones."""
+        super().initialise()
+        self.previous_nodes = self.nodes
+        self.nodes = {}
+
+    def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
+        """Record the status (py_trees) and the node."""
+        super().run(behaviour)
+        self.nodes[behaviour.id] = behaviour
+
+
+class TreeStore:
+    """The saved tree and library in ``<data dir>/trees/``, replaced atomically after every successful change.
+
+    A save is a write to a temporary file renamed over the old one before the edit is answered, so a process that
+    dies (even by SIGKILL) right after leaves either the old or the new file, whole. The fsync that makes the file
+    survive a power loss too costs 5-25 ms on a busy disk, so a background thread does it just after, off the
+    path of /change_tree.
+    """
+
+    def __init__(self, directory: typing.Union[str, pathlib.Path]):
+        self.directory = pathlib.Path(directory)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self.tree_path = self.directory / TREE_FILE
+        self.library_path = self.directory / LIBRARY_FILE
+        self._unflushed: typing.Set[pathlib.Path] = set()
+        self._flush_lock = threading.Lock()
+        self._flush_wanted = threading.Event()
+        threading.Thread(target=self._flush_loop, name="TreeStore.fsync", daemon=True).start()
+
+    def save_tree(self, text: str) -> None:
+        """Replace the saved tree."""
+        self._replace(self.tree_path, text)
+
+    def save_library(self, library: SkillLibrary) -> None:
+        """Replace the saved library."""
+        self._replace(self.library_path, yaml.safe_dump(library.to_dict(), sort_keys=False))
+
+    def flush(self) -> None:
+        """Make what was saved durable (fsync); the background thread calls it after each save."""
+        with self._flush_lock:
+            paths, self._unflushed = self._unflushed, set()
+            for path in paths:
+                with open(path, "rb") as stream:
+                    os.fsync(stream.fileno())
+            if paths:
+                directory = os.open(self.directory, os.O_RDONLY)
+                try:
+                    os.fsync(directory)
+                finally:
+                    os.close(directory)
+
+    def _replace(self, path: pathlib.Path, text: str) -> None:
+        handle, temporary = tempfile.mkstemp(dir=self.directory, prefix=f".{path.name}.", suffix=".tmp")
+        try:
+            with os.fdopen(handle, "w", encoding="utf-8") as stream:
+                stream.write(text)
+            os.replace(temporary, path)
+        except BaseException:
+            pathlib.Path(temporary).unlink(missing_ok=True)
+            raise
+        with self._flush_lock:
+            self._unflushed.add(path)
+        self._flush_wanted.set()
+
+    def _flush_loop(self) -> None:
+        while True:
+            self._flush_wanted.wait()
+            self._flush_wanted.clear()
+            try:
+                self.flush()
+            except OSError:
+                continue  # the next save tries again; the renamed file is already in place
+
+    def restore(self, default_tree: TreeSpec, library: SkillLibrary) -> typing.Tuple[TreeSpec, SkillLibrary]:
+        """The saved tree and library (saved demonstrated skills join ``library``), or the defaults if none saved."""
+        if self.library_path.is_file():
+            saved = SkillLibrary.load(self.library_path)
+            library = SkillLibrary([*library, *(entry for entry in saved if entry.name not in library)])
+        tree = load_tree(self.tree_path, library) if self.tree_path.is_file() else default_tree
+        return tree, library
+
+
+class TeachingTree:
+    """A py_trees tree that an operator edits while it runs.
+
+    Args:
+        spec: the tree to build
+        library: the skills leaves may run
+        make_leaf: builds the leaf of a skill (ROS action clients in the node, scripted leaves in tests)
+        store: where to save the tree and library after each change (None: nowhere)
+        data_root: the data directory, for relative skill file paths
+
+    Blackboard Variables:
+        * **pause** (:obj:`bool`)[w]: written by :meth:`set_pause` and by help requests
+    """
+
+    def __init__(
+        self,
+        spec: TreeSpec,
+        library: SkillLibrary,
+        make_leaf: LeafFactory,
+        store: typing.Optional[TreeStore] = None,
+        data_root: typing.Optional[pathlib.Path] = None,
+    ):
+        self.lock = threading.RLock()
+        self.library = library
+        self.store = store
+        self.data_root = data_root or pathlib.Path.cwd()
+        self._make_leaf = make_leaf
+        self.tree = py_trees.trees.BehaviourTree(create_root(spec.root, library, self._leaf))
+        self.snapshot_visitor = VisitedNodes()
+        self.tree.visitors.append(self.snapshot_visitor)
+        self.editor = TreeEditor(self.tree.root, spec.execution, library, self._leaf)
+        self.blackboard = py_trees.blackboard.Client(name="TeachingTree")
+        self.blackboard.register_key(PAUSE_KEY, access=py_trees.common.Access.WRITE)
+        self.blackboard.set(PAUSE_KEY, False)
+        self.help_request: typing.Optional[HelpRequest] = None
+        self.completed = False
+        self.revision = 0  # bumped by every edit, library change, pause change and help request
+        self.library_revision = 0
+        self._signature: typing.Any = None
+        self._persist_lock = threading.Lock()
+        self._saved_revision = -1
+        self._record_cache: typing.Dict[typing.Any, typing.Tuple[typing.Tuple, NodeRecord]] = {}
+
+    @property
+    def root(self) -> py_trees.behaviour.Behaviour:
+        """The root behaviour."""
+        return self.tree.root
+
+    @property
+    def execution(self) -> py_trees.behaviour.Behaviour:
+        """The composite edited by default (BehaviorExecution)."""
+        return self.editor.execution
+
+    @property
+    def paused(self) -> bool:
+        """The blackboard's pause flag."""
+        return bool(self.blackboard.get(PAUSE_KEY))
+
+    def _leaf(self, name: str, entry: SkillEntry) -> SkillLeaf:
+        leaf = self._make_leaf(name, entry)
+        leaf.on_failure = self._request_help
+        return leaf
+
+    def _request_help(self, leaf: SkillLeaf, reason: str) -> None:
+        self.blackboard.set(PAUSE_KEY, True)
+        self.help_request = HelpRequest(leaf.name, reason)
+        self.revision += 1
+
+    def set_pause(self, paused: bool) -> None:
+        """Pause or resume; resuming also closes an open help request (the operator has answered it)."""
+        with self.lock:
+            if paused == self.paused:
+                return
+            self.blackboard.set(PAUSE_KEY, paused)
+            if not paused:
+                self.help_request = None
+            self.revision += 1
+
+    def tick(self) -> bool:
+        """Tick once (unless the execution is complete); return True if anything visible changed."""
+        with self.lock:
+            if not self.completed:
+                self.tree.tick()
+                self.completed = self.execution.status == Status.SUCCESS
+            touched = {**self.snapshot_visitor.previous_nodes, **self.snapshot_visitor.nodes}
+            states = tuple((key, node.status, node.feedback_message) for key, node in touched.items())
+            signature = (self.revision, self.completed, states)
+            changed = signature != self._signature
+            self._signature = signature
+            return changed
+
+    def change(self, node_name: str, operation: str, index: int = 0, parent: str = "") -> ChangeResult:
+        """Apply a /change_tree request between two ticks; save the tree if it changed."""
+        with self.lock:
+            result = self.editor.change(node_name, operation, index, parent)
+            if not result.success:
+                return result
+            self.revision += 1
+            revision, text = self.revision, self.tree_yaml()
+        self._save(revision, text)
+        return result
+
+    def add_skill(self, name: str, kind: str, data_file: str) -> typing.Tuple[bool, str]:
+        """Validate a demonstrated skill and add it to the library (then save the library)."""
+        with self.lock:
+            try:
+                entry = self.library.add_demonstrated(name, kind, data_file, self.data_root)
+            except LibraryError as error:
+                return False, str(error)
+            self.revision += 1
+            self.library_revision += 1
+            if self.store is not None:
+                self.store.save_library(self.library)
+        return True, f"added {entry.kind} skill '{entry.name}' ({entry.data_file})"
+
+    def tree_yaml(self) -> str:
+        """The live tree in the yaml format of config/tree.yaml."""
+        with self.lock:
+            return dump_live_yaml(self.root, self.execution.name, "saved by teleteach behaviour_tree after an edit")
+
+    def _save(self, revision: int, text: str) -> None:
+        if self.store is None:
+            return
+        with self._persist_lock:
+            if revision > self._saved_revision:  # a later edit may have been saved already
+                self.store.save_tree(text)
+                self._saved_revision = revision
+
+    def records(self) -> typing.Tuple[typing.List[NodeRecord], typing.Optional[NodeRecord]]:
+        """Every node (root first, depth first) as log/tree reports it, and the tip.
+
+        Records of nodes that did not change since the last call are reused (same objects), so a 1000-leaf tree
+        costs little more than the nodes that changed.
+        """
+        with self.lock:
+            visited = self.snapshot_visitor.visited
+            records: typing.List[NodeRecord] = []
+            tip: typing.Optional[NodeRecord] = None
+            tree_tip = self.root.tip()
+            cache = self._record_cache
+            fresh: typing.Dict[typing.Any, typing.Tuple[typing.Tuple, NodeRecord]] = {}
+            stack: typing.List[typing.Tuple[py_trees.behaviour.Behaviour, str]] = [(self.root, "")]
+            while stack:
+                node, parent_id = stack.pop()
+                is_active = node.id in visited
+                awaiting = isinstance(node, SkillLeaf) and node.awaiting_help
+                key = (node.status, node.feedback_message, is_active, awaiting, parent_id, len(node.children))
+                if node.children:
+                    key += (self.revision, node.tip())
+                cached = cache.get(node.id)
+                if cached is not None and cached[0] == key:
+                    record = cached[1]
+                else:
+                    record = self._record(node, parent_id, is_active, awaiting)
+                fresh[node.id] = (key, record)
+                records.append(record)
+                if node is tree_tip:
+                    tip = record
+                stack.extend((child, record.own_id) for child in reversed(node.children))
+            self._record_cache = fresh
+            return records, tip
+
+    def _record(
+        self, node: py_trees.behaviour.Behaviour, parent_id: str, is_active: bool, awaiting: bool
+    ) -> NodeRecord:
+        node_tip = node.tip()
+        return NodeRecord(
+            name=node.name,
+            class_name=node.skill if isinstance(node, SkillLeaf) else type(node).__name__,
+            own_id=str(node.id),
+            parent_id=parent_id,
+            tip_id=str(node_tip.id) if node_tip is not None else "",
+            child_ids=tuple(str(child.id) for child in node.children),
+            kind=node_type(node),
+            status=Status.FAILURE if awaiting else node.status,  # an awaiting leaf is a failed skill to the operator
+            message=node.feedback_message,
+            is_active=is_active,
+        )
+
+    def library_entries(self) -> typing.List[SkillEntry]:
+        """The skill library, predefined first."""
+        with self.lock:
+            return list(self.library)

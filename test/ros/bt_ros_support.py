@@ -1,0 +1,106 @@
+"""Helpers for the behaviour-tree rostest checks: watch /behaviour_tree/log/tree and the test skill server's events,
+call /change_tree, wait for conditions with a deadline (a failing check reports what it saw, never hangs)."""
+
+import threading
+import time
+
+import rospy
+from std_msgs.msg import Bool, String
+
+from teleteach.msg import Behaviour, BehaviourTree, HelpRequest, SkillLibrary
+from teleteach.srv import AddSkill, ChangeTree
+
+THESIS_SEQUENCE = [
+    "LookToShelf",
+    "PickItem",
+    "MoveBase",
+    "PlaceItem",
+    "DropItem",
+    "MoveBaseToStart",
+    "LookToShelfAgain",
+    "PickItem2",
+    "MoveBase2",
+    "Idle",
+]
+STATUS = {Behaviour.INVALID: "INVALID", Behaviour.RUNNING: "RUNNING", Behaviour.SUCCESS: "SUCCESS", 4: "FAILURE"}
+
+
+class TreeView:
+    """The latest log/tree, help request, skill library and skill server events."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.tree = None
+        self.help = None
+        self.library = None
+        self.events = []
+        rospy.Subscriber("/behaviour_tree/log/tree", BehaviourTree, self._on_tree, queue_size=10)
+        rospy.Subscriber("/behaviour_tree/help_request", HelpRequest, self._on_help, queue_size=10)
+        rospy.Subscriber("/behaviour_tree/skill_library", SkillLibrary, self._on_library, queue_size=10)
+        rospy.Subscriber("/skill_test_server/events", String, self._on_event, queue_size=100)
+        self.pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
+        rospy.wait_for_service("/change_tree", timeout=30)
+        self.change_tree = rospy.ServiceProxy("/change_tree", ChangeTree)
+        self.add_skill = rospy.ServiceProxy("/behaviour_tree/add_skill", AddSkill)
+
+    def _on_tree(self, message):
+        with self.lock:
+            self.tree = message
+
+    def _on_help(self, message):
+        with self.lock:
+            self.help = message
+
+    def _on_library(self, message):
+        with self.lock:
+            self.library = message
+
+    def _on_event(self, message):
+        with self.lock:
+            self.events.append(tuple(message.data.split("|", 3)))
+
+    def change(self, node_name, operation, index=0, parent=""):
+        return self.change_tree(node_name=node_name, operation=operation, index=index, parent=parent)
+
+    def pause(self, paused):
+        self.pause_publisher.publish(Bool(data=paused))
+
+    def nodes(self):
+        with self.lock:
+            return {} if self.tree is None else {b.name: b for b in self.tree.behaviours}
+
+    def status(self, name):
+        node = self.nodes().get(name)
+        return STATUS.get(node.status) if node is not None else None
+
+    def children(self, name):
+        nodes = self.nodes()
+        by_id = {b.own_id: b.name for b in nodes.values()}
+        return [by_id[i] for i in nodes[name].child_ids]
+
+    def structure(self):
+        nodes = self.nodes()
+        by_id = {b.own_id: b.name for b in nodes.values()}
+        return {b.name: [by_id[i] for i in b.child_ids] for b in nodes.values()}
+
+    def started(self, server=None):
+        with self.lock:
+            return [e[2] for e in self.events if e[0] == "start" and (server is None or e[1] == server)]
+
+    def event_list(self, kind):
+        with self.lock:
+            return [e for e in self.events if e[0] == kind]
+
+    def wait_for(self, condition, timeout, what):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and not rospy.is_shutdown():
+            if condition():
+                return
+            time.sleep(0.05)
+        raise AssertionError(f"timed out after {timeout} s waiting for {what}; tree: {self.summary()}")
+
+    def summary(self):
+        return {name: (STATUS.get(b.status), b.message) for name, b in self.nodes().items()}
+
+    def wait_completed(self, timeout=60):
+        self.wait_for(lambda: self.status("BehaviorExecution") == "SUCCESS", timeout, "BehaviorExecution SUCCESS")
