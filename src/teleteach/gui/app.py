@@ -1,0 +1,305 @@
+"""The teaching GUI's main window (thesis Fig. 3, Appendix A): tabs, the worker thread and the ROS calls.
+
+The window wires the worker's signals to the active tab, calls /change_tree, /behaviour_tree/add_skill and the
+controller manager off the GUI thread (failures go to the status bar), pauses the tree while LOW-LEVEL teaching
+runs, plays the kinematic trajectory while recording and turns a recording into a new skill.
+"""
+
+import sys
+import time
+from typing import List, Optional, Sequence
+
+import rospy
+from geometry_msgs.msg import PoseStamped
+from PyQt5.QtCore import QMetaObject, QPoint, Qt, QThread, QTimer
+from PyQt5.QtGui import QPainter, QPixmap
+from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QTabWidget, QVBoxLayout, QWidget
+from std_msgs.msg import Bool, Int8
+
+from teleteach import skill_file
+from teleteach.datadir import data_dir
+from teleteach.gui.config import GuiConfig
+from teleteach.gui.ellipsoid import EllipsoidCommand
+from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_name
+from teleteach.gui.selection import ChangeRequest
+from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
+from teleteach.gui.worker import RosWorker, ServiceCaller, TrajectoryPlayer
+from teleteach.srv import (
+    AddSkill,
+    AddSkillRequest,
+    ChangeTree,
+    ChangeTreeRequest,
+    SwitchController,
+    SwitchControllerRequest,
+)
+
+START_TAB, HIGH_LEVEL_TAB, LOW_LEVEL_TAB = 0, 1, 2
+SWITCH_SERVICE = "/controller_manager/switch_controller"
+
+
+class MainWindow(QMainWindow):
+    """START / HIGH-LEVEL / LOW-LEVEL tabs (index 3, SHARED CONTROL, is added by another part)."""
+
+    def __init__(self, config: GuiConfig, data_root=None):
+        super().__init__()
+        self.config = config
+        self.skills_dir = data_dir(data_root) / "skills"
+        self.trajectory = Trajectory.load(config.trajectory)
+        self.command = EllipsoidCommand(config)
+        self.recorder = StiffnessRecorder()
+        self.library_names: List[str] = []
+        self.saved_skills: List[str] = []
+        self._tab = -1
+        self._session = False
+
+        self._tab_publisher = rospy.Publisher("/teleteach/active_tab", Int8, queue_size=1, latch=True)
+        self._pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
+        equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
+        self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
+
+        self.setWindowTitle("teleteach: teleoperated teaching")
+        self.resize(1180, 760)
+        central = QWidget()
+        column = QVBoxLayout(central)
+        self.help_banner = QLabel()
+        self.help_banner.setWordWrap(True)
+        self.help_banner.setStyleSheet(
+            "background: #d22828; color: white; font-size: 15pt; font-weight: bold; padding: 8px;"
+        )
+        self.help_banner.hide()
+        column.addWidget(self.help_banner)
+        self.tabs = QTabWidget()
+        self.start_tab = StartTab(config)
+        self.high_level = HighLevelTab(config)
+        self.low_level = LowLevelTab(config, self.command)
+        self.low_level.recorded_samples = lambda: len(self.recorder)
+        self._tab_widgets: List[QWidget] = []
+        for tab, title in ((self.start_tab, "START"), (self.high_level, "HIGH-LEVEL"), (self.low_level, "LOW-LEVEL")):
+            self.add_tab(tab, title)
+        self.tabs.setStyleSheet("QTabBar::tab { min-width: 150px; min-height: 28px; font-weight: bold; }")
+        column.addWidget(self.tabs)
+        self.setCentralWidget(central)
+        self.health_label = QLabel()
+        self.statusBar().addPermanentWidget(self.health_label)
+
+        self.services = ServiceCaller(config.service_timeout)
+        self.services.finished.connect(self._on_service)
+        self.worker = RosWorker(config, self.command, self.recorder)
+        self.worker.equilibrium = self.player.current
+        self.thread = QThread(self)
+        self.thread.setObjectName("ros_worker")
+        self.worker.moveToThread(self.thread)
+        self.thread.started.connect(self.worker.start)
+        queued = Qt.QueuedConnection
+        self.worker.device_changed.connect(self._on_device, queued)
+        self.worker.clicked.connect(self._on_click, queued)
+        self.worker.gripper_opened.connect(self._on_gripper_opened, queued)
+        self.worker.tree_received.connect(self.high_level.on_tree, queued)
+        self.worker.library_received.connect(self._on_library, queued)
+        self.worker.help_requested.connect(self._on_help, queued)
+        self.worker.health.connect(self._on_health, queued)
+        self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
+        self.high_level.request_ready.connect(self._send_change)
+        self.low_level.recording_toggled.connect(self._toggle_recording)
+        self.tabs.currentChanged.connect(self._on_tab_changed)
+        self.thread.start()
+        self.tabs.setCurrentIndex(config.initial_tab)
+        self._on_tab_changed(config.initial_tab)
+
+    def add_tab(self, tab: QWidget, title: str) -> int:
+        """Append a tab (SHARED CONTROL comes next, index 3); returns its index.
+
+        The tab needs an ``active`` attribute and an ``on_click()`` slot, ``on_device(sample)`` if it uses the
+        device's position; only the active tab receives them.
+        """
+        self._tab_widgets.append(tab)
+        return self.tabs.addTab(tab, title)
+
+    # signals from the worker -----------------------------------------------------------------
+    def _active_tab_widget(self):
+        """The tab that was active when the signal arrived (a click that switches tabs must not act twice)."""
+        return self._tab_widgets[self._tab] if 0 <= self._tab < len(self._tab_widgets) else None
+
+    def _on_device(self, sample) -> None:
+        tab = self._active_tab_widget()
+        if tab is not None and hasattr(tab, "on_device"):
+            tab.on_device(sample)
+
+    def _on_click(self) -> None:
+        tab = self._active_tab_widget()
+        if tab is not None:
+            tab.on_click()
+
+    def _on_gripper_opened(self) -> None:
+        if self._tab in (HIGH_LEVEL_TAB, LOW_LEVEL_TAB):
+            self.tabs.setCurrentIndex(START_TAB)
+
+    def _on_library(self, library: Sequence) -> None:
+        self.library_names = [name for name, _, _ in library]
+        self.high_level.on_library(library)
+
+    def _on_help(self, node_name: str, reason: str) -> None:
+        if not node_name:  # the tree clears its request with an empty node name once answered
+            self.help_banner.hide()
+            return
+        self.help_banner.setText(f"The robot asks for help: {node_name} failed ({reason}). Change the tree.")
+        self.help_banner.show()
+        self.statusBar().showMessage(f"help requested by {node_name}: {reason}", 30000)
+
+    def _on_health(self, problems: str) -> None:
+        self.health_label.setText(problems)
+        self.health_label.setStyleSheet("color: #d22828;" if problems else "")
+
+    # tabs -----------------------------------------------------------------------------------------
+    def _on_tab_changed(self, index: int) -> None:
+        if index == self._tab:
+            return
+        previous, self._tab = self._tab, index
+        self.worker.active_tab = index
+        self.worker.reset_device_filter()
+        for position, tab in enumerate(self._tab_widgets):
+            tab.active = position == index
+        self._tab_publisher.publish(Int8(index))
+        if previous == LOW_LEVEL_TAB:
+            self.low_level.on_leave()
+            if self.recorder.active:
+                self._stop_recording()  # leaving mid-recording keeps what was recorded
+            elif self._session:
+                self._end_session()
+        if index == HIGH_LEVEL_TAB:
+            self.high_level.reset()
+        elif index == LOW_LEVEL_TAB:
+            self._begin_session()
+
+    # HIGH-LEVEL -----------------------------------------------------------------------------------
+    def _send_change(self, request: ChangeRequest) -> None:
+        self.services.call(
+            "change_tree",
+            "/change_tree",
+            ChangeTree,
+            ChangeTreeRequest(request.node_name, request.operation, request.index, request.parent),
+        )
+
+    # LOW-LEVEL ------------------------------------------------------------------------------------
+    def _switch(self, start: str, stop: str) -> None:
+        self.low_level.controller_label.setText(f"controller: switching to {start}...")
+        request = SwitchControllerRequest(
+            start_controllers=[start],
+            stop_controllers=[stop],
+            strictness=SwitchControllerRequest.STRICT,
+            start_asap=False,
+            timeout=0.0,
+        )
+        self.services.call("switch:" + start, SWITCH_SERVICE, SwitchController, request)
+
+    def _begin_session(self) -> None:
+        """Pause the tree and hand the arm to the impedance controller (thesis III-A)."""
+        self._session = True
+        self._pause_publisher.publish(Bool(True))
+        self._switch(self.config.impedance_controller, self.config.position_controller)
+
+    def _end_session(self) -> None:
+        """Position controller back, tree running again."""
+        self._session = False
+        self._switch(self.config.position_controller, self.config.impedance_controller)
+        self._pause_publisher.publish(Bool(False))
+
+    def _toggle_recording(self) -> None:
+        if self.recorder.active:
+            self._stop_recording()
+            return
+        if not self._session:
+            self._begin_session()
+        self.recorder.start()
+        self.player.start()
+        self.low_level.recording_since = time.monotonic()
+        self.statusBar().showMessage(f"recording: playing trajectory {self.trajectory.name}", 5000)
+
+    def _stop_recording(self) -> None:
+        """Save the demonstration as a new skill, add it to the library, end the teaching session (III-E)."""
+        self.recorder.stop()
+        self.player.stop()
+        self.low_level.recording_since = None
+        name = unique_skill_name(self.config.skill_prefix, self.library_names + self.saved_skills, self.skills_dir)
+        try:
+            skill = self.recorder.to_skill(
+                name,
+                self.config.rotational_stiffness,
+                {"source": "teaching_gui", "trajectory": self.trajectory.name, "recorded": time.time()},
+            )
+            path = skill_file.save(skill, self.skills_dir / name)
+        except skill_file.SkillFileError as error:
+            hint = "" if len(self.recorder) >= 2 else " (no /cartesian_pose received? is robot_sim running?)"
+            self.statusBar().showMessage(f"recording not saved: {error}{hint}", 15000)
+        else:
+            self.saved_skills.append(name)
+            self.statusBar().showMessage(f"saved {name} ({len(skill.time)} samples) to {path}", 10000)
+            self.services.call(
+                "add_skill", "/behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, "stiffness", str(path))
+            )
+        self._end_session()
+
+    # service answers ------------------------------------------------------------------------------
+    def _on_service(self, key: str, success: bool, message: str, response) -> None:
+        if key == "change_tree":
+            if success:
+                text = response.message + (f" (new node {response.new_node_name})" if response.new_node_name else "")
+                self.high_level.on_answer(response.success, text)
+            else:
+                self.high_level.on_answer(False, message)
+                self.statusBar().showMessage(message, 15000)
+        elif key.startswith("switch:"):
+            controller = key.split(":", 1)[1]
+            if success and response.ok:
+                self.low_level.controller_label.setText(f"controller: {controller} active")
+            else:
+                reason = message or "the controller manager refused the switch"
+                self.low_level.controller_label.setText(f"controller: switch to {controller} failed")
+                self.statusBar().showMessage(f"switch to {controller} failed: {reason}", 15000)
+        elif key == "add_skill":
+            text = message if not success else ("added: " if response.success else "refused: ") + response.message
+            self.statusBar().showMessage(f"/behaviour_tree/add_skill {text}", 15000)
+
+    def screenshot(self) -> QPixmap:
+        """The window as the operator sees it (``grab()`` misses the text the GL view paints over its views)."""
+        pixmap = self.grab()
+        view = self.low_level.view
+        if view.isVisible():
+            painter = QPainter(pixmap)
+            painter.drawImage(view.mapTo(self, QPoint(0, 0)), view.grabFramebuffer())
+            painter.end()
+        return pixmap
+
+    # shutdown -------------------------------------------------------------------------------------
+    def closeEvent(self, event) -> None:  # noqa: N802 - Qt's name
+        """Save a running recording, give the robot back, stop the worker cooperatively."""
+        self.shutdown()
+        super().closeEvent(event)
+
+    def shutdown(self) -> None:
+        """Idempotent: what closing the window does."""
+        if self.thread.isRunning():
+            if self.recorder.active:
+                self._stop_recording()
+            elif self._session:
+                self._end_session()
+            self.player.stop()
+            QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)
+            self.thread.quit()
+            self.thread.wait(3000)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Node entry point: params (``config/gui.yaml`` overridden by the private params) -> window -> Qt loop."""
+    rospy.myargv(argv if argv is not None else sys.argv)
+    rospy.init_node("teaching_gui")
+    params = rospy.get_param("~", {})
+    config = GuiConfig.load(**params)
+    app = QApplication.instance() or QApplication(list(sys.argv[:1]))
+    window = MainWindow(config)
+    window.show()
+    watchdog = QTimer()
+    watchdog.timeout.connect(lambda: rospy.is_shutdown() and window.close())
+    watchdog.start(200)  # also lets Python run its SIGINT handler while Qt waits
+    app.aboutToQuit.connect(window.shutdown)
+    return app.exec_()

@@ -1,0 +1,120 @@
+"""Parameters of the teaching GUI, validated once so that a wrong value is reported before any window opens."""
+
+import dataclasses
+import math
+import pathlib
+from typing import Any, Dict, Mapping, Tuple
+
+import yaml
+
+DEVICE_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
+CONFIG_DIR = pathlib.Path(__file__).resolve().parents[3] / "config"
+
+
+class GuiConfigError(ValueError):
+    """A GUI parameter is missing, of the wrong type or out of its allowed range."""
+
+
+@dataclasses.dataclass(frozen=True)
+class GuiConfig:
+    """All GUI parameters; units as in ``config/gui.yaml``."""
+
+    device_range: float = 0.1
+    device_angle_range: float = 1.0
+    reject_position_beyond: float = 0.25
+    reject_angle_beyond: float = 3.2
+    deadband_position: float = 0.002
+    deadband_angle: float = 0.02
+    locked_axes: Tuple[str, ...] = ()
+    stiffness_per_pixel: float = 5.0
+    max_stiffness: float = 3000.0
+    min_stiffness: float = 50.0
+    initial_stiffness: float = 500.0
+    rotational_stiffness: float = 30.0
+    rotation_gain: float = 1.0
+    double_click_window: float = 0.6
+    gripper_open_threshold: float = 0.45
+    gripper_rearm_below: float = 0.35
+    publish_rate: float = 200.0
+    device_ui_rate: float = 60.0
+    repaint_rate: float = 30.0
+    player_rate: float = 100.0
+    service_timeout: float = 5.0
+    base_frame: str = "base_link"
+    impedance_controller: str = "cartesian_impedance_controller"
+    position_controller: str = "position_joint_trajectory_controller"
+    trajectory: str = "perpendicular"
+    skill_prefix: str = "DemonstratedPlace"
+    initial_tab: int = 0
+
+    def __post_init__(self):
+        positive = (
+            "device_range",
+            "device_angle_range",
+            "reject_position_beyond",
+            "reject_angle_beyond",
+            "stiffness_per_pixel",
+            "max_stiffness",
+            "min_stiffness",
+            "double_click_window",
+            "gripper_open_threshold",
+            "publish_rate",
+            "device_ui_rate",
+            "repaint_rate",
+            "player_rate",
+            "service_timeout",
+            "rotation_gain",
+        )
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise GuiConfigError(f"GUI parameter {name} must be a positive number, got {value!r}")
+        for name in ("deadband_position", "deadband_angle", "rotational_stiffness", "gripper_rearm_below"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise GuiConfigError(f"GUI parameter {name} must be a number >= 0, got {value!r}")
+        if not self.min_stiffness < self.max_stiffness:
+            raise GuiConfigError(f"min_stiffness {self.min_stiffness} must be below max_stiffness {self.max_stiffness}")
+        if not self.min_stiffness <= self.initial_stiffness <= self.max_stiffness:
+            raise GuiConfigError(
+                f"initial_stiffness {self.initial_stiffness} must lie in [{self.min_stiffness}, {self.max_stiffness}]"
+            )
+        if not self.gripper_rearm_below < self.gripper_open_threshold:
+            raise GuiConfigError("gripper_rearm_below must be below gripper_open_threshold (hysteresis)")
+        unknown = [axis for axis in self.locked_axes if axis not in DEVICE_AXES]
+        if unknown:
+            raise GuiConfigError(f"locked_axes {unknown} unknown; allowed: {', '.join(DEVICE_AXES)}")
+        if self.initial_tab not in (0, 1, 2):
+            raise GuiConfigError(
+                f"initial_tab must be 0 (START), 1 (HIGH-LEVEL) or 2 (LOW-LEVEL), got {self.initial_tab}"
+            )
+        if not self.skill_prefix.isidentifier():
+            raise GuiConfigError(f"skill_prefix {self.skill_prefix!r} must be an identifier")
+
+    @property
+    def max_pixels(self) -> float:
+        """Longest semi-axis on screen [px]: max_stiffness / stiffness_per_pixel (600 px in the thesis)."""
+        return self.max_stiffness / self.stiffness_per_pixel
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> "GuiConfig":
+        """Build from a dict (a yaml file or the node's private params); unknown keys are an error."""
+        names = {field.name for field in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - names)
+        if unknown:
+            raise GuiConfigError(f"unknown GUI parameters: {', '.join(unknown)}")
+        values = dict(values)
+        if "locked_axes" in values:
+            values["locked_axes"] = tuple(values["locked_axes"] or ())
+        try:
+            return cls(**values)
+        except TypeError as error:
+            raise GuiConfigError(str(error)) from None
+
+    @classmethod
+    def load(cls, path=None, **overrides) -> "GuiConfig":
+        """Read ``config/gui.yaml`` (or ``path``) and apply ``overrides``."""
+        path = pathlib.Path(path) if path else CONFIG_DIR / "gui.yaml"
+        values: Dict[str, Any] = yaml.safe_load(path.read_text()) or {}
+        values.update(overrides)
+        return cls.from_mapping(values)

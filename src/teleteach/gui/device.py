@@ -1,0 +1,168 @@
+"""Device input for the GUI: validation, deadbands, axis locking, scaling to the screen, clicks and gestures.
+
+The Sigma.7 is "very sensitive to small movements" (thesis III-B and IV): a per-axis deadband holds an axis until it
+moved more than a threshold, and locked axes are ignored altogether.
+"""
+
+import dataclasses
+import math
+from typing import Optional, Sequence, Tuple
+
+from teleteach.gui.config import DEVICE_AXES, GuiConfig
+
+
+@dataclasses.dataclass(frozen=True)
+class DeviceSample:
+    """One device reading: position [m] and angles [rad] with R = Rz(yaw) Ry(pitch) Rx(roll)."""
+
+    x: float
+    y: float
+    z: float
+    roll: float
+    pitch: float
+    yaw: float
+
+    def as_tuple(self) -> Tuple[float, ...]:
+        """The six values in the order of ``DEVICE_AXES``."""
+        return (self.x, self.y, self.z, self.roll, self.pitch, self.yaw)
+
+
+def quaternion_to_euler(qx: float, qy: float, qz: float, qw: float) -> Tuple[float, float, float]:
+    """Roll, pitch, yaw [rad] of the unit quaternion with R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    roll = math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (qw * qy - qz * qx))))
+    yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    return roll, pitch, yaw
+
+
+def euler_to_quaternion(roll: float, pitch: float, yaw: float) -> Tuple[float, float, float, float]:
+    """Unit quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll) (thesis eq. 2)."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+        cr * cp * cy + sr * sp * sy,
+    )
+
+
+def parse_pose(position: Sequence[float], quaternion: Sequence[float], config: GuiConfig) -> Optional[DeviceSample]:
+    """A :class:`DeviceSample` from a device pose, or None when it is NaN, out of range or not a rotation."""
+    values = (*position, *quaternion)
+    if len(values) != 7 or not all(math.isfinite(value) for value in values):
+        return None
+    if any(abs(value) > config.reject_position_beyond for value in position):
+        return None
+    norm = math.sqrt(sum(value * value for value in quaternion))
+    if abs(norm - 1.0) > 0.01:
+        return None
+    angles = quaternion_to_euler(*(value / norm for value in quaternion))
+    if any(abs(angle) > config.reject_angle_beyond for angle in angles):
+        return None
+    return DeviceSample(*position, *angles)
+
+
+class DeviceFilter:
+    """Per-axis deadband (an axis moves only once it left a band around its last accepted value) and locking."""
+
+    def __init__(self, config: GuiConfig):
+        self._bands = [config.deadband_position] * 3 + [config.deadband_angle] * 3
+        self._locked = [axis in config.locked_axes for axis in DEVICE_AXES]
+        self._held: Optional[list] = None
+
+    def reset(self) -> None:
+        """Forget the held values: the next sample is taken as it is."""
+        self._held = None
+
+    def apply(self, sample: DeviceSample) -> DeviceSample:
+        """The sample as the GUI should see it."""
+        values = sample.as_tuple()
+        if self._held is None:
+            self._held = [0.0 if locked else value for value, locked in zip(values, self._locked)]
+            return DeviceSample(*self._held)
+        for index, value in enumerate(values):
+            if not self._locked[index] and abs(value - self._held[index]) >= self._bands[index]:
+                self._held[index] = value
+        return DeviceSample(*self._held)
+
+
+def scale(value: float, half_range: float, low: float, high: float) -> float:
+    """Map ``value`` in [-half_range, half_range] linearly onto [low, high], clamped (device to screen)."""
+    fraction = (value + half_range) / (2.0 * half_range)
+    return low + min(1.0, max(0.0, fraction)) * (high - low)
+
+
+def scale_to_index(value: float, half_range: float, count: int) -> int:
+    """Map ``value`` in [-half_range, half_range] onto 0..count-1 in equal bins (a slider position)."""
+    if count <= 1:
+        return 0
+    fraction = min(1.0, max(0.0, (value + half_range) / (2.0 * half_range)))
+    return min(count - 1, int(fraction * count))
+
+
+class ClickClassifier:
+    """Tells single clicks from double clicks (LOW-LEVEL: click = next mode, double click = start/stop recording).
+
+    A click is reported as single only once the double-click window has passed without a second click.
+    """
+
+    SINGLE = "single"
+    DOUBLE = "double"
+
+    def __init__(self, window: float):
+        self.window = window
+        self._pending: Optional[float] = None
+
+    def reset(self) -> None:
+        """Drop a pending click (e.g. when the tab is left)."""
+        self._pending = None
+
+    @property
+    def pending(self) -> bool:
+        """True while a first click waits for a possible second one."""
+        return self._pending is not None
+
+    def click(self, now: float) -> Optional[str]:
+        """Register a click at ``now`` [s]; returns DOUBLE when it completes a double click."""
+        if self._pending is not None and now - self._pending <= self.window:
+            self._pending = None
+            return self.DOUBLE
+        self._pending = now
+        return None
+
+    def poll(self, now: float) -> Optional[str]:
+        """Returns SINGLE once a pending click has outlived the window."""
+        if self._pending is not None and now - self._pending > self.window:
+            self._pending = None
+            return self.SINGLE
+        return None
+
+
+class EdgeDetector:
+    """Rising edges with hysteresis: button presses (0 -> 1) and the gripper opened fully (back to START)."""
+
+    def __init__(self, threshold: float, rearm_below: float):
+        self.threshold = threshold
+        self.rearm_below = rearm_below
+        self._armed = False
+        self._seen = False
+
+    def update(self, value: float) -> bool:
+        """True exactly once each time ``value`` rises to the threshold after having been below ``rearm_below``.
+
+        The first value only arms: a device that starts pressed or open does not fire.
+        """
+        if not math.isfinite(value):
+            return False
+        if not self._seen:
+            self._seen = True
+            self._armed = value < self.rearm_below
+            return False
+        if value >= self.threshold and self._armed:
+            self._armed = False
+            return True
+        if value < self.rearm_below:
+            self._armed = True
+        return False

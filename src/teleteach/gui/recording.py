@@ -1,0 +1,137 @@
+"""Recording a stiffness demonstration (thesis II-C, A.2.2): the predefined kinematic trajectory and the buffer.
+
+The trajectory is a list of timed waypoints in the base frame (``config/trajectories/*.yaml``), interpolated
+linearly in position and by slerp in orientation. The recorder stores the commanded stiffness, the equilibrium pose
+and the measured ``/cartesian_pose`` at every sample and turns them into a :class:`teleteach.skill_file.Skill`.
+"""
+
+import pathlib
+import threading
+from typing import Iterable, List, Optional, Sequence, Union
+
+import numpy as np
+import yaml
+from scipy.spatial.transform import Rotation, Slerp
+
+from teleteach.gui.config import CONFIG_DIR
+from teleteach.skill_file import Skill
+
+
+class TrajectoryError(ValueError):
+    """A trajectory file is missing or malformed."""
+
+
+class Trajectory:
+    """Timed waypoints (t [s], position [m], quaternion x y z w) in ``frame``, interpolated on demand."""
+
+    def __init__(self, times: Sequence[float], positions, quaternions, frame: str = "base_link", name: str = ""):
+        self.times = np.asarray(times, dtype=float)
+        self.positions = np.asarray(positions, dtype=float)
+        quaternions = np.asarray(quaternions, dtype=float)
+        self.frame = frame
+        self.name = name
+        count = self.times.shape[0]
+        if count < 2 or self.positions.shape != (count, 3) or quaternions.shape != (count, 4):
+            raise TrajectoryError(f"trajectory {name!r} needs >= 2 waypoints with position (3) and orientation (4)")
+        if not (np.all(np.isfinite(self.times)) and np.all(np.isfinite(self.positions))):
+            raise TrajectoryError(f"trajectory {name!r} has non-finite values")
+        if np.any(np.diff(self.times) <= 0):
+            raise TrajectoryError(f"trajectory {name!r}: waypoint times must increase strictly")
+        norms = np.linalg.norm(quaternions, axis=1)
+        if np.any(np.abs(norms - 1.0) > 1e-3):
+            raise TrajectoryError(f"trajectory {name!r}: orientations must be unit quaternions (x, y, z, w)")
+        self._slerp = Slerp(self.times, Rotation.from_quat(quaternions))
+
+    @property
+    def duration(self) -> float:
+        """Time of the last waypoint [s] (the first is at ``times[0]``)."""
+        return float(self.times[-1])
+
+    def sample(self, t: float) -> np.ndarray:
+        """Pose (x, y, z, qx, qy, qz, qw) at ``t`` [s]; held at the ends."""
+        t = float(np.clip(t, self.times[0], self.times[-1]))
+        position = np.array([np.interp(t, self.times, self.positions[:, axis]) for axis in range(3)])
+        return np.concatenate([position, self._slerp([t]).as_quat()[0]])
+
+    @classmethod
+    def load(cls, name_or_path: Union[str, pathlib.Path]) -> "Trajectory":
+        """A trajectory by name (``config/trajectories/<name>.yaml``) or by path."""
+        path = pathlib.Path(name_or_path)
+        if not path.suffix:
+            path = CONFIG_DIR / "trajectories" / f"{name_or_path}.yaml"
+        if not path.is_file():
+            raise TrajectoryError(f"trajectory file {path} does not exist")
+        data = yaml.safe_load(path.read_text()) or {}
+        try:
+            waypoints = data["waypoints"]
+            return cls(
+                [point["t"] for point in waypoints],
+                [point["position"] for point in waypoints],
+                [point["orientation"] for point in waypoints],
+                frame=data.get("frame", "base_link"),
+                name=data.get("name", path.stem),
+            )
+        except (KeyError, TypeError) as error:
+            raise TrajectoryError(f"trajectory file {path}: missing or malformed {error}") from None
+
+
+class StiffnessRecorder:
+    """Time-stamped samples of stiffness, equilibrium pose and measured pose; thread-safe."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._rows: List[tuple] = []
+        self.active = False
+
+    def start(self) -> None:
+        """Begin a new recording (drops an old one)."""
+        with self._lock:
+            self._rows = []
+            self.active = True
+
+    def stop(self) -> None:
+        """Stop adding samples (the buffer stays for :meth:`to_skill`)."""
+        self.active = False
+
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self._rows)
+
+    def add(self, t: float, stiffness: np.ndarray, equilibrium: np.ndarray, measured: Optional[np.ndarray]) -> bool:
+        """Store one sample when recording and all parts are known and finite; True if stored."""
+        if not self.active or measured is None or equilibrium is None:
+            return False
+        row = (float(t), np.array(stiffness, dtype=float), np.array(equilibrium, float), np.array(measured, float))
+        if not all(np.all(np.isfinite(part)) for part in row[1:]) or not np.isfinite(row[0]):
+            return False
+        with self._lock:
+            if self._rows and row[0] <= self._rows[-1][0]:
+                return False
+            self._rows.append(row)
+        return True
+
+    def to_skill(self, name: str, rotational_stiffness: float, provenance: dict) -> Skill:
+        """The recording as a stiffness skill (raises SkillFileError if it is too short or invalid)."""
+        with self._lock:
+            rows = list(self._rows)
+        return Skill(
+            name=name,
+            kind="stiffness",
+            time=np.array([row[0] for row in rows]),
+            stiffness=np.array([row[1] for row in rows]).reshape(-1, 3, 3),
+            equilibrium_pose=np.array([row[2] for row in rows]).reshape(-1, 7),
+            cartesian_pose=np.array([row[3] for row in rows]).reshape(-1, 7),
+            rotational_stiffness=rotational_stiffness,
+            provenance=provenance,
+        )
+
+
+def unique_skill_name(prefix: str, taken: Iterable[str], directory: Optional[pathlib.Path] = None) -> str:
+    """``<prefix>_<n>`` with the smallest n not used by the library nor by a file in ``directory``."""
+    taken = set(taken)
+    number = 1
+    while True:
+        name = f"{prefix}_{number}"
+        if name not in taken and not (directory is not None and (directory / f"{name}.npz").exists()):
+            return name
+        number += 1

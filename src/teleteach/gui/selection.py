@@ -1,0 +1,168 @@
+"""HIGH-LEVEL teaching (thesis II-B, Appendix A.1): the tree as the GUI sees it and the three-step selection.
+
+Step 1 selects a node (horizontal slider, device X), step 2 an operation (vertical slider, device Y), step 3 for
+insert an index (dial, device rotation about X); each click confirms one step, the last one yields a request.
+"""
+
+import dataclasses
+import enum
+from typing import Dict, List, Optional, Sequence, Tuple
+
+from teleteach.gui.config import GuiConfig
+from teleteach.gui.device import DeviceSample, scale_to_index
+
+# Bottom to top on the vertical slider: moving the device towards -Y goes towards "remove" (thesis Fig. 5, phase C).
+OPERATIONS = ("remove", "insert", "prepend", "add")
+DEFAULT_PARENT = "BehaviorExecution"
+
+STATUS_NAMES = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
+
+
+@dataclasses.dataclass(frozen=True)
+class TreeNode:
+    """One behaviour of the live tree (the fields of teleteach/Behaviour the GUI needs)."""
+
+    name: str
+    class_name: str
+    own_id: str
+    parent_id: str
+    child_ids: Tuple[str, ...]
+    type: int
+    status: int
+    is_active: bool = False
+
+
+@dataclasses.dataclass
+class TreeSnapshot:
+    """The tree in depth-first order plus lookups; built from /behaviour_tree/log/tree."""
+
+    nodes: List[TreeNode]
+
+    def __post_init__(self):
+        self.by_id: Dict[str, TreeNode] = {node.own_id: node for node in self.nodes}
+
+    @property
+    def root(self) -> Optional[TreeNode]:
+        """The node without a (known) parent."""
+        for node in self.nodes:
+            if node.parent_id not in self.by_id:
+                return node
+        return None
+
+    def children(self, node: TreeNode) -> List[TreeNode]:
+        """Children in tick order."""
+        return [self.by_id[child] for child in node.child_ids if child in self.by_id]
+
+    def depth_first(self) -> List[Tuple[int, TreeNode]]:
+        """(depth, node) pairs from the root, children in tick order."""
+        result: List[Tuple[int, TreeNode]] = []
+        root = self.root
+        stack = [(0, root)] if root else []
+        while stack:
+            depth, node = stack.pop()
+            result.append((depth, node))
+            stack.extend((depth + 1, child) for child in reversed(self.children(node)))
+        return result
+
+    def find(self, name: str) -> Optional[TreeNode]:
+        """The node with this (unique) name."""
+        return next((node for node in self.nodes if node.name == name), None)
+
+    def child_count(self, parent_name: str) -> int:
+        """Number of children of the composite ``parent_name`` (0 when absent)."""
+        parent = self.find(parent_name)
+        return len(self.children(parent)) if parent else 0
+
+
+class Step(enum.Enum):
+    """Where the operator is in the three-step flow."""
+
+    NODE = 1
+    OPERATION = 2
+    INDEX = 3
+    WAITING = 4
+
+
+@dataclasses.dataclass(frozen=True)
+class ChangeRequest:
+    """What to send on /change_tree."""
+
+    node_name: str
+    operation: str
+    index: int = 0
+    parent: str = ""
+
+
+class SelectionFlow:
+    """The three-step state machine of the HIGH-LEVEL tab; knows nothing about widgets or ROS.
+
+    ``choices`` are the button names the horizontal slider walks over (tree leaves, then library skills).
+    """
+
+    def __init__(self, config: GuiConfig):
+        self.config = config
+        self.choices: List[str] = []
+        self.insert_slots = 1
+        self.step = Step.NODE
+        self.node_index = 0
+        self.operation_index = 0
+        self.index = 0
+        self.answer = ""
+
+    def set_choices(self, choices: Sequence[str], insert_slots: int) -> None:
+        """New buttons (tree or library changed); keeps the selected name when it still exists."""
+        selected = self.selected_node
+        self.choices = list(choices)
+        self.insert_slots = max(1, insert_slots)
+        if selected in self.choices:
+            self.node_index = self.choices.index(selected)
+        else:
+            self.node_index = min(self.node_index, max(0, len(self.choices) - 1))
+            if self.step in (Step.OPERATION, Step.INDEX):
+                self.step = Step.NODE
+        self.index = min(self.index, self.insert_slots - 1)
+
+    @property
+    def selected_node(self) -> Optional[str]:
+        """The name under the horizontal slider."""
+        return self.choices[self.node_index] if self.choices else None
+
+    @property
+    def selected_operation(self) -> str:
+        """The operation under the vertical slider."""
+        return OPERATIONS[self.operation_index]
+
+    def reset(self) -> None:
+        """Back to step 1 (entering the tab, returning to START)."""
+        self.step = Step.NODE
+
+    def device(self, sample: DeviceSample) -> None:
+        """Move the control of the current step only; the others stay where they are (greyed out)."""
+        if self.step is Step.NODE and self.choices:
+            self.node_index = scale_to_index(sample.x, self.config.device_range, len(self.choices))
+        elif self.step is Step.OPERATION:
+            self.operation_index = scale_to_index(sample.y, self.config.device_range, len(OPERATIONS))
+        elif self.step is Step.INDEX:
+            self.index = scale_to_index(sample.roll, self.config.device_angle_range, self.insert_slots)
+
+    def click(self) -> Optional[ChangeRequest]:
+        """Confirm the current step; returns the request once the flow is complete."""
+        if self.step is Step.NODE:
+            if self.choices:
+                self.step = Step.OPERATION
+            return None
+        if self.step is Step.OPERATION:
+            if self.selected_operation == "insert":
+                self.step = Step.INDEX
+                return None
+            self.step = Step.WAITING
+            return ChangeRequest(self.selected_node, self.selected_operation)
+        if self.step is Step.INDEX:
+            self.step = Step.WAITING
+            return ChangeRequest(self.selected_node, "insert", self.index)
+        return None
+
+    def answered(self, success: bool, message: str) -> None:
+        """The service answered (or failed): show it and start over."""
+        self.answer = ("done: " if success else "refused: ") + message
+        self.step = Step.NODE

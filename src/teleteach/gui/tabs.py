@@ -1,0 +1,444 @@
+"""The tabs of the teaching GUI (thesis Fig. 3): START, HIGH-LEVEL (with the live tree view) and LOW-LEVEL.
+
+Tabs only display and collect the operator's choices; talking to ROS is the main window's job. Each tab acts on
+device signals only while it is the active one (thesis A.2.1).
+"""
+
+import time
+from typing import List, Optional, Sequence, Tuple
+
+from PyQt5.QtCore import Qt, QTimer, pyqtSignal
+from PyQt5.QtGui import QBrush, QColor, QFont
+from PyQt5.QtWidgets import (
+    QDial,
+    QGridLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QSlider,
+    QSplitter,
+    QTreeWidget,
+    QTreeWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from teleteach.gui.config import GuiConfig
+from teleteach.gui.device import ClickClassifier, DeviceSample, scale_to_index
+from teleteach.gui.ellipsoid import MODES, EllipsoidCommand
+from teleteach.gui.gl_view import ANGLE_NAMES, AXIS_NAMES, EllipsoidView
+from teleteach.gui.selection import (
+    DEFAULT_PARENT,
+    OPERATIONS,
+    STATUS_NAMES,
+    ChangeRequest,
+    SelectionFlow,
+    Step,
+    TreeSnapshot,
+)
+
+STATUS_COLOURS = {2: QColor(40, 90, 220), 3: QColor(30, 150, 50), 4: QColor(210, 40, 40)}
+NOT_VISITED = QColor(150, 150, 150)
+SELECTED_STYLE = "QPushButton { background: #ffd54f; border: 3px solid #e65100; font-weight: bold; padding: 6px; }"
+BUTTON_STYLE = "QPushButton { padding: 6px; }"
+_GROUP = "QGroupBox#step {{ border: {}; border-radius: 4px; margin-top: 1.3em; }} "
+_TITLE = "QGroupBox#step::title {{ subcontrol-origin: margin; left: 8px; {} }}"
+ACTIVE_STEP_STYLE = _GROUP.format("3px solid #2e7d32") + _TITLE.format("color: #1b5e20; font-weight: bold;")
+STEP_STYLE = _GROUP.format("1px solid #bbb") + _TITLE.format("")
+
+
+def _big(label: QLabel, points: int, bold: bool = True) -> QLabel:
+    font = QFont(label.font())
+    font.setPointSize(points)
+    font.setBold(bold)
+    label.setFont(font)
+    return label
+
+
+class StartTab(QWidget):
+    """Choose the teaching mode: device X moves between the two buttons, a click opens the mode."""
+
+    mode_chosen = pyqtSignal(int)
+
+    def __init__(self, config: GuiConfig):
+        super().__init__()
+        self.config = config
+        self.active = False
+        self.selected = 0
+        layout = QVBoxLayout(self)
+        layout.addStretch(1)
+        title = _big(QLabel("Teleoperated teaching"), 20)
+        title.setAlignment(Qt.AlignCenter)
+        layout.addWidget(title)
+        hint = QLabel("Move the device left/right to choose a teaching mode, click (close the gripper) to open it.")
+        hint.setAlignment(Qt.AlignCenter)
+        layout.addWidget(hint)
+        row = QHBoxLayout()
+        self.buttons: List[QPushButton] = []
+        for index, (text, colour) in enumerate(
+            (
+                ("HIGH-LEVEL teaching\nchange the behaviour tree", "#c8e6c9"),
+                ("LOW-LEVEL teaching\ndemonstrate stiffness", "#ffcdd2"),
+            )
+        ):
+            button = QPushButton(text)
+            button.setMinimumHeight(240)
+            button.setProperty("colour", colour)
+            button.clicked.connect(lambda _checked, tab=index + 1: self.mode_chosen.emit(tab))
+            row.addWidget(button)
+            self.buttons.append(button)
+        layout.addLayout(row)
+        gesture = QLabel("In either mode, open the gripper fully to come back here.")
+        gesture.setAlignment(Qt.AlignCenter)
+        layout.addWidget(gesture)
+        layout.addStretch(2)
+        self._show()
+
+    def _show(self) -> None:
+        for index, button in enumerate(self.buttons):
+            border = "5px solid #e65100" if index == self.selected else "1px solid #888"
+            button.setStyleSheet(
+                f"QPushButton {{ background: {button.property('colour')}; border: {border}; font-size: 16pt; }}"
+            )
+
+    def on_device(self, sample: DeviceSample) -> None:
+        """Device X chooses the button."""
+        if self.active:
+            selected = scale_to_index(sample.x, self.config.device_range, 2)
+            if selected != self.selected:
+                self.selected = selected
+                self._show()
+
+    def on_click(self) -> None:
+        """Open the chosen mode."""
+        if self.active:
+            self.mode_chosen.emit(self.selected + 1)
+
+
+class TreeView(QTreeWidget):
+    """The live tree with node states in colour (running blue, success green, failure red, not visited grey)."""
+
+    def __init__(self):
+        super().__init__()
+        self.setHeaderLabels(["Behaviour", "Skill", "State"])
+        self.setColumnWidth(0, 170)
+        self.setColumnWidth(1, 120)
+        self._signature: Optional[tuple] = None
+
+    def show_tree(self, tree: TreeSnapshot) -> None:
+        """Rebuild when anything shown changed."""
+        signature = tuple((depth, node.name, node.class_name, node.status) for depth, node in tree.depth_first())
+        if signature == self._signature:
+            return
+        self._signature = signature
+        self.clear()
+        items = {}
+        for _, node in tree.depth_first():
+            parent = items.get(node.parent_id)
+            item = QTreeWidgetItem([node.name, node.class_name, STATUS_NAMES.get(node.status, "not visited")])
+            if node.status == 1:
+                item.setText(2, "not visited")
+            brush = QBrush(STATUS_COLOURS.get(node.status, NOT_VISITED))
+            for column in range(3):
+                item.setForeground(column, brush)
+            if parent is None:
+                self.addTopLevelItem(item)
+            else:
+                parent.addChild(item)
+            items[node.own_id] = item
+        self.expandAll()
+
+
+class HighLevelTab(QWidget):
+    """Buttons for the tree's nodes and the library's skills, and the three steps (thesis II-B, Fig. 5)."""
+
+    request_ready = pyqtSignal(object)  # ChangeRequest
+
+    def __init__(self, config: GuiConfig):
+        super().__init__()
+        self.config = config
+        self.active = False
+        self.flow = SelectionFlow(config)
+        self.tree: Optional[TreeSnapshot] = None
+        self.library: List[Tuple[str, str, str]] = []
+        self._layout_signature: Optional[tuple] = None
+        self.buttons: List[QPushButton] = []
+
+        splitter = QSplitter(Qt.Horizontal)
+        left = QWidget()
+        column = QVBoxLayout(left)
+        self.step1 = QGroupBox("Step 1: select a node  (device X, click to confirm)")
+        step1 = QVBoxLayout(self.step1)
+        self.button_area = QVBoxLayout()
+        step1.addLayout(self.button_area)
+        self.node_slider = QSlider(Qt.Horizontal)
+        self.node_slider.setEnabled(False)
+        step1.addWidget(self.node_slider)
+        self.selected_label = _big(QLabel("waiting for the behaviour tree..."), 13)
+        self.selected_label.setStyleSheet("color: #1b5e20;")
+        column.addWidget(self.selected_label)
+        column.addWidget(self.step1)
+
+        row = QHBoxLayout()
+        self.step2 = QGroupBox("Step 2: operation  (device Y, click)")
+        step2 = QHBoxLayout(self.step2)
+        self.operation_slider = QSlider(Qt.Vertical)
+        self.operation_slider.setRange(0, len(OPERATIONS) - 1)
+        self.operation_slider.setTickPosition(QSlider.TicksRight)
+        self.operation_slider.setMinimumHeight(150)
+        step2.addWidget(self.operation_slider)
+        labels = QVBoxLayout()
+        self.operation_labels = {}
+        for operation in reversed(OPERATIONS):
+            label = QLabel(operation)
+            labels.addWidget(label)
+            self.operation_labels[operation] = label
+        step2.addLayout(labels)
+        row.addWidget(self.step2)
+        self.step3 = QGroupBox("Step 3: index for insert  (rotate the device about X, click)")
+        step3 = QVBoxLayout(self.step3)
+        self.dial = QDial()
+        self.dial.setNotchesVisible(True)
+        self.dial.setWrapping(False)
+        self.dial.setMinimumSize(120, 120)
+        step3.addWidget(self.dial)
+        self.index_label = _big(QLabel("index 0"), 12)
+        step3.addWidget(self.index_label)
+        row.addWidget(self.step3)
+        column.addLayout(row)
+
+        self.answer_label = _big(QLabel(""), 12)
+        self.answer_label.setWordWrap(True)
+        column.addWidget(self.answer_label)
+        gesture = QLabel("Open the gripper fully to return to START.")
+        column.addWidget(gesture)
+        column.addStretch(1)
+        splitter.addWidget(left)
+
+        right = QWidget()
+        tree_column = QVBoxLayout(right)
+        tree_column.addWidget(_big(QLabel("Behaviour tree (live)"), 11))
+        self.tree_view = TreeView()
+        tree_column.addWidget(self.tree_view)
+        legend = QLabel(
+            '<span style="color:#285adc">running</span> &nbsp; <span style="color:#1e9632">success</span> &nbsp; '
+            '<span style="color:#d22828">failure</span> &nbsp; <span style="color:#969696">not visited</span>'
+        )
+        tree_column.addWidget(legend)
+        splitter.addWidget(right)
+        splitter.setSizes([620, 380])
+        QVBoxLayout(self).addWidget(splitter)
+        self.refresh()
+
+    # data ---------------------------------------------------------------------------------------
+    def choices(self) -> Tuple[List[Tuple[str, List[str]]], List[str]]:
+        """Button groups: (composite name, leaf names) in tick order, then the library's skills."""
+        groups: List[Tuple[str, List[str]]] = []
+        if self.tree is not None:
+            for _, node in self.tree.depth_first():
+                leaves = [child.name for child in self.tree.children(node) if not child.child_ids]
+                if leaves:
+                    groups.append((node.name, leaves))
+        return groups, [name for name, _, _ in self.library]
+
+    def on_tree(self, tree: TreeSnapshot) -> None:
+        """A new tree snapshot (always accepted; the view stays current even when the tab is hidden)."""
+        self.tree = tree
+        self.tree_view.show_tree(tree)
+        self._rebuild()
+
+    def on_library(self, library: Sequence[Tuple[str, str, str]]) -> None:
+        """The skill library changed (a demonstrated skill appears here, thesis III-E)."""
+        self.library = list(library)
+        self._rebuild()
+
+    def _rebuild(self) -> None:
+        groups, library = self.choices()
+        signature = (tuple((name, tuple(leaves)) for name, leaves in groups), tuple(library))
+        if signature == self._layout_signature:
+            return
+        self._layout_signature = signature
+        while self.button_area.count():
+            old = self.button_area.takeAt(0).widget()
+            old.hide()  # gone from the screen now, not when the event loop gets round to deleting it
+            old.deleteLater()
+        self.buttons = []
+        names: List[str] = []
+        for title, entries in [*groups, ("Skill library", library)]:
+            if not entries:
+                continue
+            box = QGroupBox(title)
+            grid = QGridLayout(box)
+            grid.setSpacing(3)
+            for position, name in enumerate(entries):
+                button = QPushButton(name)
+                button.setFocusPolicy(Qt.NoFocus)
+                grid.addWidget(button, position // 6, position % 6)
+                self.buttons.append(button)
+                names.append(name)
+            self.button_area.addWidget(box)
+        self.flow.set_choices(names, self.tree.child_count(DEFAULT_PARENT) + 1 if self.tree else 1)
+        self.node_slider.setRange(0, max(0, len(names) - 1))
+        self.dial.setRange(0, self.flow.insert_slots - 1)
+        self.refresh()
+
+    # device -------------------------------------------------------------------------------------
+    def on_device(self, sample: DeviceSample) -> None:
+        """Move the control of the current step."""
+        if self.active:
+            self.flow.device(sample)
+            self.refresh()
+
+    def on_click(self) -> None:
+        """Confirm the current step; the last one sends the request."""
+        if not self.active:
+            return
+        request: Optional[ChangeRequest] = self.flow.click()
+        if request is not None:
+            self.answer_label.setText(f"sending: {request.operation} {request.node_name} ...")
+            self.request_ready.emit(request)
+        self.refresh()
+
+    def on_answer(self, success: bool, message: str) -> None:
+        """The answer of /change_tree (or why there was none)."""
+        self.flow.answered(success, message)
+        self.refresh()
+
+    def reset(self) -> None:
+        """Back to step 1."""
+        self.flow.reset()
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Show the flow's state; controls of other steps are greyed out."""
+        flow = self.flow
+        for box, step in ((self.step1, Step.NODE), (self.step2, Step.OPERATION), (self.step3, Step.INDEX)):
+            box.setObjectName("step")  # the style applies to the step boxes, not to the button groups inside
+            box.setEnabled(flow.step is step)
+            box.setStyleSheet(ACTIVE_STEP_STYLE if flow.step is step else STEP_STYLE)
+        for index, button in enumerate(self.buttons):
+            button.setStyleSheet(SELECTED_STYLE if index == flow.node_index else BUTTON_STYLE)
+        self.node_slider.setValue(flow.node_index)
+        self.operation_slider.setValue(flow.operation_index)
+        for operation, label in self.operation_labels.items():
+            chosen = operation == flow.selected_operation
+            label.setStyleSheet("font-weight: bold; color: #e65100;" if chosen else "color: #555;")
+        self.dial.setValue(flow.index)
+        self.index_label.setText(f"insert at index {flow.index} of {DEFAULT_PARENT}")
+        node = flow.selected_node or "-"
+        step_text = {
+            Step.NODE: f"selected: {node}",
+            Step.OPERATION: f"{node}: choose the operation ({flow.selected_operation})",
+            Step.INDEX: f"{node}: insert at index {flow.index}",
+            Step.WAITING: f"{flow.selected_operation} {node}: waiting for /change_tree...",
+        }[flow.step]
+        self.selected_label.setText(step_text if flow.choices else "waiting for the behaviour tree...")
+        if flow.answer and flow.step is not Step.WAITING:
+            colour = "#1e9632" if flow.answer.startswith("done") else "#d22828"
+            self.answer_label.setStyleSheet(f"color: {colour};")
+            self.answer_label.setText(flow.answer)
+
+
+class LowLevelTab(QWidget):
+    """The ellipsoid views, the commanded values, the mode and the recording state (thesis II-C, Fig. 4)."""
+
+    recording_toggled = pyqtSignal()
+
+    def __init__(self, config: GuiConfig, command: EllipsoidCommand):
+        super().__init__()
+        self.config = config
+        self.command = command
+        self.active = False
+        self.recording_since: Optional[float] = None
+        self.recorded_samples = lambda: 0
+        self.clicks = ClickClassifier(config.double_click_window)
+        self._drawn_version = -1
+
+        layout = QHBoxLayout(self)
+        self.view = EllipsoidView(command)
+        layout.addWidget(self.view, 3)  # no alignment flag: a QOpenGLWidget with one gets 0x0 (DESIGN 7)
+        panel = QVBoxLayout()
+        self.mode_label = _big(QLabel(), 14)
+        self.mode_label.setTextFormat(Qt.RichText)
+        panel.addWidget(self.mode_label)
+        self.axis_labels = []
+        for _ in range(3):
+            label = _big(QLabel(), 12, bold=False)
+            panel.addWidget(label)
+            self.axis_labels.append(label)
+        self.recording_label = _big(QLabel(), 14)
+        panel.addWidget(self.recording_label)
+        self.controller_label = QLabel("controller: -")
+        self.controller_label.setWordWrap(True)
+        panel.addWidget(self.controller_label)
+        gestures = QLabel(
+            "<b>Device gestures</b><br>"
+            "move: semi-axis lengths (X, Y, Z)<br>"
+            "rotate: roll / pitch / yaw of the axes<br>"
+            "<b>click</b>: next mode ALL \u2192 X \u2192 Y \u2192 Z<br>"
+            f"<b>double click</b> (within {config.double_click_window:.1f} s): start / stop recording<br>"
+            "<b>open the gripper fully</b>: stop, save, back to START"
+        )
+        gestures.setWordWrap(True)
+        gestures.setStyleSheet("background: #eef; padding: 6px; border: 1px solid #99b;")
+        panel.addWidget(gestures)
+        panel.addStretch(1)
+        panel_widget = QWidget()
+        panel_widget.setLayout(panel)
+        panel_widget.setMinimumWidth(270)
+        panel_widget.setMaximumWidth(330)
+        layout.addWidget(panel_widget, 1)
+
+        self._repaint = QTimer(self)
+        self._repaint.timeout.connect(self._tick)
+        self._repaint.start(max(1, int(round(1000.0 / config.repaint_rate))))
+        self._refresh_labels()
+
+    def on_click(self) -> None:
+        """Clicks are classified: single -> next mode (after the double-click window), double -> recording."""
+        if self.active and self.clicks.click(time.monotonic()) == ClickClassifier.DOUBLE:
+            self.recording_toggled.emit()
+
+    def on_leave(self) -> None:
+        """Drop a pending click."""
+        self.clicks.reset()
+
+    def _tick(self) -> None:
+        """Capped repaint: mode changes from pending clicks, then redraw only what changed."""
+        if not self.active:
+            return
+        if self.clicks.poll(time.monotonic()) == ClickClassifier.SINGLE:
+            self.command.next_mode()
+        version = self.command.state()[3]
+        if version != self._drawn_version:
+            self._drawn_version = version
+            self.view.update()
+        self._refresh_labels()
+
+    def _refresh_labels(self) -> None:
+        lengths, angles, mode, _ = self.command.state()
+        gain = self.config.stiffness_per_pixel
+        self.mode_label.setText(
+            "mode: "
+            + " ".join(
+                f'<span style="color:#e65100"><u>{name}</u></span>'
+                if name == mode
+                else f'<span style="color:#999">{name}</span>'
+                for name in MODES
+            )
+        )
+        for axis, label in enumerate(self.axis_labels):
+            live = mode in ("ALL", AXIS_NAMES[axis])
+            label.setStyleSheet("" if live else "color: #999;")
+            label.setText(
+                f"{AXIS_NAMES[axis]}: {lengths[axis] * gain:6.0f} N/m, "
+                f"{ANGLE_NAMES[axis]} {angles[axis] * 57.29578:5.1f}\N{DEGREE SIGN}"
+            )
+        if self.recording_since is None:
+            self.recording_label.setStyleSheet("color: #555;")
+            self.recording_label.setText("not recording")
+        else:
+            elapsed = time.monotonic() - self.recording_since
+            self.recording_label.setStyleSheet("color: #d22828;")
+            self.recording_label.setText(f"\u25cf REC {elapsed:.1f} s\n{self.recorded_samples()} samples")

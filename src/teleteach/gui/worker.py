@@ -1,0 +1,315 @@
+"""The ROS side of the GUI (thesis Appendix A.1): a worker QObject in its own QThread and background helpers.
+
+rospy callbacks never touch a widget: they update thread-safe state or emit class-level signals, which Qt delivers
+queued in the GUI thread. The worker also publishes /eigenvalues and /eigenvectors from its own thread at
+``publish_rate`` while LOW-LEVEL is active, independent of the repaint rate (the thesis tied stiffness to the GUI
+refresh and recorded it too sparsely, Appendix C.2), and samples the recording at the same instants; a device
+sample that changes the ellipsoid is sent at once from the subscriber's thread, so the latency does not include
+waiting for the next tick.
+"""
+
+import threading
+import time
+from typing import Callable, Dict, List, Optional, Tuple
+
+import numpy as np
+import rospy
+from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
+from PyQt5.QtCore import QObject, Qt, QTimer, pyqtSignal, pyqtSlot
+from std_msgs.msg import Bool, Float64
+
+from teleteach.gui.config import GuiConfig
+from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
+from teleteach.gui.ellipsoid import EllipsoidCommand
+from teleteach.gui.recording import StiffnessRecorder, Trajectory
+from teleteach.gui.selection import TreeNode, TreeSnapshot
+from teleteach.msg import BehaviourTree, HelpRequest, SkillLibrary
+
+LOW_LEVEL_TAB = 2
+
+
+def pose_to_array(pose) -> np.ndarray:
+    """(x, y, z, qx, qy, qz, qw) of a geometry_msgs/Pose."""
+    p, q = pose.position, pose.orientation
+    return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w])
+
+
+class TrajectoryPlayer:
+    """Plays the predefined kinematic trajectory on /equilibrium_pose from its own thread (thesis A.2.2)."""
+
+    def __init__(self, trajectory: Trajectory, rate: float, publisher: rospy.Publisher):
+        self.trajectory = trajectory
+        self._period = 1.0 / rate
+        self._publisher = publisher
+        self._stop = threading.Event()
+        self._thread: Optional[threading.Thread] = None
+        self._lock = threading.Lock()
+        self._current: Optional[np.ndarray] = None
+
+    def current(self) -> Optional[np.ndarray]:
+        """The pose last sent, or None before the first one."""
+        with self._lock:
+            return self._current
+
+    @property
+    def running(self) -> bool:
+        """True while the thread plays (or holds the end pose)."""
+        return self._thread is not None and self._thread.is_alive()
+
+    def start(self) -> None:
+        """Start from the first waypoint; after the last one the end pose is held."""
+        self.stop()
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="trajectory_player", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop the thread and wait for it."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+        self._thread = None
+
+    def _run(self) -> None:
+        start = time.monotonic()
+        while not self._stop.is_set() and not rospy.is_shutdown():
+            pose = self.trajectory.sample(time.monotonic() - start)
+            message = PoseStamped()
+            message.header.stamp = rospy.Time.now()
+            message.header.frame_id = self.trajectory.frame
+            p, q = message.pose.position, message.pose.orientation
+            p.x, p.y, p.z, q.x, q.y, q.z, q.w = (float(value) for value in pose)
+            with self._lock:
+                self._current = pose
+            self._publisher.publish(message)
+            self._stop.wait(self._period)
+
+
+class ServiceCaller(QObject):
+    """Calls ROS services off the GUI thread; the answer (or the reason for failing) comes back as a signal.
+
+    A call that has no answer after twice ``timeout`` (finding the service, then the call) is reported as failed at
+    once; its thread is left to finish.
+    """
+
+    finished = pyqtSignal(str, bool, str, object)  # key, success, message, response
+    _deliver = pyqtSignal(str, int, bool, str, object)  # from the calling thread to this object's thread
+
+    def __init__(self, timeout: float):
+        super().__init__()
+        self.timeout = timeout
+        self._pending = {}
+        self._counter = 0
+        self._deliver.connect(self._on_delivered, Qt.QueuedConnection)
+
+    def call(self, key: str, service: str, service_class, request) -> None:
+        """Start ``service(request)``; ``finished(key, ...)`` follows, from this object's thread."""
+        self._counter += 1
+        token = self._counter
+        self._pending[key] = token
+        threading.Thread(
+            target=self._run, args=(key, token, service, service_class, request), daemon=True, name=f"call_{key}"
+        ).start()
+        # waiting for the service and the call itself may each take up to the timeout
+        QTimer.singleShot(int(2 * self.timeout * 1000) + 200, lambda: self._expire(key, token, service))
+
+    def busy(self, key: str) -> bool:
+        """True while a call under ``key`` has neither answered nor timed out."""
+        return key in self._pending
+
+    def _expire(self, key: str, token: int, service: str) -> None:
+        if self._pending.get(key) == token:
+            del self._pending[key]
+            self.finished.emit(key, False, f"{service}: no answer within {self.timeout:.1f} s", None)
+
+    def _run(self, key, token, service, service_class, request) -> None:
+        try:
+            rospy.wait_for_service(service, timeout=self.timeout)
+            response = rospy.ServiceProxy(service, service_class)(request)
+            result = (True, "", response)
+        except rospy.ROSException as error:
+            result = (False, f"{service} is not available ({error})", None)
+        except (rospy.ServiceException, OSError) as error:
+            result = (False, f"{service} failed: {error}", None)
+        self._deliver.emit(key, token, *result)
+
+    @pyqtSlot(str, int, bool, str, object)
+    def _on_delivered(self, key, token, success, message, response) -> None:
+        if self._pending.get(key) != token:
+            return
+        del self._pending[key]
+        self.finished.emit(key, success, message, response)
+
+
+class RosWorker(QObject):
+    """Owns the subscribers and the stiffness publishers; lives in its own QThread (thesis Fig. A.1, orange block).
+
+    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose,
+    /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request.
+    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL is active).
+    """
+
+    device_changed = pyqtSignal(object)  # DeviceSample, at most device_ui_rate
+    clicked = pyqtSignal()
+    gripper_opened = pyqtSignal()
+    tree_received = pyqtSignal(object)  # TreeSnapshot
+    library_received = pyqtSignal(object)  # list of (name, kind, data_file)
+    help_requested = pyqtSignal(str, str)
+    health = pyqtSignal(str)  # "" when all inputs are alive, else what is missing
+
+    def __init__(self, config: GuiConfig, command: EllipsoidCommand, recorder: StiffnessRecorder):
+        super().__init__()
+        self.config = config
+        self.command = command
+        self.recorder = recorder
+        self.active_tab = 0
+        self.equilibrium: Callable[[], Optional[np.ndarray]] = lambda: None
+        self._filter = DeviceFilter(config)
+        self._button = EdgeDetector(0.5, 0.5)
+        self._gripper = EdgeDetector(config.gripper_open_threshold, config.gripper_rearm_below)
+        self._lock = threading.Lock()
+        self._sample = None
+        self._sample_seq = 0
+        self._emitted_seq = 0
+        self._cartesian: Optional[np.ndarray] = None
+        self._publish_lock = threading.Lock()
+        self._last_publish = -1.0
+        self._last_seen = {}
+        self._rejected = 0
+        self._subscribers: Dict[str, rospy.Subscriber] = {}
+        self._timers: List[QTimer] = []
+
+    @pyqtSlot()
+    def start(self) -> None:
+        """Create subscribers, publishers and timers (runs in the worker thread)."""
+        self._eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=10)
+        self._eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=10)
+        subscriptions: List[Tuple[str, type, Callable]] = [
+            ("/sigma7/pose", PoseStamped, self._on_pose),
+            ("/sigma7/button", Bool, self._on_button),
+            ("/sigma7/gripper_angle", Float64, self._on_gripper),
+            ("/cartesian_pose", PoseStamped, self._on_cartesian),
+            ("/behaviour_tree/log/tree", BehaviourTree, self._on_tree),
+            ("/behaviour_tree/skill_library", SkillLibrary, self._on_library),
+            ("/behaviour_tree/help_request", HelpRequest, self._on_help),
+        ]
+        for topic, message_class, callback in subscriptions:
+            # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
+            queue = 2000 if topic in ("/sigma7/button", "/sigma7/gripper_angle") else 5
+            self._subscribers[topic] = rospy.Subscriber(
+                topic, message_class, callback, queue_size=queue, tcp_nodelay=True
+            )
+        for rate, slot in (
+            (self.config.publish_rate, self._publish_stiffness),
+            (self.config.device_ui_rate, self._emit_device),
+            (1.0, self._check_health),
+        ):
+            timer = QTimer(self)
+            timer.setTimerType(Qt.PreciseTimer)
+            timer.timeout.connect(slot)
+            timer.start(max(1, int(round(1000.0 / rate))))
+            self._timers.append(timer)
+
+    @pyqtSlot()
+    def stop(self) -> None:
+        """Cooperative stop: timers off, subscribers gone (runs in the worker thread)."""
+        for timer in self._timers:
+            timer.stop()
+        for subscriber in self._subscribers.values():
+            subscriber.unregister()
+        self._subscribers.clear()
+
+    def reset_device_filter(self) -> None:
+        """Take the next device sample as it is (a new tab starts from where the device is)."""
+        with self._lock:
+            self._filter.reset()
+
+    # rospy threads ---------------------------------------------------------------------------
+    def _on_pose(self, message: PoseStamped) -> None:
+        p, q = message.pose.position, message.pose.orientation
+        raw = parse_pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w), self.config)
+        self._last_seen["/sigma7/pose"] = time.monotonic()
+        if raw is None:
+            self._rejected += 1
+            rospy.logwarn_throttle(5.0, f"teaching_gui: ignored {self._rejected} NaN or out-of-range device poses")
+            return
+        with self._lock:
+            sample = self._filter.apply(raw)
+            self._sample = sample
+            self._sample_seq += 1
+        if self.active_tab == LOW_LEVEL_TAB and self.command.device(sample):
+            self._publish(urgent=True)
+
+    def _on_button(self, message: Bool) -> None:
+        if self._button.update(1.0 if message.data else 0.0):
+            self.clicked.emit()
+
+    def _on_gripper(self, message: Float64) -> None:
+        if self._gripper.update(message.data):
+            self.gripper_opened.emit()
+
+    def _on_cartesian(self, message: PoseStamped) -> None:
+        pose = pose_to_array(message.pose)
+        if np.all(np.isfinite(pose)):
+            self._cartesian = pose
+
+    def _on_tree(self, message: BehaviourTree) -> None:
+        nodes = [
+            TreeNode(b.name, b.class_name, b.own_id, b.parent_id, tuple(b.child_ids), b.type, b.status, b.is_active)
+            for b in message.behaviours
+        ]
+        self.tree_received.emit(TreeSnapshot(nodes))
+
+    def _on_library(self, message: SkillLibrary) -> None:
+        kinds = list(message.kinds) + [""] * len(message.names)
+        files = list(message.data_files) + [""] * len(message.names)
+        self.library_received.emit(list(zip(message.names, kinds, files)))
+
+    def _on_help(self, message: HelpRequest) -> None:
+        self.help_requested.emit(message.node_name, message.reason)
+
+    # worker thread timers -----------------------------------------------------------------------
+    def _publish_stiffness(self) -> None:
+        """The steady stream (and the recording's samples) at publish_rate while LOW-LEVEL is active."""
+        if self.active_tab != LOW_LEVEL_TAB:
+            return
+        stamp = self._publish(urgent=False)
+        if self.recorder.active:
+            self.recorder.add(stamp.to_sec(), self.command.stiffness_matrix(), self.equilibrium(), self._cartesian)
+
+    def _publish(self, urgent: bool) -> Optional[rospy.Time]:
+        """Send the ellipsoid; an urgent send (the device changed it) is skipped when one just went out."""
+        now = time.monotonic()
+        with self._publish_lock:
+            if urgent and now - self._last_publish < 0.5 / self.config.publish_rate:
+                return None
+            self._last_publish = now
+        values, quaternion = self.command.stiffness()
+        stamp = rospy.Time.now()
+        eigenvalues = Vector3Stamped()
+        eigenvalues.header.stamp = stamp
+        eigenvalues.header.frame_id = self.config.base_frame
+        eigenvalues.vector.x, eigenvalues.vector.y, eigenvalues.vector.z = (float(value) for value in values)
+        eigenvectors = QuaternionStamped()
+        eigenvectors.header = eigenvalues.header
+        q = eigenvectors.quaternion
+        q.x, q.y, q.z, q.w = quaternion
+        self._eigenvalues.publish(eigenvalues)
+        self._eigenvectors.publish(eigenvectors)
+        return stamp
+
+    def _emit_device(self) -> None:
+        with self._lock:
+            if self._sample_seq == self._emitted_seq:
+                return
+            self._emitted_seq = self._sample_seq
+            sample = self._sample
+        self.device_changed.emit(sample)
+
+    def _check_health(self) -> None:
+        missing = []
+        if time.monotonic() - self._last_seen.get("/sigma7/pose", -1e9) > 2.0:
+            missing.append("no device (/sigma7/pose silent)")
+        if self._subscribers["/behaviour_tree/log/tree"].get_num_connections() == 0:
+            missing.append("no behaviour tree (/behaviour_tree/log/tree)")
+        self.health.emit("; ".join(missing))

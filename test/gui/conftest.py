@@ -1,0 +1,259 @@
+"""Fixtures for the GUI tests: a roscore, the real behaviour tree node, the GUI in this process, a device stand-in.
+
+The GUI runs in the X server pytest-xvfb starts (real Mesa OpenGL); the test process is one rospy node that both
+hosts the GUI and plays the operator (it publishes the /sigma7 topics the sigma7 node would publish).
+"""
+
+import os
+import pathlib
+import signal
+import socket
+import subprocess
+import threading
+import time
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def stop(process, timeout=10.0):
+    if process.poll() is None:
+        os.killpg(process.pid, signal.SIGINT)
+        try:
+            process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+
+
+@pytest.fixture(scope="session")
+def ros_master(tmp_path_factory):
+    """A roscore on a free port; this process becomes the rospy node 'gui_test'."""
+    import rosgraph
+    import rospy
+
+    if rospy.core.is_initialized():
+        raise RuntimeError("rospy was initialised by another test in this process; GUI tests need their own master")
+    uri = f"http://127.0.0.1:{free_port()}"
+    os.environ["ROS_MASTER_URI"] = uri
+    os.environ["ROS_HOSTNAME"] = "127.0.0.1"
+    logs = tmp_path_factory.mktemp("ros_logs")
+    os.environ["ROS_LOG_DIR"] = str(logs)
+    core = subprocess.Popen(
+        ["roscore", "-p", uri.rsplit(":", 1)[1]],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 30
+    while not rosgraph.is_master_online(uri):
+        assert time.monotonic() < deadline, "roscore did not come up within 30 s"
+        time.sleep(0.1)
+    rospy.init_node("gui_test", disable_signals=True)
+    yield uri
+    rospy.signal_shutdown("GUI tests done")
+    stop(core)
+
+
+@pytest.fixture
+def data_root(tmp_path):
+    path = tmp_path / "teleteach_data"
+    path.mkdir()
+    return path
+
+
+def start(command, log_path):
+    """A node (or launch) in its own process group, its output in ``log_path`` (read it when a test fails)."""
+    with open(log_path, "w") as log:
+        return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def start_bt(data_root, server_timeout=60.0):
+    """The real behaviour tree node (config/tree.yaml, config/skills.yaml), its data in ``data_root``."""
+    import rospy
+
+    from teleteach.msg import BehaviourTree
+
+    process = start(
+        [str(ROOT / "nodes" / "behaviour_tree"), f"_data_dir:={data_root}", f"_server_timeout:={server_timeout}"],
+        data_root.parent / "behaviour_tree.log",
+    )
+    rospy.wait_for_service("/change_tree", timeout=60)
+    rospy.wait_for_message("/behaviour_tree/log/tree", BehaviourTree, timeout=30)
+    return process
+
+
+@pytest.fixture
+def bt_node(ros_master, data_root):
+    """The behaviour tree node; its skills wait a minute for their servers (none run), so nobody asks for help."""
+    process = start_bt(data_root)
+    yield process
+    stop(process)
+
+
+@pytest.fixture(scope="session")
+def qapp():
+    from PyQt5.QtWidgets import QApplication
+
+    assert os.environ.get("DISPLAY"), "GUI tests need the X server of pytest-xvfb (Debian python3-pytest-xvfb)"
+    return QApplication.instance() or QApplication(["gui_test"])
+
+
+def pump(qapp, seconds):
+    """Let the GUI run for ``seconds``."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        qapp.processEvents()
+        time.sleep(0.005)
+
+
+def pump_until(qapp, predicate, timeout, what):
+    """Run the GUI until ``predicate()`` holds; fail naming ``what`` after ``timeout`` seconds."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        qapp.processEvents()
+        if predicate():
+            return
+        time.sleep(0.005)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+class DeviceStandIn:
+    """Publishes the /sigma7 topics like the sigma7 node (pose, gripper, emulated button) at 200 Hz."""
+
+    def __init__(self):
+        import rospy
+        from geometry_msgs.msg import PoseStamped
+        from std_msgs.msg import Bool, Float64
+
+        self._rospy = rospy
+        self._pose = rospy.Publisher("/sigma7/pose", PoseStamped, queue_size=10)
+        self._gripper = rospy.Publisher("/sigma7/gripper_angle", Float64, queue_size=10)
+        self._button = rospy.Publisher("/sigma7/button", Bool, queue_size=10)
+        self._messages = (PoseStamped, Float64, Bool)
+        self._lock = threading.Lock()
+        self.position = [0.0, 0.0, 0.0]
+        self.quaternion = [0.0, 0.0, 0.0, 1.0]
+        self.gripper = 0.25
+        self.pressed = False
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def move(self, x=0.0, y=0.0, z=0.0, roll=0.0, pitch=0.0, yaw=0.0):
+        from teleteach.gui.device import euler_to_quaternion
+
+        with self._lock:
+            self.position = [x, y, z]
+            self.quaternion = list(euler_to_quaternion(roll, pitch, yaw))
+
+    def raw(self, position, quaternion):
+        with self._lock:
+            self.position, self.quaternion = list(position), list(quaternion)
+
+    def click(self, hold=0.08):
+        with self._lock:
+            self.pressed = True
+        time.sleep(hold)
+        with self._lock:
+            self.pressed = False
+        time.sleep(hold)
+
+    def set_gripper(self, angle):
+        with self._lock:
+            self.gripper = angle
+
+    def _run(self):
+        pose_class, float_class, bool_class = self._messages
+        while not self._stop.is_set() and not self._rospy.is_shutdown():
+            with self._lock:
+                message = pose_class()
+                message.header.stamp = self._rospy.Time.now()
+                message.header.frame_id = "sigma7"
+                p, q = message.pose.position, message.pose.orientation
+                p.x, p.y, p.z = self.position
+                q.x, q.y, q.z, q.w = self.quaternion
+                gripper, pressed = self.gripper, self.pressed
+            self._pose.publish(message)
+            self._gripper.publish(float_class(gripper))
+            self._button.publish(bool_class(pressed))
+            time.sleep(0.005)
+
+    def close(self):
+        self._stop.set()
+        self._thread.join(2)
+
+
+@pytest.fixture
+def device(ros_master):
+    stand_in = DeviceStandIn()
+    yield stand_in
+    stand_in.close()
+
+
+@pytest.fixture
+def make_window(qapp, ros_master, data_root):
+    """Builds the real main window (config/gui.yaml + overrides) and closes it after the test."""
+    from teleteach.gui.app import MainWindow
+    from teleteach.gui.config import GuiConfig
+
+    windows = []
+
+    def make(**overrides):
+        window = MainWindow(GuiConfig.load(**overrides), data_root=data_root)
+        window.show()
+        windows.append(window)
+        pump(qapp, 0.3)
+        return window
+
+    yield make
+    for window in windows:
+        window.close()
+    pump(qapp, 0.2)
+
+
+class TopicLog:
+    """Collects the messages of a topic with their arrival times."""
+
+    def __init__(self, topic, message_class):
+        import rospy
+
+        self.messages = []
+        self._lock = threading.Lock()
+        self._subscriber = rospy.Subscriber(topic, message_class, self._on, queue_size=1000)
+
+    def _on(self, message):
+        with self._lock:
+            self.messages.append((time.monotonic(), message))
+
+    def last(self):
+        with self._lock:
+            return self.messages[-1][1] if self.messages else None
+
+    def since(self, start):
+        with self._lock:
+            return [message for arrival, message in self.messages if arrival >= start]
+
+    def close(self):
+        self._subscriber.unregister()
+
+
+@pytest.fixture
+def topic_log():
+    logs = []
+
+    def make(topic, message_class):
+        log = TopicLog(topic, message_class)
+        logs.append(log)
+        return log
+
+    yield make
+    for log in logs:
+        log.close()

@@ -1,0 +1,124 @@
+"""HIGH-LEVEL teaching with the real GUI and the real behaviour tree node (thesis III-B, III-E), checked over ROS."""
+
+import pytest
+from conftest import pump_until, start_bt, stop
+
+from teleteach.gui.selection import OPERATIONS, Step
+from teleteach.msg import BehaviourTree
+
+pytestmark = pytest.mark.gui
+
+
+def centre(index, count, half_range=0.1):
+    """Device coordinate in the middle of bin ``index`` of ``count`` (a slider position)."""
+    return -half_range + (index + 0.5) * 2 * half_range / count
+
+
+def execution_children(tree_message):
+    by_id = {b.own_id: b for b in tree_message.behaviours}
+    execution = next(b for b in tree_message.behaviours if b.name == "BehaviorExecution")
+    return [by_id[child] for child in execution.child_ids]
+
+
+def open_high_level(qapp, window, device):
+    """START: device to the left (HIGH-LEVEL button), click."""
+    device.move(x=-0.05)
+    pump_until(qapp, lambda: window.start_tab.selected == 0, 5, "START to select HIGH-LEVEL")
+    device.click()
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 1, 5, "the HIGH-LEVEL tab to open")
+
+
+def select_node(qapp, window, device, index):
+    flow = window.high_level.flow
+    device.move(x=centre(index, len(flow.choices)))
+    pump_until(qapp, lambda: flow.node_index == index, 5, f"the slider to reach {flow.choices[index]}")
+    device.click()
+    pump_until(qapp, lambda: flow.step is Step.OPERATION, 5, "step 2")
+
+
+def select_operation(qapp, window, device, operation):
+    flow = window.high_level.flow
+    device.move(y=centre(OPERATIONS.index(operation), len(OPERATIONS)))
+    pump_until(qapp, lambda: flow.selected_operation == operation, 5, f"the operation slider at {operation}")
+
+
+def test_thesis_flow_removes_place_item(qapp, bt_node, device, make_window, topic_log, artifacts_dir):
+    from std_msgs.msg import Int8
+
+    tab_log = topic_log("/teleteach/active_tab", Int8)
+    tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
+    window = make_window()
+    pump_until(qapp, lambda: "PlaceItem" in window.high_level.flow.choices, 20, "buttons from the tree")
+    window.screenshot().save(str(artifacts_dir / "gui_start.png"))
+    open_high_level(qapp, window, device)
+    pump_until(qapp, lambda: tab_log.last() is not None and tab_log.last().data == 1, 5, "/teleteach/active_tab = 1")
+
+    # Phase A/B: device X to PlaceItem, click; step 2 and 3 stay greyed while selecting
+    assert not window.high_level.step2.isEnabled() and not window.high_level.step3.isEnabled()
+    select_node(qapp, window, device, window.high_level.flow.choices.index("PlaceItem"))
+    assert window.high_level.step2.isEnabled() and not window.high_level.step1.isEnabled()
+    # Phase C/D: device Y down to remove, click
+    select_operation(qapp, window, device, "remove")
+    window.screenshot().save(str(artifacts_dir / "gui_high_level_remove.png"))
+    device.click()
+
+    def place_item_gone():
+        tree = tree_log.last()
+        return tree is not None and "PlaceItem" not in [b.name for b in execution_children(tree)]
+
+    pump_until(qapp, place_item_gone, 15, "PlaceItem to leave the tree")
+    pump_until(qapp, lambda: window.high_level.flow.answer.startswith("done"), 10, "the answer on screen")
+    pump_until(qapp, lambda: "PlaceItem" not in window.high_level.choices()[0][-1][1], 10, "the button to go")
+    window.screenshot().save(str(artifacts_dir / "gui_high_level_removed.png"))
+
+    # Gripper fully open: back to START
+    device.set_gripper(0.5)
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 0, 5, "START after opening the gripper")
+    pump_until(qapp, lambda: tab_log.last().data == 0, 5, "/teleteach/active_tab = 0")
+
+
+def test_insert_at_an_index_via_the_dial(qapp, bt_node, device, make_window, topic_log, artifacts_dir):
+    from teleteach.gui.device import euler_to_quaternion  # noqa: F401 - the device stand-in uses it
+
+    tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
+    window = make_window()
+    high = window.high_level
+    pump_until(qapp, lambda: "DropItem" in [name for name, _, _ in high.library], 20, "the skill library")
+    open_high_level(qapp, window, device)
+    # the library's DropItem button (after the tree's buttons)
+    groups, library = high.choices()
+    leaves = sum(len(names) for _, names in groups)
+    select_node(qapp, window, device, leaves + library.index("DropItem"))
+    select_operation(qapp, window, device, "insert")
+    device.click()
+    pump_until(qapp, lambda: high.flow.step is Step.INDEX, 5, "step 3 (the dial)")
+    assert high.step3.isEnabled() and not high.step2.isEnabled()
+    slots = high.flow.insert_slots
+    device.move(y=centre(OPERATIONS.index("insert"), len(OPERATIONS)), roll=centre(1, slots, half_range=1.0))
+    pump_until(qapp, lambda: high.flow.index == 1 and high.dial.value() == 1, 5, "the dial at index 1")
+    window.screenshot().save(str(artifacts_dir / "gui_high_level_insert_dial.png"))
+    device.click()
+
+    def inserted():
+        tree = tree_log.last()
+        return tree is not None and execution_children(tree)[1].class_name == "DropItem"
+
+    pump_until(qapp, inserted, 15, "a DropItem copy at index 1 of BehaviorExecution")
+    children = execution_children(tree_log.last())
+    assert children[0].name == "LookToShelf" and children[2].name == "PickItem"
+    pump_until(qapp, lambda: high.flow.answer.startswith("done"), 10, "the answer on screen")
+
+
+@pytest.fixture
+def impatient_bt_node(ros_master, data_root):
+    """The behaviour tree node with a 1 s server timeout: its first skill fails and it asks for help."""
+    process = start_bt(data_root, server_timeout=1.0)
+    yield process
+    stop(process)
+
+
+def test_help_request_is_shown_prominently(qapp, impatient_bt_node, make_window, artifacts_dir):
+    window = make_window()
+    pump_until(qapp, lambda: window.help_banner.isVisible(), 20, "the help banner")
+    assert "LookToShelf" in window.help_banner.text()
+    window.screenshot().save(str(artifacts_dir / "gui_help_request.png"))

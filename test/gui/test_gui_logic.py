@@ -1,0 +1,264 @@
+"""Unit tests of the GUI's pure logic (no Qt, no ROS master): config, device filtering, gestures,
+the three-step selection, the ellipsoid and the recording."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from teleteach import skill_file
+from teleteach.gui.config import GuiConfig, GuiConfigError
+from teleteach.gui.device import (
+    ClickClassifier,
+    DeviceFilter,
+    DeviceSample,
+    EdgeDetector,
+    euler_to_quaternion,
+    parse_pose,
+    quaternion_to_euler,
+    scale_to_index,
+)
+from teleteach.gui.ellipsoid import EllipsoidCommand, rotation_matrix
+from teleteach.gui.recording import StiffnessRecorder, Trajectory, TrajectoryError, unique_skill_name
+from teleteach.gui.selection import OPERATIONS, SelectionFlow, Step, TreeNode, TreeSnapshot
+from teleteach.sim.scene import load_scene
+
+CONFIG = GuiConfig.load()
+IDENTITY = (0.0, 0.0, 0.0, 1.0)
+
+
+def sample(x=0.0, y=0.0, z=0.0, roll=0.0, pitch=0.0, yaw=0.0):
+    return DeviceSample(x, y, z, roll, pitch, yaw)
+
+
+def test_config_file_loads_with_the_thesis_values():
+    assert CONFIG.stiffness_per_pixel == 5.0
+    assert CONFIG.max_stiffness == 3000.0
+    assert CONFIG.rotational_stiffness == 30.0
+    assert CONFIG.max_pixels == pytest.approx(600.0)
+
+
+@pytest.mark.parametrize(
+    "overrides, words",
+    [
+        ({"max_stiffness": -1.0}, "max_stiffness"),
+        ({"locked_axes": ["w"]}, "locked_axes"),
+        ({"colour": "red"}, "unknown"),
+        ({"min_stiffness": 4000.0}, "min_stiffness"),
+        ({"initial_tab": 3}, "initial_tab"),
+        ({"publish_rate": float("nan")}, "publish_rate"),
+    ],
+)
+def test_bad_config_is_rejected_with_its_name(overrides, words):
+    with pytest.raises(GuiConfigError, match=words):
+        GuiConfig.load(**overrides)
+
+
+@pytest.mark.parametrize("angles", [(0.3, -0.4, 0.9), (-1.0, 0.2, -0.7), (0.0, 0.0, 0.0), (0.9, 0.9, -0.9)])
+def test_euler_conversions_match_scipy_for_rz_ry_rx(angles):
+    roll, pitch, yaw = angles
+    expected = Rotation.from_euler("ZYX", [yaw, pitch, roll])  # intrinsic Z-Y-X = Rz(yaw) Ry(pitch) Rx(roll)
+    assert np.allclose(Rotation.from_quat(euler_to_quaternion(*angles)).as_matrix(), expected.as_matrix())
+    assert np.allclose(rotation_matrix(*angles), expected.as_matrix())
+    assert np.allclose(quaternion_to_euler(*expected.as_quat()), angles)
+
+
+@pytest.mark.parametrize(
+    "position, quaternion",
+    [
+        ((math.nan, 0.0, 0.0), IDENTITY),
+        ((0.0, 0.0, 0.0), (0.0, 0.0, math.inf, 1.0)),
+        ((0.5, 0.0, 0.0), IDENTITY),
+        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0)),
+        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.5, 0.5)),
+    ],
+)
+def test_nan_and_out_of_range_device_poses_are_ignored(position, quaternion):
+    assert parse_pose(position, quaternion, CONFIG) is None
+
+
+def test_valid_device_pose_is_parsed():
+    parsed = parse_pose((0.01, -0.02, 0.03), euler_to_quaternion(0.1, 0.2, 0.3), CONFIG)
+    assert parsed.as_tuple() == pytest.approx((0.01, -0.02, 0.03, 0.1, 0.2, 0.3))
+
+
+def test_deadband_holds_small_motions_and_lock_ignores_an_axis():
+    config = GuiConfig.load(deadband_position=0.005, locked_axes=["y"])
+    device_filter = DeviceFilter(config)
+    assert device_filter.apply(sample(0.01, 0.02)).as_tuple()[:2] == (0.01, 0.0)
+    # Expect: 3 mm jitter in x is held, y stays locked at 0
+    assert device_filter.apply(sample(0.013, 0.05)).as_tuple()[:2] == (0.01, 0.0)
+    # Expect: a 6 mm move goes through
+    assert device_filter.apply(sample(0.016, 0.05)).x == 0.016
+
+
+def test_scale_to_index_covers_the_range_in_equal_bins():
+    assert [scale_to_index(x, 0.1, 4) for x in (-0.2, -0.09, -0.04, 0.01, 0.06, 0.2)] == [0, 0, 1, 2, 3, 3]
+    assert scale_to_index(0.05, 0.1, 1) == 0
+
+
+def test_click_classifier_tells_single_from_double():
+    clicks = ClickClassifier(0.6)
+    assert clicks.click(0.0) is None
+    assert clicks.poll(0.5) is None
+    assert clicks.poll(0.61) == ClickClassifier.SINGLE
+    assert clicks.click(1.0) is None
+    assert clicks.click(1.4) == ClickClassifier.DOUBLE
+    assert clicks.poll(3.0) is None
+
+
+def test_edge_detector_fires_once_per_opening_and_not_at_start():
+    gripper = EdgeDetector(0.45, 0.35)
+    assert not gripper.update(0.5)  # starts open: no gesture
+    assert not gripper.update(0.25)
+    assert gripper.update(0.46)
+    assert not gripper.update(0.5)
+    assert not gripper.update(0.40)  # not below the re-arm level
+    assert not gripper.update(0.46)
+    assert not gripper.update(math.nan)
+    assert not gripper.update(0.2)
+    assert gripper.update(0.5)
+
+
+def make_tree(leaves=("LookToShelf", "PickItem", "MoveBase", "PlaceItem", "DropItem")):
+    nodes = [
+        TreeNode("Root", "Selector", "r", "", ("p", "b"), 3, 2),
+        TreeNode("PauseCondition", "PauseCondition", "p", "r", (), 1, 4),
+        TreeNode("BehaviorExecution", "Sequence", "b", "r", tuple(f"l{i}" for i in range(len(leaves))), 2, 2),
+    ]
+    nodes += [TreeNode(name, name, f"l{i}", "b", (), 1, 1) for i, name in enumerate(leaves)]
+    return TreeSnapshot(nodes)
+
+
+def test_tree_snapshot_walks_depth_first_in_tick_order():
+    tree = make_tree()
+    assert [node.name for _, node in tree.depth_first()][:4] == [
+        "Root",
+        "PauseCondition",
+        "BehaviorExecution",
+        "LookToShelf",
+    ]
+    assert tree.child_count("BehaviorExecution") == 5
+    assert tree.root.name == "Root"
+
+
+def x_for(index, count, half_range=0.1):
+    return -half_range + (index + 0.5) * 2 * half_range / count
+
+
+def test_three_step_flow_removes_the_selected_node():
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices(["LookToShelf", "PickItem", "MoveBase", "PlaceItem", "DropItem"], 6)
+    flow.device(sample(x=x_for(3, 5), y=0.09))
+    # Expect: in step 1 only X matters
+    assert (flow.selected_node, flow.operation_index) == ("PlaceItem", 0)
+    assert flow.click() is None and flow.step is Step.OPERATION
+    flow.device(sample(x=-0.1, y=x_for(OPERATIONS.index("remove"), 4)))
+    # Expect: X no longer moves the node selection
+    assert flow.selected_node == "PlaceItem"
+    request = flow.click()
+    assert (request.node_name, request.operation) == ("PlaceItem", "remove")
+    assert flow.step is Step.WAITING and flow.click() is None
+    flow.answered(True, "removed PlaceItem")
+    assert flow.step is Step.NODE and flow.answer.startswith("done")
+
+
+def test_three_step_flow_inserts_at_the_dial_index():
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices(["A", "B", "Skill_1"], 4)
+    flow.device(sample(x=x_for(2, 3)))
+    flow.click()
+    flow.device(sample(y=x_for(OPERATIONS.index("insert"), 4)))
+    assert flow.click() is None and flow.step is Step.INDEX
+    flow.device(sample(roll=x_for(1, 4, half_range=1.0)))
+    request = flow.click()
+    assert (request.node_name, request.operation, request.index) == ("Skill_1", "insert", 1)
+
+
+def test_flow_restarts_when_the_selected_node_disappears():
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices(["A", "B"], 3)
+    flow.device(sample(x=0.09))
+    flow.click()
+    flow.set_choices(["A"], 2)
+    assert flow.step is Step.NODE and flow.selected_node == "A"
+
+
+def test_ellipsoid_modes_move_only_their_axis_and_angle():
+    command = EllipsoidCommand(CONFIG)
+    command.device(sample(x=0.1, y=-0.1, z=0.0, roll=0.2, pitch=0.3, yaw=0.4))
+    values, _ = command.stiffness()
+    # Expect: ALL mode, device range [-0.1, 0.1] m -> [min, max] stiffness
+    assert values == pytest.approx([3000.0, 50.0, 0.5 * (3000.0 + 50.0)])
+    assert command.next_mode() == "X"
+    command.device(sample(x=0.0, y=0.1, z=0.1, roll=-0.5, pitch=0.0, yaw=0.0))
+    values, quaternion = command.stiffness()
+    assert values == pytest.approx([1525.0, 50.0, 1525.0])
+    assert quaternion_to_euler(*quaternion) == pytest.approx((-0.5, 0.3, 0.4))
+    assert [command.next_mode() for _ in range(3)] == ["Y", "Z", "ALL"]
+
+
+def test_stiffness_matrix_is_v_sigma_vt():
+    command = EllipsoidCommand(CONFIG)
+    command.device(sample(x=0.05, y=-0.05, z=0.02, roll=0.3, pitch=-0.2, yaw=0.785))
+    values, quaternion = command.stiffness()
+    rotation = Rotation.from_quat(quaternion).as_matrix()
+    matrix = command.stiffness_matrix()
+    assert np.allclose(matrix, rotation @ np.diag(values) @ rotation.T)
+    assert np.allclose(np.sort(np.linalg.eigvalsh(matrix)), np.sort(values))
+
+
+def test_trajectory_interpolates_and_holds_the_end():
+    trajectory = Trajectory([0.0, 1.0], [[0, 0, 0], [1, 2, 3]], [IDENTITY, euler_to_quaternion(0, 0, 1.0)])
+    assert trajectory.sample(0.5)[:3] == pytest.approx([0.5, 1.0, 1.5])
+    assert quaternion_to_euler(*trajectory.sample(0.5)[3:]) == pytest.approx((0.0, 0.0, 0.5))
+    assert trajectory.sample(5.0)[:3] == pytest.approx([1, 2, 3])
+    with pytest.raises(TrajectoryError, match="increase"):
+        Trajectory([0.0, 0.0], [[0, 0, 0]] * 2, [IDENTITY] * 2)
+
+
+@pytest.mark.parametrize("name, base_pose", [("perpendicular", "place_perpendicular"), ("angled_45", "place_45deg")])
+def test_predefined_trajectories_end_in_the_shelf_gap(name, base_pose):
+    scene = load_scene()
+    base = scene.base_poses[base_pose]
+    trajectory = Trajectory.load(name)
+    end = trajectory.sample(trajectory.duration)
+    world = Rotation.from_euler("z", base.yaw).apply(end[:3]) + np.array([base.x, base.y, 0.0])
+    assert np.linalg.norm(world[:2] - np.array(scene.gap.position[:2])) < scene.gap.tolerance
+    assert abs(world[2] - scene.gap.position[2]) < 0.01
+    # the hand approaches along world +X, the direction into the shelf
+    approach = (Rotation.from_euler("z", base.yaw) * Rotation.from_quat(end[3:])).apply([0.0, 0.0, 1.0])
+    assert approach == pytest.approx([1.0, 0.0, 0.0], abs=1e-3)
+
+
+def test_recorder_makes_a_valid_skill_file(tmp_path):
+    recorder = StiffnessRecorder()
+    pose = np.array([0.5, 0.0, 0.7, *IDENTITY])
+    assert not recorder.add(0.0, np.eye(3) * 100, pose, pose)  # not recording yet
+    recorder.start()
+    for step in range(5):
+        assert recorder.add(
+            step * 0.01, np.eye(3) * (100 + step), pose, pose + np.array([step * 1e-3, 0, 0, 0, 0, 0, 0])
+        )
+    assert not recorder.add(0.06, np.eye(3), pose, None)  # no measured pose yet: skipped
+    assert not recorder.add(0.01, np.eye(3), pose, pose)  # time going back: skipped
+    recorder.stop()
+    skill = recorder.to_skill("Demo_1", 30.0, {"source": "test"})
+    path = skill_file.save(skill, tmp_path / "Demo_1")
+    loaded = skill_file.load(path)
+    assert loaded.kind == "stiffness" and loaded.stiffness.shape == (5, 3, 3)
+    assert loaded.stiffness[-1, 0, 0] == 104
+
+
+def test_recorder_without_samples_cannot_become_a_skill():
+    recorder = StiffnessRecorder()
+    recorder.start()
+    recorder.stop()
+    with pytest.raises(skill_file.SkillFileError):
+        recorder.to_skill("Demo_1", 30.0, {})
+
+
+def test_unique_skill_name_skips_library_and_files(tmp_path):
+    (tmp_path / "Demo_2.npz").write_bytes(b"")
+    assert unique_skill_name("Demo", ["Demo_1"], tmp_path) == "Demo_3"

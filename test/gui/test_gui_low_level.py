@@ -1,0 +1,117 @@
+"""LOW-LEVEL teaching with the real GUI (thesis II-C, III-C/D): the ellipsoid commanded by the device, over ROS."""
+
+import math
+
+import numpy as np
+import pytest
+from conftest import pump, pump_until
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from scipy.spatial.transform import Rotation
+from std_msgs.msg import Bool
+
+pytestmark = pytest.mark.gui
+
+
+def expected_stiffness(position, low=50.0, high=3000.0, half_range=0.1):
+    """Independent of the GUI code: device [-0.1, 0.1] m maps linearly onto [50, 3000] N/m."""
+    return np.array([low + (value + half_range) / (2 * half_range) * (high - low) for value in position])
+
+
+def open_low_level(qapp, window, device):
+    device.move(x=0.05)
+    pump_until(qapp, lambda: window.start_tab.selected == 1, 5, "START to select LOW-LEVEL")
+    device.click()
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 2, 5, "the LOW-LEVEL tab to open")
+
+
+def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, topic_log, artifacts_dir):
+    values_log = topic_log("/eigenvalues", Vector3Stamped)
+    vectors_log = topic_log("/eigenvectors", QuaternionStamped)
+    pause_log = topic_log("/behaviour_tree/pause", Bool)
+    window = make_window()
+    pump(qapp, 0.5)
+    assert values_log.last() is None  # nothing is commanded outside LOW-LEVEL
+    open_low_level(qapp, window, device)
+    pump_until(qapp, lambda: pause_log.last() is not None and pause_log.last().data, 5, "the BT paused")
+
+    position, angles = (0.06, -0.03, 0.02), (0.3, -0.2, 0.6)  # roll, pitch, yaw [rad]
+    device.move(*position, *angles)
+    stiffness = expected_stiffness(position)
+    rotation = Rotation.from_euler("ZYX", angles[::-1]).as_matrix()  # R = Rz(yaw) Ry(pitch) Rx(roll)
+
+    def commanded():
+        message = values_log.last()
+        v = message.vector if message else None
+        return v is not None and np.allclose([v.x, v.y, v.z], stiffness, rtol=0.01)
+
+    pump_until(qapp, commanded, 5, f"/eigenvalues = {stiffness}")
+    pump(qapp, 2.0)
+    window.screenshot().save(str(artifacts_dir / "gui_low_level_all.png"))
+    values = values_log.messages[-200:]
+    stamps = [message.header.stamp.to_sec() for _, message in values]
+    rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+    assert rate >= 100.0, f"/eigenvalues at {rate:.0f} Hz"
+    vector = values[-1][1].vector
+    assert np.allclose([vector.x, vector.y, vector.z], stiffness, rtol=0.01)
+    assert values[-1][1].header.frame_id == "base_link"
+    q = vectors_log.last()
+    assert q.header.frame_id == "base_link"
+    measured = Rotation.from_quat([q.quaternion.x, q.quaternion.y, q.quaternion.z, q.quaternion.w]).as_matrix()
+    assert np.abs(measured - rotation).max() < 0.01
+
+    # NaN and out-of-range device data change nothing
+    device.raw((math.nan, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    pump(qapp, 0.3)
+    device.raw((0.9, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    pump(qapp, 0.3)
+    vector = values_log.last().vector
+    assert np.allclose([vector.x, vector.y, vector.z], stiffness, rtol=0.01)
+
+    # One click: mode X; now only the X length and roll follow the device
+    device.move(*position, *angles)
+    device.click()
+    pump_until(qapp, lambda: window.command.mode == "X", 5, "mode X after one click")
+    device.move(-0.08, 0.08, 0.08, -0.4, 0.5, -0.5)
+    expected = [expected_stiffness([-0.08])[0], stiffness[1], stiffness[2]]
+
+    def only_x_changed():
+        v = values_log.last().vector
+        return np.allclose([v.x, v.y, v.z], expected, rtol=0.01)
+
+    pump_until(qapp, only_x_changed, 5, f"/eigenvalues = {expected}")
+    q = vectors_log.last().quaternion
+    roll, pitch, yaw = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_euler("ZYX")[::-1]
+    assert (roll, pitch, yaw) == pytest.approx((-0.4, angles[1], angles[2]), abs=0.01)
+    pump(qapp, 0.3)
+    window.screenshot().save(str(artifacts_dir / "gui_low_level_mode_x.png"))
+
+    # Back to START with the gripper: stiffness publication stops, the BT runs again
+    device.set_gripper(0.5)
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 0, 5, "START")
+    pump_until(qapp, lambda: not pause_log.last().data, 5, "the BT unpaused")
+    count = len(values_log.messages)
+    pump(qapp, 0.5)
+    assert len(values_log.messages) - count < 5
+
+
+def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, artifacts_dir):
+    """No BT node, no controller manager: the status bar says so and the GUI keeps working."""
+    window = make_window(service_timeout=1.0)
+    pump_until(qapp, lambda: "behaviour_tree" in window.health_label.text(), 5, "the missing BT in the status bar")
+    open_low_level(qapp, window, device)
+    pump_until(
+        qapp,
+        lambda: "switch_controller" in window.statusBar().currentMessage(),
+        10,
+        "the failed controller switch in the status bar",
+    )
+    window.screenshot().save(str(artifacts_dir / "gui_low_level_no_robot.png"))
+    # a recording without /cartesian_pose cannot become a skill; the GUI says why and stays responsive
+    device.click()
+    device.click()
+    pump_until(qapp, lambda: window.recorder.active, 5, "recording after a double click")
+    pump(qapp, 0.5)
+    device.click()
+    device.click()
+    pump_until(qapp, lambda: not window.recorder.active, 5, "recording stopped after a double click")
+    pump_until(qapp, lambda: "not saved" in window.statusBar().currentMessage(), 5, "why nothing was saved")

@@ -1,0 +1,157 @@
+"""Recording a stiffness skill in LOW-LEVEL (thesis II-C, III-E, A.2.2) with the real GUI, the real behaviour tree
+node and the real robot simulation (its controller manager): the new skill reaches the library and a button."""
+
+import time
+
+import numpy as np
+import pytest
+from conftest import pump, pump_until, start, stop
+from geometry_msgs.msg import PoseStamped
+from std_msgs.msg import Bool
+
+from teleteach import skill_file
+from teleteach.gui.selection import OPERATIONS, Step
+from teleteach.msg import BehaviourTree, SkillLibrary
+from teleteach.srv import ListControllers
+
+pytestmark = pytest.mark.gui
+IMPEDANCE = "cartesian_impedance_controller"
+POSITION = "position_joint_trajectory_controller"
+
+
+@pytest.fixture
+def robot_sim(ros_master, data_root):
+    """sim.launch (robot_sim + robot_state_publisher), without the skill servers."""
+    import rospy
+
+    process = start(["roslaunch", "teleteach", "sim.launch", "skills:=false"], data_root.parent / "sim.log")
+    rospy.wait_for_service("/controller_manager/switch_controller", timeout=90)
+    rospy.wait_for_message("/cartesian_pose", PoseStamped, timeout=30)
+    yield process
+    stop(process, timeout=20)
+    rospy.delete_param("/use_sim_time")  # sim.launch set it on the shared master; later nodes run on wall time
+
+
+def centre(index, count, half_range=0.1):
+    return -half_range + (index + 0.5) * 2 * half_range / count
+
+
+def running_controllers():
+    import rospy
+
+    response = rospy.ServiceProxy("/controller_manager/list_controllers", ListControllers)()
+    return {controller.name for controller in response.controller if controller.state == "running"}
+
+
+def double_click(device):
+    device.click()
+    device.click()
+
+
+def test_recording_makes_a_skill_that_appears_in_the_library(
+    qapp, bt_node, robot_sim, device, make_window, topic_log, data_root, artifacts_dir
+):
+    library_log = topic_log("/behaviour_tree/skill_library", SkillLibrary)
+    tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
+    equilibrium_log = topic_log("/equilibrium_pose", PoseStamped)
+    pause_log = topic_log("/behaviour_tree/pause", Bool)
+    window = make_window()
+    pump_until(qapp, lambda: window.high_level.library, 20, "the skill library in the GUI")
+
+    # START -> LOW-LEVEL: BT paused, impedance controller running
+    device.move(x=0.05)
+    pump_until(qapp, lambda: window.start_tab.selected == 1, 5, "START to select LOW-LEVEL")
+    device.click()
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 2, 5, "LOW-LEVEL")
+    pump_until(qapp, lambda: pause_log.last() is not None and pause_log.last().data, 5, "the BT paused")
+    pump_until(qapp, lambda: IMPEDANCE in window.low_level.controller_label.text(), 15, "the impedance controller")
+    assert "active" in window.low_level.controller_label.text(), window.low_level.controller_label.text()
+    assert IMPEDANCE in running_controllers()
+
+    # compliant approach (phase 1), then stiff along Y (phase 2), as in thesis III-C
+    device.move(-0.08, -0.08, 0.05)
+    pump(qapp, 0.3)
+    double_click(device)
+    pump_until(qapp, lambda: window.recorder.active, 5, "recording after a double click")
+    pump(qapp, 1.5)
+    device.move(-0.08, 0.08, 0.05)
+    pump(qapp, 1.5)
+    window.screenshot().save(str(artifacts_dir / "gui_low_level_recording.png"))
+    double_click(device)
+    pump_until(qapp, lambda: not window.recorder.active, 5, "the recording to stop")
+
+    skills = data_root / "skills"
+    pump_until(qapp, lambda: list(skills.glob("*.npz")), 5, "a skill file in the data directory")
+    (path,) = skills.glob("*.npz")
+    name = path.stem
+
+    def in_library():
+        message = library_log.last()
+        return message is not None and name in message.names
+
+    pump_until(qapp, in_library, 10, f"{name} in /behaviour_tree/skill_library")
+    message = library_log.last()
+    assert message.kinds[list(message.names).index(name)] == "stiffness"
+    pump_until(qapp, lambda: name in window.high_level.choices()[1], 5, f"a HIGH-LEVEL button for {name}")
+    pump_until(qapp, lambda: not pause_log.last().data, 5, "the BT unpaused")
+    pump_until(qapp, lambda: POSITION in running_controllers(), 10, "the position controller back")
+
+    skill = skill_file.load(path)
+    assert skill.kind == "stiffness" and skill.rotational_stiffness == 30.0
+    # sampled with the publication (200 Hz), not with the repaint (capped at 30 Hz): the thesis' C.2 problem
+    assert skill.duration > 2.0 and len(skill.time) > 50 * skill.duration
+    stiffness_y = skill.stiffness[:, 1, 1]
+    assert stiffness_y[0] == pytest.approx(50.0 + 0.02 / 0.2 * 2950.0, rel=0.01)  # y = -0.08 m
+    assert stiffness_y[-1] == pytest.approx(50.0 + 0.18 / 0.2 * 2950.0, rel=0.01)  # y = +0.08 m
+    start = window.trajectory.sample(0.0)
+    assert np.allclose(skill.equilibrium_pose[0, :3], start[:3], atol=0.02)
+    assert equilibrium_log.messages and equilibrium_log.last().header.frame_id == "base_link"
+    assert np.all(np.isfinite(skill.cartesian_pose))
+
+    # Leaving the tab mid-recording (gripper fully open) keeps what was recorded
+    double_click(device)
+    pump_until(qapp, lambda: window.recorder.active, 5, "a second recording")
+    pump_until(qapp, lambda: IMPEDANCE in running_controllers(), 10, "the impedance controller again")
+    pump(qapp, 1.0)
+    device.set_gripper(0.5)
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 0, 5, "START")
+    pump_until(qapp, lambda: len(list(skills.glob("*.npz"))) == 2, 5, "the second skill saved")
+    second = next(p.stem for p in skills.glob("*.npz") if p.stem != name)
+    pump_until(qapp, lambda: second in window.high_level.choices()[1], 10, f"a HIGH-LEVEL button for {second}")
+    pump_until(qapp, lambda: POSITION in running_controllers(), 10, "the position controller back")
+
+    device.set_gripper(0.25)
+    device.move(x=-0.05)
+    pump_until(qapp, lambda: window.start_tab.selected == 0, 5, "START to select HIGH-LEVEL")
+    time.sleep(0.05)
+    device.click()
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 1, 5, "HIGH-LEVEL")
+    pump(qapp, 0.3)
+    window.screenshot().save(str(artifacts_dir / "gui_high_level_new_skill.png"))
+
+    # Thesis III-E: insert the demonstrated skill into the tree at index 4 with the dial
+    high = window.high_level
+    groups, library = high.choices()
+    index = sum(len(names) for _, names in groups) + library.index(name)
+    device.move(x=centre(index, len(high.flow.choices)))
+    pump_until(qapp, lambda: high.flow.selected_node == name, 5, f"the slider at {name}")
+    device.click()
+    pump_until(qapp, lambda: high.flow.step is Step.OPERATION, 5, "step 2")
+    operation_y = centre(OPERATIONS.index("insert"), len(OPERATIONS))
+    device.move(y=operation_y)
+    pump_until(qapp, lambda: high.flow.selected_operation == "insert", 5, "insert")
+    device.click()
+    pump_until(qapp, lambda: high.flow.step is Step.INDEX, 5, "step 3")
+    device.move(y=operation_y, roll=centre(4, high.flow.insert_slots, half_range=1.0))
+    pump_until(qapp, lambda: high.flow.index == 4, 5, "the dial at 4")
+    device.click()
+
+    def inserted():
+        tree = tree_log.last()
+        if tree is None:
+            return False
+        by_id = {b.own_id: b for b in tree.behaviours}
+        execution = next(b for b in tree.behaviours if b.name == "BehaviorExecution")
+        return by_id[execution.child_ids[4]].class_name == name
+
+    pump_until(qapp, inserted, 15, f"{name} at index 4 of BehaviorExecution")
