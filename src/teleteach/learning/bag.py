@@ -1,0 +1,85 @@
+"""Reading a stiffness demonstration from a session bag with ``rosbags`` (no ROS installation needed).
+
+The GUI publishes the principal stiffnesses on ``/eigenvalues`` (Vector3Stamped [N/m]) and the principal axes on
+``/eigenvectors`` (QuaternionStamped, V = R(q)); the controller publishes ``/cartesian_pose`` and the trajectory
+player ``/equilibrium_pose`` (PoseStamped). K = V diag(lambda) V^T (thesis eq 1), each eigenvalue message paired
+with the eigenvector message nearest in time. Times are header stamps (the bag's receive time when a stamp is 0).
+"""
+
+import pathlib
+from typing import Dict, List, Tuple, Union
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from teleteach.learning.preprocess import LearningError
+
+EIGENVALUES = "/eigenvalues"
+EIGENVECTORS = "/eigenvectors"
+POSE_TOPICS = {"cartesian_pose": "/cartesian_pose", "equilibrium_pose": "/equilibrium_pose"}
+
+
+def _stamp(message, received: int) -> float:
+    stamp = message.header.stamp
+    seconds = stamp.sec + stamp.nanosec * 1e-9
+    return seconds if seconds > 0 else received * 1e-9
+
+
+def read_bag(path: Union[str, pathlib.Path]) -> Tuple[np.ndarray, np.ndarray, Dict[str, Tuple[np.ndarray, np.ndarray]]]:
+    """(stiffness times, stiffness (n, 3, 3), poses name -> (times, (k, 7))) from a session bag.
+
+    Raises:
+        LearningError: the bag is missing or unreadable, or lacks /eigenvalues, /eigenvectors or /cartesian_pose.
+    """
+    from rosbags.highlevel import AnyReader  # imported here: only bag users need it
+
+    path = pathlib.Path(path).expanduser()
+    if not path.is_file():
+        raise LearningError(f"bag file {path} does not exist")
+    rows: Dict[str, List[Tuple[float, List[float]]]] = {
+        EIGENVALUES: [],
+        EIGENVECTORS: [],
+        **{topic: [] for topic in POSE_TOPICS.values()},
+    }
+    try:
+        with AnyReader([path]) as reader:
+            connections = [connection for connection in reader.connections if connection.topic in rows]
+            for connection, received, raw in reader.messages(connections=connections):
+                message = reader.deserialize(raw, connection.msgtype)
+                topic = connection.topic
+                if topic == EIGENVALUES:
+                    values = [message.vector.x, message.vector.y, message.vector.z]
+                elif topic == EIGENVECTORS:
+                    quaternion = message.quaternion
+                    values = [quaternion.x, quaternion.y, quaternion.z, quaternion.w]
+                else:
+                    position, orientation = message.pose.position, message.pose.orientation
+                    values = [position.x, position.y, position.z, orientation.x, orientation.y, orientation.z]
+                    values.append(orientation.w)
+                rows[topic].append((_stamp(message, received), values))
+    except LearningError:
+        raise
+    except Exception as error:  # rosbags raises several unrelated types for corrupt bags
+        raise LearningError(f"cannot read bag {path}: {error}") from None
+    for topic in (EIGENVALUES, EIGENVECTORS, POSE_TOPICS["cartesian_pose"]):
+        if not rows[topic]:
+            raise LearningError(f"bag {path} has no {topic} messages")
+
+    def stream(topic):
+        return np.array([row[0] for row in rows[topic]]), np.array([row[1] for row in rows[topic]], dtype=float)
+
+    value_times, eigenvalues = stream(EIGENVALUES)
+    vector_times, quaternions = stream(EIGENVECTORS)
+    norms = np.linalg.norm(quaternions, axis=1)
+    bad = np.flatnonzero(~(np.abs(norms - 1.0) <= 1e-3))
+    if bad.size:
+        raise LearningError(f"{EIGENVECTORS} message {bad[0]} is not a unit quaternion (norm {norms[bad[0]]:.4f})")
+    order = np.argsort(vector_times, kind="stable")
+    right = np.clip(np.searchsorted(vector_times[order], value_times), 1, max(order.size - 1, 1))
+    left = right - 1
+    closer_left = np.abs(value_times - vector_times[order][left]) <= np.abs(vector_times[order][right] - value_times)
+    nearest = order[np.where(closer_left, left, right)] if order.size > 1 else np.zeros(value_times.size, dtype=int)
+    rotations = Rotation.from_quat(quaternions[nearest]).as_matrix()
+    stiffness = rotations @ (eigenvalues[:, :, None] * np.swapaxes(rotations, 1, 2))
+    poses = {name: stream(topic) for name, topic in POSE_TOPICS.items() if rows[topic]}
+    return value_times, stiffness, poses

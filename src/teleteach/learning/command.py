@@ -1,0 +1,190 @@
+"""The ``learn_skill`` command: learn a DMP skill from a skill file or a bag, reproduce it, save, plot, add.
+
+Everything the node does lives here, so that it runs (and is tested) without a ROS master; only ``--add`` talks to
+ROS, through the ``/behaviour_tree/add_skill`` service.
+"""
+
+import argparse
+import pathlib
+import re
+import sys
+from typing import Callable, Optional, Sequence
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from teleteach import skill_file
+from teleteach.datadir import data_dir
+from teleteach.learning import bag
+from teleteach.learning.plot import write_figure_c1
+from teleteach.learning.preprocess import LearningError
+from teleteach.learning.skill import (
+    LearningParameters,
+    learn,
+    learn_skill,
+    principal_axes_like_base,
+    stiffness_from_principal,
+)
+
+ADD_SKILL_SERVICE = "/behaviour_tree/add_skill"
+
+
+def parser() -> argparse.ArgumentParser:
+    """The command line of ``learn_skill``."""
+    defaults = LearningParameters()
+    result = argparse.ArgumentParser(
+        prog="learn_skill",
+        description="Learn a geometry-aware DMP stiffness skill from a taught skill (.npz) or a session bag (.bag), "
+        "reproduce it (optionally with a new duration and goal stiffness), save it as a skill of kind 'dmp' in the "
+        "data directory's skills/, write a Fig. C.1-like PNG, and optionally add it to the running BT library.",
+    )
+    result.add_argument("source", help="skill file (.npz), session bag (.bag), or the name of a skill in skills/")
+    result.add_argument("--name", default="", help="name of the learned skill (default: <source name>_dmp)")
+    result.add_argument("--duration", type=float, default=None, help="duration of the reproduction [s]")
+    result.add_argument(
+        "--goal-stiffness",
+        type=float,
+        nargs=3,
+        metavar=("KX", "KY", "KZ"),
+        help="principal stiffnesses of the goal [N/m] (default: the demonstrated goal)",
+    )
+    result.add_argument(
+        "--goal-rotation",
+        type=float,
+        nargs=3,
+        metavar=("ROLL", "PITCH", "YAW"),
+        help="orientation of the goal's principal axes, R = Rz Ry Rx [deg] (default: the demonstrated goal's axes)",
+    )
+    result.add_argument("--data-dir", default="", help="data directory (default: teleteach.datadir.data_dir())")
+    result.add_argument("--output", default="", help="skill file to write (default: <data dir>/skills/<name>.npz)")
+    result.add_argument("--plot", default="", help="PNG to write (default: next to the skill file, .png)")
+    result.add_argument("--force", action="store_true", help="overwrite an existing skill file")
+    result.add_argument("--add", action="store_true", help=f"add the skill to the running BT ({ADD_SKILL_SERVICE})")
+    result.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for the service with --add")
+    result.add_argument("--rate", type=float, default=defaults.rate, help="resampling/reproduction rate [Hz]")
+    result.add_argument("--smoothing", type=float, default=defaults.smoothing, help="smoothing std on SPD [s]")
+    result.add_argument(
+        "--basis-per-second", type=float, default=defaults.basis_per_second, help="basis functions per second"
+    )
+    result.add_argument("--alpha-z", type=float, default=defaults.alpha_z, help="DMP spring gain alpha_z")
+    return result
+
+
+def _source_path(source: str, skills: pathlib.Path) -> pathlib.Path:
+    path = pathlib.Path(source).expanduser()
+    if path.suffix in (".npz", ".bag") or path.exists():
+        return path
+    return skills / f"{source}.npz"
+
+
+def _default_name(path: pathlib.Path) -> str:
+    stem = re.sub(r"\W", "_", path.stem)
+    stem = stem if stem and not stem[0].isdigit() else f"skill_{stem}"
+    return f"{stem}_dmp"
+
+
+def goal_stiffness(learned_goal, principal: Optional[Sequence[float]], rotation: Optional[Sequence[float]]):
+    """The goal stiffness asked for on the command line, or None to keep the demonstrated goal."""
+    if principal is None and rotation is None:
+        return None
+    if principal is not None and not all(np.isfinite(value) and value > 0 for value in principal):
+        raise LearningError(f"--goal-stiffness needs three finite values > 0 N/m, got {list(principal)}")
+    if rotation is not None and not all(np.isfinite(value) for value in rotation):
+        raise LearningError(f"--goal-rotation needs three finite angles, got {list(rotation)}")
+    axes = principal_axes_like_base(learned_goal)
+    if rotation is not None:
+        roll, pitch, yaw = rotation
+        axes = Rotation.from_euler("ZYX", [yaw, pitch, roll], degrees=True)
+    if principal is None:
+        principal = np.diag(axes.as_matrix().T @ learned_goal @ axes.as_matrix())
+    return stiffness_from_principal(principal, axes)
+
+
+def add_to_library(name: str, path: pathlib.Path, timeout: float) -> str:
+    """Call ``/behaviour_tree/add_skill`` (kind "dmp"); return its message or raise :class:`LearningError`."""
+    import rosgraph
+    import rospy
+
+    from teleteach.srv import AddSkill
+
+    if not rosgraph.is_master_online():
+        raise LearningError(f"--add: no ROS master is running, so {ADD_SKILL_SERVICE} is absent (skill saved: {path})")
+    try:
+        rospy.wait_for_service(ADD_SKILL_SERVICE, timeout=timeout)
+        response = rospy.ServiceProxy(ADD_SKILL_SERVICE, AddSkill)(name=name, kind="dmp", data_file=str(path))
+    except rospy.ROSException:
+        raise LearningError(
+            f"--add: service {ADD_SKILL_SERVICE} is not available (is the behaviour_tree node running?); "
+            f"skill saved: {path}"
+        ) from None
+    except rospy.ServiceException as error:
+        raise LearningError(f"--add: {ADD_SKILL_SERVICE} failed: {error} (skill saved: {path})") from None
+    if not response.success:
+        raise LearningError(f"--add: the behaviour tree refused the skill: {response.message} (skill saved: {path})")
+    return response.message
+
+
+def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
+    """Do what the arguments ask, calling ``report`` with each result line. Raises :class:`LearningError`."""
+    root = data_dir(arguments.data_dir or None)
+    source = _source_path(arguments.source, root / "skills")
+    name = arguments.name or _default_name(source)
+    if not name.isidentifier():
+        raise LearningError(f"skill name {name!r} must be an identifier (letters, digits, _)")
+    output = pathlib.Path(arguments.output).expanduser() if arguments.output else root / "skills" / f"{name}.npz"
+    if output.suffix != ".npz":
+        output = output.with_name(output.name + ".npz")
+    if output.exists() and not arguments.force:
+        raise LearningError(f"{output} exists; choose another --name or pass --force to overwrite it")
+    plot = pathlib.Path(arguments.plot).expanduser() if arguments.plot else output.with_suffix(".png")
+    try:
+        parameters = LearningParameters(
+            rate=arguments.rate,
+            smoothing=arguments.smoothing,
+            basis_per_second=arguments.basis_per_second,
+            alpha_z=arguments.alpha_z,
+        )
+        parameters.dmp_parameters(1.0)
+    except ValueError as error:
+        raise LearningError(str(error)) from None
+    if source.suffix == ".bag":
+        times, stiffness, poses = bag.read_bag(source)
+        learned = learn(times, stiffness, poses, name, parameters, source={"bag": str(source)})
+    else:
+        try:
+            demonstrated = skill_file.load(source)
+        except skill_file.SkillFileError as error:
+            raise LearningError(str(error)) from None
+        learned = learn_skill(demonstrated, name, parameters)
+        learned.source["file"] = str(source)
+    goal = goal_stiffness(learned.stiffness.goal, arguments.goal_stiffness, arguments.goal_rotation)
+    reproduction = learned.reproduce(arguments.duration, goal)
+    same = arguments.duration is None and goal is None
+    skill = learned.to_skill(reproduction, name, learned.error(reproduction) if same else None)
+    skill.provenance["goal_stiffness"] = None if goal is None else goal.tolist()
+    error = skill.provenance["reproduction_error"]
+    saved = skill_file.save(skill, output)
+    demo = learned.demonstration
+    write_figure_c1(plot, demo.sample_time, demo.samples, reproduction.time, reproduction.stiffness, title=name)
+    for line in (
+        f"learned {name} from {source} ({demo.samples.shape[0]} stiffness samples, {demo.duration:.1f} s) "
+        f"in {learned.learning_time:.3f} s with N = {learned.stiffness.parameters.basis_count} basis functions",
+        f"reproduction error (same duration and goal): mean {100 * error['mean_relative']:.2f} %, "
+        f"max {100 * error['max_relative']:.2f} % of the demonstration's spread",
+        f"saved {saved} (kind dmp, {skill.time.size} samples, {skill.duration:.1f} s)",
+        f"plot {plot}",
+    ):
+        report(line)
+    if arguments.add:
+        report(f"added to the BT library: {add_to_library(name, saved, arguments.timeout)}")
+
+
+def main(argv: Sequence[str]) -> int:
+    """Entry point of the node: parse, run, print; a one-line error and exit code 2 on bad input."""
+    arguments = parser().parse_args(list(argv))
+    try:
+        run(arguments, lambda line: print(f"learn_skill: {line}", flush=True))
+    except (LearningError, OSError) as error:
+        print(f"learn_skill: error: {error}", file=sys.stderr)
+        return 2
+    return 0

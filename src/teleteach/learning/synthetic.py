@@ -1,0 +1,119 @@
+"""Thesis-like stiffness demonstrations built from the thesis' description, for benchmarks and tests.
+
+Sections III-C and III-D describe the product placement demonstrations: approach with equally low stiffness in X and
+Y (circular X-Y ellipse), alignment with Y stiffened and, from a 45-degree base pose, the ellipsoid gradually rotated
+45 degrees about Z (then Y slightly lowered), insertion with the orientation kept (45 degrees) or X stiffened (the
+perpendicular "peg-in-hole" case); Z stays constant and relatively high. The operator moves smoothly (minimum-jerk
+transitions with a small slow wobble); the GUI publishes what it shows at a low, jittery rate with a lag, and the
+recorder stores it at the pose rate as a zero-order-hold staircase, which is what made the thesis' fit fail.
+"""
+
+from typing import Tuple
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+from scipy.spatial.transform import Rotation
+
+from teleteach.skill_file import Skill
+
+LOW = 300.0  # [N/m] compliant approach stiffness in X and Y
+HIGH = 1500.0  # [N/m] alignment stiffness in Y
+VERTICAL = 1200.0  # [N/m] constant Z stiffness
+DOWN = Rotation.from_euler("x", 180.0, degrees=True)  # gripper pointing down
+
+
+def minimum_jerk(times, start: float, end: float):
+    """0 before ``start``, 1 after ``end``, the minimum-jerk profile 10 s^3 - 15 s^4 + 6 s^5 between."""
+    s = np.clip((np.asarray(times, dtype=float) - start) / (end - start), 0.0, 1.0)
+    return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+
+
+def _wobble(times, rng, amplitude: float, width: float):
+    """A smooth random signal of about +-amplitude (relative), correlated over ``width`` seconds."""
+    dt = times[1] - times[0]
+    noise = gaussian_filter1d(rng.standard_normal(times.size), width / dt, mode="nearest")
+    return 1.0 + amplitude * noise / max(np.abs(noise).max(), 1e-12)
+
+
+def principal_stiffness(times, angle: float, rng) -> Tuple[np.ndarray, np.ndarray]:
+    """The operator's intended (smooth) principal stiffnesses (n, 3) [N/m] and yaw (n,) [rad] over ``times``.
+
+    Scaled to the duration: the thesis' phases at 102 s are approach 0-30 s, alignment 30-56 s, insertion after.
+    """
+    scale = times[-1] / 102.0
+
+    def phase(start, end):
+        return minimum_jerk(times, start * scale, end * scale)
+
+    ky = LOW + (HIGH - LOW) * phase(30, 34) - 300.0 * phase(52, 55)
+    kx = np.full_like(times, LOW)
+    yaw = np.zeros_like(times)
+    if angle:
+        yaw = np.radians(angle) * phase(36, 48)
+    else:
+        kx = kx + 1200.0 * phase(62, 66)
+    kx = kx * _wobble(times, rng, 0.03, 2.0)
+    ky = ky * _wobble(times, rng, 0.03, 2.0)
+    return np.column_stack([kx, ky, np.full_like(times, VERTICAL)]), yaw
+
+
+def stiffness_matrices(principal, yaw) -> np.ndarray:
+    """K = Rz(yaw) diag(principal) Rz(yaw)^T for each sample (thesis eq 1)."""
+    rotations = Rotation.from_euler("z", yaw).as_matrix()
+    return rotations @ (principal[:, :, None] * np.swapaxes(rotations, 1, 2))
+
+
+def placement_demo(
+    angle: float = 45.0,
+    duration: float = 102.0,
+    pose_rate: float = 100.0,
+    gui_rate: float = 4.0,
+    gui_lag: float = 0.3,
+    seed: int = 0,
+) -> Tuple[Skill, np.ndarray, np.ndarray]:
+    """A recorded placement demonstration and its ground truth.
+
+    Args:
+        angle: base angle to the shelf [deg]: 45 (thesis III-D) or 0 (III-C, X stiffened for insertion).
+        duration: length [s].
+        pose_rate: recorder (pose) rate [Hz].
+        gui_rate: mean GUI publication rate [Hz] (jitter +-30 %); ``None`` or <= 0: the GUI publishes every
+            recorder sample without lag (a smooth recording).
+        gui_lag: delay of the GUI behind the operator [s].
+        seed: random seed (wobble, GUI timing jitter, pose noise).
+
+    Returns:
+        (skill of kind "stiffness" as the recorder would save it, recorder times, operator's stiffness at them).
+    """
+    rng = np.random.default_rng(seed)
+    times = np.arange(0.0, duration + 0.5 / pose_rate, 1.0 / pose_rate)
+    principal, yaw = principal_stiffness(times, angle, rng)
+    truth = stiffness_matrices(principal, yaw)
+    if gui_rate and gui_rate > 0:
+        publish_times = [0.0]
+        while publish_times[-1] < duration:
+            publish_times.append(publish_times[-1] + rng.uniform(0.7, 1.3) / gui_rate)
+        publish_times = np.array(publish_times)
+        shown = np.interp(publish_times - gui_lag, times, np.arange(times.size))
+        shown_index = np.clip(np.round(shown).astype(int), 0, times.size - 1)
+        latest = np.clip(np.searchsorted(publish_times, times, side="right") - 1, 0, None)
+        recorded = truth[shown_index[latest]]
+    else:
+        recorded = truth
+    waypoints_t = np.array([0.0, 0.3, 0.55, 0.8, 1.0]) * duration
+    waypoints = np.array([[0.35, 0.0, 0.55], [0.5, 0.05, 0.5], [0.6, 0.1, 0.48], [0.68, 0.12, 0.48], [0.7, 0.12, 0.48]])
+    equilibrium = np.column_stack([np.interp(times, waypoints_t, waypoints[:, axis]) for axis in range(3)])
+    measured = gaussian_filter1d(equilibrium, 0.3 * pose_rate, axis=0, mode="nearest")
+    measured = measured + 2e-4 * gaussian_filter1d(rng.standard_normal(measured.shape), 3, axis=0)
+    hand = DOWN * Rotation.from_euler("z", np.radians(angle) * minimum_jerk(times, 0.3 * duration, 0.5 * duration))
+    quaternions = hand.as_quat()
+    skill = Skill(
+        name=f"SyntheticPlace{int(round(angle))}",
+        kind="stiffness",
+        time=times,
+        stiffness=recorded,
+        equilibrium_pose=np.hstack([equilibrium, quaternions]),
+        cartesian_pose=np.hstack([measured, quaternions]),
+        provenance={"synthetic": True, "angle": angle, "gui_rate": gui_rate or 0.0, "seed": seed},
+    )
+    return skill, times, truth

@@ -1,0 +1,181 @@
+"""The learn_skill command end to end (a real subprocess), and its one-line errors on bad input."""
+
+import json
+import os
+import pathlib
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import rosgraph
+
+from teleteach import skill_file
+from teleteach.learning import spd
+from teleteach.learning.command import main
+from teleteach.learning.synthetic import placement_demo
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+COMMAND = ROOT / "nodes" / "learn_skill"
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def run(*arguments, env=None):
+    return subprocess.run(
+        [str(COMMAND), *map(str, arguments)], capture_output=True, text=True, timeout=120, env=env, check=False
+    )
+
+
+@pytest.fixture
+def data(tmp_path):
+    skill, _, _ = placement_demo(angle=45.0, duration=20.0, gui_rate=4.0, seed=5)
+    skill.name = "Demo"
+    skill_file.save(skill, tmp_path / "skills" / "Demo.npz")
+    return tmp_path
+
+
+def write_raw_skill(path, time, stiffness, count=None):
+    """A skill file written without validation (what a broken recorder or a hand edit could leave)."""
+    count = len(time) if count is None else count
+    pose = np.tile([0.4, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0], (count, 1))
+    meta = json.dumps({"name": "Broken", "kind": "stiffness", "rotational_stiffness": 30.0, "provenance": {}})
+    np.savez(path, time=time, stiffness=stiffness, equilibrium_pose=pose, cartesian_pose=pose, meta=np.array(meta))
+    return path
+
+
+def test_learn_skill_end_to_end_on_a_skill_file(data):
+    result = run("Demo", "--data-dir", data, "--duration", 15, "--goal-stiffness", 400, 900, 1200)
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "saved" in result.stdout and "Demo_dmp.npz" in result.stdout
+    learned = skill_file.load(data / "skills" / "Demo_dmp.npz")
+    assert learned.kind == "dmp" and learned.name == "Demo_dmp"
+    assert learned.duration == pytest.approx(15.0)
+    assert np.linalg.eigvalsh(learned.stiffness)[:, 0].min() > 0
+    goal = np.array(learned.provenance["goal_stiffness"])
+    assert spd.distance(learned.stiffness[-1], goal) < 0.05
+    np.testing.assert_allclose(np.sort(np.linalg.eigvalsh(goal)), [400.0, 900.0, 1200.0], rtol=1e-9)
+    assert learned.provenance["reproduction_error"]["max_relative"] <= 0.15
+    plot = data / "skills" / "Demo_dmp.png"
+    assert plot.read_bytes()[:8] == PNG_MAGIC
+    # the learned file is refused a second time unless forced, and stays as it was
+    before = (data / "skills" / "Demo_dmp.npz").read_bytes()
+    again = run("Demo", "--data-dir", data)
+    assert again.returncode == 2
+    assert again.stderr.strip().count("\n") == 0 and "exists" in again.stderr
+    assert (data / "skills" / "Demo_dmp.npz").read_bytes() == before
+
+
+def test_add_without_a_running_system_says_so_and_keeps_the_saved_skill(data):
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:9")  # nothing listens on the discard port
+    result = run(data / "skills" / "Demo.npz", "--data-dir", data, "--name", "Added", "--add", "--timeout", 1, env=env)
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert "/behaviour_tree/add_skill" in result.stderr and "no ROS master" in result.stderr
+    assert skill_file.load(data / "skills" / "Added.npz").kind == "dmp"
+
+
+def free_port():
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def stop(process):
+    if process.poll() is None:
+        os.killpg(process.pid, signal.SIGINT)
+        try:
+            process.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait(timeout=10)
+
+
+def test_add_puts_the_learned_skill_into_the_running_behaviour_tree_library(data):
+    uri = f"http://127.0.0.1:{free_port()}"
+    env = dict(os.environ, ROS_MASTER_URI=uri)
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True, "env": env}
+    roscore = subprocess.Popen(["roscore", "-p", uri.rsplit(":", 1)[1]], **quiet)
+    tree = None
+    try:
+        deadline = time.monotonic() + 60
+        while not rosgraph.is_master_online(uri):
+            assert time.monotonic() < deadline, "roscore did not start"
+            time.sleep(0.2)
+        early = run("Demo", "--data-dir", data, "--name", "Early", "--add", "--timeout", 1, env=env)
+        # Expect a master without the behaviour tree to be reported as exactly that
+        assert early.returncode == 2 and "Traceback" not in early.stderr
+        assert "/behaviour_tree/add_skill is not available" in early.stderr
+        tree = subprocess.Popen([sys.executable, str(ROOT / "nodes" / "behaviour_tree"), f"_data_dir:={data}"], **quiet)
+        result = run("Demo", "--data-dir", data, "--add", "--timeout", 60, env=env)
+        assert result.returncode == 0, result.stderr
+        assert "added to the BT library" in result.stdout
+        echo = subprocess.run(
+            ["rostopic", "echo", "-n", "1", "/behaviour_tree/skill_library"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            env=env,
+            check=False,
+        )
+        # Expect the library to list the learned skill as a dmp skill with its file
+        assert "Demo_dmp" in echo.stdout and "dmp" in echo.stdout, echo.stdout + echo.stderr
+        assert str(data / "skills" / "Demo_dmp.npz") in echo.stdout
+    finally:
+        if tree is not None:
+            stop(tree)
+        stop(roscore)
+
+
+def test_a_non_spd_skill_file_gives_a_one_line_error_from_the_command(tmp_path):
+    times = np.arange(20) * 0.1
+    stiffness = np.tile(np.eye(3) * 500.0, (20, 1, 1))
+    stiffness[7] = np.diag([500.0, -1.0, 500.0])
+    path = write_raw_skill(tmp_path / "bad.npz", times, stiffness)
+    result = run(path, "--data-dir", tmp_path)
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "not positive definite at sample 7" in lines[0]
+    assert not list((tmp_path / "skills").glob("*"))
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda p: write_raw_skill(p, np.arange(3) * 0.1, np.tile(np.eye(3), (3, 1, 1))), "too few samples: 3"),
+        (
+            lambda p: write_raw_skill(p, np.array([0.0, 0.1, 0.3, 0.2, 0.4, 0.5]), np.tile(np.eye(3), (6, 1, 1))),
+            "not strictly increasing at sample 3",
+        ),
+        (lambda p: p.write_bytes(b"garbage"), "cannot be read"),
+        (lambda p: None, "does not exist"),
+    ],
+)
+def test_bad_input_gives_one_clear_line_and_exit_code_2(tmp_path, capsys, make, message):
+    path = tmp_path / "input.npz"
+    make(path)
+    assert main([str(path), "--data-dir", str(tmp_path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.count("\n") == 1 and message in captured.err
+    assert not list((tmp_path / "skills").glob("*"))
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (["--duration", "-3"], "duration must be finite and > 0"),
+        (["--goal-stiffness", "100", "0", "100"], "--goal-stiffness needs three finite values > 0"),
+        (["--name", "not a name"], "must be an identifier"),
+        (["--smoothing", "-1"], "smoothing width must be finite and >= 0"),
+        (["--alpha-z", "0"], "alpha_z must be finite and > 0"),
+    ],
+)
+def test_bad_options_are_rejected_before_anything_is_written(data, capsys, arguments, message):
+    assert main(["Demo", "--data-dir", str(data), *arguments]) == 2
+    assert message in capsys.readouterr().err
+    assert sorted(path.name for path in (data / "skills").iterdir()) == ["Demo.npz"]

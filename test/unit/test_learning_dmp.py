@@ -1,0 +1,164 @@
+"""Euclidean and SPD DMPs: reproduction of smooth demonstrations, new durations, goal switching, adversarial data."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from teleteach.learning import spd
+from teleteach.learning.dmp import DMP, SPDDMP, DMPParameters
+from teleteach.learning.synthetic import minimum_jerk
+
+DT = 0.02
+
+
+def smooth_curve(times):
+    s = times / times[-1]
+    return np.column_stack([0.3 + 0.2 * minimum_jerk(times, 2.0, 6.0), 0.1 * np.sin(np.pi * s) ** 2, 0.5 - 0.1 * s])
+
+
+def stiffness(kx, ky, kz, yaw):
+    rotation = Rotation.from_euler("z", yaw).as_matrix()
+    return rotation @ np.diag([kx, ky, kz]) @ rotation.T
+
+
+def smooth_spd_demo(times, size=3):
+    ky = 300 + 1200 * minimum_jerk(times, 3.0, 6.0)
+    yaw = np.radians(45.0) * minimum_jerk(times, 5.0, 9.0)
+    matrices = np.array([stiffness(300 + 100 * np.sin(t / 3.0), k, 1000, a) for t, k, a in zip(times, ky, yaw)])
+    return matrices[:, :size, :size]
+
+
+def assert_all_spd(matrices):
+    assert np.all(np.isfinite(matrices))
+    for matrix in matrices:
+        np.linalg.cholesky(matrix)  # raises LinAlgError unless positive definite
+    assert np.linalg.eigvalsh(matrices)[:, 0].min() > 0
+
+
+def test_dmp_reproduces_a_smooth_demonstration_and_keeps_its_shape_with_a_new_duration():
+    times = np.arange(0.0, 12.0 + DT / 2, DT)
+    demo = smooth_curve(times)
+    model = DMP.learn(times, demo, DMPParameters(basis_count=30))
+    reproduced_times, reproduced = model.rollout(dt=DT)
+    np.testing.assert_allclose(reproduced_times, times, atol=1e-9)
+    assert np.abs(reproduced - demo).max() < 2e-3 * np.abs(demo).max()
+    slow_times, slow = model.rollout(duration=24.0, dt=DT)
+    expected = np.column_stack([np.interp(slow_times / 2.0, times, demo[:, axis]) for axis in range(3)])
+    assert np.abs(slow - expected).max() < 5e-3
+    np.testing.assert_allclose(slow[-1], demo[-1], atol=2e-3)
+
+
+def test_dmp_goal_switching_converges_to_the_new_goal():
+    times = np.arange(0.0, 10.0 + DT / 2, DT)
+    model = DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=25))
+    new_goal = np.array([0.2, -0.1, 0.7])
+    _, trajectory = model.rollout(duration=30.0, dt=DT, switch=(4.0, new_goal))
+    np.testing.assert_allclose(trajectory[-1], new_goal, atol=1e-3)
+    _, unswitched = model.rollout(duration=30.0, dt=DT)
+    np.testing.assert_allclose(trajectory[:200], unswitched[:200], atol=1e-12)  # nothing changes before the switch
+
+
+@pytest.mark.parametrize("size", [2, 3])
+def test_spd_dmp_reproduces_a_smooth_demonstration(size):
+    times = np.arange(0.0, 12.0 + DT / 2, DT)
+    demo = smooth_spd_demo(times, size)
+    model = SPDDMP.learn(times, demo, DMPParameters(basis_count=40))
+    reproduced_times, reproduced = model.rollout(dt=DT)
+    assert reproduced.shape == demo.shape
+    errors = spd.distance(demo, reproduced)
+    spread = np.sqrt(np.mean(spd.distance(spd.karcher_mean(demo), demo) ** 2))
+    assert errors.mean() < 0.01 * spread
+    assert errors.max() < 0.05 * spread
+    assert_all_spd(reproduced)
+
+
+def test_spd_dmp_with_a_new_duration_and_goal():
+    times = np.arange(0.0, 12.0 + DT / 2, DT)
+    demo = smooth_spd_demo(times)
+    model = SPDDMP.learn(times, demo, DMPParameters(basis_count=40))
+    slow_times, slow = model.rollout(duration=18.0, dt=DT)
+    index = np.round(slow_times / 1.5 / DT).astype(int)
+    assert spd.distance(slow, demo[index]).max() < 0.05
+    goal = stiffness(500, 900, 1000, np.radians(45.0))
+    _, moved = model.rollout(goal=goal, dt=DT)
+    assert spd.distance(moved[-1], goal) < 0.05
+    assert_all_spd(moved)
+
+
+@pytest.mark.parametrize("size", [2, 3])
+def test_spd_dmp_goal_switching_converges_to_the_new_goal(size):
+    times = np.arange(0.0, 10.0 + DT / 2, DT)
+    model = SPDDMP.learn(times, smooth_spd_demo(times, size), DMPParameters(basis_count=30))
+    new_goal = stiffness(2000, 400, 800, np.radians(-30.0))[:size, :size]
+    switched_times, switched = model.rollout(duration=30.0, dt=DT, switch=(5.0, new_goal))
+    assert spd.distance(switched[-1], new_goal) < 1e-2
+    _, original = model.rollout(duration=30.0, dt=DT)
+    before = switched_times <= 5.0
+    np.testing.assert_allclose(switched[before], original[before], rtol=1e-12)
+    assert spd.distance(original[-1], model.goal) < 1e-2
+    # the goal moves smoothly: no jump in the state right after the switch
+    steps = spd.distance(switched[:-1], switched[1:])
+    assert steps.max() < 5 * np.abs(spd.distance(original[:-1], original[1:])).max() + 1e-3
+    assert_all_spd(switched)
+
+
+def adversarial_demo(times, rng, condition):
+    """Near-singular stiffness with condition numbers up to ``condition``, rotating fast, with jittery samples."""
+    count = times.size
+    angles = np.cumsum(rng.normal(0.0, 0.05, (count, 3)), axis=0) + np.column_stack(
+        [np.zeros(count), np.zeros(count), 2 * np.pi * times / times[-1]]
+    )
+    rotations = Rotation.from_euler("xyz", angles).as_matrix()
+    exponent = np.log10(condition) * (0.5 + 0.5 * np.sin(2 * np.pi * times / times[-1] * 3))
+    principal = np.column_stack([10.0 ** (-exponent), np.full(count, 0.3), np.ones(count)]) * 1000.0
+    principal *= np.exp(rng.normal(0.0, 0.02, principal.shape))
+    return rotations @ (principal[:, :, None] * np.swapaxes(rotations, 1, 2))
+
+
+@pytest.mark.parametrize("condition", [1e4, 1e8])
+def test_spd_dmp_stays_spd_on_adversarial_data(condition):
+    rng = np.random.default_rng(7)
+    times = np.arange(0.0, 4.0 + DT / 2, DT)
+    demo = adversarial_demo(times, rng, condition)
+    assert np.linalg.cond(demo).max() > 0.5 * condition
+    for basis_count in (5, 40):
+        model = SPDDMP.learn(times, demo, DMPParameters(basis_count=basis_count, alpha_z=100.0))
+        for rollout in (
+            model.rollout(dt=DT),
+            model.rollout(duration=2.0, dt=DT),
+            model.rollout(dt=DT, goal=np.diag([1e-5, 1.0, 1e3])),
+            model.rollout(dt=DT, switch=(1.0, demo[0])),
+        ):
+            assert_all_spd(rollout[1])
+
+
+def test_spd_dmp_stays_spd_on_abrupt_steps_2x2():
+    times = np.arange(0.0, 6.0 + DT / 2, DT)
+    levels = np.where((times // 0.5) % 2 == 0, 1.0, 1e-8)
+    demo = np.array([np.diag([level, 1.0]) for level in levels]) * 500.0
+    model = SPDDMP.learn(times, demo, DMPParameters(basis_count=12))
+    assert_all_spd(model.rollout(dt=DT)[1])
+
+
+def test_models_round_trip_through_their_description():
+    times = np.arange(0.0, 5.0 + DT / 2, DT)
+    model = SPDDMP.learn(times, smooth_spd_demo(times, 2), DMPParameters(basis_count=10))
+    copy = SPDDMP.from_dict(model.to_dict())
+    np.testing.assert_allclose(copy.rollout(dt=DT)[1], model.rollout(dt=DT)[1], rtol=1e-12)
+    euclidean = DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=10))
+    np.testing.assert_allclose(DMP.from_dict(euclidean.to_dict()).rollout(dt=DT)[1], euclidean.rollout(dt=DT)[1])
+
+
+def test_bad_parameters_and_grids_are_rejected():
+    with pytest.raises(ValueError, match="basis_count"):
+        DMPParameters(basis_count=1)
+    with pytest.raises(ValueError, match="alpha_z"):
+        DMPParameters(alpha_z=-1.0)
+    times = np.array([0.0, 0.1, 0.3, 0.4])
+    with pytest.raises(ValueError, match="uniform"):
+        DMP.learn(times, np.zeros((4, 1)))
+    with pytest.raises(ValueError, match="at least 3"):
+        DMP.learn(np.array([0.0, 1.0]), np.zeros((2, 1)))
+    grid = np.arange(5) * 0.1
+    with pytest.raises(spd.SPDError, match="sample 2 is not positive definite"):
+        SPDDMP.learn(grid, np.array([np.eye(2), np.eye(2), np.diag([1.0, -1.0]), np.eye(2), np.eye(2)]))
