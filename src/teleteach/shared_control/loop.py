@@ -1,0 +1,519 @@
+"""The shared-control MPC loop (Fig. 2): direct control for the first window, then estimate, identify, optimise.
+
+Each 50 Hz cycle takes one operator command h^r (velocity in the task plane [m/s]) and returns the executed state
+and a ``SharedControlRecord`` with the fields of teleteach/SharedControlState. The loop never raises on bad input
+and never outputs a state outside the boundary or on the obstacle's side: when an optimisation fails or its plan
+is infeasible it falls back (previous plan, hold, nearest free point) and says so in the record.
+"""
+
+import collections
+import dataclasses
+import math
+import time
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from teleteach.shared_control import constraints
+from teleteach.shared_control.constraints import Box, StraightEdge
+from teleteach.shared_control.models import SKILLS, ClothoidPath, ParameterLayout, skill_names
+from teleteach.shared_control.problems import SkillEstimation, SolveResult, TrajectoryOptimisation
+
+DIRECT = 0
+SHARED = 1
+FALLBACK = 2
+MODE_NAMES = {DIRECT: "DIRECT", SHARED: "SHARED", FALLBACK: "FALLBACK"}
+
+# A box so large that it never binds: the default when no boundary is given [m].
+UNBOUNDED = Box(-1e3, -1e3, 1e3, 1e3)
+
+
+@dataclasses.dataclass
+class SharedControlConfig:
+    """Parameters of the shared controller (units in brackets).
+
+    Attributes:
+        dt: cycle period [s] (50 Hz).
+        window_time: t_w, duration of the estimation window [s].
+        horizon_time: duration of the trajectory-optimisation horizon [s].
+        skills: skill names, keys of ``models.SKILLS``.
+        n_segments: Clothoid segments of the underlying trajectory.
+        estimation_curvature_bound: |phi0| bound in estimation [1/m] (tight bounds keep skills apart).
+        estimation_curvature_rate_bound: |phi1| bound in estimation [1/m^2].
+        optimisation_curvature_bound: |phi0| bound in trajectory optimisation [1/m] (room to bend around obstacles).
+        optimisation_curvature_rate_bound: |phi1| bound in trajectory optimisation [1/m^2].
+        speed_bounds: (min, max) of v0 [m/s].
+        heading_continuity: allowed change of alpha_c per cycle [rad]. 0 is the paper's equality alpha_c =
+            alpha_c_prev: a heading error then grows through the extrapolated curvature (measured: ~1 rad of drift
+            in 14 s of noisy input); a small value corrects it slowly while the bends the optimisation makes to
+            avoid constraints still carry over to the next cycles.
+        speed_scale: typical operator speed [m/s] (scales the fitting residuals).
+        max_command_speed: commands faster than this are clipped [m/s].
+        idle_speed: when the RMS command speed over a full window is below this, the operator is idle: the window
+            restarts (direct control for t_w again), so estimation starts afresh when they move again [m/s].
+        regularisation_weights: W_R on (curvature, heading, speed, skill) of theta / scale [-].
+        curvature_weight: always-on penalty on phi / scale in estimation [-].
+        optimisation_weights: W_TO on (curvature, heading, speed, skill) of theta / scale [-].
+        margin: back-off from every constraint inside the optimisation [m].
+        solver: "compiled" (cached shared libraries), "fast" (casadi virtual machine) or "ipopt" (plain baseline).
+        skip_feasible_optimisation: take theta* = theta_hat without solving eq. 9 when theta_hat's plan already
+            keeps the margin (it is then the exact minimiser); False solves eq. 9 every cycle.
+        max_iterations_estimation: iteration cap of each skill estimation [-].
+        max_iterations_optimisation: iteration cap of the trajectory optimisation [-].
+        cache_dir: folder of compiled code (None: ``cache.cache_dir()``).
+    """
+
+    dt: float = 0.02
+    window_time: float = 1.0
+    horizon_time: float = 1.0
+    skills: Tuple[str, ...] = ("wave", "cycloid")
+    n_segments: int = 1
+    estimation_curvature_bound: float = 2.0
+    estimation_curvature_rate_bound: float = 20.0
+    optimisation_curvature_bound: float = 30.0
+    optimisation_curvature_rate_bound: float = 300.0
+    speed_bounds: Tuple[float, float] = (0.005, 0.2)
+    heading_continuity: float = 0.001
+    speed_scale: float = 0.1
+    max_command_speed: float = 1.0
+    idle_speed: float = 0.005
+    regularisation_weights: Tuple[float, float, float, float] = (1e-3, 0.0, 1e-3, 1e-3)
+    curvature_weight: float = 1e-3
+    optimisation_weights: Tuple[float, float, float, float] = (1e-2, 0.0, 1.0, 10.0)
+    margin: float = 1e-3
+    solver: str = "compiled"
+    skip_feasible_optimisation: bool = True
+    max_iterations_estimation: int = 10
+    max_iterations_optimisation: int = 10
+    cache_dir: Optional[str] = None
+
+    @property
+    def n_window(self) -> int:
+        """Commands in the estimation window."""
+        return max(int(round(self.window_time / self.dt)), 2)
+
+    @property
+    def n_horizon(self) -> int:
+        """Points of the horizon after the current state."""
+        return max(int(round(self.horizon_time / self.dt)), 1)
+
+
+@dataclasses.dataclass
+class SharedControlRecord:
+    """One cycle, with the fields of teleteach/SharedControlState (plus the plan, for displays).
+
+    Attributes:
+        mode: DIRECT, SHARED or FALLBACK.
+        skill: identified skill this cycle ("" in direct control).
+        skills: all skills, in the order of fitting_errors.
+        fitting_errors: epsilon_i of each skill (eq. 8) [(m/s)^2] (inf when its estimation failed).
+        parameters: theta* of the identified skill.
+        estimation_time: wall time of all skill estimations this cycle [s].
+        optimisation_time: wall time of the trajectory optimisation [s].
+        command: h^r used this cycle (x, y) [m/s].
+        state: executed x (x, y) [m].
+        message: what happened, in words.
+        iterations: (estimation iterations summed over skills, optimisation iterations).
+        cpu_times: CPU time of (all estimations, optimisation) [s] (load-independent, as the paper reports).
+        plan: planned states (2 x (n_horizon + 1)) [m], empty in direct control.
+    """
+
+    mode: int
+    skill: str
+    skills: List[str]
+    fitting_errors: List[float]
+    parameters: List[float]
+    estimation_time: float
+    optimisation_time: float
+    command: Tuple[float, float]
+    state: Tuple[float, float]
+    message: str
+    iterations: Tuple[int, int] = (0, 0)
+    cpu_times: Tuple[float, float] = (0.0, 0.0)
+    plan: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((2, 0)))
+
+
+def _weights(layout: ParameterLayout, groups: Sequence[float]) -> np.ndarray:
+    curvature, heading, speed, skill = groups
+    weights = np.full(layout.n, float(skill))
+    weights[: layout.i_alpha] = curvature
+    weights[layout.i_alpha] = heading
+    weights[layout.i_v0] = speed
+    return weights
+
+
+class SharedControl:
+    """Skill-based shared control MPC (the paper's Fig. 2), one ``step`` per cycle.
+
+    Args:
+        config: parameters.
+        initial_state: x at start [m].
+        box: boundary (None: unbounded).
+    """
+
+    def __init__(
+        self, config: SharedControlConfig = None, initial_state: Sequence[float] = (0.0, 0.0), box: Box = None
+    ):
+        self.config = config or SharedControlConfig()
+        cfg = self.config
+        self.skills = skill_names(cfg.skills)
+        if not self.skills:
+            raise ValueError("at least one skill is needed")
+        path = ClothoidPath(cfg.n_segments)
+        self.estimation_layouts: Dict[str, ParameterLayout] = {}
+        self.optimisation_layouts: Dict[str, ParameterLayout] = {}
+        self.estimations: Dict[str, SkillEstimation] = {}
+        self.optimisations: Dict[str, TrajectoryOptimisation] = {}
+        for name in self.skills:
+            se = ParameterLayout(
+                SKILLS[name],
+                path,
+                cfg.estimation_curvature_bound,
+                cfg.estimation_curvature_rate_bound,
+                cfg.speed_bounds,
+            )
+            to = ParameterLayout(
+                SKILLS[name],
+                path,
+                cfg.optimisation_curvature_bound,
+                cfg.optimisation_curvature_rate_bound,
+                cfg.speed_bounds,
+            )
+            # Both layouts share scales, so theta / scale means the same in both problems.
+            to.scale = se.scale
+            self.estimation_layouts[name] = se
+            self.optimisation_layouts[name] = to
+            self.estimations[name] = SkillEstimation(
+                se,
+                cfg.n_window,
+                cfg.dt,
+                cfg.speed_scale,
+                cfg.solver,
+                cfg.max_iterations_estimation,
+                cfg.cache_dir,
+            )
+            self.optimisations[name] = TrajectoryOptimisation(
+                to, cfg.n_horizon, cfg.dt, cfg.solver, cfg.max_iterations_optimisation, cfg.cache_dir
+            )
+        self.box = UNBOUNDED
+        self.obstacle: Optional[StraightEdge] = None
+        if box is not None:
+            self.set_boundary(box)
+        self.reset(initial_state)
+
+    # Environment -----------------------------------------------------------------------------------------------
+
+    def set_boundary(self, box: Optional[Box]) -> None:
+        """Use ``box`` as the boundary (None removes it)."""
+        if box is not None and not isinstance(box, Box):
+            raise TypeError(f"box must be a Box, got {type(box).__name__}")
+        self.box = box or UNBOUNDED
+
+    def set_obstacle(self, obstacle: Optional[StraightEdge]) -> None:
+        """Use ``obstacle`` as the straight edge to stay clear of (None removes it)."""
+        if obstacle is not None and not isinstance(obstacle, StraightEdge):
+            raise TypeError(f"obstacle must be a StraightEdge, got {type(obstacle).__name__}")
+        self.obstacle = obstacle
+
+    # Loop ------------------------------------------------------------------------------------------------------
+
+    def reset(self, initial_state: Sequence[float]) -> None:
+        """Start again in direct control at ``initial_state`` [m]."""
+        state = np.asarray(initial_state, dtype=float).reshape(2)
+        if not np.all(np.isfinite(state)):
+            raise ValueError(f"initial state must be finite, got {state}")
+        self.state = state
+        self.window = collections.deque(maxlen=self.config.n_window)
+        self.estimates: Dict[str, Optional[np.ndarray]] = {name: None for name in self.skills}
+        self.alpha_c: Optional[float] = None
+        self.skill: Optional[str] = None
+        self.theta_star: Optional[np.ndarray] = None
+        self.lam = (None, None)
+        self.plan = np.zeros((2, 0))
+        self.plan_index = 0
+        self._cpu = [0.0, 0.0]
+
+    def adopt(self, other: "SharedControl") -> None:
+        """Take over ``other``'s state, window, environment and plan (e.g. when compiled solvers become ready).
+
+        The estimates restart as on a first iteration, so the two controllers need not share a solver.
+        """
+        if other.skills != self.skills or other.config.n_window != self.config.n_window:
+            raise ValueError("can only adopt a controller with the same skills and window")
+        self.reset(other.state)
+        self.window.extend(other.window)
+        self.box, self.obstacle = other.box, other.obstacle
+        self.plan, self.plan_index = other.plan, other.plan_index
+
+    def step(self, command: Sequence[float]) -> SharedControlRecord:
+        """One cycle: take the operator command h^r [m/s], return the record of the executed state."""
+        cfg = self.config
+        self._cpu = [0.0, 0.0]
+        command, notes = self._sanitise(command)
+        self.window.append(command)
+        if len(self.window) == cfg.n_window and self._idle():
+            self.window.clear()
+            self.window.append(command)
+            self._forget()
+            self.plan, self.plan_index = np.zeros((2, 0)), 0
+            notes.append("operator idle: estimation restarts")
+        if len(self.window) < cfg.n_window:
+            return self._direct(command, notes)
+        try:
+            return self._shared(command, notes)
+        except Exception as error:  # the loop must keep the robot safe whatever a solver does
+            self._forget()
+            return self._fallback(command, [*notes, f"shared control error: {error}"], [], [], 0.0, 0.0, (0, 0))
+
+    def _idle(self) -> bool:
+        speeds = np.linalg.norm(np.array(self.window), axis=1)
+        return float(np.sqrt(np.mean(speeds**2))) < self.config.idle_speed
+
+    def _sanitise(self, command) -> Tuple[np.ndarray, List[str]]:
+        notes = []
+        try:
+            value = np.asarray(command, dtype=float).ravel()[:2]
+            if value.shape != (2,):
+                raise ValueError
+        except (TypeError, ValueError):
+            return np.zeros(2), [f"rejected malformed command {command!r}: used zero velocity"]
+        if not np.all(np.isfinite(value)):
+            return np.zeros(2), [f"rejected non-finite command {value.tolist()}: used zero velocity"]
+        speed = float(np.linalg.norm(value))
+        if speed > self.config.max_command_speed:
+            value = value * (self.config.max_command_speed / speed)
+            notes.append(f"command speed {speed:.3g} m/s clipped to {self.config.max_command_speed:.3g} m/s")
+        return value, notes
+
+    def _direct(self, command, notes) -> SharedControlRecord:
+        """Direct control while the window fills: x += h^r dt, kept inside the constraints."""
+        target = self.state + command * self.config.dt
+        mode = DIRECT
+        message = f"direct control ({len(self.window)}/{self.config.n_window} commands in the window)"
+        if constraints.violation(target, self.box, self.obstacle) > 0:
+            safe = self._safe_state(target)
+            if safe is None:
+                mode, message = FALLBACK, "no free state exists (obstacle covers the boundary): holding"
+                safe = self.state
+            else:
+                message += "; stopped at the constraint"
+            target = safe
+        self.state = target
+        return self._record(mode, "", [], [], [], 0.0, 0.0, command, "; ".join([*notes, message]), (0, 0))
+
+    def _shared(self, command, notes) -> SharedControlRecord:
+        cfg = self.config
+        commands = np.array(self.window)
+        errors, results = [], {}
+        estimation_time, estimation_iterations = 0.0, 0
+        for name in self.skills:
+            result = self._estimate(name, commands)
+            results[name] = result
+            estimation_time += result.time
+            self._cpu[0] += result.cpu_time
+            estimation_iterations += max(result.iterations, 0)
+            errors.append(result.cost if result.theta is not None and np.isfinite(result.cost) else math.inf)
+        best = int(np.argmin(errors))
+        if not np.isfinite(errors[best]):
+            self._forget()
+            notes.append("skill estimation failed for every skill")
+            return self._fallback(command, notes, errors, [], estimation_time, 0.0, (estimation_iterations, 0))
+        skill = self.skills[best]
+        theta_hat = results[skill].theta
+        layout = self.optimisation_layouts[skill]
+        if skill == self.skill and self.theta_star is not None:
+            guess, (lam_x, lam_g) = self.theta_star, self.lam
+            guess = guess.copy()
+            guess[layout.i_alpha] = theta_hat[layout.i_alpha]
+        else:
+            guess, lam_x, lam_g = theta_hat, None, None
+        obstacle = self.obstacle.as_array() if self.obstacle is not None else constraints.INACTIVE_OBSTACLE
+        optimisation = self.optimisations[skill]
+        result = self._estimate_if_feasible(optimisation, theta_hat) if cfg.skip_feasible_optimisation else None
+        if result is None:
+            result = optimisation.solve(
+                theta_hat,
+                _weights(layout, cfg.optimisation_weights),
+                self.state,
+                self.box.as_array(),
+                obstacle,
+                cfg.margin,
+                guess,
+                lam_x,
+                lam_g,
+            )
+        self._cpu[1] = result.cpu_time
+        iterations = (estimation_iterations, result.iterations)
+        plan = None
+        if np.all(np.isfinite(result.theta)):
+            plan, headings = optimisation.states(result.theta, self.state)
+        worst = math.inf if plan is None else constraints.violation(plan[:, 1:], self.box, self.obstacle)
+        if plan is None or worst > 0.0 or not np.all(np.isfinite(plan)):
+            notes.append(
+                f"trajectory optimisation {result.status} after {result.iterations} iterations, "
+                f"plan violates constraints by {worst:.3g} m"
+            )
+            self.skill = None
+            return self._fallback(
+                command, notes, errors, result.theta.tolist(), estimation_time, result.time, iterations, skill
+            )
+        message = f"shared control: {skill}"
+        if not result.success:
+            message += f" (optimisation {result.status} after {result.iterations} iterations; plan feasible)"
+        self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
+        self.plan, self.plan_index = plan, 1
+        self.state = plan[:, 1].copy()
+        self.alpha_c = float(headings[1])
+        self._advance(results, result.theta)
+        return self._record(
+            SHARED,
+            skill,
+            self.skills,
+            errors,
+            result.theta.tolist(),
+            estimation_time,
+            result.time,
+            command,
+            "; ".join([*notes, message]),
+            iterations,
+            plan,
+        )
+
+    def _estimate_if_feasible(self, optimisation: TrajectoryOptimisation, theta_hat) -> Optional[SolveResult]:
+        """theta* = theta_hat when its plan already keeps the margin: then it is the exact minimiser of eq. 10."""
+        start, cpu_start = time.perf_counter(), time.thread_time()
+        plan, _ = optimisation.states(theta_hat, self.state)
+        if constraints.violation(plan[:, 1:], self.box, self.obstacle, self.config.margin) > 0.0:
+            return None
+        elapsed, cpu = time.perf_counter() - start, time.thread_time() - cpu_start
+        n = optimisation.layout.n
+        return SolveResult(theta_hat.copy(), 0.0, True, "Estimate_Feasible", 0, elapsed, np.zeros(n), None, cpu)
+
+    def _estimate(self, name: str, commands: np.ndarray) -> SolveResult:
+        cfg = self.config
+        layout = self.estimation_layouts[name]
+        estimation = self.estimations[name]
+        previous = self.estimates[name]
+        curvature = np.zeros(layout.n)
+        curvature[: layout.i_alpha] = cfg.curvature_weight
+        if previous is None:
+            guess = self._seed(name, commands)
+            result = estimation.solve(commands, guess, None, np.zeros(layout.n), None, curvature)
+        else:
+            weights = _weights(layout, cfg.regularisation_weights)
+            result = estimation.solve(
+                commands, previous, previous, weights, self.alpha_c, curvature, cfg.heading_continuity
+            )
+        return result
+
+    def _seed(self, name: str, commands: np.ndarray) -> np.ndarray:
+        """First guess of an estimation: heading and speed from the mean command, frequency and phase from a grid."""
+        layout = self.estimation_layouts[name]
+        estimation = self.estimations[name]
+        mean = commands.mean(axis=0)
+        alpha = math.atan2(mean[1], mean[0]) if np.linalg.norm(mean) > 1e-9 else 0.0
+        if self.alpha_c is not None:
+            alpha = self.alpha_c
+        v0 = float(np.clip(np.linalg.norm(mean), *self.config.speed_bounds))
+        skill = layout.skill
+        base = layout.guess(alpha, v0)
+        best, best_error = base, math.inf
+        low, high = skill.rho_lower[skill.frequency_index], skill.rho_upper[skill.frequency_index]
+        for frequency in np.geomspace(low, high, 8):
+            for fraction in (0.0, 0.25, 0.5, 0.75):
+                candidate = base.copy()
+                candidate[layout.i_rho + skill.frequency_index] = frequency
+                candidate[layout.i_rho + skill.phase_index] = fraction / frequency
+                candidate = np.clip(candidate, layout.lower, layout.upper)
+                error = estimation.fitting_error(candidate, commands)
+                if error < best_error:
+                    best, best_error = candidate, error
+        return best
+
+    def _advance(self, results: Dict[str, SolveResult], theta_star: np.ndarray) -> None:
+        """Move every estimate to the next cycle's s_c (each with its own v0)."""
+        cfg = self.config
+        for name, result in results.items():
+            layout = self.estimation_layouts[name]
+            if result.theta is None or not np.all(np.isfinite(result.theta)):
+                self.estimates[name] = None
+                continue
+            theta = np.clip(result.theta, layout.lower, layout.upper)
+            ds = theta[layout.i_v0] * cfg.dt
+            self.estimates[name] = layout.shift(theta, ds, theta[layout.i_v0] * cfg.horizon_time)
+        layout = self.optimisation_layouts[self.skill]
+        ds = theta_star[layout.i_v0] * cfg.dt
+        self.theta_star = layout.shift(theta_star, ds, theta_star[layout.i_v0] * cfg.horizon_time)
+
+    def _forget(self) -> None:
+        """After a failure, restart the estimation as on the first iteration (regularisation and alpha_c relaxed)."""
+        self.estimates = {name: None for name in self.skills}
+        self.alpha_c = None
+        self.skill = None
+        self.theta_star = None
+        self.lam = (None, None)
+
+    def _fallback(
+        self, command, notes, errors, parameters, estimation_time, optimisation_time, iterations, skill=""
+    ) -> SharedControlRecord:
+        """Safe output: the previous plan's next state, else hold, else the nearest free state."""
+        for name in self.skills:
+            self.estimates[name] = None
+        self.alpha_c = None
+        if self.plan_index + 1 < self.plan.shape[1]:
+            candidate = self.plan[:, self.plan_index + 1]
+            if constraints.violation(candidate, self.box, self.obstacle) == 0.0:
+                self.plan_index += 1
+                self.state = candidate.copy()
+                notes.append("fallback: following the previous plan")
+                return self._record(
+                    FALLBACK, skill, self.skills, errors, parameters, estimation_time, optimisation_time, command,
+                    "; ".join(notes), iterations, self.plan,
+                )  # fmt: skip
+        self.plan = np.zeros((2, 0))
+        if constraints.violation(self.state, self.box, self.obstacle) == 0.0:
+            notes.append("fallback: holding the current state")
+        else:
+            safe = self._safe_state(self.state)
+            if safe is None:
+                notes.append("fallback: no free state exists (obstacle covers the boundary); holding")
+            else:
+                self.state = safe
+                notes.append("fallback: current state not free (obstacle covers it); moved to the nearest free state")
+        return self._record(
+            FALLBACK, skill, self.skills, errors, parameters, estimation_time, optimisation_time, command,
+            "; ".join(notes), iterations,
+        )  # fmt: skip
+
+    def _safe_state(self, point) -> Optional[np.ndarray]:
+        return constraints.nearest_free_point(point, self.box, self.obstacle, self.config.margin)
+
+    def _record(
+        self,
+        mode,
+        skill,
+        skills,
+        errors,
+        parameters,
+        estimation_time,
+        optimisation_time,
+        command,
+        message,
+        iterations,
+        plan=None,
+    ) -> SharedControlRecord:
+        return SharedControlRecord(
+            mode=mode,
+            skill=skill,
+            skills=list(skills),
+            fitting_errors=[float(e) for e in errors],
+            parameters=[float(p) for p in parameters],
+            estimation_time=float(estimation_time),
+            optimisation_time=float(optimisation_time),
+            command=(float(command[0]), float(command[1])),
+            state=(float(self.state[0]), float(self.state[1])),
+            message=message,
+            iterations=(int(iterations[0]), int(iterations[1])),
+            cpu_times=(float(self._cpu[0]), float(self._cpu[1])),
+            plan=np.zeros((2, 0)) if plan is None else np.array(plan),
+        )

@@ -1,0 +1,289 @@
+"""ROS wiring of the shared controller: operator command in, equilibrium pose and state out, at 50 Hz.
+
+The MPC itself (``loop.SharedControl``) has no ROS in it; this module maps the task plane to ``base_link``, turns
+device/joystick messages into the operator command h^r, validates every message, and publishes each cycle.
+"""
+
+import dataclasses
+import math
+import threading
+from typing import Optional, Sequence
+
+import numpy as np
+
+from teleteach.shared_control import cache
+from teleteach.shared_control.constraints import Box, StraightEdge
+from teleteach.shared_control.loop import SharedControl, SharedControlConfig, SharedControlRecord
+
+INPUTS = ("operator_command", "twist", "joy")
+
+
+class InvalidMessageError(ValueError):
+    """A message that cannot be used (non-finite values, wrong frame)."""
+
+
+@dataclasses.dataclass
+class TaskPlane:
+    """The task plane in ``base_link``: x_base = origin + x e_x + y e_y, end-effector orientation fixed.
+
+    Attributes:
+        origin: plane origin in base_link [m].
+        x_axis: plane x direction in base_link (normalised here).
+        y_axis: plane y direction in base_link (made orthogonal to x_axis and normalised here).
+        orientation: end-effector orientation quaternion (x, y, z, w) in base_link.
+    """
+
+    origin: Sequence[float] = (0.5, 0.0, 0.4)
+    x_axis: Sequence[float] = (0.0, 1.0, 0.0)
+    y_axis: Sequence[float] = (0.0, 0.0, 1.0)
+    orientation: Sequence[float] = (0.0, 0.7071067811865476, 0.0, 0.7071067811865476)
+
+    def __post_init__(self):
+        origin = np.asarray(self.origin, dtype=float)
+        x_axis = np.asarray(self.x_axis, dtype=float)
+        y_axis = np.asarray(self.y_axis, dtype=float)
+        quaternion = np.asarray(self.orientation, dtype=float)
+        if origin.shape != (3,) or x_axis.shape != (3,) or y_axis.shape != (3,) or quaternion.shape != (4,):
+            raise ValueError("origin, x_axis, y_axis need 3 numbers and orientation 4")
+        if not all(np.all(np.isfinite(v)) for v in (origin, x_axis, y_axis, quaternion)):
+            raise ValueError("task plane values must be finite")
+        if np.linalg.norm(x_axis) < 1e-9 or np.linalg.norm(quaternion) < 1e-9:
+            raise ValueError("x_axis and orientation must be non-zero")
+        x_axis = x_axis / np.linalg.norm(x_axis)
+        y_axis = y_axis - (y_axis @ x_axis) * x_axis
+        if np.linalg.norm(y_axis) < 1e-9:
+            raise ValueError("y_axis must not be parallel to x_axis")
+        self.origin = origin
+        self.x_axis = x_axis
+        self.y_axis = y_axis / np.linalg.norm(y_axis)
+        self.orientation = quaternion / np.linalg.norm(quaternion)
+
+    def to_base(self, point: Sequence[float]) -> np.ndarray:
+        """Task-plane point (x, y) [m] -> base_link position [m]."""
+        return self.origin + point[0] * self.x_axis + point[1] * self.y_axis
+
+
+def _finite(values, what):
+    values = [float(v) for v in values]
+    if not all(math.isfinite(v) for v in values):
+        raise InvalidMessageError(f"{what} has non-finite values {values}")
+    return values
+
+
+def command_from_vector(message) -> np.ndarray:
+    """h^r from geometry_msgs/Vector3Stamped (x, y in the task plane [m/s]; z unused)."""
+    return np.array(_finite((message.vector.x, message.vector.y), "operator command"))
+
+
+def command_from_twist(message, projection: np.ndarray, scale: float) -> np.ndarray:
+    """h^r = scale * P v from a device geometry_msgs/TwistStamped (P: 2 x 3 projection on the task plane)."""
+    linear = _finite((message.twist.linear.x, message.twist.linear.y, message.twist.linear.z), "twist")
+    return scale * (projection @ np.array(linear))
+
+
+def command_from_joy(message, axes: Sequence[int], scale: Sequence[float]) -> np.ndarray:
+    """h^r from sensor_msgs/Joy: two axes (index), each scaled [m/s at full deflection]."""
+    if max(axes) >= len(message.axes):
+        raise InvalidMessageError(f"joy message has {len(message.axes)} axes, need index {max(axes)}")
+    values = _finite((message.axes[axes[0]], message.axes[axes[1]]), "joy axes")
+    return np.array([scale[0] * values[0], scale[1] * values[1]])
+
+
+def obstacle_from_pose(message) -> StraightEdge:
+    """Straight edge from geometry_msgs/PoseStamped in task-plane coordinates: (x, y) and yaw of the free side."""
+    p, q = message.pose.position, message.pose.orientation
+    x, y = _finite((p.x, p.y), "obstacle position")
+    qx, qy, qz, qw = _finite((q.x, q.y, q.z, q.w), "obstacle orientation")
+    if qx * qx + qy * qy + qz * qz + qw * qw < 1e-12:
+        raise InvalidMessageError("obstacle orientation is a zero quaternion")
+    yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+    return StraightEdge(x, y, yaw)
+
+
+class SharedControlNode:
+    """50 Hz shared control over ROS.
+
+    Args:
+        config: MPC parameters (``solver="compiled"`` starts on the casadi virtual machine if the compiled code is
+            not cached yet, builds it in the background and switches over when it is ready).
+        plane: task plane in base_link.
+        box: boundary in the task plane (None: none).
+        initial_state: start in the task plane [m].
+        source: one of ``INPUTS``.
+        twist_projection: 2 x 3 matrix from device linear velocity to the task plane (``twist``).
+        twist_scale: task-plane speed per device speed [-] (``twist``).
+        joy_axes: indices of the joystick axes for x and y (``joy``).
+        joy_scale: task-plane speed at full deflection per axis [m/s] (``joy``).
+        command_timeout: a command older than this counts as zero [s].
+        obstacle_timeout: the obstacle is dropped when not refreshed for this long [s] (0: never).
+        frame_id: frame of /equilibrium_pose.
+
+    ROS Subscribers:
+        /shared_control/operator_command (geometry_msgs/Vector3Stamped), or /sigma7/twist
+        (geometry_msgs/TwistStamped), or /joy (sensor_msgs/Joy); /shared_control/obstacle (geometry_msgs/PoseStamped)
+
+    ROS Publishers:
+        /equilibrium_pose (geometry_msgs/PoseStamped), /shared_control/state (teleteach/SharedControlState)
+    """
+
+    WARN_PERIOD = 5.0
+
+    def __init__(
+        self,
+        config: SharedControlConfig,
+        plane: TaskPlane,
+        box: Optional[Box],
+        initial_state: Sequence[float],
+        source: str = "operator_command",
+        twist_projection: Sequence[Sequence[float]] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+        twist_scale: float = 1.0,
+        joy_axes: Sequence[int] = (0, 1),
+        joy_scale: Sequence[float] = (0.2, 0.2),
+        command_timeout: float = 0.2,
+        obstacle_timeout: float = 1.0,
+        frame_id: str = "base_link",
+    ):
+        import rospy
+        from geometry_msgs.msg import PoseStamped, TwistStamped, Vector3Stamped
+        from sensor_msgs.msg import Joy
+
+        from teleteach.msg import SharedControlState
+
+        if source not in INPUTS:
+            raise ValueError(f"input must be one of {INPUTS}, got {source!r}")
+        projection = np.asarray(twist_projection, dtype=float)
+        if projection.shape != (2, 3) or not np.all(np.isfinite(projection)):
+            raise ValueError(f"twist_projection must be a finite 2 x 3 matrix, got {twist_projection}")
+        if config.dt <= 0 or command_timeout <= 0:
+            raise ValueError("dt and command_timeout must be > 0")
+        self._rospy = rospy
+        self._state_type = SharedControlState
+        self._pose_type = PoseStamped
+        self.plane = plane
+        self.frame_id = frame_id
+        self.command_timeout = command_timeout
+        self.obstacle_timeout = obstacle_timeout
+        self._lock = threading.Lock()
+        self._command = np.zeros(2)
+        self._command_stamp = -math.inf
+        self._obstacle: Optional[StraightEdge] = None
+        self._obstacle_stamp = -math.inf
+        self.controller = self._build(config, box, initial_state)
+        self.pose_publisher = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=1)
+        self.state_publisher = rospy.Publisher("/shared_control/state", SharedControlState, queue_size=10)
+        if source == "operator_command":
+            topic, message_type = "/shared_control/operator_command", Vector3Stamped
+            convert = command_from_vector
+        elif source == "twist":
+            topic, message_type = "/sigma7/twist", TwistStamped
+
+            def convert(message):
+                return command_from_twist(message, projection, twist_scale)
+
+        else:
+            topic, message_type = "/joy", Joy
+
+            def convert(message):
+                return command_from_joy(message, joy_axes, joy_scale)
+
+        self._subscribers = [
+            rospy.Subscriber(topic, message_type, self._guarded(self._set_command, convert), queue_size=1),
+            rospy.Subscriber(
+                "/shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
+            ),
+        ]
+        self._timer = rospy.Timer(rospy.Duration(config.dt), self._cycle)
+
+    def _build(self, config: SharedControlConfig, box, initial_state) -> SharedControl:
+        if config.solver != "compiled":
+            return SharedControl(config, initial_state, box)
+        try:
+            # Quick when the compiled code is cached (only hashing and loading).
+            with cache.only_cached():
+                return SharedControl(config, initial_state, box)
+        except cache.NotCachedError:
+            fast = SharedControl(dataclasses.replace(config, solver="fast"), initial_state, box)
+            self._rospy.logwarn("shared_control: compiled code not cached yet; building it in the background")
+            threading.Thread(target=self._compile_in_background, args=(config, box), daemon=True).start()
+            return fast
+        except (OSError, RuntimeError) as error:
+            self._rospy.logwarn(f"shared_control: compiled code unavailable ({error}); using the 'fast' solver")
+            return SharedControl(dataclasses.replace(config, solver="fast"), initial_state, box)
+
+    def _compile_in_background(self, config, box) -> None:
+        try:
+            compiled = SharedControl(config, (0.0, 0.0), box)
+        except (OSError, RuntimeError) as error:
+            self._rospy.logerr(f"shared_control: compiling failed ({error}); staying on the 'fast' solver")
+            return
+        with self._lock:
+            compiled.adopt(self.controller)
+            self.controller = compiled
+        self._rospy.loginfo("shared_control: switched to the compiled solvers")
+
+    def _guarded(self, setter, convert):
+        def callback(message):
+            try:
+                setter(convert(message))
+            except (InvalidMessageError, ValueError) as error:
+                self._rospy.logwarn_throttle(self.WARN_PERIOD, f"shared_control: rejected a message: {error}")
+
+        return callback
+
+    def _set_command(self, command: np.ndarray) -> None:
+        with self._lock:
+            self._command = command
+            self._command_stamp = self._rospy.get_time()
+
+    def _set_obstacle(self, obstacle: StraightEdge) -> None:
+        with self._lock:
+            self._obstacle = obstacle
+            self._obstacle_stamp = self._rospy.get_time()
+
+    def _cycle(self, _event) -> None:
+        now = self._rospy.get_time()
+        with self._lock:
+            fresh = now - self._command_stamp <= self.command_timeout
+            command = self._command if fresh else np.zeros(2)
+            obstacle = self._obstacle
+            if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
+                obstacle = None
+            controller = self.controller
+            controller.set_obstacle(obstacle)
+            record = controller.step(command)
+        self.publish(record)
+
+    def publish(self, record: SharedControlRecord) -> None:
+        """Send the executed state as the equilibrium pose and the record as the state message."""
+        stamp = self._rospy.Time.now()
+        pose = self._pose_type()
+        pose.header.stamp = stamp
+        pose.header.frame_id = self.frame_id
+        position = self.plane.to_base(record.state)
+        pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = (float(v) for v in position)
+        q = self.plane.orientation
+        pose.pose.orientation.x, pose.pose.orientation.y = float(q[0]), float(q[1])
+        pose.pose.orientation.z, pose.pose.orientation.w = float(q[2]), float(q[3])
+        self.pose_publisher.publish(pose)
+        state = self._state_type()
+        state.header.stamp = stamp
+        state.header.frame_id = "task_plane"
+        state.mode = record.mode
+        state.skill = record.skill
+        state.skills = record.skills
+        state.fitting_errors = record.fitting_errors
+        state.parameters = record.parameters
+        state.estimation_time = record.estimation_time
+        state.optimisation_time = record.optimisation_time
+        state.command.x, state.command.y = record.command
+        state.state.x, state.state.y = record.state
+        state.message = record.message
+        self.state_publisher.publish(state)
+
+    def shutdown(self) -> None:
+        """Stop the timer and unregister the topics."""
+        self._timer.shutdown()
+        for subscriber in self._subscribers:
+            subscriber.unregister()
+        self.pose_publisher.unregister()
+        self.state_publisher.unregister()

@@ -1,0 +1,101 @@
+#!/usr/bin/env python3
+"""rostest check of the shared-control node: modes, skill, boundary and obstacle kept, bad messages rejected."""
+
+import math
+import time
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+from geometry_msgs.msg import PoseStamped, Vector3Stamped
+
+from teleteach.msg import SharedControlState
+from teleteach.shared_control.models import synthetic_commands
+
+# From config/shared_control.yaml (plane) and the .test file (boundary)
+ORIGIN = np.array([0.55, 0.0, 0.45])
+BOUNDARY = (-0.25, -0.05, 0.25, 0.08)
+
+
+def to_plane(pose):
+    p = pose.pose.position
+    return np.array([p.y - ORIGIN[1], p.z - ORIGIN[2]]), p.x
+
+
+class SharedControlNode(unittest.TestCase):
+    def setUp(self):
+        self.states, self.poses = [], []
+        rospy.Subscriber("/shared_control/state", SharedControlState, self.states.append)
+        rospy.Subscriber("/equilibrium_pose", PoseStamped, self.poses.append)
+        self.command = rospy.Publisher("/shared_control/operator_command", Vector3Stamped, queue_size=10)
+        self.obstacle = rospy.Publisher("/shared_control/obstacle", PoseStamped, queue_size=10)
+        self.wait_for(lambda: self.states and self.command.get_num_connections(), "the node")
+
+    def wait_for(self, condition, what, timeout=30.0):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if condition():
+                return
+            time.sleep(0.05)
+        self.fail(f"timed out waiting for {what}")
+
+    def send(self, x, y):
+        message = Vector3Stamped()
+        message.header.stamp = rospy.Time.now()
+        message.vector.x, message.vector.y = x, y
+        self.command.publish(message)
+
+    def send_obstacle(self, x, y, yaw):
+        message = PoseStamped()
+        message.pose.position.x, message.pose.position.y = x, y
+        message.pose.orientation.z, message.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        self.obstacle.publish(message)
+
+    def test_wave_is_identified_and_constraints_are_kept(self):
+        # The operator waves right to left while drifting up towards the boundary y = 0.08 m.
+        commands = synthetic_commands("wave", (0.03, 20.0, 0.0), math.pi - 0.5, 0.05, np.arange(0, 5.0, 0.02))
+        rate = rospy.Rate(50)
+        first = len(self.states)
+        obstacle_time = None
+        for k, (x, y) in enumerate(commands):
+            if k == 100:
+                self.send(float("nan"), 0.0)  # rejected by the node, which keeps running
+            self.send(float(x), float(y))
+            if k >= 150:
+                # A straight edge below the robot, free side up: the robot must stay above y = -0.02.
+                self.send_obstacle(0.0, -0.02, math.pi / 2)
+                obstacle_time = obstacle_time or rospy.get_time()
+            rate.sleep()
+        self.wait_for(lambda: len(self.states) > first + 200, "state messages during the run")
+        states = self.states[first:]
+        modes = [s.mode for s in states]
+        self.assertIn(SharedControlState.DIRECT, modes)
+        self.assertIn(SharedControlState.SHARED, modes)
+        shared = [s for s in states if s.mode == SharedControlState.SHARED]
+        self.assertGreater(sum(s.skill == "wave" for s in shared), 0.9 * len(shared))
+        self.assertEqual(list(shared[-1].skills), ["wave", "cycloid"])
+        self.assertEqual(len(shared[-1].fitting_errors), 2)
+        self.assertEqual(len(shared[-1].parameters), 7)
+        # Every equilibrium pose lies on the task plane, inside the boundary; after the obstacle appeared, above it.
+        for pose in self.poses:
+            self.assertEqual(pose.header.frame_id, "base_link")
+            point, depth = to_plane(pose)
+            self.assertAlmostEqual(depth, ORIGIN[0])
+            self.assertGreaterEqual(point[0], BOUNDARY[0] - 1e-6)
+            self.assertGreaterEqual(point[1], BOUNDARY[1] - 1e-6)
+            self.assertLessEqual(point[0], BOUNDARY[2] + 1e-6)
+            self.assertLessEqual(point[1], BOUNDARY[3] + 1e-6)
+        top = max(to_plane(p)[0][1] for p in self.poses)
+        self.assertGreater(top, 0.06)  # it did reach the boundary region rather than stand still
+        after = [s for s in states if s.header.stamp.to_sec() > obstacle_time + 0.1]
+        self.assertGreater(len(after), 10)
+        for state in after:
+            self.assertGreaterEqual(state.state.y, -0.02 - 1e-6)
+        # The state message mirrors the executed state, and the command is the operator's.
+        self.assertTrue(all(math.isfinite(s.command.x) for s in states))
+
+
+if __name__ == "__main__":
+    rospy.init_node("shared_control_check")
+    rostest.rosrun("teleteach", "shared_control_check", SharedControlNode)

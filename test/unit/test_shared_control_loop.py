@@ -1,0 +1,234 @@
+"""The shared-control MPC loop: constraints never violated, safe fallback on bad input, records complete."""
+
+import math
+
+import numpy as np
+import pytest
+
+from teleteach.shared_control.constraints import Box, StraightEdge, violation
+from teleteach.shared_control.loop import DIRECT, FALLBACK, SHARED, SharedControl, SharedControlConfig
+from teleteach.shared_control.models import synthetic_commands
+
+DT = 0.02
+TOLERANCE = 1e-6
+
+
+@pytest.fixture(scope="module")
+def controller():
+    return SharedControl(SharedControlConfig(solver="fast"), (0.5, 0.0))
+
+
+def wave(duration, heading=math.pi, seed=0):
+    times = np.arange(0, duration, DT)
+    return synthetic_commands("wave", (0.03, 20.0, 0.0), heading, 0.05, times, 0.02, np.random.default_rng(seed))
+
+
+def test_static_boundary_is_never_crossed_while_direct_control_crosses(controller):
+    box = Box(-1.0, -0.06, 1.0, 0.2)
+    commands = wave(6.0, heading=math.pi + 0.2)
+    direct = np.array([0.5, 0.0]) + np.cumsum(commands, axis=0) * DT
+    assert violation(direct.T, box, None) > 0.01  # the operator's input leads across the boundary
+    controller.reset((0.5, 0.0))
+    controller.set_boundary(box)
+    controller.set_obstacle(None)
+    records = [controller.step(c) for c in commands]
+    states = np.array([r.state for r in records]).T
+    assert violation(states, box, None) <= TOLERANCE
+    assert sum(r.mode == SHARED for r in records) > 0.9 * (len(records) - 50)
+    assert states[1].min() < -0.05  # it did go along the boundary rather than stop early
+    for record in records:
+        assert record.skill in ("", "wave", "cycloid")
+        if record.mode == SHARED:
+            assert violation(record.plan, box, None) <= TOLERANCE
+
+
+def test_moving_straight_edge_is_never_crossed(controller):
+    box = Box(-1.0, -0.08, 1.0, 0.2)
+    controller.reset((0.5, 0.0))
+    controller.set_boundary(box)
+    worst = 0.0
+    modes = []
+    for k, command in enumerate(wave(6.0, seed=1)):
+        # The edge comes down from y = 0.08 to y = 0.01 and back (free side below it).
+        edge = StraightEdge(0.0, 0.08 - 0.07 * math.sin(math.pi * k * DT / 6.0), -math.pi / 2)
+        controller.set_obstacle(edge)
+        record = controller.step(command)
+        modes.append(record.mode)
+        worst = max(worst, violation(np.array(record.state), box, edge))
+    assert worst <= TOLERANCE
+    assert modes.count(SHARED) > 0.9 * (len(modes) - 50)
+    controller.set_obstacle(None)
+
+
+def test_non_finite_huge_and_malformed_commands_are_replaced_and_reported(controller):
+    box = Box(-1.0, -0.5, 1.0, 0.5)
+    controller.reset((0.0, 0.0))
+    controller.set_boundary(box)
+    controller.set_obstacle(None)
+    # Empty window: the first command is NaN, so direct control holds.
+    record = controller.step([math.nan, 0.0])
+    assert record.mode == DIRECT
+    assert record.state == (0.0, 0.0)
+    assert "non-finite" in record.message
+    record = controller.step([1e9, 0.0])
+    assert "clipped" in record.message
+    assert violation(np.array(record.state), box, None) <= TOLERANCE
+    for bad in (None, "fast", [1.0], [[math.inf, 1.0]]):
+        record = controller.step(bad)
+        assert "rejected" in record.message
+        assert all(math.isfinite(v) for v in record.state)
+    # In shared control too: a wave, then garbage, never leaves the box and never raises.
+    commands = list(wave(1.5))
+    commands[60] = [math.nan, math.inf]
+    commands[61] = [1e12, -1e12]
+    for command in commands:
+        record = controller.step(command)
+        assert violation(np.array(record.state), box, None) <= TOLERANCE
+        assert all(math.isfinite(v) for v in record.state)
+
+
+def test_obstacle_covering_the_robot_moves_it_to_the_nearest_free_state(controller):
+    box = Box(-1.0, -0.5, 1.0, 0.5)
+    controller.reset((0.0, 0.0))
+    controller.set_boundary(box)
+    controller.set_obstacle(None)
+    for command in wave(1.2):
+        controller.step(command)
+    x, y = controller.state
+    edge = StraightEdge(x, y + 0.05, math.pi / 2)  # free side starts 5 cm above the robot: it is covered
+    controller.set_obstacle(edge)
+    record = controller.step(wave(0.02)[0])
+    assert record.mode == FALLBACK
+    assert "obstacle covers" in record.message or "fallback" in record.message
+    assert violation(np.array(record.state), box, edge) <= TOLERANCE
+    assert record.state[1] == pytest.approx(y + 0.05 + controller.config.margin, abs=1e-9)
+    # The loop carries on from there and stays free.
+    for command in wave(1.0, seed=2):
+        record = controller.step(command)
+        assert violation(np.array(record.state), box, edge) <= TOLERANCE
+    controller.set_obstacle(None)
+
+
+def test_obstacle_covering_the_whole_workspace_holds_and_says_so(controller):
+    box = Box(-1.0, -0.5, 1.0, 0.5)
+    controller.reset((0.0, 0.0))
+    controller.set_boundary(box)
+    controller.set_obstacle(StraightEdge(5.0, 0.0, 0.0))
+    record = controller.step([0.01, 0.0])
+    assert record.mode == FALLBACK
+    assert "no free state" in record.message
+    assert record.state == (0.0, 0.0)
+    controller.set_obstacle(None)
+
+
+def test_infeasible_plan_falls_back_without_leaving_the_constraints(controller):
+    controller.reset((0.0, 0.0))
+    controller.set_boundary(Box(-1.0, -0.5, 1.0, 0.5))
+    controller.set_obstacle(None)
+    for command in wave(1.5):
+        controller.step(command)
+    x, y = controller.state
+    # A boundary tighter than the optimisation's margin around the robot: no plan is feasible, holding still is.
+    half = controller.config.margin / 2
+    box = Box(x - half, y - half, x + half, y + half)
+    controller.set_boundary(box)
+    record = controller.step(wave(0.02)[0])
+    assert record.mode == FALLBACK
+    assert "trajectory optimisation" in record.message
+    assert "holding" in record.message
+    assert record.state == (x, y)
+    assert violation(np.array(record.state), box, None) <= TOLERANCE
+
+
+def test_record_has_the_state_message_fields(controller):
+    controller.reset((0.1, 0.2))
+    controller.set_boundary(None)
+    controller.set_obstacle(None)
+    records = [controller.step(c) for c in wave(1.2)]
+    first, last = records[0], records[-1]
+    assert first.mode == DIRECT and first.skill == "" and first.fitting_errors == []
+    assert last.mode == SHARED
+    assert last.skills == ["wave", "cycloid"]
+    assert len(last.fitting_errors) == 2 and len(last.parameters) == 7
+    assert last.estimation_time > 0 and last.optimisation_time > 0
+    assert last.command == pytest.approx(tuple(wave(1.2)[-1]))
+    assert last.plan.shape == (2, 51)
+    assert np.allclose(last.plan[:, 1], last.state)
+
+
+def test_bad_configuration_is_rejected_and_changes_nothing(controller):
+    before = controller.box
+    with pytest.raises(TypeError):
+        controller.set_boundary((0, 0, 1, 1))
+    with pytest.raises(TypeError):
+        controller.set_obstacle("edge")
+    assert controller.box is before
+    with pytest.raises(ValueError):
+        controller.reset((math.nan, 0.0))
+    with pytest.raises(ValueError):
+        SharedControl(SharedControlConfig(skills=("spiral",), solver="fast"))
+
+
+def test_idle_operator_restarts_the_estimation(controller):
+    controller.reset((0.0, 0.0))
+    controller.set_boundary(None)
+    controller.set_obstacle(None)
+    for command in wave(1.5):
+        controller.step(command)
+    records = [controller.step([0.0, 0.0]) for _ in range(60)]
+    assert records[-1].mode == DIRECT
+    assert any("operator idle" in r.message for r in records)
+    # Moving again: direct control for one window, then shared control on the new motion only.
+    records = [controller.step(c) for c in wave(1.2, seed=5)]
+    assert records[10].mode == DIRECT
+    assert records[-1].mode == SHARED and records[-1].skill == "wave"
+
+
+def test_ros_message_conversions_and_task_plane():
+    from geometry_msgs.msg import PoseStamped, TwistStamped, Vector3Stamped
+    from sensor_msgs.msg import Joy
+
+    from teleteach.shared_control.ros import (
+        InvalidMessageError,
+        TaskPlane,
+        command_from_joy,
+        command_from_twist,
+        command_from_vector,
+        obstacle_from_pose,
+    )
+
+    vector = Vector3Stamped()
+    vector.vector.x, vector.vector.y, vector.vector.z = 0.1, -0.2, 5.0
+    assert command_from_vector(vector).tolist() == [0.1, -0.2]
+    vector.vector.x = math.nan
+    with pytest.raises(InvalidMessageError):
+        command_from_vector(vector)
+    twist = TwistStamped()
+    twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = 0.01, 0.02, 0.03
+    projection = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    assert command_from_twist(twist, projection, 2.0) == pytest.approx([0.04, 0.06])
+    joy = Joy(axes=[0.5, -1.0, 0.0])
+    assert command_from_joy(joy, (0, 1), (0.2, 0.1)) == pytest.approx([0.1, -0.1])
+    with pytest.raises(InvalidMessageError):
+        command_from_joy(joy, (0, 5), (0.2, 0.1))
+    pose = PoseStamped()
+    pose.pose.position.x, pose.pose.position.y = 0.1, 0.2
+    pose.pose.orientation.z, pose.pose.orientation.w = math.sin(0.3), math.cos(0.3)
+    edge = obstacle_from_pose(pose)
+    assert (edge.x, edge.y, edge.yaw) == pytest.approx((0.1, 0.2, 0.6))
+    pose.pose.orientation.w = pose.pose.orientation.z = 0.0
+    with pytest.raises(InvalidMessageError):
+        obstacle_from_pose(pose)
+    plane = TaskPlane(origin=(0.5, 0.0, 0.4), x_axis=(0.0, 2.0, 0.0), y_axis=(0.0, 1.0, 1.0))
+    assert plane.to_base((0.1, 0.2)) == pytest.approx([0.5, 0.1, 0.6])
+    with pytest.raises(ValueError):
+        TaskPlane(x_axis=(0.0, 1.0, 0.0), y_axis=(0.0, 2.0, 0.0))
+
+
+def test_two_clothoid_segments_run_and_keep_the_boundary():
+    box = Box(-1.0, -0.06, 1.0, 0.2)
+    controller = SharedControl(SharedControlConfig(solver="fast", n_segments=2), (0.5, 0.0), box)
+    records = [controller.step(c) for c in wave(2.5, heading=math.pi + 0.2)]
+    assert records[-1].mode == SHARED and records[-1].skill == "wave"
+    assert len(records[-1].parameters) == 9  # two (phi0, phi1) pairs
+    assert violation(np.array([r.state for r in records]).T, box, None) <= TOLERANCE

@@ -1,0 +1,173 @@
+"""Models of skill-based shared control (eqs 2-6) checked against independent computations."""
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+from scipy import integrate, special
+
+from teleteach.shared_control.constraints import Box, StraightEdge, free_polygon, nearest_free_point, violation
+from teleteach.shared_control.models import (
+    SKILLS,
+    ClothoidPath,
+    ParameterLayout,
+    control_function,
+    state_trajectory,
+    synthetic_commands,
+)
+
+
+def layout(skill="wave", segments=1):
+    return ParameterLayout(SKILLS[skill], ClothoidPath(segments), 50.0, 500.0, (0.001, 1.0))
+
+
+def rk4_path(psi, length, n_steps, segments=1):
+    path = ClothoidPath(segments)
+    u, alpha = path.rk4(ca.DM([0.0, 0.0]), psi[2 * segments], ca.DM(psi), length, n_steps)
+    return np.asarray(u, dtype=float), np.asarray(alpha, dtype=float).ravel()
+
+
+def test_clothoid_rk4_matches_fresnel_integrals():
+    # Pure clothoid alpha = phi1 s^2 / 2: U(s) = sqrt(pi / phi1) (C(z), S(z)), z = s sqrt(phi1 / pi).
+    phi1, length = 40.0, 0.5
+    u, _ = rk4_path([0.0, phi1, 0.0, 0.1], length, 50)
+    s = np.linspace(0, length, 51)
+    fresnel_s, fresnel_c = special.fresnel(s * math.sqrt(phi1 / math.pi))
+    expected = math.sqrt(math.pi / phi1) * np.vstack([fresnel_c, fresnel_s])
+    assert np.max(np.abs(u - expected)) < 1e-7
+
+
+def test_clothoid_rk4_matches_quadrature_with_fourth_order_convergence():
+    phi0, phi1, alpha_c, length = 3.0, -25.0, 0.7, 0.4
+
+    def heading(s):
+        return alpha_c + phi0 * s + phi1 * s**2 / 2
+
+    errors = []
+    for n_steps in (40, 80):
+        u, alpha = rk4_path([phi0, phi1, alpha_c, 0.1], length, n_steps)
+        error = 0.0
+        for j, s_end in enumerate(np.linspace(0, length, n_steps + 1)):
+            x = integrate.quad(lambda s: math.cos(heading(s)), 0, s_end, epsabs=1e-14)[0]
+            y = integrate.quad(lambda s: math.sin(heading(s)), 0, s_end, epsabs=1e-14)[0]
+            error = max(error, float(np.max(np.abs(u[:, j] - [x, y]))))
+            assert alpha[j] == pytest.approx(heading(s_end), abs=1e-12)
+        errors.append(error)
+    assert errors[0] < 1e-7
+    assert errors[0] / errors[1] > 12  # halving the step divides the error by ~2^4
+
+
+def test_two_segments_keep_heading_continuous_and_match_closed_form():
+    psi = [2.0, 10.0, -4.0, 30.0, 0.3, 0.1]
+    length = 0.6
+    _, alpha = rk4_path(psi, length, 60, segments=2)
+    path = ClothoidPath(2)
+    s = ca.SX.sym("s")
+    heading = ca.Function("h", [s], [path.heading(s, ca.DM(psi), length)])
+    closed = np.array([float(heading(v)) for v in np.linspace(0, length, 61)])
+    assert np.max(np.abs(alpha - closed)) < 1e-9
+    assert np.max(np.abs(np.diff(alpha))) < 0.05
+
+
+@pytest.mark.parametrize("skill", sorted(SKILLS))
+def test_control_is_the_derivative_of_the_state(skill):
+    # eq. 4 (product rule) against a Richardson-extrapolated central difference of eq. 3 (RK4 states).
+    lay = layout(skill)
+    theta = np.array([4.0, -30.0, 0.4, 0.05, 0.02, 15.0, 0.01])
+    x_c = np.array([0.2, -0.1])
+    n = 400
+    length = 0.2
+    states, _ = state_trajectory(lay, ca.DM(x_c), ca.DM(theta), length, n)
+    states = np.asarray(states, dtype=float)
+    assert states[:, 0] == pytest.approx(x_c, abs=1e-12)
+    h = length / n
+    control = control_function(lay, length)
+    for j in (50, 200, 350):
+        fine = (states[:, j + 1] - states[:, j - 1]) / (2 * h)
+        coarse = (states[:, j + 2] - states[:, j - 2]) / (4 * h)
+        numeric = (4 * fine - coarse) / 3
+        assert np.asarray(control(j * h, theta)).ravel() == pytest.approx(numeric, abs=1e-5)
+
+
+def test_wave_and_cycloid_shapes_follow_table_one():
+    # Straight underlying trajectory along +x: the wave moves only across it, the cycloid stays on a circle.
+    x_c = np.zeros(2)
+    for skill in ("wave", "cycloid"):
+        lay = layout(skill)
+        theta = np.array([0.0, 0.0, 0.0, 0.05, 0.03, 10.0, 0.0])
+        states, _ = state_trajectory(lay, ca.DM(x_c), ca.DM(theta), 0.3, 300)
+        states = np.asarray(states, dtype=float)
+        s = np.linspace(0, 0.3, 301)
+        if skill == "wave":
+            u_c = x_c - np.array([0.0, 0.0])  # sin(0) = 0: U_c = x_c
+            assert states[0] - u_c[0] == pytest.approx(s, abs=1e-9)
+            assert states[1] == pytest.approx(0.03 * np.sin(2 * math.pi * 10.0 * s), abs=1e-9)
+        else:
+            centre = np.vstack([s - 0.03, np.zeros_like(s)])  # U_c = x_c - rho0 [1, 0]
+            assert np.linalg.norm(states - centre, axis=0) == pytest.approx(np.full(301, 0.03), abs=1e-9)
+
+
+@pytest.mark.parametrize("skill", sorted(SKILLS))
+def test_shift_moves_the_model_along_s(skill):
+    lay = layout(skill)
+    theta = np.array([3.0, -20.0, 0.4, 0.05, 0.02, 15.0, 0.01])
+    ds = 0.013
+    shifted = lay.shift(theta, ds, 0.05)
+    control = control_function(lay)
+    for s in (-0.04, -0.01, 0.0, 0.02):
+        assert np.asarray(control(s, shifted)).ravel() == pytest.approx(
+            np.asarray(control(s + ds, theta)).ravel(), abs=1e-10
+        )
+    period = 1.0 / shifted[lay.i_rho + 1]
+    assert abs(shifted[lay.i_rho + 2]) <= period / 2 + 1e-12
+
+
+def test_synthetic_commands_are_the_velocity_of_the_model():
+    times = np.arange(0, 1.0, 0.001)
+    commands = synthetic_commands("cycloid", (0.03, 20.0, 0.0), 1.0, 0.05, times)
+    positions = np.cumsum(commands, axis=0) * 0.001
+    # The motion advances on average at v0 along the heading, and loops (speed above v0 at times).
+    assert positions[-1] == pytest.approx(0.05 * np.array([math.cos(1.0), math.sin(1.0)]), abs=2e-3)
+    assert np.max(np.linalg.norm(commands, axis=1)) > 0.15
+
+
+def test_unknown_skill_and_bad_segment_count_are_rejected():
+    from teleteach.shared_control.models import skill_names
+
+    with pytest.raises(ValueError, match="unknown skills"):
+        skill_names(["wave", "spiral"])
+    with pytest.raises(ValueError):
+        ClothoidPath(0)
+
+
+def test_nearest_free_point_matches_a_brute_force_search():
+    box = Box(-0.2, -0.1, 0.3, 0.25)
+    edge = StraightEdge(0.05, 0.0, 2.3)
+    grid = np.stack(np.meshgrid(np.linspace(-0.2, 0.3, 501), np.linspace(-0.1, 0.25, 351)), axis=0).reshape(2, -1)
+    free = grid[:, violation_mask(grid, box, edge)]
+    rng = np.random.default_rng(3)
+    for point in rng.uniform([-0.4, -0.3], [0.5, 0.4], size=(20, 2)):
+        nearest = nearest_free_point(point, box, edge, 0.0)
+        assert violation(nearest, box, edge) < 1e-12
+        brute = np.min(np.linalg.norm(free - point[:, None], axis=0))
+        assert np.linalg.norm(nearest - point) <= brute + 1e-9
+        assert np.linalg.norm(nearest - point) >= brute - 2e-3
+
+
+def violation_mask(points, box, edge):
+    return np.array([violation(p, box, edge) == 0.0 for p in points.T])
+
+
+def test_no_free_region_when_the_edge_covers_the_box():
+    box = Box(0.0, 0.0, 1.0, 1.0)
+    edge = StraightEdge(2.0, 0.0, 0.0)  # free side is x >= 2
+    assert free_polygon(box, edge, 0.0) == []
+    assert nearest_free_point(np.array([0.5, 0.5]), box, edge, 0.0) is None
+
+
+def test_bad_geometry_is_rejected():
+    with pytest.raises(ValueError):
+        Box(1.0, 0.0, 0.0, 1.0)
+    with pytest.raises(ValueError):
+        StraightEdge(float("nan"), 0.0, 0.0)
