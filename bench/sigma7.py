@@ -1,0 +1,136 @@
+"""Benchmark: the sigma7 device loop, without ROS and over ROS.
+
+1. Cost of one cycle of the library loop (scenario read + click emulation + twist), no publishing: mean and p99 [us].
+2. The wall-clock rate keeper at 1 kHz for 5 s with that loop: achieved rate [Hz], interval p50/p99/max [ms].
+3. Over ROS: the sigma7 node (example scenario, its own roscore on a free port) for 8 s, a subscriber counting
+   /sigma7/pose by header stamp: publication rate [Hz], stamp interval p99/max [ms], node CPU [% of one core].
+Target: 1000 Hz +- 10 %, a cycle well under 1 ms. Prints and writes bench/results/sigma7.json.
+
+    source .ws/env.sh && python bench/sigma7.py
+"""
+
+import json
+import os
+import pathlib
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import roslib.packages
+
+from teleteach.haptics.click import ClickDetector
+from teleteach.haptics.loop import DeviceLoop, WallRate
+from teleteach.haptics.scenario import ScenarioBackend, load_scenario
+from teleteach.haptics.twist import TwistEstimator
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SCENARIO = ROOT / "config" / "scenarios" / "example.yaml"
+
+
+def make_loop(sink):
+    backend = ScenarioBackend(load_scenario(SCENARIO), start_time=time.monotonic())
+    return DeviceLoop(backend, sink, time.monotonic, ClickDetector(), TwistEstimator(20.0), print)
+
+
+def cycle_cost(cycles=5000):
+    loop = make_loop(lambda state: None)
+    costs = []
+    for _ in range(cycles):
+        start = time.perf_counter()
+        loop.step()
+        costs.append(time.perf_counter() - start)
+    costs = np.array(costs) * 1e6
+    return {"mean_us": float(costs.mean()), "p99_us": float(np.percentile(costs, 99))}
+
+
+def rate_keeping(seconds=5.0):
+    stamps = []
+    loop = make_loop(lambda state: stamps.append(time.monotonic()))
+    rate = WallRate(1000.0)
+    end = time.monotonic() + seconds
+    loop.run(rate, lambda: time.monotonic() > end)
+    intervals = np.diff(stamps) * 1e3
+    return {
+        "achieved_hz": float((len(stamps) - 1) / (stamps[-1] - stamps[0])),
+        "interval_p50_ms": float(np.percentile(intervals, 50)),
+        "interval_p99_ms": float(np.percentile(intervals, 99)),
+        "interval_max_ms": float(intervals.max()),
+    }
+
+
+SUBSCRIBER = """
+import sys, time, rospy
+from geometry_msgs.msg import PoseStamped
+stamps = []
+rospy.init_node("bench_sigma7_sub")
+rospy.Subscriber("/sigma7/pose", PoseStamped, lambda msg: stamps.append(msg.header.stamp.to_sec()))
+time.sleep(float(sys.argv[1]))
+print(" ".join(repr(stamp) for stamp in stamps))
+"""
+
+
+def over_ros(seconds=8.0):
+    with socket.socket() as probe:
+        probe.bind(("localhost", 0))
+        port = probe.getsockname()[1]
+    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
+    core = subprocess.Popen(
+        ["roscore", "-p", str(port)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    node = None
+    try:
+        while subprocess.run(["rosparam", "get", "/rosversion"], env=env, capture_output=True).returncode:
+            time.sleep(0.5)
+        executable = roslib.packages.find_node("teleteach", "sigma7_node")[0]
+        node = subprocess.Popen(
+            [executable, "_backend:=scenario", f"_scenario:={SCENARIO}"],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+        time.sleep(3.0)
+        cpu_before = _cpu_seconds(node.pid)
+        result = subprocess.run(
+            [sys.executable, "-c", SUBSCRIBER, str(seconds)], env=env, capture_output=True, text=True, check=True
+        )
+        cpu = (_cpu_seconds(node.pid) - cpu_before) / (seconds + 1.0)  # the subscriber's start-up included
+    finally:
+        for process in (node, core):
+            if process is not None:
+                os.killpg(process.pid, signal.SIGINT)
+                process.wait(timeout=30)
+    stamps = np.array([float(value) for value in result.stdout.split()])
+    stamps = stamps[stamps > stamps[0] + 1.0]  # skip the connection's first second
+    intervals = np.diff(stamps) * 1e3
+    return {
+        "publication_hz": float((len(stamps) - 1) / (stamps[-1] - stamps[0])),
+        "stamp_interval_p99_ms": float(np.percentile(intervals, 99)),
+        "stamp_interval_max_ms": float(intervals.max()),
+        "node_cpu_percent_of_one_core": float(100.0 * cpu),
+    }
+
+
+def _cpu_seconds(pid):
+    fields = pathlib.Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def main():
+    results = {"cycle": cycle_cost(), "rate_keeping": rate_keeping(), "over_ros": over_ros()}
+    results["load_average_1min"] = os.getloadavg()[0]
+    print(json.dumps(results, indent=2))
+    out = ROOT / "bench" / "results"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "sigma7.json").write_text(json.dumps(results, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,101 @@
+"""The emulated button click of the thesis: a quick close-and-back of the finger-operated gripper.
+
+Both sides of the gesture live here: :class:`ClickDetector` recognises it in a stream of gripper angles (used by
+every backend without a native button), and :func:`flick_gripper_angle` produces it (used by the scenario and
+virtual backends to script a click), so the two always agree.
+"""
+
+import dataclasses
+import enum
+import math
+from typing import Optional
+
+
+@dataclasses.dataclass(frozen=True)
+class ClickParameters:
+    """Thresholds of the click gesture.
+
+    Attributes:
+        close_threshold: [rad] the gripper counts as closed below this angle.
+        release_threshold: [rad] the gripper counts as back open above this angle (> close_threshold: hysteresis).
+        max_duration: [s] longest time from closing to release that still counts as a click.
+        pulse_duration: [s] how long the button state stays True after a click.
+    """
+
+    close_threshold: float = 0.1
+    release_threshold: float = 0.2
+    max_duration: float = 0.5
+    pulse_duration: float = 0.1
+
+    def __post_init__(self):
+        values = dataclasses.astuple(self)
+        if not all(math.isfinite(value) for value in values):
+            raise ValueError(f"click parameters must be finite numbers, got {self}")
+        if not 0.0 <= self.close_threshold < self.release_threshold:
+            raise ValueError(
+                f"click thresholds need 0 <= close_threshold < release_threshold, "
+                f"got close {self.close_threshold} rad, release {self.release_threshold} rad"
+            )
+        if self.max_duration <= 0.0 or self.pulse_duration <= 0.0:
+            raise ValueError(
+                f"click durations must be positive, got max_duration {self.max_duration} s, "
+                f"pulse_duration {self.pulse_duration} s"
+            )
+
+
+class _Phase(enum.Enum):
+    DISARMED = 0  # waiting for the gripper to be open (at start, after a reset, after a slow close)
+    OPEN = 1  # armed: a close may start a click
+    CLOSED = 2  # closed since `closed_since`, waiting for the release
+
+
+class ClickDetector:
+    """Turns gripper angles into the emulated button state.
+
+    The gripper drops below ``close_threshold`` and comes back above ``release_threshold`` within
+    ``max_duration`` -> one click: the button state goes True (one rising edge) for ``pulse_duration``.
+    A slower close-and-back is a grip, not a click. The two thresholds give hysteresis, so noise around
+    either threshold neither starts nor ends a gesture twice.
+    """
+
+    def __init__(self, parameters: Optional[ClickParameters] = None):
+        self.parameters = parameters or ClickParameters()
+        self.clicks = 0
+        self.reset()
+
+    def reset(self) -> None:
+        """Forgets the gesture in progress (after a gap in the data); the next click needs an open gripper first."""
+        self._phase = _Phase.DISARMED
+        self._closed_since = 0.0
+        self._pressed_until = -math.inf
+
+    def update(self, time: float, gripper_angle: float) -> bool:
+        """Feeds one gripper angle [rad] taken at ``time`` [s]; returns the button state."""
+        parameters = self.parameters
+        if self._phase is _Phase.DISARMED:
+            if gripper_angle > parameters.release_threshold:
+                self._phase = _Phase.OPEN
+        elif self._phase is _Phase.OPEN:
+            if gripper_angle < parameters.close_threshold:
+                self._phase = _Phase.CLOSED
+                self._closed_since = time
+        elif gripper_angle > parameters.release_threshold:
+            if time - self._closed_since <= parameters.max_duration:
+                self.clicks += 1
+                self._pressed_until = time + parameters.pulse_duration
+            self._phase = _Phase.OPEN
+        elif time - self._closed_since > parameters.max_duration:
+            self._phase = _Phase.DISARMED
+        return time < self._pressed_until
+
+
+def flick_gripper_angle(base_angle: float, time_since_start: float, duration: float) -> float:
+    """The gripper angle [rad] during a scripted click, ``time_since_start`` [s] after it began.
+
+    A raised-cosine dip from ``base_angle`` to fully closed (0 rad) at ``duration / 2`` and back at ``duration``;
+    outside [0, duration] the angle is ``base_angle``.
+    """
+    if not 0.0 <= time_since_start <= duration:
+        return base_angle
+    depth = 0.5 * (1.0 - math.cos(2.0 * math.pi * time_since_start / duration))
+    return base_angle * (1.0 - depth)

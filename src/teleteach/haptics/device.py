@@ -1,0 +1,64 @@
+"""The one small interface every device backend implements, and the errors it may raise.
+
+A backend only reads the device: ``read(time)`` returns the current pose, orientation and gripper angle (a
+:class:`DeviceSample`) or raises :class:`DeviceReadError`. Click emulation, twist estimation, rate keeping and
+publishing live elsewhere (:mod:`teleteach.haptics.loop`), so every backend gets them the same way.
+"""
+
+import abc
+import dataclasses
+from typing import Optional
+
+import numpy as np
+
+
+class DeviceError(Exception):
+    """Base class of the errors a haptic device backend raises."""
+
+
+class DeviceUnavailableError(DeviceError):
+    """The device cannot be used at all (library or device missing); the message names what is missing."""
+
+
+class DeviceReadError(DeviceError):
+    """One read failed; the caller may try again on the next cycle."""
+
+
+@dataclasses.dataclass
+class DeviceSample:
+    """What a device reports at one instant, in the device frame ``sigma7``.
+
+    Attributes:
+        position: end-effector position [m], shape (3,).
+        orientation: end-effector orientation as a unit quaternion (x, y, z, w), shape (4,).
+        gripper: gripper opening angle [rad], 0 = closed.
+        button: the device's own (native) button state, or None when the click must be emulated from the gripper.
+    """
+
+    position: np.ndarray
+    orientation: np.ndarray
+    gripper: float
+    button: Optional[bool] = None
+
+
+class DeviceBackend(abc.ABC):
+    """A source of device samples (real device, scripted scenario or virtual window)."""
+
+    @abc.abstractmethod
+    def read(self, time: float) -> DeviceSample:
+        """Returns the sample at ``time`` [s], the instant the loop stamps it with (now).
+
+        Real devices simply read their current state; time-driven backends (a scenario) evaluate themselves at
+        ``time``, so the stamp and the data always belong together.
+
+        Raises:
+            DeviceReadError: this read failed (the next one may succeed).
+        """
+
+    @property
+    def finished(self) -> bool:
+        """True when the backend has nothing more to give (a scenario played to its end); devices never finish."""
+        return False
+
+    def close(self) -> None:  # noqa: B027 (optional hook: most backends have nothing to release)
+        """Releases the device; the default has nothing to release."""

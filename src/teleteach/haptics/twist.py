@@ -1,0 +1,72 @@
+"""Device velocity from successive poses: finite differences, low-pass filtered (the one place it is computed)."""
+
+import math
+from typing import Optional, Tuple
+
+import numpy as np
+
+
+def quaternion_multiply(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """Hamilton product ``first * second`` of quaternions stored (x, y, z, w)."""
+    x1, y1, z1, w1 = first
+    x2, y2, z2, w2 = second
+    return np.array(
+        [
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        ]
+    )
+
+
+def rotation_vector_between(previous: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """Rotation vector [rad] of ``current * previous^-1``: the rotation from one orientation to the next.
+
+    Expressed in the fixed (device) frame; the shorter way round is taken, so q and -q give the same result.
+    """
+    conjugate = np.array([-previous[0], -previous[1], -previous[2], previous[3]])
+    relative = quaternion_multiply(current, conjugate)
+    if relative[3] < 0.0:
+        relative = -relative
+    sine = math.sqrt(relative[0] ** 2 + relative[1] ** 2 + relative[2] ** 2)
+    if sine < 1e-12:
+        return 2.0 * relative[:3]
+    return relative[:3] * (2.0 * math.atan2(sine, relative[3]) / sine)
+
+
+class TwistEstimator:
+    """Linear [m/s] and angular [rad/s] velocity of the device, in the device frame.
+
+    Each update differentiates the pose against the previous one and passes the result through a first-order
+    low-pass filter with cutoff ``cutoff_frequency`` [Hz], which removes the quantisation noise that raw
+    1 kHz differences of an encoder-based position carry.
+    """
+
+    def __init__(self, cutoff_frequency: float = 20.0):
+        if not (math.isfinite(cutoff_frequency) and cutoff_frequency > 0.0):
+            raise ValueError(f"twist cutoff frequency must be a positive number of Hz, got {cutoff_frequency}")
+        self._time_constant = 1.0 / (2.0 * math.pi * cutoff_frequency)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forgets the previous pose (after a gap in the data); the next twist is zero."""
+        self._previous: Optional[Tuple[float, np.ndarray, np.ndarray]] = None
+        self._linear = np.zeros(3)
+        self._angular = np.zeros(3)
+
+    def update(self, time: float, position: np.ndarray, orientation: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """Feeds the pose taken at ``time`` [s]; returns the filtered (linear, angular) velocity."""
+        if self._previous is not None:
+            previous_time, previous_position, previous_orientation = self._previous
+            step = time - previous_time
+            if step <= 0.0:
+                # Same instant again (e.g. simulated time not advanced yet): nothing new to differentiate.
+                return self._linear.copy(), self._angular.copy()
+            linear = (position - previous_position) / step
+            angular = rotation_vector_between(previous_orientation, orientation) / step
+            weight = step / (step + self._time_constant)
+            self._linear += weight * (linear - self._linear)
+            self._angular += weight * (angular - self._angular)
+        self._previous = (time, np.array(position, dtype=float), np.array(orientation, dtype=float))
+        return self._linear.copy(), self._angular.copy()

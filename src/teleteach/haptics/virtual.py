@@ -1,0 +1,192 @@
+"""A virtual Sigma.7 for people without the device: a small PyQt5 window (the ``virtual`` backend).
+
+Keys: arrows (or a mouse drag) move x/y, Page Up/Down move z, Q/A W/S E/D turn roll/pitch/yaw, Space clicks (a
+scripted quick close-and-back of the gripper, detected like a real one), O held down opens the gripper fully.
+:class:`VirtualDevice` holds the state and is read by the device loop's thread; :class:`VirtualDeviceWindow` only
+edits it from the Qt thread, under the device's lock.
+"""
+
+import threading
+import time as wall_time
+from typing import Callable, Tuple
+
+import numpy as np
+from PyQt5 import QtCore, QtWidgets
+from scipy.spatial.transform import Rotation
+
+from teleteach.haptics.click import flick_gripper_angle
+from teleteach.haptics.device import DeviceBackend, DeviceSample
+
+RESTING_GRIPPER = 0.25  # [rad] finger relaxed
+OPEN_GRIPPER = 0.5  # [rad] fully open (the GUI's "back to START" gesture needs >= 0.45)
+POSITION_LIMIT = 0.1  # [m] per axis, about the Sigma.7 workspace
+ANGLE_LIMIT = 1.0  # [rad] per angle
+
+
+class VirtualDevice(DeviceBackend):
+    """Device state edited by a user interface and read by the device loop (thread-safe).
+
+    Args:
+        click_duration: [s] duration of the scripted gripper flick of a click.
+        clock: [s] wall clock that times the flick.
+    """
+
+    def __init__(self, click_duration: float = 0.2, clock: Callable[[], float] = wall_time.monotonic) -> None:
+        self._lock = threading.Lock()
+        self._clock = clock
+        self._click_duration = click_duration
+        self._position = np.zeros(3)
+        self._rpy = np.zeros(3)
+        self._held_open = False
+        self._click_started = -float("inf")
+        self._closed = False
+
+    def move(self, dx: float = 0.0, dy: float = 0.0, dz: float = 0.0) -> None:
+        """Moves the end effector by [m], clamped to the workspace."""
+        with self._lock:
+            self._position = np.clip(self._position + np.array([dx, dy, dz]), -POSITION_LIMIT, POSITION_LIMIT)
+
+    def rotate(self, droll: float = 0.0, dpitch: float = 0.0, dyaw: float = 0.0) -> None:
+        """Turns roll/pitch/yaw by [rad], each clamped to +-ANGLE_LIMIT."""
+        with self._lock:
+            self._rpy = np.clip(self._rpy + np.array([droll, dpitch, dyaw]), -ANGLE_LIMIT, ANGLE_LIMIT)
+
+    def click(self) -> None:
+        """Starts a quick close-and-back of the gripper (ignored while one is under way)."""
+        with self._lock:
+            now = self._clock()
+            if now - self._click_started > self._click_duration:
+                self._click_started = now
+
+    def hold_open(self, held: bool) -> None:
+        """Opens the gripper fully while ``held``; back to resting otherwise."""
+        with self._lock:
+            self._held_open = held
+
+    def close_window(self) -> None:
+        """The user closed the window: the device is gone, the loop should end."""
+        with self._lock:
+            self._closed = True
+
+    def state(self) -> Tuple[np.ndarray, np.ndarray, float]:
+        """Position [m], roll/pitch/yaw [rad] and gripper angle [rad] now."""
+        with self._lock:
+            base = OPEN_GRIPPER if self._held_open else RESTING_GRIPPER
+            gripper = flick_gripper_angle(base, self._clock() - self._click_started, self._click_duration)
+            return self._position.copy(), self._rpy.copy(), gripper
+
+    def read(self, time: float) -> DeviceSample:
+        """The current state as a device sample (the flick is timed by the device's own wall clock)."""
+        position, rpy, gripper = self.state()
+        return DeviceSample(position, Rotation.from_euler("xyz", rpy).as_quat(), gripper)
+
+    @property
+    def finished(self) -> bool:
+        """True once the window has been closed."""
+        with self._lock:
+            return self._closed
+
+
+class VirtualDeviceWindow(QtWidgets.QWidget):
+    """The window that drives a :class:`VirtualDevice` and shows its current values."""
+
+    POSITION_STEP = 0.005  # [m] per key press
+    ANGLE_STEP = 0.05  # [rad] per key press
+    DRAG_SCALE = 0.0005  # [m/px] of mouse drag
+    _ROTATION_KEYS = {
+        QtCore.Qt.Key_Q: (1, 0, 0),
+        QtCore.Qt.Key_A: (-1, 0, 0),
+        QtCore.Qt.Key_W: (0, 1, 0),
+        QtCore.Qt.Key_S: (0, -1, 0),
+        QtCore.Qt.Key_E: (0, 0, 1),
+        QtCore.Qt.Key_D: (0, 0, -1),
+    }
+    _MOVE_KEYS = {
+        QtCore.Qt.Key_Right: (1, 0, 0),
+        QtCore.Qt.Key_Left: (-1, 0, 0),
+        QtCore.Qt.Key_Up: (0, 1, 0),
+        QtCore.Qt.Key_Down: (0, -1, 0),
+        QtCore.Qt.Key_PageUp: (0, 0, 1),
+        QtCore.Qt.Key_PageDown: (0, 0, -1),
+    }
+
+    def __init__(self, device: VirtualDevice, refresh_hz: float = 30.0) -> None:
+        super().__init__()
+        self.device = device
+        self.setWindowTitle("teleteach: virtual Sigma.7")
+        self.setFocusPolicy(QtCore.Qt.StrongFocus)
+        self._drag_origin = None
+        self.values = QtWidgets.QLabel()
+        self.values.setTextFormat(QtCore.Qt.PlainText)
+        self.values.setStyleSheet("font-family: monospace; font-size: 14px")
+        help_text = QtWidgets.QLabel(
+            "arrows / mouse drag: x, y    PgUp / PgDn: z\n"
+            "Q/A roll   W/S pitch   E/D yaw\n"
+            "Space: click    O (hold): gripper fully open"
+        )
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addWidget(self.values)
+        layout.addWidget(help_text)
+        self.setMinimumSize(360, 240)
+        self._timer = QtCore.QTimer(self)
+        self._timer.timeout.connect(self.refresh)
+        self._timer.start(int(1000 / refresh_hz))
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Shows the device's current values."""
+        position, rpy, gripper = self.device.state()
+        self.values.setText(
+            f"x {position[0]:+.3f} m   roll  {rpy[0]:+.2f} rad\n"
+            f"y {position[1]:+.3f} m   pitch {rpy[1]:+.2f} rad\n"
+            f"z {position[2]:+.3f} m   yaw   {rpy[2]:+.2f} rad\n"
+            f"gripper {gripper:.2f} rad"
+        )
+
+    def keyPressEvent(self, event):  # noqa: N802 (Qt API)
+        """Moves, turns, clicks or opens the gripper."""
+        key = event.key()
+        if key in self._MOVE_KEYS:
+            self.device.move(*(self.POSITION_STEP * step for step in self._MOVE_KEYS[key]))
+        elif key in self._ROTATION_KEYS:
+            self.device.rotate(*(self.ANGLE_STEP * step for step in self._ROTATION_KEYS[key]))
+        elif key == QtCore.Qt.Key_Space and not event.isAutoRepeat():
+            self.device.click()
+        elif key == QtCore.Qt.Key_O and not event.isAutoRepeat():
+            self.device.hold_open(True)
+        else:
+            super().keyPressEvent(event)
+            return
+        self.refresh()
+
+    def keyReleaseEvent(self, event):  # noqa: N802 (Qt API)
+        """Releasing O lets the gripper back to rest."""
+        if event.key() == QtCore.Qt.Key_O and not event.isAutoRepeat():
+            self.device.hold_open(False)
+            self.refresh()
+        else:
+            super().keyReleaseEvent(event)
+
+    def mousePressEvent(self, event):  # noqa: N802 (Qt API)
+        """Starts a drag."""
+        if event.button() == QtCore.Qt.LeftButton:
+            self._drag_origin = event.pos()
+
+    def mouseMoveEvent(self, event):  # noqa: N802 (Qt API)
+        """Dragging right moves +x, dragging up moves +y."""
+        if self._drag_origin is None or not event.buttons() & QtCore.Qt.LeftButton:
+            return
+        delta = event.pos() - self._drag_origin
+        self._drag_origin = event.pos()
+        self.device.move(dx=delta.x() * self.DRAG_SCALE, dy=-delta.y() * self.DRAG_SCALE)
+        self.refresh()
+
+    def mouseReleaseEvent(self, event):  # noqa: N802 (Qt API)
+        """Ends a drag."""
+        if event.button() == QtCore.Qt.LeftButton:
+            self._drag_origin = None
+
+    def closeEvent(self, event):  # noqa: N802 (Qt API)
+        """Closing the window ends the device."""
+        self.device.close_window()
+        super().closeEvent(event)

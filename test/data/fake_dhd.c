@@ -1,0 +1,64 @@
+/* A stand-in for the Force Dimension SDK's libdhd, built by test/unit/test_haptics_dhd.py: the same C functions
+ * (dhdc.h signatures) that teleteach's dhd backend calls, so the ctypes bindings run against real C code.
+ * FAKE_DHD_DEVICES=0 simulates "no device plugged in"; FAKE_DHD_FAIL_READS=1 makes reads fail.
+ * The device sits at (0.01, 0.02, 0.03) m, yawed by 0.5 rad, gripper at 0.3 rad, button pressed. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *last_error = "no error";
+static int opened = 0;
+
+static int flag(const char *name, int fallback) {
+  const char *value = getenv(name);
+  return value ? atoi(value) : fallback;
+}
+
+int dhdOpen(void) {
+  if (!flag("FAKE_DHD_DEVICES", 1)) {
+    last_error = "no device found";
+    return -1;
+  }
+  opened = 1;
+  return 0;
+}
+
+int dhdClose(char id) {
+  (void)id;
+  opened = 0;
+  return 0;
+}
+
+int dhdGetPositionAndOrientationFrame(double *px, double *py, double *pz, double matrix[3][3], char id) {
+  (void)id;
+  if (!opened || flag("FAKE_DHD_FAIL_READS", 0)) {
+    last_error = "communication error between the host and the device";
+    return -1;
+  }
+  *px = 0.01;
+  *py = 0.02;
+  *pz = 0.03;
+  double c = cos(0.5), s = sin(0.5);
+  double frame[3][3] = {{c, -s, 0.0}, {s, c, 0.0}, {0.0, 0.0, 1.0}};
+  memcpy(matrix, frame, sizeof(frame));
+  return 1; /* DHD_TIMEGUARD: a valid (cached) value */
+}
+
+int dhdGetGripperAngleRad(double *angle, char id) {
+  (void)id;
+  *angle = 0.3;
+  return 0;
+}
+
+int dhdEmulateButton(unsigned char on, char id) {
+  (void)on;
+  (void)id;
+  return 0;
+}
+
+int dhdGetButton(int index, char id) {
+  (void)id;
+  return index == 0 ? 1 : 0;
+}
+
+const char *dhdErrorGetLastStr(void) { return last_error; }

@@ -1,0 +1,142 @@
+"""Click emulation from the gripper angle: a quick close-and-back is one click, anything else is not."""
+
+import numpy as np
+import pytest
+
+from teleteach.haptics.click import ClickDetector, ClickParameters, flick_gripper_angle
+
+PARAMETERS = ClickParameters(close_threshold=0.1, release_threshold=0.2, max_duration=0.5, pulse_duration=0.1)
+STEP = 0.001  # [s] 1 kHz like the node
+
+
+def run(angles, parameters=PARAMETERS, start=0.0):
+    """Feeds angles at 1 kHz; returns the detector and the button states."""
+    detector = ClickDetector(parameters)
+    states = [detector.update(start + index * STEP, angle) for index, angle in enumerate(angles)]
+    return detector, np.array(states)
+
+
+def rising_edges(states):
+    return int(np.count_nonzero(states[1:] & ~states[:-1]) + (1 if states[0] else 0))
+
+
+def segment(start, end, duration):
+    return list(np.linspace(start, end, int(round(duration / STEP)), endpoint=False))
+
+
+def test_quick_close_and_back_is_one_click():
+    angles = [0.25] * 100 + segment(0.25, 0.0, 0.1) + segment(0.0, 0.25, 0.1) + [0.25] * 300
+    detector, states = run(angles)
+    # Expect one click, one rising edge, pressed for pulse_duration
+    assert detector.clicks == 1
+    assert rising_edges(states) == 1
+    assert np.count_nonzero(states) == pytest.approx(PARAMETERS.pulse_duration / STEP, abs=1)
+
+
+def test_button_goes_up_when_the_gripper_is_back_open():
+    angles = [0.25] * 100 + segment(0.25, 0.0, 0.1) + segment(0.0, 0.25, 0.1) + [0.25] * 300
+    _, states = run(angles)
+    first_pressed = int(np.argmax(states))
+    assert angles[first_pressed] > PARAMETERS.release_threshold
+    assert angles[first_pressed - 1] <= PARAMETERS.release_threshold
+
+
+def test_slow_close_and_back_is_not_a_click():
+    # Closed for 1 s (a grip): longer than max_duration
+    angles = [0.25] * 100 + segment(0.25, 0.0, 0.5) + [0.0] * 1000 + segment(0.0, 0.25, 0.5) + [0.25] * 200
+    detector, states = run(angles)
+    assert detector.clicks == 0
+    assert not states.any()
+
+
+def test_close_just_longer_than_max_duration_is_not_a_click_and_just_shorter_is():
+    for closed_time, expected in ((0.45, 1), (0.55, 0)):
+        angles = [0.25] * 50 + [0.05] * int(round(closed_time / STEP)) + [0.25] * 50
+        detector, _ = run(angles)
+        assert detector.clicks == expected, closed_time
+
+
+def test_a_slow_close_does_not_block_the_next_click():
+    slow = [0.25] * 50 + [0.0] * 800 + [0.25] * 50
+    quick = [0.0] * 100 + [0.25] * 200
+    detector, states = run(slow + quick)
+    assert detector.clicks == 1
+    assert rising_edges(states) == 1
+
+
+def test_noise_around_the_close_threshold_while_held_is_one_gesture():
+    rng = np.random.default_rng(1)
+    held = list(0.1 + rng.uniform(-0.03, 0.03, 300))  # dips in and out of "closed", never back open
+    angles = [0.25] * 50 + held + [0.25] * 200
+    detector, states = run(angles)
+    # Expect: one gesture (first dip -> release within 0.5 s) = exactly one click, no chatter
+    assert detector.clicks == 1
+    assert rising_edges(states) == 1
+
+
+def test_noise_around_the_release_threshold_at_rest_is_no_click():
+    rng = np.random.default_rng(2)
+    angles = list(0.2 + rng.uniform(-0.05, 0.05, 3000))  # never below the close threshold
+    detector, states = run(angles)
+    assert detector.clicks == 0
+    assert not states.any()
+
+
+def test_noise_around_the_release_threshold_while_reopening_gives_one_click():
+    rng = np.random.default_rng(3)
+    reopening = list(0.2 + rng.uniform(-0.04, 0.04, 200))  # chatters across release, stays above close
+    angles = [0.25] * 50 + [0.0] * 100 + reopening + [0.25] * 200
+    detector, states = run(angles)
+    assert detector.clicks == 1
+    assert rising_edges(states) == 1
+
+
+def test_starting_closed_is_not_a_click():
+    angles = [0.0] * 100 + [0.25] * 200
+    detector, _ = run(angles)
+    assert detector.clicks == 0
+
+
+def test_reset_forgets_a_close_in_progress():
+    detector = ClickDetector(PARAMETERS)
+    for index in range(50):
+        detector.update(index * STEP, 0.25)
+    detector.update(0.05, 0.0)
+    detector.reset()
+    assert not detector.update(0.06, 0.25)
+    assert detector.clicks == 0
+
+
+def test_scripted_flick_is_detected_as_exactly_one_click():
+    times = np.arange(0.0, 1.0, STEP)
+    angles = [flick_gripper_angle(0.25, time - 0.3, 0.2) for time in times]
+    detector, states = run(angles)
+    assert detector.clicks == 1
+    assert rising_edges(states) == 1
+    assert min(angles) == pytest.approx(0.0, abs=1e-6)
+    assert angles[0] == angles[-1] == 0.25
+
+
+def test_two_flicks_are_two_clicks():
+    times = np.arange(0.0, 1.5, STEP)
+    angles = [
+        flick_gripper_angle(0.25, time - 0.2, 0.2) + flick_gripper_angle(0.25, time - 0.9, 0.2) - 0.25 for time in times
+    ]
+    detector, states = run(angles)
+    assert detector.clicks == 2
+    assert rising_edges(states) == 2
+
+
+@pytest.mark.parametrize(
+    "arguments",
+    [
+        {"close_threshold": 0.2, "release_threshold": 0.1},
+        {"close_threshold": -0.1},
+        {"max_duration": 0.0},
+        {"pulse_duration": -1.0},
+        {"release_threshold": float("nan")},
+    ],
+)
+def test_bad_parameters_are_refused(arguments):
+    with pytest.raises(ValueError):
+        ClickParameters(**arguments)

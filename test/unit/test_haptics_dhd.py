@@ -1,0 +1,82 @@
+"""The dhd backend: refusals (no Force Dimension SDK on this machine, a library that is not libdhd, no device), and
+its ctypes bindings run against test/data/fake_dhd.c, a C stand-in with the SDK's function signatures."""
+
+import ctypes.util
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from teleteach.haptics.device import DeviceReadError, DeviceUnavailableError
+from teleteach.haptics.dhd import DhdBackend, load_dhd_library
+
+
+def test_missing_sdk_is_one_clear_line_naming_the_library():
+    assert ctypes.util.find_library("dhd") is None, "this test expects a machine without the Force Dimension SDK"
+    with pytest.raises(DeviceUnavailableError) as caught:
+        DhdBackend()
+    message = str(caught.value)
+    assert "\n" not in message
+    assert message.startswith("Force Dimension SDK library not found (tried libdhd.so, libdhd.so.3)")
+    assert "~dhd/library" in message
+
+
+def test_explicit_library_path_that_does_not_exist(tmp_path):
+    with pytest.raises(DeviceUnavailableError, match=f"tried {tmp_path / 'libdhd.so.3'}"):
+        load_dhd_library(str(tmp_path / "libdhd.so.3"))
+
+
+def test_a_library_that_is_not_libdhd_is_named():
+    libm = ctypes.util.find_library("m")
+    with pytest.raises(DeviceUnavailableError, match="has no function dhdOpen: is it libdhd?"):
+        load_dhd_library(libm)
+
+
+@pytest.fixture(scope="module")
+def fake_dhd(tmp_path_factory):
+    """test/data/fake_dhd.c compiled into a shared library with the SDK's function names and signatures."""
+    source = pathlib.Path(__file__).resolve().parents[1] / "data" / "fake_dhd.c"
+    library = tmp_path_factory.mktemp("fake_dhd") / "libdhd.so"
+    subprocess.run(["cc", "-shared", "-fPIC", "-o", str(library), str(source), "-lm"], check=True)
+    return str(library)
+
+
+def test_no_device_plugged_in_is_one_clear_line(fake_dhd, monkeypatch):
+    monkeypatch.setenv("FAKE_DHD_DEVICES", "0")
+    with pytest.raises(DeviceUnavailableError) as caught:
+        DhdBackend(fake_dhd)
+    assert str(caught.value) == "no Force Dimension device found: dhdOpen failed (no device found)"
+
+
+def test_reads_position_frame_and_gripper_through_ctypes(fake_dhd, monkeypatch):
+    monkeypatch.setenv("FAKE_DHD_DEVICES", "1")
+    backend = DhdBackend(fake_dhd)
+    sample = backend.read(0.0)
+    np.testing.assert_allclose(sample.position, [0.01, 0.02, 0.03])
+    np.testing.assert_allclose(Rotation.from_quat(sample.orientation).as_rotvec(), [0.0, 0.0, 0.5], atol=1e-12)
+    assert sample.gripper == pytest.approx(0.3)
+    assert sample.button is None  # teleteach's own click emulation
+    backend.close()
+
+
+def test_native_button(fake_dhd, monkeypatch):
+    monkeypatch.setenv("FAKE_DHD_DEVICES", "1")
+    backend = DhdBackend(fake_dhd, native_button=True)
+    assert backend.read(0.0).button is True
+    backend.close()
+
+
+def test_read_failure_carries_the_sdk_error(fake_dhd, monkeypatch):
+    monkeypatch.setenv("FAKE_DHD_DEVICES", "1")
+    backend = DhdBackend(fake_dhd)
+    monkeypatch.setenv("FAKE_DHD_FAIL_READS", "1")
+    with pytest.raises(
+        DeviceReadError,
+        match="^dhdGetPositionAndOrientationFrame: communication error between the host and the device$",
+    ):
+        backend.read(0.0)
+    monkeypatch.setenv("FAKE_DHD_FAIL_READS", "0")
+    np.testing.assert_allclose(backend.read(0.0).position, [0.01, 0.02, 0.03])
+    backend.close()

@@ -1,0 +1,109 @@
+"""The virtual device window, driven with QTest in the X server that pytest-xvfb starts (no ROS)."""
+
+import numpy as np
+import pytest
+from PyQt5 import QtCore, QtGui, QtWidgets
+from PyQt5.QtTest import QTest
+from scipy.spatial.transform import Rotation
+
+from teleteach.haptics.click import ClickDetector, ClickParameters
+from teleteach.haptics.virtual import OPEN_GRIPPER, RESTING_GRIPPER, VirtualDevice, VirtualDeviceWindow
+
+pytestmark = pytest.mark.gui
+
+
+class Clock:
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+
+@pytest.fixture
+def window():
+    application = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
+    clock = Clock()
+    widget = VirtualDeviceWindow(VirtualDevice(click_duration=0.2, clock=clock))
+    widget.clock = clock
+    widget.show()
+    QTest.qWaitForWindowExposed(widget)
+    yield widget
+    widget.close()
+    application.processEvents()
+
+
+def test_arrow_and_page_keys_move_the_device(window):
+    for key in (QtCore.Qt.Key_Right, QtCore.Qt.Key_Right, QtCore.Qt.Key_Up, QtCore.Qt.Key_PageDown):
+        QTest.keyClick(window, key)
+    position, _, _ = window.device.state()
+    np.testing.assert_allclose(position, [0.01, 0.005, -0.005])
+    assert "x +0.010 m" in window.values.text()
+    assert "z -0.005 m" in window.values.text()
+
+
+def test_keys_turn_roll_pitch_yaw(window):
+    QTest.keyClick(window, QtCore.Qt.Key_Q)
+    QTest.keyClick(window, QtCore.Qt.Key_S)
+    for _ in range(4):
+        QTest.keyClick(window, QtCore.Qt.Key_E)
+    _, rpy, _ = window.device.state()
+    np.testing.assert_allclose(rpy, [0.05, -0.05, 0.2])
+    sample = window.device.read(0.0)
+    np.testing.assert_allclose(Rotation.from_quat(sample.orientation).as_euler("ZYX")[::-1], rpy, atol=1e-12)
+    assert "yaw   +0.20 rad" in window.values.text()
+
+
+def test_position_and_angles_stay_within_the_device_limits(window):
+    for _ in range(40):
+        QTest.keyClick(window, QtCore.Qt.Key_Left)
+        QTest.keyClick(window, QtCore.Qt.Key_D)
+    position, rpy, _ = window.device.state()
+    assert position[0] == pytest.approx(-0.1)
+    assert rpy[2] == pytest.approx(-1.0)
+
+
+def test_mouse_drag_moves_x_and_y(window):
+    def mouse(kind, x, y, buttons):
+        event = QtGui.QMouseEvent(kind, QtCore.QPointF(x, y), QtCore.Qt.LeftButton, buttons, QtCore.Qt.NoModifier)
+        QtWidgets.QApplication.sendEvent(window, event)
+
+    mouse(QtCore.QEvent.MouseButtonPress, 100, 100, QtCore.Qt.LeftButton)
+    mouse(QtCore.QEvent.MouseMove, 140, 100, QtCore.Qt.LeftButton)
+    mouse(QtCore.QEvent.MouseMove, 140, 80, QtCore.Qt.LeftButton)  # up the screen = +y
+    mouse(QtCore.QEvent.MouseButtonRelease, 140, 80, QtCore.Qt.NoButton)
+    mouse(QtCore.QEvent.MouseMove, 300, 300, QtCore.Qt.NoButton)  # no button held: no motion
+    position, _, _ = window.device.state()
+    np.testing.assert_allclose(position, [40 * 0.0005, 20 * 0.0005, 0.0])
+
+
+def test_space_is_one_click_for_the_click_detector(window):
+    detector = ClickDetector(ClickParameters())
+    clock = window.clock
+
+    def run_for(seconds):
+        for _ in range(int(round(seconds / 0.001))):
+            clock.now += 0.001
+            detector.update(clock.now, window.device.read(clock.now).gripper)
+
+    run_for(0.1)
+    QTest.keyClick(window, QtCore.Qt.Key_Space)
+    run_for(0.1)
+    assert window.device.state()[2] < 0.01  # closed in the middle of the flick
+    run_for(0.5)
+    assert detector.clicks == 1
+    assert window.device.state()[2] == pytest.approx(RESTING_GRIPPER)
+
+
+def test_holding_o_opens_the_gripper_fully(window):
+    QTest.keyPress(window, QtCore.Qt.Key_O)
+    assert window.device.state()[2] == pytest.approx(OPEN_GRIPPER)
+    assert "gripper 0.50 rad" in window.values.text()
+    QTest.keyRelease(window, QtCore.Qt.Key_O)
+    assert window.device.state()[2] == pytest.approx(RESTING_GRIPPER)
+
+
+def test_closing_the_window_finishes_the_device(window):
+    assert not window.device.finished
+    window.close()
+    assert window.device.finished
