@@ -6,7 +6,7 @@ GUI. Each request alternates an insert in the middle of BehaviorExecution with t
 successful change is also saved to the data directory). Prints p50/p99 and writes bench/results/change_tree.json.
 Target: p99 <= 10 ms at 1000 leaves, cost growing at most linearly.
 
-    source .ws/env.sh && python bench/change_tree.py [--requests 400]
+    source build/env.sh && python bench/change_tree.py [--requests 400]
 """
 
 import argparse

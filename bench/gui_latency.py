@@ -9,7 +9,7 @@
    changing every frame. Target: >= 30 fps.
 
 Starts its own Xvfb when DISPLAY is unset. Prints the figures and writes bench/results/gui_latency.json.
-Run: source .ws/env.sh && python bench/gui_latency.py [--steps 200]
+Run: source build/env.sh && python bench/gui_latency.py [--steps 200]
 """
 
 import argparse

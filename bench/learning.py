@@ -22,7 +22,7 @@ take the largest smoothing (smoothest reproduction), then the fewest basis funct
 Then alpha_z: the best worst-case max among the gains that reach a goal switched at 70 % of the duration (1.5x
 stiffer, rotated 20 degrees about Z) to within 5 % of the switch distance by the end (a soft spring reaches it late).
 
-Run: ``source .ws/env.sh && python bench/learning.py`` (writes bench/results/learning.json and the PNGs).
+Run: ``source build/env.sh && python bench/learning.py`` (writes bench/results/learning.json and the PNGs).
 """
 
 import itertools

@@ -4,7 +4,7 @@ Runs our formulation (Levenberg-Marquardt skill estimation + SQP/qpOASES traject
 cached) and the plain formulation (the same problems with IPOPT, default options) on the same synthetic operator
 input, prints the figures and writes bench/results/shared_control.json and plots (PNG) next to it.
 
-    source .ws/env.sh && python bench/shared_control.py [--quick]
+    source build/env.sh && python bench/shared_control.py [--quick]
 """
 
 import argparse

@@ -6,7 +6,7 @@
    /sigma7/pose by header stamp: publication rate [Hz], stamp interval p99/max [ms], node CPU [% of one core].
 Target: 1000 Hz +- 10 %, a cycle well under 1 ms. Prints and writes bench/results/sigma7.json.
 
-    source .ws/env.sh && python bench/sigma7.py
+    source build/env.sh && python bench/sigma7.py
 """
 
 import json

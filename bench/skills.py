@@ -5,7 +5,7 @@ skill, the simulated duration and the wall time; then the cost of one IK solve (
 posture), of planning a straight 12 cm line (IK waypoints + timing), and of resampling and decomposing a 60 s
 stiffness recording for replay at 200 Hz. Prints the figures and writes bench/results/skills.json.
 
-    source .ws/env.sh && python bench/skills.py
+    source build/env.sh && python bench/skills.py
 """
 
 import json

@@ -8,7 +8,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 def pytest_configure(config):
     if "TELETEACH_ROOT" not in os.environ:
-        raise pytest.UsageError("run the tests through `bash scripts/test` (it sources .ws/env.sh first)")
+        raise pytest.UsageError("run the tests through `bash scripts/test` (it sources build/env.sh first)")
 
 
 @pytest.fixture

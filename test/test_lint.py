@@ -21,5 +21,5 @@ def test_ruff_format():
 
 def test_catkin_lint():
     # Checked through the workspace link so that the folder name is the package name.
-    result = run("catkin_lint", "-W2", "--strict", str(ROOT / ".ws" / "src" / "teleteach"))
+    result = run("catkin_lint", "-W2", "--strict", str(ROOT / "build" / "src" / "teleteach"))
     assert result.returncode == 0, result.stdout + result.stderr

@@ -8,8 +8,22 @@ import pytest
 
 @pytest.mark.parametrize(
     "module",
-    ["numpy", "scipy.linalg", "casadi", "pybullet", "py_trees", "rosbags.rosbag1", "yaml", "matplotlib",
-     "rospy", "actionlib", "tf2_ros", "PyQt5.QtWidgets", "PyQt5.QtOpenGL", "OpenGL.GL"],
+    [
+        "numpy",
+        "scipy.linalg",
+        "casadi",
+        "pybullet",
+        "py_trees",
+        "rosbags.rosbag1",
+        "yaml",
+        "matplotlib",
+        "rospy",
+        "actionlib",
+        "tf2_ros",
+        "PyQt5.QtWidgets",
+        "PyQt5.QtOpenGL",
+        "OpenGL.GL",
+    ],
 )
 def test_dependency_imports(module):
     importlib.import_module(module)
