@@ -52,6 +52,7 @@ class SkillServer:
         outcome = self.runner.execute(name, goal.parameters, Execution(server.is_preempt_requested, feedback))
         result = ExecuteSkillResult(success=outcome.success, message=outcome.message)
         if outcome.success:
+            feedback(1.0, "done")  # a skill may finish its last phase between two throttled feedbacks
             rospy.loginfo(f"skill_server: {label} succeeded: {outcome.message}")
             server.set_succeeded(result, outcome.message)
         elif outcome.preempted:
