@@ -1,0 +1,248 @@
+"""A recorded teaching session read offline from its bag with the ``rosbags`` library (no ROS master).
+
+Only what the report needs is deserialised: device pose, gripper and button, active tab, eigenvalues and
+eigenvectors, end-effector position and the tree log. Times are seconds since the bag's first message
+(the bag's receive time, so topics without a header line up with the others).
+"""
+
+import dataclasses
+import pathlib
+import struct
+from typing import Dict, List, Optional, Tuple, Union
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from teleteach.control.validation import InvalidCommandError, validate_eigenvalues, validate_quaternion
+from teleteach.recording.bags import BagError, check_bag
+
+
+class SessionError(ValueError):
+    """The bag cannot be read; the message names the file and the problem."""
+
+
+@dataclasses.dataclass
+class Series:
+    """Samples of one topic: ``times`` [s since bag start] and ``values`` (one row per message)."""
+
+    times: np.ndarray
+    values: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def at(self, times: np.ndarray) -> np.ndarray:
+        """The value held at each of ``times`` (last sample at or before it; the first sample before it starts)."""
+        index = np.clip(np.searchsorted(self.times, times, side="right") - 1, 0, len(self.times) - 1)
+        return self.values[index]
+
+
+@dataclasses.dataclass
+class TreeSnapshot:
+    """The tree's structure at one time: behaviour names depth-first, and each composite's children in order."""
+
+    time: float
+    names: Tuple[str, ...]
+    children: Dict[str, Tuple[str, ...]]
+
+
+@dataclasses.dataclass
+class TopicInfo:
+    """What the bag holds on one topic."""
+
+    msgtype: str
+    count: int
+
+
+@dataclasses.dataclass
+class Session:
+    """A teaching session's data. A series is None when its topic is missing from the bag or empty."""
+
+    path: pathlib.Path
+    start_ns: int
+    duration: float
+    topics: Dict[str, TopicInfo]
+    device_position: Optional[Series] = None
+    device_yaw: Optional[Series] = None
+    gripper: Optional[Series] = None
+    button: Optional[Series] = None
+    active_tab: Optional[Series] = None
+    eigenvalues: Optional[Series] = None
+    eigenvectors: Optional[Series] = None
+    cartesian_position: Optional[Series] = None
+    trees: List[TreeSnapshot] = dataclasses.field(default_factory=list)
+    rejected: Dict[str, int] = dataclasses.field(default_factory=dict)
+
+
+def yaw_of(quaternions_xyzw: np.ndarray) -> np.ndarray:
+    """Rotation about Z [rad] of R = Rz(yaw) Ry(pitch) Rx(roll), unwrapped over time.
+
+    NaN where a quaternion is zero or not finite: a bad device sample must not stop the report.
+    """
+    quaternions = np.asarray(quaternions_xyzw, dtype=float).reshape(-1, 4)
+    yaw = np.full(len(quaternions), np.nan)
+    valid = np.all(np.isfinite(quaternions), axis=1) & (np.linalg.norm(quaternions, axis=1) > 1e-9)
+    if np.any(valid):
+        yaw[valid] = np.unwrap(Rotation.from_quat(quaternions[valid]).as_euler("ZYX")[:, 0])
+    return yaw
+
+
+def accepted_stiffness(eigenvalues: Series, eigenvectors: Series) -> Tuple[Series, Series, int, int]:
+    """The stiffness messages the controller accepts (teleteach.control.validation), and how many were rejected."""
+    good_values = [
+        index
+        for index, row in enumerate(eigenvalues.values)
+        if _accepted(lambda values: validate_eigenvalues(values, np.inf), row)
+    ]
+    good_vectors = [index for index, row in enumerate(eigenvectors.values) if _accepted(validate_quaternion, row)]
+    return (
+        Series(eigenvalues.times[good_values], eigenvalues.values[good_values]),
+        Series(eigenvectors.times[good_vectors], eigenvectors.values[good_vectors]),
+        len(eigenvalues) - len(good_values),
+        len(eigenvectors) - len(good_vectors),
+    )
+
+
+def _accepted(validate, row) -> bool:
+    try:
+        validate(row)
+    except InvalidCommandError:
+        return False
+    return True
+
+
+def tree_structure(behaviours) -> Tuple[Tuple[str, ...], Dict[str, Tuple[str, ...]]]:
+    """Depth-first names and children of a teleteach/BehaviourTree message's behaviours (statuses ignored)."""
+    by_id = {behaviour.own_id: behaviour for behaviour in behaviours}
+    child_ids = {child for behaviour in behaviours for child in behaviour.child_ids}
+    roots = [behaviour for behaviour in behaviours if behaviour.own_id not in child_ids]
+    names: List[str] = []
+    children: Dict[str, Tuple[str, ...]] = {}
+    seen = set()
+
+    def visit(behaviour):
+        if behaviour.own_id in seen:
+            return
+        seen.add(behaviour.own_id)
+        names.append(behaviour.name)
+        kids = [by_id[child] for child in behaviour.child_ids if child in by_id]
+        if kids:
+            children[behaviour.name] = tuple(kid.name for kid in kids)
+        for kid in kids:
+            visit(kid)
+
+    for root in roots:
+        visit(root)
+    for behaviour in behaviours:  # ids that do not form a tree: keep the message order for the rest
+        visit(behaviour)
+    return tuple(names), children
+
+
+_READ = {
+    "/sigma7/pose": "geometry_msgs/msg/PoseStamped",
+    "/sigma7/gripper_angle": "std_msgs/msg/Float64",
+    "/sigma7/button": "std_msgs/msg/Bool",
+    "/teleteach/active_tab": "std_msgs/msg/Int8",
+    "/eigenvalues": "geometry_msgs/msg/Vector3Stamped",
+    "/eigenvectors": "geometry_msgs/msg/QuaternionStamped",
+    "/cartesian_pose": "geometry_msgs/msg/PoseStamped",
+    "/behaviour_tree/log/tree": "teleteach/msg/BehaviourTree",
+}
+"""Topics the report reads, with the type it expects on each (others are counted, not read)."""
+
+
+def _row(topic: str, message) -> tuple:
+    if topic in ("/sigma7/pose", "/cartesian_pose"):
+        p, q = message.pose.position, message.pose.orientation
+        return (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+    if topic == "/eigenvalues":
+        return (message.vector.x, message.vector.y, message.vector.z)
+    if topic == "/eigenvectors":
+        q = message.quaternion
+        return (q.x, q.y, q.z, q.w)
+    return (float(message.data),)
+
+
+def _series(times: List[float], rows: List[tuple]) -> Optional[Series]:
+    if not times:
+        return None
+    return Series(np.asarray(times, dtype=float), np.asarray(rows, dtype=float))
+
+
+def read_session(path: Union[str, pathlib.Path]) -> Session:
+    """Read a session bag, or raise :class:`SessionError` naming the file and what is wrong with it."""
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.rosbag1 import ReaderError
+
+    try:
+        path = check_bag(path)
+    except BagError as error:
+        raise SessionError(str(error)) from None
+    if path.suffix != ".bag":
+        raise SessionError(f"{path} does not end in .bag (an unfinished recording? run `rosbag reindex` first)")
+    try:
+        with AnyReader([path]) as reader:
+            return _read(reader, path)
+    except (
+        AnyReaderError,
+        ReaderError,
+        KeyError,
+        ValueError,
+        EOFError,
+        OSError,
+        AssertionError,
+        struct.error,
+    ) as error:
+        reason = str(error) or type(error).__name__
+        raise SessionError(f"cannot read bag {path}: {reason} (truncated or damaged?)") from None
+
+
+def _read(reader, path: pathlib.Path) -> Session:
+    start = reader.start_time if reader.message_count else 0
+    duration = (reader.end_time - reader.start_time) / 1e9 if reader.message_count else 0.0
+    topics = {topic: TopicInfo(info.msgtype or "", info.msgcount) for topic, info in reader.topics.items()}
+    wanted = [
+        connection
+        for connection in reader.connections
+        if _READ.get(connection.topic) == connection.msgtype and connection.msgcount > 0
+    ]
+    times: Dict[str, List[float]] = {topic: [] for topic in _READ}
+    rows: Dict[str, List[tuple]] = {topic: [] for topic in _READ}
+    trees: List[TreeSnapshot] = []
+    for connection, timestamp, raw in reader.messages(connections=wanted):
+        message = reader.deserialize(raw, connection.msgtype)
+        time = (timestamp - start) / 1e9
+        if connection.topic == "/behaviour_tree/log/tree":
+            names, children = tree_structure(message.behaviours)
+            trees.append(TreeSnapshot(time, names, children))
+        else:
+            times[connection.topic].append(time)
+            rows[connection.topic].append(_row(connection.topic, message))
+    rejected = {}
+    eigenvalues = _series(times["/eigenvalues"], rows["/eigenvalues"])
+    eigenvectors = _series(times["/eigenvectors"], rows["/eigenvectors"])
+    if eigenvalues is not None and eigenvectors is not None:
+        eigenvalues, eigenvectors, rejected["/eigenvalues"], rejected["/eigenvectors"] = accepted_stiffness(
+            eigenvalues, eigenvectors
+        )
+        eigenvalues = eigenvalues if len(eigenvalues) else None
+        eigenvectors = eigenvectors if len(eigenvectors) else None
+    device = _series(times["/sigma7/pose"], rows["/sigma7/pose"])
+    cartesian = _series(times["/cartesian_pose"], rows["/cartesian_pose"])
+    button = _series(times["/sigma7/button"], rows["/sigma7/button"])
+    return Session(
+        path=path,
+        start_ns=start,
+        duration=duration,
+        topics=topics,
+        device_position=Series(device.times, device.values[:, :3]) if device else None,
+        device_yaw=Series(device.times, yaw_of(device.values[:, 3:])) if device else None,
+        gripper=_series(times["/sigma7/gripper_angle"], rows["/sigma7/gripper_angle"]),
+        button=button,
+        active_tab=_series(times["/teleteach/active_tab"], rows["/teleteach/active_tab"]),
+        eigenvalues=eigenvalues,
+        eigenvectors=eigenvectors,
+        cartesian_position=Series(cartesian.times, cartesian.values[:, :3]) if cartesian else None,
+        trees=trees,
+        rejected={topic: count for topic, count in rejected.items() if count},
+    )

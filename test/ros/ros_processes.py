@@ -1,0 +1,104 @@
+"""Start real ROS processes for a test (own roscore on a free port, own Xvfb) and stop them by PID in reverse order."""
+
+import os
+import pathlib
+import signal
+import socket
+import subprocess
+import time
+
+
+def free_port():
+    with socket.socket() as probe:
+        probe.bind(("localhost", 0))
+        return probe.getsockname()[1]
+
+
+class Processes:
+    """Processes started in order and stopped in reverse order (SIGINT, then SIGTERM, then SIGKILL), each by PID."""
+
+    def __init__(self, log_dir: pathlib.Path, env=None):
+        self.log_dir = pathlib.Path(log_dir)
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.env = dict(os.environ if env is None else env)
+        self.started = []
+
+    def start(self, name, command, extra_env=None, **kwargs):
+        env = dict(self.env, **(extra_env or {}))
+        log = open(self.log_dir / f"{name}.log", "w")  # closed in _stop
+        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env, **kwargs)
+        self.started.append((name, process, log))
+        return process
+
+    def log(self, name):
+        return (self.log_dir / f"{name}.log").read_text(errors="replace")
+
+    def stop(self, name):
+        for entry in list(self.started):
+            if entry[0] == name:
+                self._stop(*entry)
+                self.started.remove(entry)
+
+    def stop_all(self):
+        while self.started:
+            self._stop(*self.started.pop())
+
+    @staticmethod
+    def _stop(name, process, log):
+        for sig, wait in ((signal.SIGINT, 15), (signal.SIGTERM, 5), (signal.SIGKILL, 5)):
+            if process.poll() is not None:
+                break
+            process.send_signal(sig)
+            try:
+                process.wait(wait)
+            except subprocess.TimeoutExpired:
+                continue
+        log.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stop_all()
+
+
+def wait_until(condition, timeout, what):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return
+        time.sleep(0.2)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+def start_roscore(processes, name="roscore"):
+    """A roscore on a free port; sets ROS_MASTER_URI for every process started afterwards."""
+    port = free_port()
+    processes.env["ROS_MASTER_URI"] = f"http://localhost:{port}"
+    processes.env["ROS_LOG_DIR"] = str(processes.log_dir / "ros_log")
+    processes.start(name, ["roscore", "-p", str(port)])
+
+    def up():
+        try:
+            return (
+                subprocess.run(["rosparam", "get", "/run_id"], env=processes.env, capture_output=True).returncode == 0
+            )
+        except OSError:
+            return False
+
+    wait_until(up, 60, "roscore")
+    return processes.env["ROS_MASTER_URI"]
+
+
+def start_xvfb(processes, size="1280x900x24"):
+    """An Xvfb of the given size on a free display (Xvfb -displayfd picks it); sets DISPLAY for what follows."""
+    read_end, write_end = os.pipe()
+    processes.start(
+        "xvfb", ["Xvfb", "-displayfd", str(write_end), "-screen", "0", size, "-nolisten", "tcp"], pass_fds=(write_end,)
+    )
+    os.close(write_end)
+    with os.fdopen(read_end) as stream:
+        display = ":" + stream.readline().strip()
+    assert display != ":", processes.log("xvfb")
+    processes.env["DISPLAY"] = display
+    return display

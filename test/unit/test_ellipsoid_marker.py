@@ -1,0 +1,129 @@
+"""The ellipsoid marker mapping: size from the principal stiffnesses, orientation from the eigenvectors."""
+
+import math
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
+from scipy.spatial.transform import Rotation
+from visualization_msgs.msg import Marker
+
+from teleteach.control.validation import InvalidCommandError
+from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder, EllipsoidScale
+
+
+def eigenvalues(x, y, z, frame="base_link"):
+    message = Vector3Stamped()
+    message.header.frame_id = frame
+    message.vector.x, message.vector.y, message.vector.z = x, y, z
+    return message
+
+
+def eigenvectors(x, y, z, w, frame="base_link"):
+    message = QuaternionStamped()
+    message.header.frame_id = frame
+    q = message.quaternion
+    q.x, q.y, q.z, q.w = x, y, z, w
+    return message
+
+
+def pose(x, y, z, frame="base_link"):
+    message = PoseStamped()
+    message.header.frame_id = frame
+    message.pose.position.x, message.pose.position.y, message.pose.position.z = x, y, z
+    message.pose.orientation.w = 1.0
+    return message
+
+
+def ready_builder(**kwargs):
+    builder = EllipsoidMarkerBuilder(**kwargs)
+    builder.set_eigenvalues(eigenvalues(500.0, 1500.0, 3000.0))
+    yaw45 = Rotation.from_euler("z", 45, degrees=True).as_quat()
+    builder.set_eigenvectors(eigenvectors(*yaw45))
+    builder.set_pose(pose(0.5, -0.1, 0.7))
+    return builder
+
+
+def test_no_marker_until_every_input_arrived():
+    builder = EllipsoidMarkerBuilder()
+    assert builder.marker() is None
+    builder.set_eigenvalues(eigenvalues(100.0, 100.0, 100.0))
+    builder.set_pose(pose(0.0, 0.0, 0.0))
+    assert builder.marker() is None
+    builder.set_eigenvectors(eigenvectors(0.0, 0.0, 0.0, 1.0))
+    assert builder.marker() is not None
+
+
+def test_marker_is_a_sphere_at_the_end_effector_scaled_and_oriented_as_the_stiffness():
+    marker = ready_builder().marker()
+    assert marker.type == Marker.SPHERE and marker.action == Marker.ADD
+    assert marker.header.frame_id == "base_link"
+    assert (marker.pose.position.x, marker.pose.position.y, marker.pose.position.z) == (0.5, -0.1, 0.7)
+    # Expect 1e-4 m per N/m: 500, 1500, 3000 N/m -> 0.05, 0.15, 0.3 m diameters
+    np.testing.assert_allclose([marker.scale.x, marker.scale.y, marker.scale.z], [0.05, 0.15, 0.3])
+    # The marker's local x axis (first principal axis) points along the base frame's 45-degree diagonal.
+    o = marker.pose.orientation
+    first_axis = Rotation.from_quat([o.x, o.y, o.z, o.w]).apply([1.0, 0.0, 0.0])
+    np.testing.assert_allclose(first_axis, [math.sqrt(0.5), math.sqrt(0.5), 0.0], atol=1e-12)
+
+
+def test_marker_shape_matches_the_stiffness_matrix():
+    # Independent check: the marker's axes, scaled by the diameters, rebuild K = R diag(lambda) R^T (eq. 2/6).
+    builder = ready_builder()
+    marker = builder.marker()
+    o = marker.pose.orientation
+    rotation = Rotation.from_quat([o.x, o.y, o.z, o.w]).as_matrix()
+    stiffness_from_marker = rotation @ np.diag([marker.scale.x, marker.scale.y, marker.scale.z]) @ rotation.T / 1e-4
+    expected = np.array([[1000.0, -500.0, 0.0], [-500.0, 1000.0, 0.0], [0.0, 0.0, 3000.0]])
+    np.testing.assert_allclose(stiffness_from_marker, expected, atol=1e-9)
+
+
+def test_diameters_are_clamped():
+    scale = EllipsoidScale(metres_per_stiffness=1e-3, min_diameter=0.05, max_diameter=0.5)
+    np.testing.assert_allclose(scale.diameters([0.0, 200.0, 10000.0]), [0.05, 0.2, 0.5])
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"metres_per_stiffness": 0.0},
+        {"metres_per_stiffness": float("nan")},
+        {"min_diameter": -0.1},
+        {"min_diameter": 0.5, "max_diameter": 0.1},
+        {"max_diameter": float("inf")},
+    ],
+)
+def test_bad_scale_parameters_are_refused(kwargs):
+    with pytest.raises(ValueError):
+        EllipsoidScale(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("setter", "message", "reason"),
+    [
+        ("set_eigenvalues", eigenvalues(float("nan"), 1.0, 1.0), "NaN or inf"),
+        ("set_eigenvalues", eigenvalues(100.0, -1.0, 1.0), "negative stiffness"),
+        ("set_eigenvalues", eigenvalues(100.0, 100.0, float("inf")), "NaN or inf"),
+        ("set_eigenvalues", eigenvalues(100.0, 100.0, 100.0, frame="world"), "frame 'world' is wrong"),
+        ("set_eigenvectors", eigenvectors(0.0, 0.0, 0.0, 0.0), "is zero"),
+        ("set_eigenvectors", eigenvectors(0.0, 0.0, 0.5, 0.5), "not unit"),
+        ("set_eigenvectors", eigenvectors(0.0, float("nan"), 0.0, 1.0), "NaN or inf"),
+        ("set_pose", pose(float("nan"), 0.0, 0.0), "NaN or inf"),
+        ("set_pose", pose(0.0, 0.0, 0.0, frame="panda_hand"), "frame 'panda_hand' is wrong"),
+        ("set_pose", pose(0.0, 0.0, 0.0, frame=""), "frame '' is wrong"),
+    ],
+)
+def test_invalid_input_is_rejected_and_the_last_good_marker_stays(setter, message, reason):
+    builder = ready_builder()
+    before = builder.marker()
+    with pytest.raises(InvalidCommandError, match=reason):
+        getattr(builder, setter)(message)
+    assert builder.marker() == before
+
+
+def test_eigen_topics_may_leave_the_frame_empty_like_the_controller_accepts():
+    builder = EllipsoidMarkerBuilder()
+    builder.set_eigenvalues(eigenvalues(100.0, 100.0, 100.0, frame=""))
+    builder.set_eigenvectors(eigenvectors(0.0, 0.0, 0.0, 1.0, frame="/base_link"))
+    builder.set_pose(pose(1.0, 2.0, 3.0))
+    assert builder.ready
