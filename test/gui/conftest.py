@@ -148,11 +148,11 @@ class DeviceStandIn:
         self._thread.start()
 
     def move(self, x=0.0, y=0.0, z=0.0, roll=0.0, pitch=0.0, yaw=0.0):
-        from teleteach.gui.device import euler_to_quaternion
+        from teleteach.rotations import rpy_to_quaternion
 
         with self._lock:
             self.position = [x, y, z]
-            self.quaternion = list(euler_to_quaternion(roll, pitch, yaw))
+            self.quaternion = list(rpy_to_quaternion(roll, pitch, yaw))
 
     def raw(self, position, quaternion):
         with self._lock:

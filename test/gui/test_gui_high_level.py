@@ -78,7 +78,7 @@ def test_thesis_flow_removes_place_item(qapp, bt_node, device, make_window, topi
 
 
 def test_insert_at_an_index_via_the_dial(qapp, bt_node, device, make_window, topic_log, artifacts_dir):
-    from teleteach.gui.device import euler_to_quaternion  # noqa: F401 - the device stand-in uses it
+    from teleteach.rotations import rpy_to_quaternion  # noqa: F401 - the device stand-in uses it
 
     tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
     window = make_window()

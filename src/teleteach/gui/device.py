@@ -9,6 +9,7 @@ import math
 from typing import Optional, Sequence, Tuple
 
 from teleteach.gui.config import DEVICE_AXES, GuiConfig
+from teleteach.rotations import quaternion_to_rpy
 
 
 @dataclasses.dataclass(frozen=True)
@@ -27,27 +28,6 @@ class DeviceSample:
         return (self.x, self.y, self.z, self.roll, self.pitch, self.yaw)
 
 
-def quaternion_to_euler(qx: float, qy: float, qz: float, qw: float) -> Tuple[float, float, float]:
-    """Roll, pitch, yaw [rad] of the unit quaternion with R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    roll = math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy))
-    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (qw * qy - qz * qx))))
-    yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-    return roll, pitch, yaw
-
-
-def euler_to_quaternion(roll: float, pitch: float, yaw: float) -> Tuple[float, float, float, float]:
-    """Unit quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll) (thesis eq. 2)."""
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-        cr * cp * cy + sr * sp * sy,
-    )
-
-
 def parse_pose(position: Sequence[float], quaternion: Sequence[float], config: GuiConfig) -> Optional[DeviceSample]:
     """A :class:`DeviceSample` from a device pose, or None when it is NaN, out of range or not a rotation."""
     values = (*position, *quaternion)
@@ -58,7 +38,7 @@ def parse_pose(position: Sequence[float], quaternion: Sequence[float], config: G
     norm = math.sqrt(sum(value * value for value in quaternion))
     if abs(norm - 1.0) > 0.01:
         return None
-    angles = quaternion_to_euler(*(value / norm for value in quaternion))
+    angles = quaternion_to_rpy([value / norm for value in quaternion])
     if any(abs(angle) > config.reject_angle_beyond for angle in angles):
         return None
     return DeviceSample(*position, *angles)

@@ -12,21 +12,12 @@ from typing import Tuple
 
 import numpy as np
 
+from teleteach.control.stiffness import translational_stiffness
 from teleteach.gui.config import GuiConfig
-from teleteach.gui.device import DeviceSample, euler_to_quaternion, scale
+from teleteach.gui.device import DeviceSample, scale
+from teleteach.rotations import rpy_to_matrix, rpy_to_quaternion
 
 MODES = ("ALL", "X", "Y", "Z")
-
-
-def rotation_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """R = Rz(yaw) Ry(pitch) Rx(roll): columns are the principal axes in the base frame (thesis eq. 2)."""
-    cr, sr = np.cos(roll), np.sin(roll)
-    cp, sp = np.cos(pitch), np.sin(pitch)
-    cy, sy = np.cos(yaw), np.sin(yaw)
-    rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
-    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
-    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    return rz @ ry @ rx
 
 
 class EllipsoidCommand:
@@ -89,10 +80,9 @@ class EllipsoidCommand:
     def stiffness(self) -> Tuple[np.ndarray, Tuple[float, float, float, float]]:
         """Principal stiffnesses [N/m] and the quaternion (x, y, z, w) of their axes in the base frame."""
         lengths, angles, _, _ = self.state()
-        return lengths * self.config.stiffness_per_pixel, euler_to_quaternion(*angles)
+        return lengths * self.config.stiffness_per_pixel, tuple(rpy_to_quaternion(*angles))
 
     def stiffness_matrix(self) -> np.ndarray:
         """Translational stiffness K_T = V Sigma V^T [N/m] (thesis eq. 1)."""
         lengths, angles, _, _ = self.state()
-        rotation = rotation_matrix(*angles)
-        return rotation @ np.diag(lengths * self.config.stiffness_per_pixel) @ rotation.T
+        return translational_stiffness(lengths * self.config.stiffness_per_pixel, rpy_to_matrix(*angles))

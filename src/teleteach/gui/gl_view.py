@@ -13,7 +13,8 @@ from PyQt5.QtCore import QPointF, QRectF, Qt
 from PyQt5.QtGui import QColor, QFont, QPainter
 from PyQt5.QtWidgets import QOpenGLWidget
 
-from teleteach.gui.ellipsoid import EllipsoidCommand, rotation_matrix
+from teleteach.gui.ellipsoid import EllipsoidCommand
+from teleteach.rotations import rpy_to_matrix
 
 LOG = logging.getLogger(__name__)
 AXIS_COLOURS = ((0.85, 0.1, 0.1), (0.1, 0.65, 0.1), (0.15, 0.3, 0.95))
@@ -93,7 +94,7 @@ class EllipsoidView(QOpenGLWidget):
 
     def _paint(self) -> None:
         lengths, angles, _, _ = self.command.state()
-        rotation = rotation_matrix(*angles)
+        rotation = rpy_to_matrix(*angles)
         ratio = self.devicePixelRatioF()
         width, height = self.width() * ratio, self.height() * ratio
         half = self.command.config.max_pixels * 1.3

@@ -12,16 +12,9 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
+from teleteach.rotations import quaternion_to_rpy
+
 TOPICS = ("/sigma7/pose", "/sigma7/twist", "/sigma7/gripper_angle", "/sigma7/button")
-
-
-def quaternion_to_rpy(quaternion: Sequence[float]) -> np.ndarray:
-    """Roll, pitch, yaw [rad] of a unit quaternion (x, y, z, w), for R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    x, y, z, w = quaternion
-    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
 
 
 @dataclasses.dataclass

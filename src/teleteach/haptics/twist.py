@@ -4,35 +4,15 @@ import math
 from typing import Optional, Tuple
 
 import numpy as np
-
-
-def quaternion_multiply(first: np.ndarray, second: np.ndarray) -> np.ndarray:
-    """Hamilton product ``first * second`` of quaternions stored (x, y, z, w)."""
-    x1, y1, z1, w1 = first
-    x2, y2, z2, w2 = second
-    return np.array(
-        [
-            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        ]
-    )
+from scipy.spatial.transform import Rotation
 
 
 def rotation_vector_between(previous: np.ndarray, current: np.ndarray) -> np.ndarray:
-    """Rotation vector [rad] of ``current * previous^-1``: the rotation from one orientation to the next.
+    """Rotation vector [rad] of ``current * previous^-1`` (quaternions x, y, z, w), in the fixed (device) frame.
 
-    Expressed in the fixed (device) frame; the shorter way round is taken, so q and -q give the same result.
+    scipy returns the shorter way round, so q and -q give the same result.
     """
-    conjugate = np.array([-previous[0], -previous[1], -previous[2], previous[3]])
-    relative = quaternion_multiply(current, conjugate)
-    if relative[3] < 0.0:
-        relative = -relative
-    sine = math.sqrt(relative[0] ** 2 + relative[1] ** 2 + relative[2] ** 2)
-    if sine < 1e-12:
-        return 2.0 * relative[:3]
-    return relative[:3] * (2.0 * math.atan2(sine, relative[3]) / sine)
+    return (Rotation.from_quat(current) * Rotation.from_quat(previous).inv()).as_rotvec()
 
 
 class TwistEstimator:
