@@ -14,15 +14,15 @@ from teleteach.gui.device import (
     DeviceFilter,
     DeviceSample,
     EdgeDetector,
-    euler_to_quaternion,
     parse_pose,
-    quaternion_to_euler,
     scale_to_index,
 )
-from teleteach.gui.ellipsoid import EllipsoidCommand, rotation_matrix
+from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, TrajectoryError, unique_skill_name
 from teleteach.gui.selection import OPERATIONS, SelectionFlow, Step, TreeNode, TreeSnapshot
+from teleteach.rotations import quaternion_to_rpy, rpy_to_matrix, rpy_to_quaternion
 from teleteach.sim.scene import load_scene
+from teleteach.skills.config import load_motion_config
 
 CONFIG = GuiConfig.load()
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
@@ -56,12 +56,12 @@ def test_bad_config_is_rejected_with_its_name(overrides, words):
 
 
 @pytest.mark.parametrize("angles", [(0.3, -0.4, 0.9), (-1.0, 0.2, -0.7), (0.0, 0.0, 0.0), (0.9, 0.9, -0.9)])
-def test_euler_conversions_match_scipy_for_rz_ry_rx(angles):
+def test_rpy_conversions_are_rz_ry_rx(angles):
     roll, pitch, yaw = angles
     expected = Rotation.from_euler("ZYX", [yaw, pitch, roll])  # intrinsic Z-Y-X = Rz(yaw) Ry(pitch) Rx(roll)
-    assert np.allclose(Rotation.from_quat(euler_to_quaternion(*angles)).as_matrix(), expected.as_matrix())
-    assert np.allclose(rotation_matrix(*angles), expected.as_matrix())
-    assert np.allclose(quaternion_to_euler(*expected.as_quat()), angles)
+    assert np.allclose(Rotation.from_quat(rpy_to_quaternion(*angles)).as_matrix(), expected.as_matrix())
+    assert np.allclose(rpy_to_matrix(*angles), expected.as_matrix())
+    assert np.allclose(quaternion_to_rpy(expected.as_quat()), angles)
 
 
 @pytest.mark.parametrize(
@@ -79,7 +79,7 @@ def test_nan_and_out_of_range_device_poses_are_ignored(position, quaternion):
 
 
 def test_valid_device_pose_is_parsed():
-    parsed = parse_pose((0.01, -0.02, 0.03), euler_to_quaternion(0.1, 0.2, 0.3), CONFIG)
+    parsed = parse_pose((0.01, -0.02, 0.03), rpy_to_quaternion(0.1, 0.2, 0.3), CONFIG)
     assert parsed.as_tuple() == pytest.approx((0.01, -0.02, 0.03, 0.1, 0.2, 0.3))
 
 
@@ -195,7 +195,7 @@ def test_ellipsoid_modes_move_only_their_axis_and_angle():
     command.device(sample(x=0.0, y=0.1, z=0.1, roll=-0.5, pitch=0.0, yaw=0.0))
     values, quaternion = command.stiffness()
     assert values == pytest.approx([1525.0, 50.0, 1525.0])
-    assert quaternion_to_euler(*quaternion) == pytest.approx((-0.5, 0.3, 0.4))
+    assert quaternion_to_rpy(quaternion) == pytest.approx((-0.5, 0.3, 0.4))
     assert [command.next_mode() for _ in range(3)] == ["Y", "Z", "ALL"]
 
 
@@ -210,9 +210,9 @@ def test_stiffness_matrix_is_v_sigma_vt():
 
 
 def test_trajectory_interpolates_and_holds_the_end():
-    trajectory = Trajectory([0.0, 1.0], [[0, 0, 0], [1, 2, 3]], [IDENTITY, euler_to_quaternion(0, 0, 1.0)])
+    trajectory = Trajectory([0.0, 1.0], [[0, 0, 0], [1, 2, 3]], [IDENTITY, rpy_to_quaternion(0, 0, 1.0)])
     assert trajectory.sample(0.5)[:3] == pytest.approx([0.5, 1.0, 1.5])
-    assert quaternion_to_euler(*trajectory.sample(0.5)[3:]) == pytest.approx((0.0, 0.0, 0.5))
+    assert quaternion_to_rpy(trajectory.sample(0.5)[3:]) == pytest.approx((0.0, 0.0, 0.5))
     assert trajectory.sample(5.0)[:3] == pytest.approx([1, 2, 3])
     with pytest.raises(TrajectoryError, match="increase"):
         Trajectory([0.0, 0.0], [[0, 0, 0]] * 2, [IDENTITY] * 2)
@@ -226,10 +226,13 @@ def test_predefined_trajectories_end_in_the_shelf_gap(name, base_pose):
     end = trajectory.sample(trajectory.duration)
     world = Rotation.from_euler("z", base.yaw).apply(end[:3]) + np.array([base.x, base.y, 0.0])
     assert np.linalg.norm(world[:2] - np.array(scene.gap.position[:2])) < scene.gap.tolerance
-    assert abs(world[2] - scene.gap.position[2]) < 0.01
-    # the hand approaches along world +X, the direction into the shelf
-    approach = (Rotation.from_euler("z", base.yaw) * Rotation.from_quat(end[3:])).apply([0.0, 0.0, 1.0])
-    assert approach == pytest.approx([1.0, 0.0, 0.0], abs=1e-3)
+    # the product hangs below the TCP by the skills' grasp height: its centre ends at the gap's height
+    held_below = load_motion_config().grasp.height_above_center
+    assert abs(world[2] - held_below - scene.gap.position[2]) < 0.01
+    # the hand keeps the skills' top-down grasp, square to the shelf (fingers closing across world Y)
+    hand = Rotation.from_euler("z", base.yaw) * Rotation.from_quat(end[3:])
+    assert hand.apply([0.0, 0.0, 1.0]) == pytest.approx([0.0, 0.0, -1.0], abs=1e-3)
+    assert hand.apply([0.0, 1.0, 0.0]) == pytest.approx([0.0, -1.0, 0.0], abs=1e-3)
 
 
 def test_recorder_makes_a_valid_skill_file(tmp_path):
