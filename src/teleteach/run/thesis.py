@@ -1,0 +1,579 @@
+"""The main job: the thesis' experiments (III-B to III-E) unattended, headless, with a run folder of results.
+
+:func:`run_thesis` starts Xvfb when there is no display, launches ``full.launch`` headless with the scripted device
+playing ``config/scenarios/thesis_full.yaml`` and the session recorder on, watches the tree and the scene until the
+scenario has ended and the tree has finished (bounded in wall time), screenshots the GUI tabs and an RViz view, stops
+everything newest first, and writes into ``<data dir>/runs/<timestamp>/``: the bag, the taught skill(s), the tree
+before and after, the report with the thesis-style plots, the screenshots and ``summary.json``/``summary.md``.
+"""
+
+import dataclasses
+import json
+import os
+import pathlib
+import shutil
+import threading
+import time
+from typing import Callable, Dict, List, Optional, Tuple
+
+import numpy as np
+import yaml
+
+from teleteach import skill_file
+from teleteach.datadir import atomic_write_text, data_dir
+from teleteach.haptics.scenario import load_scenario
+from teleteach.run import outcome
+from teleteach.run.processes import ProcessError, Processes, free_port, screenshot, start_xvfb
+from teleteach.sim.scene import load_scene
+
+PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[3]
+DEFAULT_SCENARIO = PACKAGE_DIR / "config" / "scenarios" / "thesis_full.yaml"
+TREE_FILE = PACKAGE_DIR / "config" / "tree.yaml"
+RVIZ_CONFIG = PACKAGE_DIR / "rviz" / "teleteach.rviz"
+EXECUTION = "BehaviorExecution"
+TAB_NAMES = {0: "start", 1: "high_level", 2: "low_level", 3: "shared_control"}
+SUCCESS = 3
+
+
+@dataclasses.dataclass
+class Options:
+    """What to run and the thesis' expectations (defaults: thesis_full.yaml; see :func:`options_for`)."""
+
+    scenario: pathlib.Path = DEFAULT_SCENARIO
+    data_root: Optional[pathlib.Path] = None
+    timeout: float = 230.0  # [s] wall time allowed for the scenario and the tree
+    rviz: bool = True
+    tree: pathlib.Path = TREE_FILE
+    trajectory: str = "perpendicular"
+    placed_product: str = "product_pick_1"
+    removed: Optional[str] = "PlaceItem"  # III-B; None: the tree must stay as it was
+    insert_index: Optional[int] = 7  # III-E; None: the taught skill is not inserted
+    stiffer_insertion: bool = True  # III-C's peg-in-hole X stiffening (III-D omits it)
+    alignment_yaw: Optional[float] = None  # [deg] III-D: direction of the stiffest horizontal axis after alignment
+    device_rate: float = 250.0
+    double_click_window: float = 1.2  # [s] wall: tolerates a simulation at 0.3x real time (clicks 0.35 s apart)
+
+
+def options_for(scenario: pathlib.Path, **overrides) -> Options:
+    """The expectations of a thesis scenario: thesis_III_D.yaml runs its own tree and the 45-degree trajectory."""
+    scenario = pathlib.Path(scenario).resolve()
+    if scenario.stem == "thesis_III_D":
+        profile = dict(
+            tree=scenario.with_name("thesis_III_D_tree.yaml"),
+            trajectory="angled_45",
+            removed=None,
+            insert_index=None,
+            stiffer_insertion=False,
+            alignment_yaw=45.0,
+        )
+    else:
+        profile = {}
+    return Options(scenario=scenario, **{**profile, **overrides})
+
+
+class Monitor:
+    """Subscribes to the tree, the library, the scene and the active tab (needs rospy initialised)."""
+
+    def __init__(self, on_tab: Callable[[int], None]):
+        import rospy
+        from std_msgs.msg import Int8, String
+        from visualization_msgs.msg import MarkerArray
+
+        from teleteach.msg import BehaviourTree, HelpRequest, SkillLibrary
+
+        self._lock = threading.Lock()
+        self.children: List[Tuple[float, Tuple[str, ...]]] = []
+        self.leaves: Dict[str, Tuple[int, str, str]] = {}
+        self.completed = False
+        self.ascii: List[str] = []
+        self.library: Optional[SkillLibrary] = None
+        self.initial_products: Dict[str, np.ndarray] = {}
+        self.final_products: Dict[str, np.ndarray] = {}
+        self.help_requests: List[Tuple[float, str, str]] = []
+        self.tabs: List[Tuple[float, int]] = []
+        self._on_tab = on_tab
+        self._subscribers = [
+            rospy.Subscriber("/behaviour_tree/log/tree", BehaviourTree, self._tree, queue_size=20),
+            rospy.Subscriber("/behaviour_tree/ascii/tree", String, self._ascii, queue_size=5),
+            rospy.Subscriber("/behaviour_tree/skill_library", SkillLibrary, self._library, queue_size=5),
+            rospy.Subscriber("/behaviour_tree/help_request", HelpRequest, self._help, queue_size=5),
+            rospy.Subscriber("/teleteach/scene", MarkerArray, self._scene, queue_size=1),
+            rospy.Subscriber("/teleteach/active_tab", Int8, self._tab, queue_size=5),
+        ]
+        self._now = rospy.get_time
+
+    def _tree(self, message) -> None:
+        by_id = {behaviour.own_id: behaviour for behaviour in message.behaviours}
+        execution = next((b for b in message.behaviours if b.name == EXECUTION), None)
+        root = next((b for b in message.behaviours if b.parent_id not in by_id), None)
+        with self._lock:
+            if execution is not None:
+                children = tuple(by_id[child].name for child in execution.child_ids if child in by_id)
+                self.children.append((self._now(), children))
+            for behaviour in message.behaviours:
+                if not behaviour.child_ids:
+                    self.leaves[behaviour.name] = (behaviour.status, behaviour.message, behaviour.class_name)
+            self.completed = execution is not None and execution.status == SUCCESS and root.status == SUCCESS
+
+    def _ascii(self, message) -> None:
+        with self._lock:
+            if not self.ascii or self.ascii[-1] != message.data:
+                self.ascii.append(message.data)
+
+    def _library(self, message) -> None:
+        with self._lock:
+            self.library = message
+
+    def _help(self, message) -> None:
+        if message.node_name:
+            with self._lock:
+                self.help_requests.append((self._now(), message.node_name, message.reason))
+
+    def _scene(self, message) -> None:
+        products = {
+            marker.text: np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z])
+            for marker in message.markers
+            if marker.ns == "products"
+        }
+        with self._lock:
+            if not self.initial_products:
+                self.initial_products = products
+            self.final_products = products
+
+    def _tab(self, message) -> None:
+        with self._lock:
+            self.tabs.append((self._now(), int(message.data)))
+        self._on_tab(int(message.data))
+
+    def demonstrated(self) -> List[Tuple[str, str]]:
+        """(name, data file) of every demonstrated skill in the library."""
+        with self._lock:
+            library = self.library
+        if library is None:
+            return []
+        return [(n, f) for n, k, f in zip(library.names, library.kinds, library.data_files) if k != "predefined"]
+
+    def close(self) -> None:
+        """Unsubscribe."""
+        for subscriber in self._subscribers:
+            subscriber.unregister()
+
+
+class TabScreenshots:
+    """Screenshots of the GUI: one soon after a tab opens, then the latest state every few seconds while it is open."""
+
+    def __init__(self, display: str, folder: pathlib.Path, period: float = 3.0):
+        self.display = display
+        self.folder = folder
+        self.period = period
+        self.errors: List[str] = []
+        self._visit = 0
+        self._tab = None
+        self._since = 0.0
+        self._last = 0.0
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name="screenshots", daemon=True)
+        self._thread.start()
+
+    def tab_changed(self, tab: int) -> None:
+        """A new tab visit: the first picture 1.5 s later."""
+        with self._lock:
+            if tab == self._tab:
+                return
+            self._visit += 1
+            self._tab, self._since, self._last = tab, time.monotonic(), 0.0
+
+    def _loop(self) -> None:
+        while not self._stop.wait(0.2):
+            with self._lock:
+                tab, visit, since, last = self._tab, self._visit, self._since, self._last
+            now = time.monotonic()
+            if tab is None or now - since < 1.5 or (last and now - last < self.period):
+                continue
+            name = f"gui_{visit:02d}_{TAB_NAMES.get(tab, str(tab))}"
+            path = self.folder / (f"{name}.png" if not last else f"{name}_latest.png")
+            self.take(path)
+            with self._lock:
+                if self._visit == visit:
+                    self._last = now
+
+    def take(self, path: pathlib.Path) -> None:
+        """One screenshot of the whole screen."""
+        try:
+            error = screenshot(self.display, path)
+        except Exception as exception:
+            error = str(exception)
+        if error:
+            self.errors.append(f"{path.name}: {error}")
+
+    def stop(self) -> None:
+        """End the loop."""
+        self._stop.set()
+        self._thread.join(5.0)
+
+
+def _ros_env(port: int, display: str, data_root: pathlib.Path) -> Dict[str, str]:
+    env = dict(os.environ)
+    env.update(
+        ROS_MASTER_URI=f"http://localhost:{port}",
+        DISPLAY=display,
+        TELETEACH_DATA=str(data_root),
+        PYTHONUNBUFFERED="1",
+    )
+    return env
+
+
+def _wait_for_master(port: int, launch, timeout: float) -> None:
+    import rosgraph
+
+    master = rosgraph.Master("/run_thesis", master_uri=f"http://localhost:{port}")
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if launch.poll() is not None:
+            raise ProcessError(f"roslaunch ended with {launch.returncode} before the master was up")
+        try:
+            master.getPid()
+            return
+        except Exception:
+            time.sleep(0.3)
+    raise ProcessError(f"no ROS master on port {port} after {timeout:.0f} s")
+
+
+def _run_folder(root: pathlib.Path) -> pathlib.Path:
+    stamp = time.strftime("%Y-%m-%d-%H-%M-%S")
+    folder = root / "runs" / stamp
+    suffix = 1
+    while folder.exists():
+        suffix += 1
+        folder = root / "runs" / f"{stamp}_{suffix}"
+    folder.mkdir(parents=True)
+    return folder
+
+
+def _tree_yaml(children: Tuple[str, ...], leaves: Dict[str, Tuple[int, str, str]]) -> str:
+    statuses = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
+    data = {
+        "execution": EXECUTION,
+        "children": [
+            {
+                "name": name,
+                "skill": leaves.get(name, (0, "", name))[2],
+                "status": statuses.get(leaves.get(name, (0,))[0], "unknown"),
+                "message": leaves.get(name, (0, ""))[1],
+            }
+            for name in children
+        ],
+    }
+    return yaml.safe_dump(data, sort_keys=False, width=120)
+
+
+class ThesisRun:
+    """One run of the main job; :meth:`run` returns the summary (also written into the run folder)."""
+
+    def __init__(self, options: Options, say: Callable[[str], None] = print):
+        self.options = options
+        self.say = say
+        self.scenario = load_scenario(options.scenario)  # a bad file is refused before anything is created
+        self.root = data_dir(options.data_root)
+        self.folder = _run_folder(self.root)
+        self.processes = Processes()
+        self.prefix = "thesis_" + self.folder.name.replace("-", "_")
+        self.timings: Dict[str, float] = {}
+        self._start = time.monotonic()
+
+    def _mark(self, name: str) -> None:
+        self.timings[name] = round(time.monotonic() - self._start, 1)
+
+    def run(self) -> dict:
+        """Everything; processes are stopped whatever happens."""
+        try:
+            return self._run()
+        finally:
+            self.processes.stop_all()
+
+    def _run(self) -> dict:
+        options, scenario = self.options, self.scenario
+        display = os.environ.get("DISPLAY", "")
+        if not display:
+            display = start_xvfb(self.processes)
+            self.say(f"run_thesis: started Xvfb on {display}")
+        port = free_port()
+        env = _ros_env(port, display, self.root)
+        launch = self.processes.start(
+            "roslaunch",
+            [
+                "roslaunch",
+                "-p",
+                str(port),
+                "teleteach",
+                "full.launch",
+                "headless:=true",
+                "device:=scenario",
+                f"scenario:={options.scenario}",
+                f"device_rate:={options.device_rate:g}",
+                f"double_click_window:={options.double_click_window:g}",
+                f"tree:={options.tree}",
+                f"trajectory:={options.trajectory}",
+                "record:=true",
+                f"record_prefix:={self.prefix}",
+                f"data_dir:={self.root}",
+            ],
+            self.folder / "launch.log",
+            env,
+        )
+        self.say(f"run_thesis: launched full.launch (roscore on port {port}), log {self.folder / 'launch.log'}")
+        _wait_for_master(port, launch, 60.0)
+        os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"], TELETEACH_DATA=env["TELETEACH_DATA"])
+        import rospy
+
+        rospy.init_node("run_thesis", anonymous=True, disable_signals=True)
+        shots = TabScreenshots(display, self.folder)
+        monitor = Monitor(shots.tab_changed)
+        self._mark("master_up")
+        try:
+            finished, reason = self._wait(monitor, launch, scenario.duration, rospy)
+            self._mark("scenario_done")
+            shots.stop()
+            shots.take(self.folder / "gui_final.png")
+            if options.rviz and launch.poll() is None:
+                self._rviz_view(env, display, shots)
+            self._mark("screenshots_done")
+        finally:
+            shots.stop()
+            monitor.close()
+            rospy.signal_shutdown("run_thesis done")
+            self.processes.stop(launch, grace=25.0)
+            self._mark("launch_stopped")
+        return self._results(monitor, finished, reason, shots.errors)
+
+    def _wait(self, monitor: Monitor, launch, duration: float, rospy) -> Tuple[bool, str]:
+        """Until the scenario has ended and the tree has finished, roslaunch died or the wall time is up."""
+        deadline = time.monotonic() + self.options.timeout
+        start = None
+        reported = set()
+        while time.monotonic() < deadline:
+            if launch.poll() is not None:
+                return False, f"roslaunch ended early (exit {launch.returncode}); see launch.log"
+            if start is None and rospy.has_param("/sigma7_node/scenario_start"):
+                start = float(rospy.get_param("/sigma7_node/scenario_start"))
+                self.say(f"run_thesis: scenario started at simulated t = {start:.2f} s ({duration:.0f} s long)")
+            now = rospy.get_time()
+            played = start is not None and now >= start + duration + 1.0
+            for name, (status, message, _) in list(monitor.leaves.items()):
+                if status in (3, 4) and (name, status) not in reported and name != "PauseCondition":
+                    reported.add((name, status))
+                    self.say(f"run_thesis: t = {now:6.1f} s  {name}: {'done' if status == 3 else 'FAILED'} {message}")
+            if played and monitor.completed:
+                rospy.sleep(1.0)  # a last scene message after the tree's end
+                return True, "scenario played and tree finished"
+            time.sleep(0.2)
+        state = "scenario not over" if start is None or rospy.get_time() < start + duration else "tree not finished"
+        return False, f"timeout after {self.options.timeout:.0f} s wall time ({state})"
+
+    def _rviz_view(self, env, display: str, shots: TabScreenshots) -> None:
+        """RViz briefly, only for a picture of the robot, the shelf and the ellipsoid."""
+        try:
+            rviz = self.processes.start("rviz", ["rviz", "-d", str(RVIZ_CONFIG)], self.folder / "rviz.log", env)
+        except ProcessError as error:
+            shots.errors.append(f"rviz: {error}")
+            return
+        time.sleep(12.0)
+        shots.take(self.folder / "rviz.png")
+        self.processes.stop(rviz, grace=5.0)
+
+    def _collect_bag(self) -> Optional[pathlib.Path]:
+        bags = self.root / "bags"
+        deadline = time.monotonic() + 15.0
+        while time.monotonic() < deadline:
+            active = list(bags.glob(f"{self.prefix}_*.bag.active"))
+            found = sorted(bags.glob(f"{self.prefix}_*.bag"))
+            if found and not active:
+                target = self.folder / found[-1].name
+                shutil.move(str(found[-1]), target)
+                return target
+            time.sleep(0.5)
+        return None
+
+    def _results(self, monitor: Monitor, finished: bool, reason: str, screenshot_errors: List[str]) -> dict:
+        options, folder = self.options, self.folder
+        problems: List[str] = [] if finished else [reason]
+        bag = self._collect_bag()
+        if bag is None:
+            problems.append("no bag was written")
+        # trees
+        initial = tuple(yaml.safe_load(options.tree.read_text())["root"]["children"][1]["children"])
+        changes = outcome.sequence_changes([children for _, children in monitor.children])
+        shutil.copy(options.tree, folder / "tree_before.yaml")
+        if monitor.ascii:
+            atomic_write_text(folder / "tree_before.txt", monitor.ascii[0] + "\n")
+            atomic_write_text(folder / "tree_after.txt", monitor.ascii[-1] + "\n")
+        final_children = changes[-1] if changes else initial
+        atomic_write_text(folder / "tree_after.yaml", _tree_yaml(final_children, monitor.leaves))
+        saved_tree = self.root / "trees" / "current_tree.yaml"
+        if saved_tree.is_file():
+            shutil.copy(saved_tree, folder / "tree_after_saved.yaml")
+        edits = [outcome.describe_edit(a, b) for a, b in zip(changes, changes[1:])]
+        # taught skills
+        taught = monitor.demonstrated()
+        (folder / "skills").mkdir(exist_ok=True)
+        for _, data_file in taught:
+            if pathlib.Path(data_file).is_file():
+                shutil.copy(data_file, folder / "skills" / pathlib.Path(data_file).name)
+        taught_name = taught[0][0] if taught else None
+        after_removal, after_insertion = outcome.expected_sequences(
+            initial, options.removed, taught_name, options.insert_index
+        )
+        if options.removed is not None and after_removal not in changes[1:]:
+            problems.append(f"the tree never was {list(after_removal)} (III-B)")
+        if taught_name is None:
+            problems.append("no skill was taught (III-C)")
+        elif final_children != after_insertion:
+            problems.append(f"final tree {list(final_children)}, expected {list(after_insertion)} (III-E)")
+        replay = monitor.leaves.get(taught_name) if taught_name else None
+        replay_ok = replay is not None and replay[0] == SUCCESS
+        if taught_name and options.insert_index is not None and not replay_ok:
+            problems.append(f"the taught skill {taught_name} did not succeed on the robot: {replay}")
+        # stiffness phases
+        phases, yaw = None, None
+        if taught:
+            try:
+                skill = skill_file.load(taught[0][1])
+                phases = outcome.stiffness_phases(skill, options.trajectory)
+                problems += phases.check(stiffer_insertion=options.stiffer_insertion)
+                yaw = outcome.alignment_axis_yaw(skill, options.trajectory)
+            except (skill_file.SkillFileError, ValueError) as error:
+                problems.append(f"taught skill unreadable: {error}")
+        if options.alignment_yaw is not None and yaw is not None and abs(yaw - options.alignment_yaw) > 5.0:
+            problems.append(f"stiffest horizontal axis at {yaw:.0f} deg after alignment, not {options.alignment_yaw:g}")
+        # placement
+        placement = None
+        try:
+            scene = load_scene()
+            placement = outcome.placement(
+                options.placed_product, scene.gap.position, monitor.initial_products, monitor.final_products
+            )
+            problems += placement.check()
+        except ValueError as error:
+            problems.append(str(error))
+        # report
+        report_dir = folder / "report"
+        figures: List[str] = []
+        if bag is not None:
+            from teleteach.recording.report import make_report
+            from teleteach.recording.session import SessionError
+
+            try:
+                report = make_report(bag, report_dir)
+                figures = sorted(str(path.relative_to(folder)) for path in report.figures.values())
+            except (SessionError, OSError) as error:
+                problems.append(f"report failed: {error}")
+        self._mark("report_done")
+        summary = {
+            "folder": str(folder),
+            "passed": not problems,
+            "problems": problems,
+            "finished": finished,
+            "bag": bag.name if bag else None,
+            "tree_initial": list(initial),
+            "tree_changes": [list(children) for children in changes],
+            "tree_edits": edits,
+            "tree_final": list(final_children),
+            "expected_after_III_B": list(after_removal),
+            "expected_after_III_E": list(after_insertion),
+            "taught_skills": [{"name": n, "file": f"skills/{pathlib.Path(f).name}"} for n, f in taught],
+            "taught_skill_result": {"status": replay[0], "message": replay[1]} if replay else None,
+            "stiffness_phases": dataclasses.asdict(phases) if phases else None,
+            "alignment_ratio": phases.alignment_ratio if phases else None,
+            "insertion_ratio": phases.insertion_ratio if phases else None,
+            "alignment_axis_yaw_deg": yaw,
+            "placement": dataclasses.asdict(placement) if placement else None,
+            "neighbours_displaced": placement.displaced if placement else None,
+            "help_requests": monitor.help_requests,
+            "tabs": monitor.tabs,
+            "screenshots": sorted(path.name for path in folder.glob("*.png")),
+            "screenshot_errors": screenshot_errors,
+            "figures": figures,
+            "timings_wall_s": self.timings,
+        }
+        atomic_write_text(folder / "summary.json", json.dumps(summary, indent=2, default=str) + "\n")
+        atomic_write_text(folder / "summary.md", format_summary(summary))
+        return summary
+
+
+def format_summary(summary: dict) -> str:
+    """The short human summary printed at the end and saved as summary.md."""
+    lines = [f"# Thesis run: {'PASSED' if summary['passed'] else 'FAILED'}", "", f"Run folder: {summary['folder']}", ""]
+    lines.append("- tree: " + ("; ".join(summary["tree_edits"]) or "unchanged"))
+    lines.append("  final BehaviorExecution: " + " -> ".join(summary["tree_final"]))
+    taught = summary["taught_skills"]
+    result = summary["taught_skill_result"]
+    if taught:
+        if result is None:
+            ran = "; not in the tree"
+        else:
+            ran = f"; run by the tree: {'succeeded' if result['status'] == SUCCESS else 'NOT successful'}"
+        lines.append(f"- skill taught: {taught[0]['name']} ({taught[0]['file']}){ran}")
+        if result:
+            lines.append(f"  {result['message']}")
+    else:
+        lines.append("- skill taught: none")
+    if summary["alignment_ratio"] is not None:
+        phases = summary["stiffness_phases"]
+        lines.append(
+            f"- stiffness phases: approach X/Y {phases['approach_x']:.0f}/{phases['approach_y']:.0f} N/m, "
+            f"alignment Y {phases['alignment_y']:.0f} N/m ({summary['alignment_ratio']:.1f}x), "
+            f"insertion X {phases['insertion_x']:.0f} N/m ({summary['insertion_ratio']:.1f}x); stiffest horizontal "
+            f"axis after alignment at {summary['alignment_axis_yaw_deg']:.0f} deg"
+        )
+    placement = summary["placement"]
+    if placement:
+        on_shelf = placement["horizontal_error"] <= 0.02 and placement["vertical_error"] <= 0.02
+        lines.append(
+            f"- product {placement['product']}: {'on the shelf in the gap' if on_shelf else 'NOT in the gap'} "
+            f"({100 * placement['horizontal_error']:.1f} cm from the target, "
+            f"{100 * placement['vertical_error']:.1f} cm in height)"
+        )
+        moved = max(placement["neighbour_moves"].values(), default=0.0)
+        displaced = summary["neighbours_displaced"]
+        lines.append(
+            f"- neighbours: {'displaced: ' + ', '.join(displaced) if displaced else 'not displaced'} "
+            f"(largest move {1000 * moved:.1f} mm)"
+        )
+    lines.append(
+        f"- files: {summary['bag']}, report/ ({len(summary['figures'])} figures), screenshots: "
+        f"{len(summary['screenshots'])}, tree_before/after.yaml/.txt, skills/"
+    )
+    for problem in summary["problems"]:
+        lines.append(f"- PROBLEM: {problem}")
+    lines.append(f"- wall time [s]: {summary['timings_wall_s']}")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    """Command line: run the thesis scenario, print the summary; exit 0 when every check passed."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument(
+        "--scenario",
+        default=str(DEFAULT_SCENARIO),
+        help="device scenario (default thesis_full; thesis_III_D.yaml runs with its own tree and trajectory)",
+    )
+    parser.add_argument("--data-dir", default=None, help="data directory (default $TELETEACH_DATA or ~/.ros/teleteach)")
+    parser.add_argument("--timeout", type=float, default=230.0, help="[s] wall time for the scenario and the tree")
+    parser.add_argument("--no-rviz", action="store_true", help="skip the RViz screenshot at the end")
+    arguments = parser.parse_args(argv)
+    options = options_for(
+        pathlib.Path(arguments.scenario),
+        data_root=pathlib.Path(arguments.data_dir).expanduser() if arguments.data_dir else None,
+        timeout=arguments.timeout,
+        rviz=not arguments.no_rviz,
+    )
+    try:
+        summary = ThesisRun(options).run()
+    except (ProcessError, OSError, ValueError) as error:
+        print(f"run_thesis: error: {error}")
+        return 2
+    print(format_summary(summary), end="")
+    return 0 if summary["passed"] else 1

@@ -1,0 +1,199 @@
+"""The main job's pieces that need no ROS: outcome checks, scenario files, process handling."""
+
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import yaml
+from conftest import ROOT
+from scipy.spatial.transform import Rotation
+
+from teleteach.haptics.click import ClickParameters
+from teleteach.haptics.scenario import check_clicks, load_scenario
+from teleteach.run import outcome
+from teleteach.run.processes import ProcessError, Processes, free_display, free_port
+from teleteach.run.thesis import options_for
+from teleteach.skill_file import Skill
+
+SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full"]
+
+
+def recorded_skill(kx_insertion=2100.0, ky_alignment=2200.0):
+    """A perpendicular placement as the GUI records it: 100 Hz, K diagonal, the three phases."""
+    time = np.arange(0.0, 12.0, 0.01)
+    kx = np.where(time < 9.0, 400.0, kx_insertion)
+    ky = np.where((time >= 3.5) & (time < 5.0), ky_alignment, np.where(time >= 5.0, 1800.0, 400.0))
+    stiffness = np.array([np.diag([x, y, 2000.0]) for x, y in zip(kx, ky)])
+    pose = np.tile([0.5, 0.0, 0.8, 1.0, 0.0, 0.0, 0.0], (len(time), 1))
+    return Skill("DemonstratedPlace_1", "stiffness", time + 100.0, stiffness, pose, pose)
+
+
+def test_stiffness_phases_of_a_perpendicular_placement():
+    phases = outcome.stiffness_phases(recorded_skill())
+    assert (phases.approach_x, phases.approach_y) == (400.0, 400.0)
+    assert phases.alignment_ratio == pytest.approx(5.5)
+    assert phases.insertion_ratio == pytest.approx(5.25)
+    assert phases.check() == []
+
+
+def test_stiffness_phases_flag_missing_stiffening():
+    problems = outcome.stiffness_phases(recorded_skill(kx_insertion=400.0, ky_alignment=800.0)).check()
+    assert problems == [
+        "Y stiffness in alignment only 2.0x the approach's",
+        "X stiffness in insertion only 1.0x the approach's",
+    ]
+
+
+def test_stiffness_phases_refuse_a_short_recording():
+    skill = recorded_skill()
+    pose = skill.equilibrium_pose[:70]
+    short = Skill(skill.name, skill.kind, skill.time[:70], skill.stiffness[:70], pose, pose)
+    with pytest.raises(ValueError, match="no samples in 3-5 s"):
+        outcome.stiffness_phases(short)
+
+
+def test_alignment_axis_yaw_follows_the_turned_ellipsoid():
+    skill = recorded_skill()
+    assert outcome.alignment_axis_yaw(skill) == pytest.approx(90.0)  # III-C: Y stiffened along base Y
+    turn = Rotation.from_euler("z", -45.0, degrees=True).as_matrix()
+    turned = np.array([turn @ k @ turn.T for k in skill.stiffness])
+    pose = skill.equilibrium_pose
+    skill = Skill(skill.name, skill.kind, skill.time, turned, pose, pose)
+    assert outcome.alignment_axis_yaw(skill, "angled_45") == pytest.approx(45.0)  # III-D: principal Y turned
+
+
+def test_options_follow_the_scenario():
+    full = options_for(ROOT / "config" / "scenarios" / "thesis_full.yaml")
+    assert (full.removed, full.insert_index, full.trajectory) == ("PlaceItem", 7, "perpendicular")
+    angled = options_for(ROOT / "config" / "scenarios" / "thesis_III_D.yaml", timeout=10.0)
+    assert angled.tree == ROOT / "config" / "scenarios" / "thesis_III_D_tree.yaml" and angled.tree.is_file()
+    assert (angled.trajectory, angled.removed, angled.insert_index, angled.timeout) == ("angled_45", None, None, 10.0)
+    assert not angled.stiffer_insertion and angled.alignment_yaw == 45.0
+
+
+def test_placement_measures_the_gap_and_the_neighbours():
+    initial = {"product_pick_1": [0.6, 0.0, 0.5], "product_shelf_3": [2.06, -0.085, 0.72], "product_low_1": [0, 0, 0]}
+    final = {"product_pick_1": [2.07, 0.005, 0.722], "product_shelf_3": [2.06, -0.1, 0.72], "product_low_1": [1, 0, 0]}
+    placed = outcome.placement("product_pick_1", (2.06, 0.0, 0.72), initial, final)
+    assert placed.horizontal_error == pytest.approx(np.hypot(0.01, 0.005))
+    assert placed.vertical_error == pytest.approx(0.002)
+    assert placed.neighbour_moves == {"product_shelf_3": pytest.approx(0.015)}
+    assert placed.displaced == ["product_shelf_3"]
+    assert placed.check() == ["neighbour product_shelf_3 moved 1.5 cm (limit 1 cm)"]
+    fallen = outcome.placement("product_pick_1", (2.06, 0.0, 0.72), initial, {"product_pick_1": [1.8, 0.1, 0.03]})
+    assert "NOT" not in fallen.check()[0] and "above/below the gap's target" in fallen.check()[0]
+    with pytest.raises(ValueError, match="no final position"):
+        outcome.placement("product_pick_1", (2.06, 0.0, 0.72), initial, {})
+
+
+def test_tree_sequences_and_edits():
+    initial = ("LookToShelf", "PickItem", "MoveBase", "PlaceItem", "DropItem", "Idle")
+    removed, inserted = outcome.expected_sequences(initial, "PlaceItem", "Taught_1", 3)
+    assert removed == ("LookToShelf", "PickItem", "MoveBase", "DropItem", "Idle")
+    assert inserted == ("LookToShelf", "PickItem", "MoveBase", "Taught_1", "DropItem", "Idle")
+    changes = outcome.sequence_changes([initial, initial, removed, removed, inserted])
+    assert changes == [initial, removed, inserted]
+    assert outcome.describe_edit(initial, removed) == "removed PlaceItem"
+    assert outcome.describe_edit(removed, inserted) == "inserted Taught_1 at index 3"
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_thesis_scenarios_are_valid_and_click_as_the_device_node_does(name):
+    scenario = load_scenario(ROOT / "config" / "scenarios" / f"{name}.yaml")
+    check_clicks(scenario, ClickParameters(**yaml.safe_load((ROOT / "config" / "device.yaml").read_text())["click"]))
+    clicks = scenario.click_times()
+    gaps = np.diff(clicks)
+    # Expect: clicks are either a double click (0.35 s) or single clicks the GUI cannot pair (>= 1.5 s)
+    assert all(gap == pytest.approx(0.35) or gap >= 1.5 - 1e-9 for gap in gaps), list(zip(clicks, gaps))
+
+
+def test_thesis_full_drives_the_gui_to_the_expected_buttons():
+    scenario = load_scenario(ROOT / "config" / "scenarios" / "thesis_full.yaml")
+    gui = yaml.safe_load((ROOT / "config" / "gui.yaml").read_text())
+    by_time = {frame.time: frame for frame in scenario.keyframes}
+    # III-B: PlaceItem is button 4 of 21, "remove" the lowest of 4 operations
+    assert int((by_time[3.5].position[0] + 0.1) / 0.2 * 21) == 4
+    assert int((by_time[6.0].position[1] + 0.1) / 0.2 * 4) == 0
+    # III-E: the new skill is the last of 21 buttons, "insert" the second operation, index 7 of 10 slots
+    assert min(20, int((by_time[34.1].position[0] + 0.1) / 0.2 * 21)) == 20
+    assert int((by_time[36.1].position[1] + 0.1) / 0.2 * 4) == 1
+    roll = by_time[38.1].rpy[0]
+    assert int((roll + gui["device_angle_range"]) / (2 * gui["device_angle_range"]) * 10) == 7
+
+
+def test_free_port_and_display():
+    port = free_port()
+    assert 1024 < port < 65536
+    display = free_display()
+    assert not os.path.exists(f"/tmp/.X11-unix/X{display}")
+
+
+def test_processes_stop_politely_and_refuse_missing_programs(tmp_path):
+    processes = Processes()
+    script = (
+        "import signal, sys, time; signal.signal(signal.SIGINT, lambda *_: sys.exit(7)); "
+        "print('ready', flush=True); time.sleep(60)"
+    )
+    first = processes.start("first", [sys.executable, "-c", script], tmp_path / "first.log")
+    second = processes.start("second", [sys.executable, "-c", "import time; time.sleep(60)"])
+    deadline = time.monotonic() + 30.0
+    while "ready" not in (tmp_path / "first.log").read_text() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    processes.stop_all()
+    assert first.returncode == 7  # ended politely by SIGINT
+    assert second.returncode is not None
+    with pytest.raises(ProcessError, match="not installed"):
+        processes.start("missing", ["no-such-program-teleteach"])
+
+
+def test_run_thesis_refuses_a_bad_scenario(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("keyframes: [{t: 0.0}]\n")
+    result = subprocess.run(
+        [str(ROOT / "nodes" / "run_thesis"), "--scenario", str(bad), "--data-dir", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "run_thesis: error:" in result.stdout and "bad.yaml" in result.stdout
+
+
+def launch_nodes(*args):
+    """The nodes full.launch would start with these args (roslaunch --nodes parses it without running anything)."""
+    result = subprocess.run(
+        ["roslaunch", "--nodes", "teleteach", "full.launch", *args], capture_output=True, text=True, check=True
+    )
+    return {line.strip() for line in result.stdout.splitlines() if line.startswith("/")}
+
+
+def test_full_launch_includes_the_parts_by_its_args():
+    everything = {"/robot_sim", "/robot_state_publisher", "/skill_server", "/behaviour_tree", "/teaching_gui"}
+    everything |= {"/sigma7_node", "/ellipsoid_marker", "/rviz"}
+    assert launch_nodes() == everything
+    # headless: no RViz (the ellipsoid marker stays for bags and a later RViz); record: the session recorder
+    assert launch_nodes("headless:=true", "record:=true") == everything - {"/rviz"} | {"/session_recorder"}
+    # a real robot: no simulation, the skill servers and robot_state_publisher still run
+    assert launch_nodes("real_robot:=true", "gui:=false", "rviz:=false") == everything - {
+        "/robot_sim",
+        "/teaching_gui",
+        "/rviz",
+    }
+
+
+def test_full_launch_passes_its_args_to_the_parts():
+    result = subprocess.run(
+        ["roslaunch", "--dump-params", "teleteach", "full.launch", "headless:=true", "double_click_window:=1.2"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    params = yaml.safe_load(result.stdout)
+    assert params["/teaching_gui/double_click_window"] == 1.2
+    assert params["/teaching_gui/repaint_rate"] == 5
+    assert params["/sigma7_node/backend"] == "virtual"
+    assert params["/behaviour_tree/resume"] is False
