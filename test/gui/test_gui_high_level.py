@@ -117,8 +117,19 @@ def impatient_bt_node(ros_master, data_root):
     stop(process)
 
 
-def test_help_request_is_shown_prominently(qapp, impatient_bt_node, make_window, artifacts_dir):
+def test_help_request_is_shown_and_answered_from_the_gui(qapp, impatient_bt_node, device, make_window, artifacts_dir):
     window = make_window()
     pump_until(qapp, lambda: window.help_banner.isVisible(), 20, "the help banner")
     assert "LookToShelf" in window.help_banner.text()
     window.screenshot().save(str(artifacts_dir / "gui_help_request.png"))
+    # The operator answers: remove the failed LookToShelf, then back to START -> the tree resumes
+    pump_until(qapp, lambda: "LookToShelf" in window.high_level.flow.choices, 20, "buttons from the tree")
+    open_high_level(qapp, window, device)
+    select_node(qapp, window, device, window.high_level.flow.choices.index("LookToShelf"))
+    select_operation(qapp, window, device, "remove")
+    device.click()
+    pump_until(qapp, lambda: window.high_level.flow.answer.startswith("done"), 10, "the removal")
+    device.set_gripper(0.5)
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 0, 5, "START after opening the gripper")
+    # Expect: the tree went on to PickItem, which has no server either and asks for help in turn
+    pump_until(qapp, lambda: "PickItem" in window.help_banner.text(), 20, "the next help request (PickItem)")

@@ -51,6 +51,7 @@ class MainWindow(QMainWindow):
         self.saved_skills: List[str] = []
         self._tab = -1
         self._session = False
+        self._help_open = False
 
         self._tab_publisher = rospy.Publisher("/teleteach/active_tab", Int8, queue_size=1, latch=True)
         self._pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
@@ -139,6 +140,7 @@ class MainWindow(QMainWindow):
         self.high_level.on_library(library)
 
     def _on_help(self, node_name: str, reason: str) -> None:
+        self._help_open = bool(node_name)
         if not node_name:  # the tree clears its request with an empty node name once answered
             self.help_banner.hide()
             return
@@ -166,6 +168,10 @@ class MainWindow(QMainWindow):
                 self._stop_recording()  # leaving mid-recording keeps what was recorded
             elif self._session:
                 self._end_session()
+        if previous == HIGH_LEVEL_TAB and index != LOW_LEVEL_TAB and self._help_open:
+            # the operator has answered the help request with the tree edits just made: the tree goes on
+            self._pause_publisher.publish(Bool(False))
+            self.statusBar().showMessage("help request answered: the tree resumes", 15000)
         if index == HIGH_LEVEL_TAB:
             self.high_level.reset()
         elif index == LOW_LEVEL_TAB:
