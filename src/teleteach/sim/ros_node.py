@@ -116,9 +116,11 @@ class RobotSimNode:
     def from_params(cls):
         """Build the node from its private parameters.
 
-        ~gui, ~real_time_factor, ~scene_file, ~controllers_file, ~clock_rate, ~initial_controller.
+        ~gui, ~real_time_factor, ~scene_file, ~controllers_file, ~clock_rate, ~initial_controller,
+        ~absent_products (list of product names of the scene file to leave out).
         """
         scene = load_scene(rospy.get_param("~scene_file", "") or None)
+        scene = scene.without_products(rospy.get_param("~absent_products", None) or [])
         config = load_controller_config(rospy.get_param("~controllers_file", "") or None)
         initial = rospy.get_param("~initial_controller", "")
         if initial:

@@ -1,9 +1,10 @@
 """The supermarket scene description (config/supermarket.yaml) as plain data, shared by the sim and the skills."""
 
+import dataclasses
 import math
 import pathlib
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, Iterable, List, Optional, Tuple
 
 import yaml
 
@@ -87,6 +88,18 @@ class Scene:
             if product.name == name:
                 return product
         raise KeyError(f"no product '{name}' in the scene")
+
+    def without_products(self, names: Iterable[str]) -> "Scene":
+        """The scene with the named products left out: a product missing from the start, e.g. so that a pick fails.
+
+        Raises:
+            SceneError: a name is not a product of the scene (nothing is left out then).
+        """
+        names = {names} if isinstance(names, str) else set(names)
+        unknown = sorted(names - {product.name for product in self.products})
+        if unknown:
+            raise SceneError(f"cannot leave out {', '.join(unknown)}: no such product in the scene")
+        return dataclasses.replace(self, products=[product for product in self.products if product.name not in names])
 
 
 def load_scene(path: Optional[str] = None) -> Scene:

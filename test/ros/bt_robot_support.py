@@ -1,0 +1,70 @@
+"""Helpers for the behaviour-tree rostests on the real robot (robot_sim + skill_server): where the products are
+(/teleteach/scene), and which skill goals were sent (each server's goal topic), in order."""
+
+import math
+import threading
+import time
+
+import numpy as np
+import rospy
+from visualization_msgs.msg import MarkerArray
+
+from teleteach.msg import ExecuteSkillActionGoal
+from teleteach.sim.scene import load_scene
+from teleteach.skills.predefined import PREDEFINED_SKILLS
+
+
+class RobotView:
+    """The products' latest positions in world and the skill goals sent so far."""
+
+    def __init__(self):
+        self.scene = load_scene()
+        self.lock = threading.Lock()
+        self.products = {}
+        self.goals = []
+        rospy.Subscriber("/teleteach/scene", MarkerArray, self._on_scene, queue_size=1)
+        for name in PREDEFINED_SKILLS:
+            rospy.Subscriber(f"/skills/{name}/goal", ExecuteSkillActionGoal, self._on_goal, queue_size=10)
+
+    def _on_scene(self, message):
+        with self.lock:
+            for marker in message.markers:
+                if marker.ns == "products":
+                    position = marker.pose.position
+                    self.products[marker.text] = np.array([position.x, position.y, position.z])
+
+    def _on_goal(self, message):
+        with self.lock:
+            self.goals.append(message.goal.skill)
+
+    def sent_goals(self):
+        with self.lock:
+            return list(self.goals)
+
+    def goals_sent_as(self, expected):
+        """Whether the goals seen were sent in this order, each once (the first one may have left before this node
+        subscribed: goal topics are not latched)."""
+        goals = self.sent_goals()
+        return goals in (list(expected), list(expected)[1:])
+
+    def product_names(self, timeout=30.0):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and not rospy.is_shutdown():
+            with self.lock:
+                if self.products:
+                    return set(self.products)
+            time.sleep(0.05)
+        raise AssertionError("no products on /teleteach/scene")
+
+    def product(self, name):
+        # the scene is published at 10 Hz of sim time: wait for one published after the tree finished
+        start = rospy.get_time()
+        while rospy.get_time() - start < 0.5 and not rospy.is_shutdown():
+            rospy.sleep(0.05)
+        with self.lock:
+            return self.products[name].copy()
+
+    def gap_distance(self, name):
+        """Horizontal and vertical distance [m] of the product's centre from the gap target of the scene file."""
+        offset = self.product(name) - np.array(self.scene.gap.position)
+        return math.hypot(offset[0], offset[1]), abs(offset[2])
