@@ -159,12 +159,40 @@ def _rollout_grid(duration: float, dt: float, alpha_z: float):
     return np.linspace(0.0, duration, count + 1), output_step / substeps, substeps
 
 
-def _parameters_from(data: Dict[str, Any]) -> DMPParameters:
-    return DMPParameters(**data["parameters"])
+class _Primitive:
+    """What a learned DMP stores (parameters, start, goal, start velocity, weights, duration) and its JSON form."""
+
+    TYPE = ""
+
+    def to_dict(self) -> Dict[str, Any]:
+        """JSON-ready description that :meth:`from_dict` restores."""
+        return {
+            "type": self.TYPE,
+            "parameters": dataclasses.asdict(self.parameters),
+            "start": self.start.tolist(),
+            "goal": self.goal.tolist(),
+            "start_velocity": self.start_velocity.tolist(),
+            "weights": self.weights.tolist(),
+            "duration": self.duration,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Dict[str, Any]):
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            DMPParameters(**data["parameters"]),
+            data["start"],
+            data["goal"],
+            data["start_velocity"],
+            data["weights"],
+            data["duration"],
+        )
 
 
-class DMP:
+class DMP(_Primitive):
     """A discrete DMP for a vector y in R^n (eqs C.1-C.5), one transformation system per DoF, one phase."""
+
+    TYPE = "dmp"
 
     def __init__(self, parameters: DMPParameters, start, goal, start_velocity, weights, duration: float):
         self.parameters = parameters
@@ -235,33 +263,11 @@ class DMP:
                 trajectory[(index + 1) // substeps] = position
         return times, trajectory
 
-    def to_dict(self) -> Dict[str, Any]:
-        """JSON-ready description (parameters, start, goal, weights) that :meth:`from_dict` restores."""
-        return {
-            "type": "dmp",
-            "parameters": dataclasses.asdict(self.parameters),
-            "start": self.start.tolist(),
-            "goal": self.goal.tolist(),
-            "start_velocity": self.start_velocity.tolist(),
-            "weights": self.weights.tolist(),
-            "duration": self.duration,
-        }
 
-    @classmethod
-    def from_dict(cls, data: Dict[str, Any]) -> "DMP":
-        """Inverse of :meth:`to_dict`."""
-        return cls(
-            _parameters_from(data),
-            data["start"],
-            data["goal"],
-            data["start_velocity"],
-            data["weights"],
-            data["duration"],
-        )
-
-
-class SPDDMP:
+class SPDDMP(_Primitive):
     """A geometry-aware DMP for a trajectory of SPD matrices (eqs C.6-C.7), m x m for any m (2 and 3 in use)."""
+
+    TYPE = "spd_dmp"
 
     def __init__(self, parameters: DMPParameters, start, goal, start_velocity, weights, duration: float):
         self.parameters = parameters
@@ -348,27 +354,3 @@ class SPDDMP:
             if (index + 1) % substeps == 0:
                 matrices[(index + 1) // substeps] = state
         return times, matrices
-
-    def to_dict(self) -> Dict[str, Any]:
-        """JSON-ready description that :meth:`from_dict` restores."""
-        return {
-            "type": "spd_dmp",
-            "parameters": dataclasses.asdict(self.parameters),
-            "start": self.start.tolist(),
-            "goal": self.goal.tolist(),
-            "start_velocity": self.start_velocity.tolist(),
-            "weights": self.weights.tolist(),
-            "duration": self.duration,
-        }
-
-    @classmethod
-    def from_dict(cls, data: Dict[str, Any]) -> "SPDDMP":
-        """Inverse of :meth:`to_dict`."""
-        return cls(
-            _parameters_from(data),
-            data["start"],
-            data["goal"],
-            data["start_velocity"],
-            data["weights"],
-            data["duration"],
-        )
