@@ -46,7 +46,8 @@ def test_config_file_loads_with_the_thesis_values():
         ({"locked_axes": ["w"]}, "locked_axes"),
         ({"colour": "red"}, "unknown"),
         ({"min_stiffness": 4000.0}, "min_stiffness"),
-        ({"initial_tab": 3}, "initial_tab"),
+        ({"initial_tab": 4}, "initial_tab"),
+        ({"shared_control_stiffness": [500.0, -1.0, 500.0]}, "shared_control_stiffness"),
         ({"publish_rate": float("nan")}, "publish_rate"),
     ],
 )

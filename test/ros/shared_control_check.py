@@ -8,7 +8,8 @@ import unittest
 import numpy as np
 import rospy
 import rostest
-from geometry_msgs.msg import PoseStamped, Vector3Stamped
+from geometry_msgs.msg import PolygonStamped, PoseStamped, Vector3Stamped
+from nav_msgs.msg import Path
 
 from teleteach.msg import SharedControlState
 from teleteach.shared_control.models import synthetic_commands
@@ -25,7 +26,8 @@ def to_plane(pose):
 
 class SharedControlNode(unittest.TestCase):
     def setUp(self):
-        self.states, self.poses = [], []
+        self.states, self.poses, self.plans = [], [], []
+        rospy.Subscriber("/shared_control/plan", Path, self.plans.append)
         rospy.Subscriber("/shared_control/state", SharedControlState, self.states.append)
         rospy.Subscriber("/equilibrium_pose", PoseStamped, self.poses.append)
         self.command = rospy.Publisher("/shared_control/operator_command", Vector3Stamped, queue_size=10)
@@ -92,6 +94,19 @@ class SharedControlNode(unittest.TestCase):
         self.assertGreater(len(after), 10)
         for state in after:
             self.assertGreaterEqual(state.state.y, -0.02 - 1e-6)
+        # The planned horizon: published each cycle, on the plane and inside the boundary, non-empty when sharing.
+        self.assertTrue(any(len(plan.poses) > 10 for plan in self.plans))
+        for plan in self.plans:
+            self.assertEqual(plan.header.frame_id, "base_link")
+            for pose in plan.poses:
+                point, depth = to_plane(pose)
+                self.assertAlmostEqual(depth, ORIGIN[0])
+                self.assertTrue(BOUNDARY[0] - 1e-6 <= point[0] <= BOUNDARY[2] + 1e-6, point)
+                self.assertTrue(BOUNDARY[1] - 1e-6 <= point[1] <= BOUNDARY[3] + 1e-6, point)
+        # The latched boundary: the box's corners in base_link.
+        boundary = rospy.wait_for_message("/shared_control/boundary", PolygonStamped, timeout=5)
+        corners = sorted((round(c.y - ORIGIN[1], 6), round(c.z - ORIGIN[2], 6)) for c in boundary.polygon.points)
+        self.assertEqual(corners, sorted([(-0.25, -0.05), (-0.25, 0.08), (0.25, -0.05), (0.25, 0.08)]))
         # The state message mirrors the executed state, and the command is the operator's.
         self.assertTrue(all(math.isfinite(s.command.x) for s in states))
 

@@ -22,6 +22,7 @@ from teleteach.gui.config import GuiConfig
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_name
 from teleteach.gui.selection import ChangeRequest
+from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.srv import (
@@ -33,12 +34,13 @@ from teleteach.srv import (
     SwitchControllerRequest,
 )
 
-START_TAB, HIGH_LEVEL_TAB, LOW_LEVEL_TAB = 0, 1, 2
+START_TAB, HIGH_LEVEL_TAB, LOW_LEVEL_TAB, SHARED_CONTROL_TAB = 0, 1, 2, 3
+TEACHING_TABS = (LOW_LEVEL_TAB, SHARED_CONTROL_TAB)  # the tree pauses and the impedance controller drives the arm
 SWITCH_SERVICE = "/controller_manager/switch_controller"
 
 
 class MainWindow(QMainWindow):
-    """START / HIGH-LEVEL / LOW-LEVEL tabs (index 3, SHARED CONTROL, is added by another part)."""
+    """START / HIGH-LEVEL / LOW-LEVEL / SHARED CONTROL tabs."""
 
     def __init__(self, config: GuiConfig, data_root=None):
         super().__init__()
@@ -47,6 +49,7 @@ class MainWindow(QMainWindow):
         self.trajectory = Trajectory.load(config.trajectory)
         self.command = EllipsoidCommand(config)
         self.recorder = StiffnessRecorder()
+        self.shared_recorder = StiffnessRecorder()
         self.library_names: List[str] = []
         self.saved_skills: List[str] = []
         self._tab = -1
@@ -74,10 +77,17 @@ class MainWindow(QMainWindow):
         self.high_level = HighLevelTab(config)
         self.low_level = LowLevelTab(config, self.command)
         self.low_level.recorded_samples = lambda: len(self.recorder)
+        self.shared_control = SharedControlTab(config)
+        self.shared_control.recorded_samples = lambda: len(self.shared_recorder)
         self._tab_widgets: List[QWidget] = []
-        for tab, title in ((self.start_tab, "START"), (self.high_level, "HIGH-LEVEL"), (self.low_level, "LOW-LEVEL")):
+        for tab, title in (
+            (self.start_tab, "START"),
+            (self.high_level, "HIGH-LEVEL"),
+            (self.low_level, "LOW-LEVEL"),
+            (self.shared_control, "SHARED CONTROL"),
+        ):
             self.add_tab(tab, title)
-        self.tabs.setStyleSheet("QTabBar::tab { min-width: 150px; min-height: 28px; font-weight: bold; }")
+        self.tabs.setStyleSheet("QTabBar::tab { min-width: 170px; min-height: 28px; font-weight: bold; }")
         column.addWidget(self.tabs)
         self.setCentralWidget(central)
         self.health_label = QLabel()
@@ -85,7 +95,7 @@ class MainWindow(QMainWindow):
 
         self.services = ServiceCaller(config.service_timeout)
         self.services.finished.connect(self._on_service)
-        self.worker = RosWorker(config, self.command, self.recorder)
+        self.worker = RosWorker(config, self.command, self.recorder, self.shared_recorder)
         self.worker.equilibrium = self.player.current
         self.thread = QThread(self)
         self.thread.setObjectName("ros_worker")
@@ -99,16 +109,21 @@ class MainWindow(QMainWindow):
         self.worker.library_received.connect(self._on_library, queued)
         self.worker.help_requested.connect(self._on_help, queued)
         self.worker.health.connect(self._on_health, queued)
+        self.worker.shared_state.connect(self.shared_control.on_state, queued)
+        self.worker.shared_plan.connect(self.shared_control.on_plan, queued)
+        self.worker.shared_boundary.connect(self.shared_control.on_boundary, queued)
+        self.worker.shared_obstacle.connect(self.shared_control.on_obstacle, queued)
         self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
         self.high_level.request_ready.connect(self._send_change)
         self.low_level.recording_toggled.connect(self._toggle_recording)
+        self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
         self.tabs.currentChanged.connect(self._on_tab_changed)
         self.thread.start()
         self.tabs.setCurrentIndex(config.initial_tab)
         self._on_tab_changed(config.initial_tab)
 
     def add_tab(self, tab: QWidget, title: str) -> int:
-        """Append a tab (SHARED CONTROL comes next, index 3); returns its index.
+        """Append a tab; returns its index.
 
         The tab needs an ``active`` attribute and an ``on_click()`` slot, ``on_device(sample)`` if it uses the
         device's position; only the active tab receives them.
@@ -132,7 +147,7 @@ class MainWindow(QMainWindow):
             tab.on_click()
 
     def _on_gripper_opened(self) -> None:
-        if self._tab in (HIGH_LEVEL_TAB, LOW_LEVEL_TAB):
+        if self._tab in (HIGH_LEVEL_TAB, LOW_LEVEL_TAB, SHARED_CONTROL_TAB):
             self.tabs.setCurrentIndex(START_TAB)
 
     def _on_library(self, library: Sequence) -> None:
@@ -166,7 +181,12 @@ class MainWindow(QMainWindow):
             self.low_level.on_leave()
             if self.recorder.active:
                 self._stop_recording()  # leaving mid-recording keeps what was recorded
-            elif self._session:
+            elif self._session and index != SHARED_CONTROL_TAB:
+                self._end_session()
+        if previous == SHARED_CONTROL_TAB:
+            if self.shared_recorder.active:
+                self._stop_shared_recording(end_session=index != LOW_LEVEL_TAB)
+            elif self._session and index != LOW_LEVEL_TAB:
                 self._end_session()
         if previous == HIGH_LEVEL_TAB and index != LOW_LEVEL_TAB and self._help_open:
             # the operator has answered the help request with the tree edits just made: the tree goes on
@@ -174,7 +194,7 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage("help request answered: the tree resumes", 15000)
         if index == HIGH_LEVEL_TAB:
             self.high_level.reset()
-        elif index == LOW_LEVEL_TAB:
+        elif index in TEACHING_TABS and not self._session:
             self._begin_session()
 
     # HIGH-LEVEL -----------------------------------------------------------------------------------
@@ -226,24 +246,53 @@ class MainWindow(QMainWindow):
         self.recorder.stop()
         self.player.stop()
         self.low_level.recording_since = None
-        name = unique_skill_name(self.config.skill_prefix, self.library_names + self.saved_skills, self.skills_dir)
+        self._save_recording(self.recorder, "stiffness", self.config.skill_prefix, {"trajectory": self.trajectory.name})
+        self._end_session()
+
+    def _save_recording(self, recorder: StiffnessRecorder, kind: str, prefix: str, provenance: dict) -> None:
+        """A stopped recording -> skill file in data_dir()/skills -> /behaviour_tree/add_skill (failures: status)."""
+        name = unique_skill_name(prefix, self.library_names + self.saved_skills, self.skills_dir)
         try:
-            skill = self.recorder.to_skill(
+            skill = recorder.to_skill(
                 name,
                 self.config.rotational_stiffness,
-                {"source": "teaching_gui", "trajectory": self.trajectory.name, "recorded": time.time()},
+                {"source": "teaching_gui", "recorded": time.time(), **provenance},
+                kind=kind,
             )
             path = skill_file.save(skill, self.skills_dir / name)
         except skill_file.SkillFileError as error:
-            hint = "" if len(self.recorder) >= 2 else " (no /cartesian_pose received? is robot_sim running?)"
+            hint = "" if len(recorder) >= 2 else " (no /cartesian_pose received? is robot_sim running?)"
             self.statusBar().showMessage(f"recording not saved: {error}{hint}", 15000)
         else:
             self.saved_skills.append(name)
             self.statusBar().showMessage(f"saved {name} ({len(skill.time)} samples) to {path}", 10000)
             self.services.call(
-                "add_skill", "/behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, "stiffness", str(path))
+                "add_skill", "/behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
             )
-        self._end_session()
+
+    # SHARED CONTROL -------------------------------------------------------------------------------
+    def _toggle_shared_recording(self) -> None:
+        """Double click in SHARED CONTROL: record the MPC's /equilibrium_pose and /cartesian_pose, or stop."""
+        if self.shared_recorder.active:
+            self._stop_shared_recording(end_session=False)
+            return
+        if not self._session:
+            self._begin_session()
+        self.shared_recorder.start()
+        self.shared_control.recording_since = time.monotonic()
+        self.statusBar().showMessage("recording the shared-control trajectory", 5000)
+
+    def _stop_shared_recording(self, end_session: bool) -> None:
+        """Save the shared-control recording as a ``shared_control`` skill; the session goes on in the tab."""
+        self.shared_recorder.stop()
+        self.shared_control.recording_since = None
+        self.shared_control.show_status(self.shared_control.status)
+        stiffness = [float(value) for value in self.config.shared_control_stiffness]
+        self._save_recording(
+            self.shared_recorder, "shared_control", self.config.shared_skill_prefix, {"stiffness": stiffness}
+        )
+        if end_session:
+            self._end_session()
 
     # service answers ------------------------------------------------------------------------------
     def _on_service(self, key: str, success: bool, message: str, response) -> None:
@@ -287,6 +336,8 @@ class MainWindow(QMainWindow):
         if self.thread.isRunning():
             if self.recorder.active:
                 self._stop_recording()
+            elif self.shared_recorder.active:
+                self._stop_shared_recording(end_session=True)
             elif self._session:
                 self._end_session()
             self.player.stop()

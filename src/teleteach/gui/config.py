@@ -46,6 +46,10 @@ class GuiConfig:
     trajectory: str = "perpendicular"
     skill_prefix: str = "DemonstratedPlace"
     initial_tab: int = 0
+    shared_control_node: str = "/shared_control"
+    shared_control_stiffness: Tuple[float, float, float] = (500.0, 500.0, 500.0)
+    shared_skill_prefix: str = "SharedControl"
+    shared_trail_length: int = 500
 
     def __post_init__(self):
         positive = (
@@ -84,12 +88,21 @@ class GuiConfig:
         unknown = [axis for axis in self.locked_axes if axis not in DEVICE_AXES]
         if unknown:
             raise GuiConfigError(f"locked_axes {unknown} unknown; allowed: {', '.join(DEVICE_AXES)}")
-        if self.initial_tab not in (0, 1, 2):
+        if self.initial_tab not in (0, 1, 2, 3):
             raise GuiConfigError(
-                f"initial_tab must be 0 (START), 1 (HIGH-LEVEL) or 2 (LOW-LEVEL), got {self.initial_tab}"
+                "initial_tab must be 0 (START), 1 (HIGH-LEVEL), 2 (LOW-LEVEL) or 3 (SHARED CONTROL), "
+                f"got {self.initial_tab}"
             )
-        if not self.skill_prefix.isidentifier():
-            raise GuiConfigError(f"skill_prefix {self.skill_prefix!r} must be an identifier")
+        for name in ("skill_prefix", "shared_skill_prefix"):
+            if not getattr(self, name).isidentifier():
+                raise GuiConfigError(f"{name} {getattr(self, name)!r} must be an identifier")
+        stiffness = self.shared_control_stiffness
+        if len(stiffness) != 3 or not all(
+            isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in stiffness
+        ):
+            raise GuiConfigError(f"shared_control_stiffness must be 3 positive numbers [N/m], got {stiffness!r}")
+        if not (isinstance(self.shared_trail_length, int) and self.shared_trail_length >= 2):
+            raise GuiConfigError(f"shared_trail_length must be an integer >= 2, got {self.shared_trail_length!r}")
 
     @property
     def max_pixels(self) -> float:
@@ -106,6 +119,8 @@ class GuiConfig:
         values = dict(values)
         if "locked_axes" in values:
             values["locked_axes"] = tuple(values["locked_axes"] or ())
+        if "shared_control_stiffness" in values:
+            values["shared_control_stiffness"] = tuple(values["shared_control_stiffness"] or ())
         try:
             return cls(**values)
         except TypeError as error:

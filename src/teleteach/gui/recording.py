@@ -110,13 +110,13 @@ class StiffnessRecorder:
             self._rows.append(row)
         return True
 
-    def to_skill(self, name: str, rotational_stiffness: float, provenance: dict) -> Skill:
-        """The recording as a stiffness skill (raises SkillFileError if it is too short or invalid)."""
+    def to_skill(self, name: str, rotational_stiffness: float, provenance: dict, kind: str = "stiffness") -> Skill:
+        """The recording as a skill of ``kind`` (raises SkillFileError if it is too short or invalid)."""
         with self._lock:
             rows = list(self._rows)
         return Skill(
             name=name,
-            kind="stiffness",
+            kind=kind,
             time=np.array([row[0] for row in rows]),
             stiffness=np.array([row[1] for row in rows]).reshape(-1, 3, 3),
             equilibrium_pose=np.array([row[2] for row in rows]).reshape(-1, 7),

@@ -57,7 +57,13 @@ def _big(label: QLabel, points: int, bold: bool = True) -> QLabel:
 
 
 class StartTab(QWidget):
-    """Choose the teaching mode: device X moves between the two buttons, a click opens the mode."""
+    """Choose the teaching mode with the device, a click opens it.
+
+    Device X moves between HIGH-LEVEL and LOW-LEVEL (as in the thesis), device Y up beyond half its range selects
+    SHARED CONTROL above them; the X ranges of the first two stay as they were.
+    """
+
+    SHARED_CONTROL_Y = 0.5  # fraction of device_range above which device Y selects SHARED CONTROL
 
     mode_chosen = pyqtSignal(int)
 
@@ -71,25 +77,31 @@ class StartTab(QWidget):
         title = _big(QLabel("Teleoperated teaching"), 20)
         title.setAlignment(Qt.AlignCenter)
         layout.addWidget(title)
-        hint = QLabel("Move the device left/right to choose a teaching mode, click (close the gripper) to open it.")
+        hint = QLabel(
+            "Move the device left/right to choose a teaching mode (up for SHARED CONTROL), "
+            "click (close the gripper) to open it."
+        )
         hint.setAlignment(Qt.AlignCenter)
         layout.addWidget(hint)
         row = QHBoxLayout()
         self.buttons: List[QPushButton] = []
-        for index, (text, colour) in enumerate(
+        for index, (text, colour, height) in enumerate(
             (
-                ("HIGH-LEVEL teaching\nchange the behaviour tree", "#c8e6c9"),
-                ("LOW-LEVEL teaching\ndemonstrate stiffness", "#ffcdd2"),
+                ("HIGH-LEVEL teaching\nchange the behaviour tree", "#c8e6c9", 240),
+                ("LOW-LEVEL teaching\ndemonstrate stiffness", "#ffcdd2", 240),
+                ("SHARED CONTROL\nthe MPC keeps your motion pattern; record it as a skill", "#bbdefb", 110),
             )
         ):
             button = QPushButton(text)
-            button.setMinimumHeight(240)
+            button.setMinimumHeight(height)
             button.setProperty("colour", colour)
             button.clicked.connect(lambda _checked, tab=index + 1: self.mode_chosen.emit(tab))
-            row.addWidget(button)
             self.buttons.append(button)
+        layout.addWidget(self.buttons[2])
+        row.addWidget(self.buttons[0])
+        row.addWidget(self.buttons[1])
         layout.addLayout(row)
-        gesture = QLabel("In either mode, open the gripper fully to come back here.")
+        gesture = QLabel("In any mode, open the gripper fully to come back here.")
         gesture.setAlignment(Qt.AlignCenter)
         layout.addWidget(gesture)
         layout.addStretch(2)
@@ -105,7 +117,10 @@ class StartTab(QWidget):
     def on_device(self, sample: DeviceSample) -> None:
         """Device X chooses the button."""
         if self.active:
-            selected = scale_to_index(sample.x, self.config.device_range, 2)
+            if sample.y > self.SHARED_CONTROL_Y * self.config.device_range:
+                selected = 2
+            else:
+                selected = scale_to_index(sample.x, self.config.device_range, 2)
             if selected != self.selected:
                 self.selected = selected
                 self._show()

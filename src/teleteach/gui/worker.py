@@ -8,13 +8,15 @@ sample that changes the ellipsoid is sent at once from the subscriber's thread, 
 waiting for the next tick.
 """
 
+import math
 import threading
 import time
 from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 import rospy
-from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
+from geometry_msgs.msg import PolygonStamped, PoseStamped, QuaternionStamped, Vector3Stamped
+from nav_msgs.msg import Path
 from PyQt5.QtCore import QObject, Qt, QTimer, pyqtSignal, pyqtSlot
 from std_msgs.msg import Bool, Float64
 
@@ -23,9 +25,11 @@ from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory
 from teleteach.gui.selection import TreeNode, TreeSnapshot
-from teleteach.msg import BehaviourTree, HelpRequest, SkillLibrary
+from teleteach.gui.shared_tab import SharedStatus
+from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary
+from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
 
-LOW_LEVEL_TAB = 2
+LOW_LEVEL_TAB, SHARED_CONTROL_TAB = 2, 3
 
 
 def pose_to_array(pose) -> np.ndarray:
@@ -145,8 +149,10 @@ class RosWorker(QObject):
     """Owns the subscribers and the stiffness publishers; lives in its own QThread (thesis Fig. A.1, orange block).
 
     ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose,
-    /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request.
-    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL is active).
+    /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request, /shared_control/state,
+    /shared_control/plan, /shared_control/boundary, /shared_control/obstacle, /equilibrium_pose (recorded in
+    SHARED CONTROL).
+    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL or SHARED CONTROL is active).
     """
 
     device_changed = pyqtSignal(object)  # DeviceSample, at most device_ui_rate
@@ -156,12 +162,26 @@ class RosWorker(QObject):
     library_received = pyqtSignal(object)  # list of (name, kind, data_file)
     help_requested = pyqtSignal(str, str)
     health = pyqtSignal(str)  # "" when all inputs are alive, else what is missing
+    shared_state = pyqtSignal(object)  # SharedStatus
+    shared_plan = pyqtSignal(object)  # n x 2 task-plane points [m]
+    shared_boundary = pyqtSignal(object)  # n x 2 task-plane points [m]
+    shared_obstacle = pyqtSignal(object)  # (x, y, yaw) in the task plane
 
-    def __init__(self, config: GuiConfig, command: EllipsoidCommand, recorder: StiffnessRecorder):
+    def __init__(
+        self,
+        config: GuiConfig,
+        command: EllipsoidCommand,
+        recorder: StiffnessRecorder,
+        shared_recorder: Optional[StiffnessRecorder] = None,
+    ):
         super().__init__()
         self.config = config
         self.command = command
         self.recorder = recorder
+        self.shared_recorder = StiffnessRecorder() if shared_recorder is None else shared_recorder
+        self._plane: Optional[TaskPlane] = None
+        self._plane_checked = -1e9
+        self._plane_lock = threading.Lock()
         self.active_tab = 0
         self.equilibrium: Callable[[], Optional[np.ndarray]] = lambda: None
         self._filter = DeviceFilter(config)
@@ -192,6 +212,11 @@ class RosWorker(QObject):
             ("/behaviour_tree/log/tree", BehaviourTree, self._on_tree),
             ("/behaviour_tree/skill_library", SkillLibrary, self._on_library),
             ("/behaviour_tree/help_request", HelpRequest, self._on_help),
+            ("/shared_control/state", SharedControlState, self._on_shared_state),
+            ("/shared_control/plan", Path, self._on_shared_plan),
+            ("/shared_control/boundary", PolygonStamped, self._on_shared_boundary),
+            ("/shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
+            ("/equilibrium_pose", PoseStamped, self._on_equilibrium),
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
@@ -268,9 +293,71 @@ class RosWorker(QObject):
     def _on_help(self, message: HelpRequest) -> None:
         self.help_requested.emit(message.node_name, message.reason)
 
+    def plane(self) -> Optional[TaskPlane]:
+        """The shared_control node's task plane (its ``~plane`` param), looked up until found (at most 1/s)."""
+        with self._plane_lock:  # callbacks of several topics ask at once; the first one looks it up
+            now = time.monotonic()
+            if self._plane is None and now - self._plane_checked > 1.0:
+                self._plane_checked = now
+                try:
+                    params = rospy.get_param(self.config.shared_control_node.rstrip("/") + "/plane", None)
+                    self._plane = TaskPlane.from_params(params) if isinstance(params, dict) else None
+                except (ValueError, TypeError, OSError) as error:
+                    rospy.logwarn_throttle(5.0, f"teaching_gui: bad shared-control plane parameter: {error}")
+            return self._plane
+
+    def _to_plane(self, points) -> Optional[np.ndarray]:
+        plane = self.plane()
+        if plane is None:
+            return None
+        planar = np.array([plane.to_plane(point) for point in points]).reshape(-1, 2)
+        return planar if np.all(np.isfinite(planar)) else None
+
+    def _on_shared_state(self, message: SharedControlState) -> None:
+        status = SharedStatus(
+            mode=message.mode,
+            skill=message.skill,
+            skills=tuple(message.skills),
+            fitting_errors=tuple(message.fitting_errors),
+            estimation_time=message.estimation_time,
+            optimisation_time=message.optimisation_time,
+            state=(message.state.x, message.state.y),
+            message=message.message,
+        )
+        if all(math.isfinite(value) for value in status.state):
+            self.shared_state.emit(status)
+
+    def _on_shared_plan(self, message: Path) -> None:
+        planar = self._to_plane([(p.pose.position.x, p.pose.position.y, p.pose.position.z) for p in message.poses])
+        if planar is not None:
+            self.shared_plan.emit(planar)
+
+    def _on_shared_boundary(self, message: PolygonStamped) -> None:
+        planar = self._to_plane([(p.x, p.y, p.z) for p in message.polygon.points])
+        if planar is not None:
+            self.shared_boundary.emit(planar)
+
+    def _on_shared_obstacle(self, message: PoseStamped) -> None:
+        try:
+            edge = obstacle_from_pose(message)
+        except ValueError:  # InvalidMessageError or a non-finite edge
+            return
+        self.shared_obstacle.emit((edge.x, edge.y, edge.yaw))
+
+    def _on_equilibrium(self, message: PoseStamped) -> None:
+        """In SHARED CONTROL the MPC's equilibrium pose is recorded with the constant stiffness."""
+        if self.active_tab == SHARED_CONTROL_TAB and self.shared_recorder.active:
+            stiffness = np.diag(np.asarray(self.config.shared_control_stiffness, dtype=float))
+            self.shared_recorder.add(
+                message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self._cartesian
+            )
+
     # worker thread timers -----------------------------------------------------------------------
     def _publish_stiffness(self) -> None:
         """The steady stream (and the recording's samples) at publish_rate while LOW-LEVEL is active."""
+        if self.active_tab == SHARED_CONTROL_TAB:
+            self._send_stiffness(self.config.shared_control_stiffness, (0.0, 0.0, 0.0, 1.0))
+            return
         if self.active_tab != LOW_LEVEL_TAB:
             return
         stamp = self._publish(urgent=False)
@@ -284,7 +371,9 @@ class RosWorker(QObject):
             if urgent and now - self._last_publish < 0.5 / self.config.publish_rate:
                 return None
             self._last_publish = now
-        values, quaternion = self.command.stiffness()
+        return self._send_stiffness(*self.command.stiffness())
+
+    def _send_stiffness(self, values, quaternion) -> rospy.Time:
         stamp = rospy.Time.now()
         eigenvalues = Vector3Stamped()
         eigenvalues.header.stamp = stamp

@@ -62,6 +62,16 @@ class TaskPlane:
         """Task-plane point (x, y) [m] -> base_link position [m]."""
         return self.origin + point[0] * self.x_axis + point[1] * self.y_axis
 
+    def to_plane(self, position: Sequence[float]) -> np.ndarray:
+        """base_link position [m] -> task-plane point (x, y) [m] (the orthogonal projection)."""
+        offset = np.asarray(position, dtype=float) - self.origin
+        return np.array([offset @ self.x_axis, offset @ self.y_axis])
+
+    @classmethod
+    def from_params(cls, params: dict) -> "TaskPlane":
+        """From the node's ``plane`` parameter (missing keys take the defaults)."""
+        return cls(**{key: params[key] for key in ("origin", "x_axis", "y_axis", "orientation") if key in params})
+
 
 def _finite(values, what):
     values = [float(v) for v in values]
@@ -123,7 +133,9 @@ class SharedControlNode:
         (geometry_msgs/TwistStamped), or /joy (sensor_msgs/Joy); /shared_control/obstacle (geometry_msgs/PoseStamped)
 
     ROS Publishers:
-        /equilibrium_pose (geometry_msgs/PoseStamped), /shared_control/state (teleteach/SharedControlState)
+        /equilibrium_pose (geometry_msgs/PoseStamped), /shared_control/state (teleteach/SharedControlState),
+        /shared_control/plan (nav_msgs/Path: the planned horizon, in ``frame_id``, each cycle; empty in direct
+        control), /shared_control/boundary (geometry_msgs/PolygonStamped, latched: the box in ``frame_id``)
     """
 
     WARN_PERIOD = 5.0
@@ -144,7 +156,8 @@ class SharedControlNode:
         frame_id: str = "base_link",
     ):
         import rospy
-        from geometry_msgs.msg import PoseStamped, TwistStamped, Vector3Stamped
+        from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped, Vector3Stamped
+        from nav_msgs.msg import Path
         from sensor_msgs.msg import Joy
 
         from teleteach.msg import SharedControlState
@@ -159,6 +172,7 @@ class SharedControlNode:
         self._rospy = rospy
         self._state_type = SharedControlState
         self._pose_type = PoseStamped
+        self._path_type = Path
         self.plane = plane
         self.frame_id = frame_id
         self.command_timeout = command_timeout
@@ -171,6 +185,15 @@ class SharedControlNode:
         self.controller = self._build(config, box, initial_state)
         self.pose_publisher = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=1)
         self.state_publisher = rospy.Publisher("/shared_control/state", SharedControlState, queue_size=10)
+        self.plan_publisher = rospy.Publisher("/shared_control/plan", Path, queue_size=1)
+        self.boundary_publisher = rospy.Publisher("/shared_control/boundary", PolygonStamped, queue_size=1, latch=True)
+        boundary = PolygonStamped()
+        boundary.header.stamp = rospy.Time.now()
+        boundary.header.frame_id = frame_id
+        if box is not None:
+            corners = ((box.x_min, box.y_min), (box.x_max, box.y_min), (box.x_max, box.y_max), (box.x_min, box.y_max))
+            boundary.polygon.points = [Point32(*(float(v) for v in plane.to_base(c))) for c in corners]
+        self.boundary_publisher.publish(boundary)
         if source == "operator_command":
             topic, message_type = "/shared_control/operator_command", Vector3Stamped
             convert = command_from_vector
@@ -253,18 +276,26 @@ class SharedControlNode:
             record = controller.step(command)
         self.publish(record)
 
-    def publish(self, record: SharedControlRecord) -> None:
-        """Send the executed state as the equilibrium pose and the record as the state message."""
-        stamp = self._rospy.Time.now()
+    def _pose(self, stamp, point):
         pose = self._pose_type()
         pose.header.stamp = stamp
         pose.header.frame_id = self.frame_id
-        position = self.plane.to_base(record.state)
+        position = self.plane.to_base(point)
         pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = (float(v) for v in position)
         q = self.plane.orientation
         pose.pose.orientation.x, pose.pose.orientation.y = float(q[0]), float(q[1])
         pose.pose.orientation.z, pose.pose.orientation.w = float(q[2]), float(q[3])
-        self.pose_publisher.publish(pose)
+        return pose
+
+    def publish(self, record: SharedControlRecord) -> None:
+        """Send the executed state as the equilibrium pose, the plan as a path and the record as the state message."""
+        stamp = self._rospy.Time.now()
+        self.pose_publisher.publish(self._pose(stamp, record.state))
+        path = self._path_type()
+        path.header.stamp = stamp
+        path.header.frame_id = self.frame_id
+        path.poses = [self._pose(stamp, point) for point in np.asarray(record.plan).T]
+        self.plan_publisher.publish(path)
         state = self._state_type()
         state.header.stamp = stamp
         state.header.frame_id = "task_plane"
@@ -287,3 +318,5 @@ class SharedControlNode:
             subscriber.unregister()
         self.pose_publisher.unregister()
         self.state_publisher.unregister()
+        self.plan_publisher.unregister()
+        self.boundary_publisher.unregister()

@@ -1,0 +1,232 @@
+"""The SHARED CONTROL tab (issue 9, Mower et al. RSS 2021): what the MPC plans, shown to the operator.
+
+A 2D view of the task plane (QPainter) draws the boundary, the obstacle's straight edge, the executed trail and the
+planned horizon; text gives the identified skill, the mode, the fitting error of each skill and the solve times. A
+double click starts/stops recording the MPC's output as a ``shared_control`` skill (like LOW-LEVEL's recording).
+All data arrive as task-plane values through the worker's signals; this module has no ROS in it.
+"""
+
+import collections
+import dataclasses
+import math
+import time
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+from PyQt5.QtCore import QPointF, QRectF, Qt, pyqtSignal
+from PyQt5.QtGui import QColor, QPainter, QPen, QPolygonF
+from PyQt5.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
+
+from teleteach.gui.config import GuiConfig
+from teleteach.gui.device import ClickClassifier
+
+MODE_NAMES = {0: "DIRECT", 1: "SHARED", 2: "FALLBACK"}
+MODE_COLOURS = {0: "#1565c0", 1: "#2e7d32", 2: "#d22828"}
+
+
+@dataclasses.dataclass
+class SharedStatus:
+    """One /shared_control/state message, in the values the tab shows.
+
+    Attributes:
+        mode: 0 DIRECT, 1 SHARED, 2 FALLBACK.
+        skill: identified skill ("" in direct control).
+        skills: skill names, in the order of ``fitting_errors``.
+        fitting_errors: epsilon_i per skill.
+        estimation_time: wall time of all estimations [s].
+        optimisation_time: wall time of the trajectory optimisation [s].
+        state: executed state in the task plane [m].
+        message: the node's words about the cycle.
+    """
+
+    mode: int
+    skill: str
+    skills: Tuple[str, ...]
+    fitting_errors: Tuple[float, ...]
+    estimation_time: float
+    optimisation_time: float
+    state: Tuple[float, float]
+    message: str = ""
+
+
+class PlaneView(QWidget):
+    """The task plane, x to the right and y up, scaled to fit the boundary (or what is drawn when there is none)."""
+
+    MARGIN_PX = 30
+    DEFAULT_EXTENT = ((-0.3, -0.2), (0.3, 0.2))
+
+    def __init__(self, trail_length: int):
+        super().__init__()
+        self.setMinimumSize(480, 360)
+        self.boundary = np.zeros((0, 2))
+        self.obstacle: Optional[Tuple[float, float, float]] = None
+        self.trail = collections.deque(maxlen=trail_length)
+        self.plan = np.zeros((0, 2))
+
+    def extent(self) -> Tuple[np.ndarray, np.ndarray]:
+        """Lower-left and upper-right corner of the shown area [m]."""
+        points = [self.boundary] if len(self.boundary) else [np.array(self.DEFAULT_EXTENT)]
+        if not len(self.boundary):
+            points += [np.array(self.trail).reshape(-1, 2), self.plan]
+        points = np.vstack(points)
+        low, high = points.min(axis=0), points.max(axis=0)
+        pad = 0.05 * max(float(np.max(high - low)), 1e-3)
+        return low - pad, high + pad
+
+    def to_pixels(self, point: Sequence[float]) -> QPointF:
+        """Task-plane point [m] -> widget pixel (same scale on both axes)."""
+        low, high = self.extent()
+        width, height = self.width() - 2 * self.MARGIN_PX, self.height() - 2 * self.MARGIN_PX
+        scale = min(width / max(high[0] - low[0], 1e-9), height / max(high[1] - low[1], 1e-9))
+        centre = (low + high) / 2
+        return QPointF(
+            self.width() / 2 + (point[0] - centre[0]) * scale, self.height() / 2 - (point[1] - centre[1]) * scale
+        )
+
+    def _polyline(self, painter: QPainter, points, colour: str, width: float, style=Qt.SolidLine) -> None:
+        if len(points) < 2:
+            return
+        painter.setPen(QPen(QColor(colour), width, style))
+        painter.drawPolyline(QPolygonF([self.to_pixels(point) for point in points]))
+
+    def paintEvent(self, _event) -> None:  # noqa: N802 - Qt's name
+        """Boundary, obstacle edge with hatching on its blocked side, trail, plan, current state, legend."""
+        painter = QPainter(self)
+        painter.setRenderHint(QPainter.Antialiasing)
+        painter.fillRect(self.rect(), QColor("#fafafa"))
+        if len(self.boundary):
+            self._polyline(painter, np.vstack([self.boundary, self.boundary[:1]]), "#424242", 2.5)
+        if self.obstacle is not None:
+            self._draw_obstacle(painter)
+        self._polyline(painter, list(self.trail), "#1565c0", 2.0)
+        self._polyline(painter, self.plan, "#ef6c00", 3.0, Qt.DashLine)
+        if self.trail:
+            painter.setPen(QPen(QColor("#0d47a1"), 1))
+            painter.setBrush(QColor("#1565c0"))
+            painter.drawEllipse(self.to_pixels(self.trail[-1]), 6, 6)
+        painter.setBrush(Qt.NoBrush)
+        for row, (text, colour) in enumerate(
+            (("boundary", "#424242"), ("obstacle edge", "#d22828"), ("executed", "#1565c0"), ("plan", "#ef6c00"))
+        ):
+            painter.setPen(QPen(QColor(colour), 3))
+            y = 14 + 16 * row
+            painter.drawLine(8, y, 30, y)
+            painter.setPen(QColor("#212121"))
+            painter.drawText(36, y + 5, text)
+        painter.end()
+
+    def _draw_obstacle(self, painter: QPainter) -> None:
+        """The edge through (x, y); yaw points to the free side, the other side is hatched."""
+        x, y, yaw = self.obstacle
+        low, high = self.extent()
+        length = 2.0 * float(np.linalg.norm(high - low))
+        normal = np.array([math.cos(yaw), math.sin(yaw)])
+        along = np.array([-normal[1], normal[0]])
+        base = np.array([x, y])
+        ends = [base - length * along, base + length * along]
+        blocked = [ends[1], ends[0], ends[0] - length * normal, ends[1] - length * normal]
+        painter.save()
+        painter.setClipRect(QRectF(self.rect()))
+        painter.setPen(Qt.NoPen)
+        painter.setBrush(QColor(210, 40, 40, 50))
+        painter.drawPolygon(QPolygonF([self.to_pixels(point) for point in blocked]))
+        painter.restore()
+        self._polyline(painter, ends, "#d22828", 2.5)
+
+
+class SharedControlTab(QWidget):
+    """SHARED CONTROL: the plane view and the MPC's status; double click records the MPC's output as a skill."""
+
+    recording_toggled = pyqtSignal()
+
+    def __init__(self, config: GuiConfig):
+        super().__init__()
+        self.config = config
+        self.active = False
+        self.recording_since: Optional[float] = None
+        self.recorded_samples = lambda: 0
+        self.status: Optional[SharedStatus] = None
+        self.clicks = ClickClassifier(config.double_click_window)
+        row = QHBoxLayout(self)
+        self.view = PlaneView(config.shared_trail_length)
+        row.addWidget(self.view, 3)
+        panel = QVBoxLayout()
+        self.skill_label = QLabel()
+        self.mode_label = QLabel()
+        self.errors_label = QLabel()
+        self.times_label = QLabel()
+        self.message_label = QLabel()
+        self.message_label.setWordWrap(True)
+        self.recording_label = QLabel()
+        for label in (self.skill_label, self.mode_label, self.errors_label, self.times_label):
+            label.setStyleSheet("font-size: 14pt;")
+            panel.addWidget(label)
+        panel.addWidget(self.message_label)
+        panel.addWidget(self.recording_label)
+        help_text = QLabel(
+            "Move the device: the MPC recognises the motion pattern and keeps it inside the boundary.<br>"
+            f"<b>double click</b> (within {config.double_click_window:.1f} s): start / stop recording a skill<br>"
+            "<b>open the gripper fully</b>: back to START"
+        )
+        help_text.setWordWrap(True)
+        panel.addWidget(help_text)
+        panel.addStretch(1)
+        row.addLayout(panel, 2)
+        self.show_status(None)
+
+    def on_click(self) -> None:
+        """A double click starts or stops the recording (single clicks do nothing here)."""
+        if self.active and self.clicks.click(time.monotonic()) == ClickClassifier.DOUBLE:
+            self.recording_toggled.emit()
+
+    def on_state(self, status: SharedStatus) -> None:
+        """A /shared_control/state message: text and the executed trail."""
+        self.view.trail.append(status.state)
+        self.show_status(status)
+        self.view.update()
+
+    def on_plan(self, points: np.ndarray) -> None:
+        """The planned horizon in the task plane (n x 2) [m]."""
+        self.view.plan = np.asarray(points, dtype=float).reshape(-1, 2)
+        self.view.update()
+
+    def on_boundary(self, points: np.ndarray) -> None:
+        """The boundary polygon in the task plane (n x 2) [m]."""
+        self.view.boundary = np.asarray(points, dtype=float).reshape(-1, 2)
+        self.view.update()
+
+    def on_obstacle(self, edge: Optional[Tuple[float, float, float]]) -> None:
+        """The obstacle edge (x, y, yaw of the free side) in the task plane, or None."""
+        self.view.obstacle = edge
+        self.view.update()
+
+    def show_status(self, status: Optional[SharedStatus]) -> None:
+        """Refresh the text panel."""
+        self.status = status
+        if status is None:
+            self.skill_label.setText("skill: - (no /shared_control/state yet: is shared_control running?)")
+            self.mode_label.setText("mode: -")
+            self.errors_label.setText("")
+            self.times_label.setText("")
+        else:
+            mode = MODE_NAMES.get(status.mode, str(status.mode))
+            self.skill_label.setText(f"skill: <b>{status.skill or '-'}</b>")
+            self.mode_label.setText(f"mode: <b style='color: {MODE_COLOURS.get(status.mode, '#212121')}'>{mode}</b>")
+            self.errors_label.setText(
+                "fitting errors:<br>"
+                + "<br>".join(
+                    f"&nbsp;&nbsp;{name}: {error:.3g}" for name, error in zip(status.skills, status.fitting_errors)
+                )
+            )
+            self.times_label.setText(
+                f"solve: estimation {1e3 * status.estimation_time:.2f} ms, "
+                f"optimisation {1e3 * status.optimisation_time:.2f} ms"
+            )
+            self.message_label.setText(status.message)
+        if self.recording_since is None:
+            self.recording_label.setText("not recording")
+            self.recording_label.setStyleSheet("")
+        else:
+            elapsed = time.monotonic() - self.recording_since
+            self.recording_label.setText(f"\u25cf RECORDING {elapsed:.1f} s, {self.recorded_samples()} samples")
+            self.recording_label.setStyleSheet("color: #d22828; font-size: 14pt; font-weight: bold;")
