@@ -11,6 +11,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from teleteach.rotations import quaternion_to_rpy
 from teleteach.shared_control import cache
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.loop import SharedControl, SharedControlConfig, SharedControlRecord
@@ -106,8 +107,7 @@ def obstacle_from_pose(message) -> StraightEdge:
     qx, qy, qz, qw = _finite((q.x, q.y, q.z, q.w), "obstacle orientation")
     if qx * qx + qy * qy + qz * qz + qw * qw < 1e-12:
         raise InvalidMessageError("obstacle orientation is a zero quaternion")
-    yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
-    return StraightEdge(x, y, yaw)
+    return StraightEdge(x, y, float(quaternion_to_rpy((qx, qy, qz, qw))[2]))
 
 
 class SharedControlNode:
