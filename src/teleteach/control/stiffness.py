@@ -6,6 +6,7 @@ the thesis' eq 7 (which assumes a unit mass) and a mass-aware one that uses the 
 """
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 TRANSLATIONAL = slice(0, 3)
 ROTATIONAL = slice(3, 6)
@@ -15,14 +16,7 @@ MAX_ROTATIONAL_INERTIA = 5.0  # [kg m^2] (Panda: 0.01-0.5 kg m^2 elsewhere)
 
 def rotation_from_quaternion(quaternion):
     """Rotation matrix of a unit quaternion given as (x, y, z, w)."""
-    x, y, z, w = (float(value) for value in quaternion)
-    return np.array(
-        [
-            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w)],
-            [2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w)],
-            [2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y)],
-        ]
-    )
+    return Rotation.from_quat(quaternion).as_matrix()
 
 
 def clamp_eigenvalues(eigenvalues, max_stiffness):
