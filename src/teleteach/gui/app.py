@@ -25,6 +25,7 @@ from teleteach.gui.selection import ChangeRequest
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import RosWorker, ServiceCaller, TrajectoryPlayer
+from teleteach.node import init_node
 from teleteach.srv import (
     AddSkill,
     AddSkillRequest,
@@ -349,7 +350,7 @@ class MainWindow(QMainWindow):
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Node entry point: params (``config/gui.yaml`` overridden by the private params) -> window -> Qt loop."""
     rospy.myargv(argv if argv is not None else sys.argv)
-    rospy.init_node("teaching_gui")
+    init_node("teaching_gui")
     params = rospy.get_param("~", {})
     config = GuiConfig.load(**params)
     app = QApplication.instance() or QApplication(list(sys.argv[:1]))

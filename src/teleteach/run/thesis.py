@@ -327,7 +327,9 @@ class ThesisRun:
         os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"], TELETEACH_DATA=env["TELETEACH_DATA"])
         import rospy
 
-        rospy.init_node("run_thesis", anonymous=True, disable_signals=True)
+        from teleteach.node import init_node
+
+        init_node("run_thesis", anonymous=True, disable_signals=True)
         shots = TabScreenshots(display, self.folder)
         monitor = Monitor(shots.tab_changed)
         self._mark("master_up")
