@@ -6,7 +6,7 @@ GUI. Each request alternates an insert in the middle of BehaviorExecution with t
 successful change is also saved to the data directory). Prints p50/p99 and writes bench/results/change_tree.json.
 Target: p99 <= 10 ms at 1000 leaves, cost growing at most linearly.
 
-    source build/env.sh && python bench/change_tree.py [--requests 400]
+    source build/env.sh && python bench/change_tree.py [--requests 1000]
 """
 
 import argparse
@@ -149,7 +149,7 @@ def stats(latencies):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--requests", type=int, default=400, help="timed requests per tree size")
+    parser.add_argument("--requests", type=int, default=1000, help="timed requests per tree size")
     args = parser.parse_args()
     port = free_port()
     os.environ["ROS_MASTER_URI"] = f"http://localhost:{port}"

@@ -1,6 +1,8 @@
 """Skill library (predefined + demonstrated, validated) and persistence of the tree and library to the data dir."""
 
 import json
+import os
+import time
 
 import numpy as np
 import pytest
@@ -163,3 +165,27 @@ def test_refused_skill_is_not_saved(tmp_path):
     success, message = tree.add_skill("Ghost", "stiffness", "skills/ghost.npz")
     assert not success and "does not exist" in message
     assert not store.library_path.exists() and not store.tree_path.exists()
+
+
+def test_a_burst_of_saves_is_made_durable_by_one_background_fsync(tmp_path, monkeypatch):
+    synced = []
+    real_fsync = os.fsync
+
+    def recording_fsync(fd):
+        path = os.readlink(f"/proc/self/fd/{fd}")
+        if path.startswith(str(tmp_path)):  # stores of other tests may still be flushing
+            synced.append(path)
+        real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", recording_fsync)
+    store = TreeStore(tmp_path / "trees")
+    tree = thesis_tree(SkillWorld(), store=store, data_root=tmp_path)
+    for _ in range(5):
+        assert tree.change("Idle", "add").success
+    # Expect the saved tree and its directory fsynced shortly after the burst, once each, not once per save
+    deadline = time.monotonic() + 5.0
+    while len(synced) < 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    time.sleep(3 * TreeStore.flush_delay)
+    assert synced == [str(store.tree_path), str(store.directory)]
+    assert load_tree(store.tree_path, tree.library).root == describe(tree.root)

@@ -7,6 +7,7 @@ from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, status_o
 from py_trees.common import Status
 
 from teleteach.bt.behaviours import EditableSequence, PausableSelector, PauseCondition
+from teleteach.bt.editor import snapshot
 from teleteach.bt.library import SkillLibrary
 from teleteach.bt.tree import (
     TreeSpec,
@@ -266,3 +267,54 @@ def test_tick_reports_changes_only_when_something_changed():
     assert tree.change("Idle", "add").success
     assert tree.tick()
     assert not tree.tick()
+
+
+class EveryNodeVisitor(py_trees.visitors.VisitorBase):
+    """A "full" visitor: py_trees shows it every node of the tree after each tick."""
+
+    def __init__(self):
+        super().__init__(full=True)
+        self.seen = []
+
+    def run(self, behaviour):
+        self.seen.append(behaviour.name)
+
+
+def run_ticks(use_py_trees_tick, ticks=12):
+    """Statuses, visited nodes and tick counts of the thesis tree over ``ticks`` ticks (MoveBase fails once)."""
+    tree = thesis_tree(SkillWorld(ticks=2, failures={"MoveBase": ["path blocked"]}))
+    if use_py_trees_tick:
+        tree.tree = py_trees.trees.BehaviourTree(tree.root)
+        tree.tree.visitors.append(tree.snapshot_visitor)
+    history = []
+    for _ in range(ticks):
+        tree.tick()
+        visitor = tree.snapshot_visitor
+        history.append(
+            (
+                snapshot(tree.root),
+                [(node.name, node.status) for node in visitor.nodes.values()],
+                sorted(node.name for node in visitor.active),
+                tree.tree.count,
+                tree.help_request,
+            )
+        )
+    return history
+
+
+def test_teaching_tree_ticks_like_py_trees():
+    # Expect, tick by tick, the same statuses, visited nodes, tick counts and help request as py_trees' own tick
+    ours, reference = run_ticks(False), run_ticks(True)
+    assert ours == reference
+    assert ours[-1][4] is not None and ours[-1][4].node_name == "MoveBase"
+    assert all(sorted(name for name, _ in visited) == active for _, visited, active, _, _ in ours)
+
+
+def test_full_visitors_still_see_every_node():
+    tree = thesis_tree(SkillWorld(ticks=2))
+    full = EveryNodeVisitor()
+    tree.tree.visitors.append(full)
+    for _ in range(3):
+        tree.tick()
+    # Expect py_trees' contract for a full visitor: every node, after every tick
+    assert full.seen == [node.name for node in tree.root.iterate()] * 3

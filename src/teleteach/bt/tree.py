@@ -215,10 +215,10 @@ def dump_live_yaml(root: py_trees.behaviour.Behaviour, execution: str, header: s
     stack: typing.List[typing.Tuple[py_trees.behaviour.Behaviour, str, bool]] = [(root, "  ", False)]
     while stack:
         node, indent, item = stack.pop()
-        if isinstance(node, SkillLeaf):
-            text = node.__dict__.get("_yaml_line")
-            if text is None:
-                text = node._yaml_line = _flow_leaf(node.name, node.skill)
+        text = node.__dict__.get("_yaml_line")
+        if text is None and isinstance(node, SkillLeaf):
+            text = node._yaml_line = _flow_leaf(node.name, node.skill)
+        if text is not None:
             lines.append(f"{indent}- {text}" if item else f"{indent}{text}")
             continue
         spec = describe_shallow(node)
