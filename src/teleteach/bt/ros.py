@@ -90,6 +90,10 @@ class ActionClients:
             self._clients[server] = actionlib.ActionClient(f"{self.namespace}/{server}", ExecuteSkillAction)
         return self._clients[server]
 
+    def missing(self) -> typing.List[str]:
+        """The servers (of the clients made so far) that are not connected yet."""
+        return [server for server, client in self._clients.items() if not self.ready(client)]
+
     @staticmethod
     def ready(client: actionlib.ActionClient) -> bool:
         """Whether the server is connected, without waiting (ActionClient.wait_for_server's test, done once)."""
@@ -171,6 +175,9 @@ class BehaviourTreeNode:
     Args:
         tree: the teaching tree
         tick_rate: [Hz]
+        clients: the action clients of the skill servers
+        startup_timeout: [s] before the first tick, how long to wait for the skill servers to connect (they start
+            with the robot; py_trees_ros' setup timeout). Servers still missing then fail their skills when run.
 
     ROS Publishers (all latched):
         * **/behaviour_tree/log/tree** (teleteach/BehaviourTree): every node with ids, type, status, message
@@ -187,11 +194,19 @@ class BehaviourTreeNode:
         * **/change_tree** (teleteach/ChangeTree), **/behaviour_tree/add_skill** (teleteach/AddSkill)
     """
 
-    def __init__(self, tree: TeachingTree, tick_rate: float = 10.0):
+    def __init__(
+        self,
+        tree: TeachingTree,
+        tick_rate: float = 10.0,
+        clients: typing.Optional[ActionClients] = None,
+        startup_timeout: float = 0.0,
+    ):
         self.tree = tree
         self.tick_rate = tick_rate
-        # Publishing a 1000-node log/tree is ~10 ms of pure Python; a short GIL switch interval keeps /change_tree
-        # answers from waiting behind it (5 ms slices by default).
+        self.clients = clients
+        self.startup_timeout = startup_timeout
+        # Publishing a 1000-node log/tree after an edit is ~2 ms of pure Python; a short GIL switch interval keeps
+        # /change_tree answers from waiting behind it (5 ms slices by default).
         sys.setswitchinterval(0.0005)
         latched = {"queue_size": 1, "latch": True}
         self.log_publisher = rospy.Publisher("/behaviour_tree/log/tree", BehaviourTree, **latched)
@@ -231,11 +246,17 @@ class BehaviourTreeNode:
             return ActionSkill(name, entry, clients, server_timeout=timeout)
 
         tree = TeachingTree(spec, library, make_leaf, store=store, data_root=data_root)
-        return cls(tree, tick_rate=float(rospy.get_param("~tick_rate", 10.0)))
+        return cls(
+            tree,
+            tick_rate=float(rospy.get_param("~tick_rate", 10.0)),
+            clients=clients,
+            startup_timeout=float(rospy.get_param("~startup_timeout", 0.0)),
+        )
 
     def spin(self) -> None:
         """Tick at the tick rate until shutdown, publishing whatever changed."""
         self.publish(changed=True)
+        self._wait_for_skill_servers()
         rate = rospy.Rate(self.tick_rate)
         while not rospy.is_shutdown():
             self.publish(changed=self.tree.tick())
@@ -249,6 +270,27 @@ class BehaviourTreeNode:
             self.tree.tree.interrupt()  # cancels the running goal
         if self.tree.store is not None:
             self.tree.store.flush()
+
+    def _wait_for_skill_servers(self) -> None:
+        """Hold the first tick until every skill server is connected, for at most ``startup_timeout`` (wall time).
+
+        Edits, pause and add_skill are served meanwhile; the tree just does not start before the robot is up.
+        """
+        if self.clients is None or self.startup_timeout <= 0.0:
+            return
+        deadline = time.monotonic() + self.startup_timeout
+        missing = self.clients.missing()
+        if missing:
+            servers = ", ".join(missing)
+            rospy.loginfo("behaviour_tree: waiting up to %.0f s for skill servers %s", self.startup_timeout, servers)
+        published = self.tree.revision
+        while missing and time.monotonic() < deadline and not rospy.is_shutdown():
+            time.sleep(0.1)
+            self.publish(changed=self.tree.revision != published)
+            published = self.tree.revision
+            missing = self.clients.missing()
+        if missing:
+            rospy.logwarn("behaviour_tree: starting without %s; their skills fail when run", ", ".join(missing))
 
     def publish(self, changed: bool) -> None:
         """Publish the topics whose content changed (heavy renderings only for subscribers)."""
