@@ -67,6 +67,13 @@ class PickAndPlaceTest(unittest.TestCase):
         rospy.loginfo(f"{name}: {client.get_state()} {result.message}")
         return client.get_state(), result, feedback
 
+    def assert_progress_to_the_end(self, feedback):
+        """Progress never goes back and gets to the end: the server's last feedback is 1.0, but actionlib drops
+        feedback that lands after the result, so the last one or two received may be a step or two short of it."""
+        steps = [later - earlier for earlier, later in zip(feedback, feedback[1:])]
+        self.assertTrue(all(step >= 0.0 for step in steps), feedback[-10:])
+        self.assertGreaterEqual(feedback[-1], 1.0 - 2.0 * max(steps, default=0.0) - 1e-6, feedback[-5:])
+
     def test_predefined_sequence_places_the_product(self):
         table_top = self.scene.pick_table.center[2] + self.scene.pick_table.size[2] / 2.0
         for name in PREDEFINED_SKILLS:
@@ -75,8 +82,7 @@ class PickAndPlaceTest(unittest.TestCase):
             self.assertTrue(result.success, result.message)
             self.assertTrue(feedback, f"{name} sent no feedback")
             self.assertTrue(all(0.0 <= value <= 1.0 for value in feedback), feedback)
-            # the server ends with progress 1.0, but actionlib drops feedback that lands after the result
-            self.assertGreaterEqual(feedback[-1], 0.95, feedback[-5:])
+            self.assert_progress_to_the_end(feedback)
             if name == "PickItem":
                 # Expect: product_pick_1 lifted off the table
                 self.assertGreater(self.product("product_pick_1")[2], table_top + 0.2)
@@ -125,8 +131,7 @@ class PickAndPlaceTest(unittest.TestCase):
             state, result, feedback = self.run_skill("ReplaySkill", "replayed", parameters)
             self.assertEqual(state, GoalStatus.SUCCEEDED, result.message)
             self.assertIn("final end-effector error", result.message)
-            # the server ends with progress 1.0, but actionlib drops feedback that lands after the result
-            self.assertGreaterEqual(feedback[-1], 0.95, feedback[-5:])
+            self.assert_progress_to_the_end(feedback)
             self.assertEqual(self.running_controllers(), ["position_joint_trajectory_controller"])
             # Expect: a cancelled replay ends preempted, back on the position controller
             path = self.write_skill(folder, 4.0)
