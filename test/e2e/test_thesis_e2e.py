@@ -13,7 +13,7 @@ from conftest import ROOT
 from rosbags.highlevel import AnyReader
 
 from teleteach import skill_file
-from teleteach.sim.scene import load_scene
+from teleteach.sim.scene import load_scene, product_positions
 
 RUN_TIMEOUT = 330.0  # [s] wall: the runner bounds itself to well under 5 minutes
 
@@ -43,11 +43,7 @@ def scene_products(bag):
         connections = [c for c in reader.connections if c.topic == "/teleteach/scene"]
         for connection, _, raw in reader.messages(connections=connections):
             message = reader.deserialize(raw, connection.msgtype)
-            products = {
-                marker.text: np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z])
-                for marker in message.markers
-                if marker.ns == "products"
-            }
+            products = product_positions(message.markers)
             first = first or products
             last = products
     return first, last

@@ -1,16 +1,14 @@
 """Helpers for the behaviour-tree rostests on the real robot (robot_sim + skill_server): where the products are
 (/teleteach/scene), and which skill goals were sent (each server's goal topic), in order."""
 
-import math
 import threading
 import time
 
-import numpy as np
 import rospy
 from visualization_msgs.msg import MarkerArray
 
 from teleteach.msg import ExecuteSkillActionGoal
-from teleteach.sim.scene import load_scene
+from teleteach.sim.scene import load_scene, product_positions
 from teleteach.skills.predefined import PREDEFINED_SKILLS
 
 
@@ -28,10 +26,7 @@ class RobotView:
 
     def _on_scene(self, message):
         with self.lock:
-            for marker in message.markers:
-                if marker.ns == "products":
-                    position = marker.pose.position
-                    self.products[marker.text] = np.array([position.x, position.y, position.z])
+            self.products.update(product_positions(message.markers))
 
     def _on_goal(self, message):
         with self.lock:
@@ -66,5 +61,4 @@ class RobotView:
 
     def gap_distance(self, name):
         """Horizontal and vertical distance [m] of the product's centre from the gap target of the scene file."""
-        offset = self.product(name) - np.array(self.scene.gap.position)
-        return math.hypot(offset[0], offset[1]), abs(offset[2])
+        return self.scene.gap.distance(self.product(name))

@@ -18,7 +18,7 @@ from visualization_msgs.msg import MarkerArray
 
 from teleteach import skill_file
 from teleteach.msg import ExecuteSkillAction, ExecuteSkillGoal
-from teleteach.sim.scene import load_scene
+from teleteach.sim.scene import load_scene, product_positions
 from teleteach.skills.predefined import PREDEFINED_SKILLS
 from teleteach.srv import ListControllers
 
@@ -37,10 +37,7 @@ class PickAndPlaceTest(unittest.TestCase):
     @classmethod
     def on_scene(cls, msg):
         with cls.lock:
-            for marker in msg.markers:
-                if marker.ns == "products":
-                    position = marker.pose.position
-                    cls.products[marker.text] = np.array([position.x, position.y, position.z])
+            cls.products.update(product_positions(msg.markers))
 
     def product(self, name):
         start = rospy.get_time()
@@ -50,8 +47,7 @@ class PickAndPlaceTest(unittest.TestCase):
             return self.products[name].copy()
 
     def gap_distance(self, name):
-        offset = self.product(name) - np.array(self.scene.gap.position)
-        return math.hypot(offset[0], offset[1]), abs(offset[2])
+        return self.scene.gap.distance(self.product(name))
 
     def run_skill(self, name, skill=None, parameters="", cancel_after=None):
         client = actionlib.SimpleActionClient(f"/skills/{name}", ExecuteSkillAction)

@@ -24,7 +24,7 @@ from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.haptics.scenario import load_scenario
 from teleteach.run import outcome
 from teleteach.run.processes import ProcessError, Processes, free_port, screenshot, start_xvfb
-from teleteach.sim.scene import load_scene
+from teleteach.sim.scene import load_scene, product_positions
 
 PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[3]
 DEFAULT_SCENARIO = PACKAGE_DIR / "config" / "scenarios" / "thesis_full.yaml"
@@ -130,11 +130,7 @@ class Monitor:
                 self.help_requests.append((self._now(), message.node_name, message.reason))
 
     def _scene(self, message) -> None:
-        products = {
-            marker.text: np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z])
-            for marker in message.markers
-            if marker.ns == "products"
-        }
+        products = product_positions(message.markers)
         with self._lock:
             if not self.initial_products:
                 self.initial_products = products

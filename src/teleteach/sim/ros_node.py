@@ -23,7 +23,7 @@ from teleteach.control.validation import InvalidCommandError
 from teleteach.msg import ControllerState, HardwareInterfaceResources
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, RobotSim, load_controller_config
-from teleteach.sim.scene import load_scene
+from teleteach.sim.scene import PRODUCTS_NAMESPACE, load_scene
 from teleteach.sim.urdf import robot_description
 from teleteach.srv import ListControllers, ListControllersResponse, SwitchController, SwitchControllerResponse
 
@@ -318,7 +318,14 @@ class RobotSimNode:
             position, quaternion = poses[product.name]
             markers.markers.append(
                 _box_marker(
-                    header, "products", index, position, quaternion, product.size, (0.8, 0.2, 0.2, 1.0), product.name
+                    header,
+                    PRODUCTS_NAMESPACE,
+                    index,
+                    position,
+                    quaternion,
+                    product.size,
+                    (0.8, 0.2, 0.2, 1.0),
+                    product.name,
                 )
             )
         self._scene.publish(markers)

@@ -6,8 +6,10 @@ import pathlib
 from dataclasses import dataclass
 from typing import Dict, Iterable, List, Optional, Tuple
 
+import numpy as np
 import yaml
 
+PRODUCTS_NAMESPACE = "products"  # the marker namespace of the products on /teleteach/scene (world frame)
 DEFAULT_SCENE_FILE = pathlib.Path(__file__).resolve().parents[3] / "config" / "supermarket.yaml"
 
 
@@ -58,6 +60,11 @@ class Gap:
     yaw: float
     width: float
     tolerance: float
+
+    def distance(self, position) -> Tuple[float, float]:
+        """Horizontal [m] and vertical [m] distance of a product centre at ``position`` from the target."""
+        offset = np.asarray(position, dtype=float) - np.asarray(self.position, dtype=float)
+        return float(math.hypot(offset[0], offset[1])), float(abs(offset[2]))
 
 
 @dataclass(frozen=True)
@@ -159,3 +166,12 @@ def _parse(data):
         products=products,
         gap=Gap(_triple(gap["position"]), float(gap["yaw"]), float(gap["width"]), float(gap["tolerance"])),
     )
+
+
+def product_positions(markers: Iterable) -> Dict[str, np.ndarray]:
+    """World positions [m] of the products in the markers of a /teleteach/scene MarkerArray, by product name."""
+    return {
+        marker.text: np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z])
+        for marker in markers
+        if marker.ns == PRODUCTS_NAMESPACE and marker.text and marker.header.frame_id.lstrip("/") == "world"
+    }

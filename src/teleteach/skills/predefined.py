@@ -97,8 +97,7 @@ class WorldView:
 
     def gap_error(self, name) -> Tuple[float, float]:
         """Horizontal [m] and vertical [m] distance of product name's centre from the gap's target."""
-        offset = self.product_position(name) - np.asarray(self.scene.gap.position)
-        return float(math.hypot(offset[0], offset[1])), float(abs(offset[2]))
+        return self.scene.gap.distance(self.product_position(name))
 
     def in_gap(self, name) -> bool:
         """Whether product name stands in the gap, within the scene's tolerance."""

@@ -20,13 +20,13 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import MarkerArray
 
 from teleteach.sim import panda
+from teleteach.sim.scene import PRODUCTS_NAMESPACE, product_positions
 from teleteach.skills.motion import yaw_rotation
 from teleteach.skills.robot import Robot, SkillError
 from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
 
 WORLD_FRAME = "world"
 BASE_FRAME = "base_link"
-PRODUCTS_NAMESPACE = "products"
 SERVICE_TIMEOUT = 5.0  # [s] wall time to wait for the controller manager
 SCENE_FRESHNESS = 0.15  # [s] sim time: a scene older than this when asked is waited for
 SCENE_WAIT = 2.0  # [s] wall time to wait for a fresh scene before using the last one
@@ -80,11 +80,7 @@ class RosRobot(Robot):
                 self._lock.notify_all()
 
     def _on_scene(self, msg):
-        products = {}
-        for marker in msg.markers:
-            if marker.ns == PRODUCTS_NAMESPACE and marker.text and marker.header.frame_id.lstrip("/") == WORLD_FRAME:
-                position = marker.pose.position
-                products[marker.text] = np.array([position.x, position.y, position.z])
+        products = product_positions(msg.markers)
         stamps = [marker.header.stamp.to_sec() for marker in msg.markers if marker.ns == PRODUCTS_NAMESPACE]
         with self._lock:
             self._products = products
