@@ -48,7 +48,7 @@ def sequence(kinematics, config):
                 "message": outcome.message,
             }
         )
-    offset = sim.world.product_poses()["product_pick_1"][0] - np.array(sim.scene.gap.position)
+    offset = sim.world.product_poses()["product_pick_1"][0] - np.array(sim.scene.gap("gap_1").position)
     sim.close()
     return rows, float(math.hypot(offset[0], offset[1]))
 

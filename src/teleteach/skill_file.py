@@ -149,3 +149,5 @@ def load(path: Union[str, pathlib.Path]) -> Skill:
         )
     except KeyError as error:
         raise SkillFileError(f"skill file {path}: meta lacks {error}") from None
+    except SkillFileError as error:
+        raise SkillFileError(f"skill file {path}: {error}") from None

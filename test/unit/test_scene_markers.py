@@ -29,6 +29,6 @@ def test_product_positions_keep_only_named_products_in_world():
 
 
 def test_gap_distance_is_horizontal_and_vertical():
-    gap = load_scene().gap
+    gap = load_scene().gap("gap_1")
     horizontal, vertical = gap.distance(np.add(gap.position, (0.03, 0.04, -0.02)))
     assert horizontal == pytest.approx(0.05) and vertical == pytest.approx(0.02)

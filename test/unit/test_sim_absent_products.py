@@ -11,7 +11,7 @@ def test_left_out_products_are_not_in_the_scene_nor_in_the_simulation():
     full = load_scene()
     scene = full.without_products(["product_pick_1"])
     assert [product.name for product in scene.products] == [p.name for p in full.products if p.name != "product_pick_1"]
-    assert scene.gap == full.gap and scene.shelf == full.shelf
+    assert scene.gaps == full.gaps and scene.shelf == full.shelf
     sim = RobotSim(scene)
     try:
         positions = SimRobot(sim).product_positions()

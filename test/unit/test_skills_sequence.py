@@ -1,6 +1,7 @@
 """The skills on the real in-process simulation (pybullet physics, controller manager, command validation), no ROS."""
 
 import math
+import re
 
 import numpy as np
 import pybullet
@@ -8,6 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
+from teleteach.gui.recording import Trajectory
 from teleteach.sim.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY, RobotSim
 from teleteach.skills.config import load_motion_config
@@ -41,7 +43,7 @@ def product_position(sim, name):
 
 
 def gap_offset(sim, name):
-    offset = product_position(sim, name) - np.array(sim.scene.gap.position)
+    offset = product_position(sim, name) - np.array(sim.scene.gap("gap_1").position)
     return math.hypot(offset[0], offset[1]), abs(offset[2])
 
 
@@ -59,18 +61,18 @@ def test_the_predefined_sequence_puts_the_product_in_the_gap(sim, runner):
             assert sim.world.grasped == "product_pick_1"
         if name == "DropItem":
             horizontal, vertical = gap_offset(sim, "product_pick_1")
-            assert horizontal <= sim.scene.gap.tolerance
+            assert horizontal <= sim.scene.gap("gap_1").tolerance
             assert vertical < 0.02
             assert sim.world.grasped is None
-    # Expect: the first product still stands in the gap; the second one is in the hand at the 45-degree pose
+    # Expect: the first product still stands in the gap; the second one is in the hand in front of gap_2
     horizontal, vertical = gap_offset(sim, "product_pick_1")
-    assert horizontal <= sim.scene.gap.tolerance and vertical < 0.02
+    assert horizontal <= sim.scene.gap("gap_1").tolerance and vertical < 0.02
     assert sim.world.grasped == "product_pick_2"
     # Expect: nothing else was knocked over or pushed on the way
     for product in sim.scene.products:
         if product.name not in ("product_pick_1", "product_pick_2"):
             assert np.linalg.norm(product_position(sim, product.name) - product.position) < 0.005, product.name
-    target = sim.scene.base_poses["place_45deg"]
+    target = sim.scene.base_poses["place_perpendicular_2"]
     np.testing.assert_allclose(sim.world.base_pose, [target.x, target.y, target.yaw], atol=0.01)
 
 
@@ -124,6 +126,7 @@ def test_unknown_skill_is_refused(runner):
 
 
 def write_skill(sim, path, duration=1.0, step=(0.05, 0.0, 0.0)):
+    """A short skill from where the hand is now: 5 cm along base X while the ellipsoid turns 45 deg."""
     position, quaternion = sim.world.read_state().position, sim.world.read_state().quaternion
     count = 21
     fractions = np.linspace(0.0, 1.0, count)[:, None]
@@ -134,6 +137,27 @@ def write_skill(sim, path, duration=1.0, step=(0.05, 0.0, 0.0)):
     stiffness = np.array([(1 - f) * np.diag([800.0, 800.0, 800.0]) + f * final for f in fractions[:, 0]])
     skill = skill_file.Skill("place_45", "stiffness", np.linspace(0.0, duration, count), stiffness, poses, poses)
     return skill_file.save(skill, path), final, positions[-1]
+
+
+def placing_skill(path, until=None):
+    """III-C's demonstration on the perpendicular trajectory (compliant approach, Y then X stiffened), or its first
+    ``until`` seconds."""
+    trajectory = Trajectory.load("perpendicular")
+    times = np.arange(0.0, (until or trajectory.duration) + 1e-9, 0.01)
+    poses = np.array([trajectory.sample(t) for t in times])
+    diagonal = np.tile([400.0, 400.0, 2000.0], (len(times), 1))
+    diagonal[times >= 3.0, 1] = 2100.0
+    diagonal[times >= 5.0, 0] = 2100.0
+    stiffness = np.array([np.diag(row) for row in diagonal])
+    skill = skill_file.Skill("DemonstratedPlace_1", "stiffness", times, stiffness, poses, poses)
+    return skill_file.save(skill, path)
+
+
+def pick_and_face_the_shelf(runner):
+    """Run the tree's first skills: product_pick_1 in the hand, the base in front of gap_1."""
+    for name in ("LookToShelf", "PickItem", "MoveBase"):
+        outcome = runner.execute(name)
+        assert outcome.success, f"{name}: {outcome.message}"
 
 
 class StampRecordingRobot(SimRobot):
@@ -148,10 +172,12 @@ class StampRecordingRobot(SimRobot):
         super().command_stiffness(eigenvalues, eigenvectors, stamp)
 
 
-def test_replay_plays_stiffness_and_reference_then_switches_back(sim, kinematics, tmp_path):
+def test_replay_places_the_product_in_the_gap_and_releases_it(sim, kinematics, tmp_path):
     robot = StampRecordingRobot(sim)
     runner = SkillRunner(robot, load_motion_config(), sim.scene, kinematics)
-    path, final_stiffness, final_position = write_skill(sim, tmp_path / "place_45")
+    pick_and_face_the_shelf(runner)
+    path = placing_skill(tmp_path / "place")
+    robot.stamps.clear()
     feedback = []
     outcome = runner.execute(
         "ReplaySkill",
@@ -159,16 +185,53 @@ def test_replay_plays_stiffness_and_reference_then_switches_back(sim, kinematics
         Execution(feedback=lambda progress, phase: feedback.append(phase)),
     )
     assert outcome.success, outcome.message
-    assert "final end-effector error" in outcome.message
-    assert "replay" in feedback and "switch to impedance control" in feedback
-    # Expect: at least 100 Hz over the recorded second, stamps following the recording's timing
-    played = np.diff(robot.stamps[1:])
+    assert "product_pick_1 released upright in gap_1" in outcome.message
+    assert feedback.index("switch to impedance control") < feedback.index("replay") < feedback.index("release")
+    # Expect: at least 100 Hz over the recording, stamps following the recording's timing
+    played = np.diff(np.unique(robot.stamps[1:]))
     assert played.max() <= 0.01 + 1e-9 and played.min() > 0.0
-    assert robot.stamps[-1] - robot.stamps[1] == pytest.approx(1.0, abs=1e-6)
-    # Expect: the controller rebuilt the recorded final stiffness from the eigendecomposition it received
-    np.testing.assert_allclose(sim.impedance.stiffness_target[:3, :3], final_stiffness, atol=1e-6)
-    np.testing.assert_allclose(sim.world.read_state().position, final_position, atol=0.01)
+    assert robot.stamps[-1] - robot.stamps[1] == pytest.approx(11.0, abs=1e-6)
+    # Expect: the world agrees: released, in gap_1, upright, nothing pushed; the arm back on position control
+    assert sim.world.grasped is None
+    horizontal, vertical = gap_offset(sim, "product_pick_1")
+    assert horizontal <= sim.scene.gap("gap_1").tolerance and vertical < 0.02
+    for product in sim.scene.products:
+        if product.name.startswith("product_shelf"):
+            assert np.linalg.norm(product_position(sim, product.name) - product.position) < 0.01, product.name
     assert sim.manager.running == TRAJECTORY
+
+
+def test_replay_that_leaves_the_product_outside_the_gap_fails_naming_product_gap_and_distance(sim, runner, tmp_path):
+    pick_and_face_the_shelf(runner)
+    path = placing_skill(tmp_path / "short", until=5.0)  # stops 15 cm in front of the shelf
+    outcome = runner.execute("ReplaySkill", f"{{data_file: {path}}}")
+    assert not outcome.success
+    assert re.fullmatch(r"product_pick_1 ended \d+\.\d cm from gap_1 \(.*", outcome.message), outcome.message
+    assert float(outcome.message.split()[2]) > 10.0
+    assert sim.world.grasped is None
+
+
+def test_replay_with_nothing_in_the_hand_fails_before_moving(sim, kinematics, tmp_path):
+    robot = StampRecordingRobot(sim)
+    runner = SkillRunner(robot, load_motion_config(), sim.scene, kinematics)
+    path, _, _ = write_skill(sim, tmp_path / "place_45")
+    before = np.array(sim.world.joint_states()[0][:7])
+    outcome = runner.execute("ReplaySkill", f"{{data_file: {path}, kind: stiffness}}")
+    assert not outcome.success
+    assert outcome.message == "place_45 places a product, but there is none in the hand: pick one first"
+    assert robot.stamps == []
+    np.testing.assert_allclose(sim.world.joint_states()[0][:7], before, atol=1e-3)
+    assert sim.manager.running == TRAJECTORY
+
+
+def test_replay_of_a_skill_file_with_nan_is_refused_naming_the_file(sim, runner, tmp_path):
+    path = placing_skill(tmp_path / "nan")
+    with np.load(path) as archive:
+        arrays = dict(archive)
+    arrays["stiffness"][5, 0, 0] = np.nan
+    np.savez(path, **arrays)
+    outcome = runner.execute("ReplaySkill", f"{{data_file: {path}}}")
+    assert outcome.message == f"skill file {path}: stiffness is not finite (NaN or inf) at sample 5"
 
 
 def test_replay_of_a_bad_skill_file_fails_with_its_error(sim, runner, tmp_path):
@@ -185,8 +248,9 @@ def test_replay_of_a_bad_skill_file_fails_with_its_error(sim, runner, tmp_path):
 
 
 def test_a_preempted_replay_switches_back_to_position_control(sim, runner, tmp_path):
-    path, _, _ = write_skill(sim, tmp_path / "long", duration=3.0)
-    stop_at = sim.time + 1.0
+    pick_and_face_the_shelf(runner)
+    path = placing_skill(tmp_path / "long")
+    stop_at = sim.time + 3.0
     outcome = runner.execute(
         "ReplaySkill", f"{{data_file: {path}}}", Execution(preempt_requested=lambda: sim.time > stop_at)
     )

@@ -9,7 +9,7 @@ from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module
 
 from teleteach.sim import panda
 from teleteach.sim.kinematics import IKError, PandaKinematics
-from teleteach.sim.scene import load_scene
+from teleteach.sim.scene import SceneError, load_scene
 from teleteach.sim.urdf import robot_description
 
 
@@ -28,28 +28,37 @@ def kinematics():
     model.close()
 
 
-def test_scene_has_two_levels_a_gap_between_close_products_and_a_pick_table():
+def test_scene_has_two_levels_two_gaps_between_close_products_and_a_pick_table():
     scene = load_scene()
     boards = [part for part in scene.shelf if part.name.startswith("board")]
     assert len(boards) >= 2
-    gap = scene.gap
+    assert list(scene.gaps) == ["gap_1", "gap_2"]
     board_tops = [part.center[2] + part.size[2] / 2 for part in boards]
     product_height = scene.product("product_shelf_3").size[2]
-    assert min(abs(gap.position[2] - product_height / 2 - top) for top in board_tops) < 1e-9
+    level = scene.gap("gap_1").position[2]
     same_level = sorted(
-        (p for p in scene.products if abs(p.position[2] - gap.position[2]) < 1e-9 and p.position[0] > 1.5),
+        (p for p in scene.products if abs(p.position[2] - level) < 1e-9 and p.position[0] > 1.5),
         key=lambda p: p.position[1],
     )
     ys = [p.position[1] for p in same_level]
-    spacing = np.diff(ys)
     width = same_level[0].size[1]
-    # Expect neighbours 1 cm apart, and exactly one slot that is free, at the gap's y
-    assert np.sum(spacing > width + 0.02) == 1
-    left = max(y for y in ys if y < gap.position[1])
-    right = min(y for y in ys if y > gap.position[1])
-    assert right - left - width == pytest.approx(gap.width)
+    # Expect neighbours 1 cm apart, and exactly one free slot at each gap's y, as wide as the gap says
+    assert np.sum(np.diff(ys) > width + 0.02) == len(scene.gaps)
+    for gap in scene.gaps.values():
+        assert gap.position[2] == level
+        assert min(abs(gap.position[2] - product_height / 2 - top) for top in board_tops) < 1e-9
+        left = max(y for y in ys if y < gap.position[1])
+        right = min(y for y in ys if y > gap.position[1])
+        assert right - left - width == pytest.approx(gap.width)
     assert len([p for p in scene.products if p.name.startswith("product_pick")]) >= 2
-    assert {"pick", "place_perpendicular", "place_45deg"} <= set(scene.base_poses)
+    assert {"pick", "place_perpendicular", "place_45deg", "place_perpendicular_2", "place_45deg_2"} <= set(
+        scene.base_poses
+    )
+
+
+def test_an_unknown_gap_is_a_clear_error():
+    with pytest.raises(SceneError, match="no gap 'gap_9' \\(it has gap_1, gap_2\\)"):
+        load_scene().gap("gap_9")
 
 
 def test_jacobian_is_in_base_link_with_a_yawed_base(robot_sim):

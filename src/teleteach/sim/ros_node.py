@@ -23,7 +23,7 @@ from teleteach.control.validation import InvalidCommandError
 from teleteach.msg import ControllerState, HardwareInterfaceResources
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, RobotSim, load_controller_config
-from teleteach.sim.scene import PRODUCTS_NAMESPACE, load_scene
+from teleteach.sim.scene import GAPS_NAMESPACE, PRODUCTS_NAMESPACE, load_scene
 from teleteach.sim.urdf import robot_description
 from teleteach.srv import ListControllers, ListControllersResponse, SwitchController, SwitchControllerResponse
 
@@ -299,19 +299,19 @@ class RobotSimNode:
         markers.markers.append(
             _box_marker(header, "table", 0, table.center, (0, 0, 0, 1), table.size, (0.5, 0.5, 0.5, 1.0), table.name)
         )
-        gap = scene.gap
-        markers.markers.append(
-            _box_marker(
-                header,
-                "gap",
-                0,
-                gap.position,
-                (0, 0, *_half_angle(gap.yaw)),
-                (0.06, gap.width, 0.002),
-                (0.1, 0.8, 0.1, 0.5),
-                "gap",
+        for index, gap in enumerate(scene.gaps.values()):
+            markers.markers.append(
+                _box_marker(
+                    header,
+                    GAPS_NAMESPACE,
+                    index,
+                    gap.position,
+                    (0, 0, *_half_angle(gap.yaw)),
+                    (0.06, gap.width, 0.002),
+                    (0.1, 0.8, 0.1, 0.5),
+                    gap.name,
+                )
             )
-        )
         with self._lock:
             poses = self.sim.world.product_poses()
         for index, product in enumerate(scene.products):

@@ -10,6 +10,7 @@ import numpy as np
 import yaml
 
 PRODUCTS_NAMESPACE = "products"  # the marker namespace of the products on /teleteach/scene (world frame)
+GAPS_NAMESPACE = "gaps"  # the marker namespace of the free slots on /teleteach/scene: text = gap name
 DEFAULT_SCENE_FILE = pathlib.Path(__file__).resolve().parents[3] / "config" / "supermarket.yaml"
 
 
@@ -54,8 +55,9 @@ class BasePose:
 
 @dataclass(frozen=True)
 class Gap:
-    """The free slot on the shelf: target product centre [m], yaw [rad], free width [m], tolerance [m]."""
+    """A free slot on the shelf: target product centre [m], yaw into the shelf [rad], free width [m], tolerance [m]."""
 
+    name: str
     position: Tuple[float, float, float]
     yaw: float
     width: float
@@ -87,7 +89,24 @@ class Scene:
     shelf: List[Box]
     pick_table: Box
     products: List[Product]
-    gap: Gap
+    gaps: Dict[str, Gap]
+
+    def gap(self, name) -> Gap:
+        """The gap called name.
+
+        Raises:
+            SceneError: the scene has no such gap (the message lists the ones it has).
+        """
+        try:
+            return self.gaps[name]
+        except KeyError:
+            raise SceneError(f"the scene has no gap '{name}' (it has {', '.join(self.gaps) or 'none'})") from None
+
+    def nearest_gap(self, position) -> Gap:
+        """The gap whose target is horizontally closest to position (world) [m]."""
+        if not self.gaps:
+            raise SceneError("the scene has no gaps")
+        return min(self.gaps.values(), key=lambda gap: gap.distance(position)[0])
 
     def product(self, name):
         """The product called name (KeyError if there is none)."""
@@ -145,7 +164,12 @@ def _parse(data):
     ]
     shelf_friction = float(data["shelf"]["friction"])
     table = data["pick_table"]
-    gap = data["gap"]
+    gaps = {
+        str(name): Gap(
+            str(name), _triple(gap["position"]), float(gap["yaw"]), float(gap["width"]), float(gap["tolerance"])
+        )
+        for name, gap in data["gaps"].items()
+    }
     return Scene(
         robot=RobotSetup(
             mount_height=float(robot["mount_height"]),
@@ -164,14 +188,27 @@ def _parse(data):
         ],
         pick_table=Box("pick_table", _triple(table["center"]), _triple(table["size"]), float(table["friction"])),
         products=products,
-        gap=Gap(_triple(gap["position"]), float(gap["yaw"]), float(gap["width"]), float(gap["tolerance"])),
+        gaps=gaps,
     )
+
+
+def product_poses(markers: Iterable) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+    """World poses of the products in the markers of a /teleteach/scene MarkerArray, by product name.
+
+    Each pose is the box centre [m] and its (x, y, z, w) quaternion.
+    """
+    return {
+        marker.text: (
+            np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z]),
+            np.array(
+                [marker.pose.orientation.x, marker.pose.orientation.y, marker.pose.orientation.z, marker.pose.orientation.w]
+            ),
+        )
+        for marker in markers
+        if marker.ns == PRODUCTS_NAMESPACE and marker.text and marker.header.frame_id.lstrip("/") == "world"
+    }
 
 
 def product_positions(markers: Iterable) -> Dict[str, np.ndarray]:
     """World positions [m] of the products in the markers of a /teleteach/scene MarkerArray, by product name."""
-    return {
-        marker.text: np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z])
-        for marker in markers
-        if marker.ns == PRODUCTS_NAMESPACE and marker.text and marker.header.frame_id.lstrip("/") == "world"
-    }
+    return {name: position for name, (position, _) in product_poses(markers).items()}

@@ -70,7 +70,6 @@ class PlaceConfig:
     approach_distance: float
     clearance: float
     retreat_distance: float
-    height_tolerance: float
 
 
 @dataclass(frozen=True)
@@ -142,7 +141,7 @@ def _parse(data):
         if name not in postures:
             raise KeyError(f"postures.{name}")
     grasp = _section(GraspConfig, data["grasp"], positive=["hold_tolerance", "table_tolerance", "approach_height"])
-    place = _section(PlaceConfig, data["place"], positive=["approach_distance", "height_tolerance"])
+    place = _section(PlaceConfig, data["place"], positive=["approach_distance"])
     replay = _section(ReplayConfig, data["replay"], positive=["approach_tolerance"], non_negative=["settle_time"])
     if replay.rate < 100.0:
         raise ValueError(f"replay.rate must be >= 100 Hz, got {replay.rate}")

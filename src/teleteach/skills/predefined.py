@@ -11,7 +11,9 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.sim.scene import Scene
+from teleteach import placement
+from teleteach.placement import Placement
+from teleteach.sim.scene import Gap, Scene, SceneError
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import TOP_DOWN, Motion, world_to_base, yaw_rotation
 from teleteach.skills.robot import SkillError
@@ -95,18 +97,29 @@ class WorldView:
             return None, distances[name]
         return name, distances[name]
 
-    def gap_error(self, name) -> Tuple[float, float]:
-        """Horizontal [m] and vertical [m] distance of product name's centre from the gap's target."""
-        return self.scene.gap.distance(self.product_position(name))
+    def placement(self, product, before: Dict[str, np.ndarray], gap: Optional[str] = None) -> Placement:
+        """Where product ended relative to gap (default: the nearest gap), its neighbours compared with ``before``.
 
-    def in_gap(self, name) -> bool:
-        """Whether product name stands in the gap, within the scene's tolerance."""
-        horizontal, vertical = self.gap_error(name)
-        return horizontal <= self.scene.gap.tolerance and vertical <= self.config.place.height_tolerance
+        Raises:
+            SkillError: the product is not in the scene, or the scene has no such gap.
+        """
+        poses = self.motion.robot.product_poses()
+        if product not in poses:
+            raise SkillError(f"{product} is not in the scene")
+        final = {name: position for name, (position, _) in poses.items()}
+        try:
+            return placement.judge(self.scene, product, poses[product], before, final, gap)
+        except SceneError as error:
+            raise SkillError(str(error)) from None
 
-    def into_shelf(self) -> np.ndarray:
-        """Horizontal unit vector in base_link pointing into the shelf at the gap (the gap's x axis)."""
-        return yaw_rotation(self.scene.gap.yaw - self.motion.robot.base_pose()[2]).apply([1.0, 0.0, 0.0])
+    def into_shelf(self, gap: Gap) -> np.ndarray:
+        """Horizontal unit vector in base_link pointing into the shelf at gap (the gap's x axis)."""
+        return yaw_rotation(gap.yaw - self.motion.robot.base_pose()[2]).apply([1.0, 0.0, 0.0])
+
+    def gap_near_hand(self) -> Gap:
+        """The gap closest to the hand: the one a product in the hand is being put into."""
+        position, _ = self.motion.tcp_world()
+        return self.scene.nearest_gap(position)
 
     def top_down(self, yaw_world) -> Rotation:
         """TCP orientation in base_link pointing down, rotated by yaw_world [rad] (world) about the vertical."""
@@ -202,21 +215,25 @@ class MoveBase(PredefinedSkill):
 
 
 class PlaceItem(PredefinedSkill):
-    """Slide the held product straight into the gap, just above the board, and set it down (still held)."""
+    """Slide the held product straight into the configured gap, just above the board, and set it down (still held)."""
 
     def run(self, world: WorldView) -> str:
-        """Place; succeed when the held product stands in the gap."""
+        """Place; succeed when the held product stands upright in the gap."""
         motion, place = world.motion, world.config.place
+        try:
+            gap = world.scene.gap(self.settings.get("gap", ""))
+        except SceneError as error:
+            raise SkillError(f"{self.name}: {error}") from None
         product, _ = world.held_product()
         if product is None:
             raise SkillError("no product in the gripper to place")
+        before = motion.robot.product_positions()
         base_pose = motion.robot.base_pose()
         tcp_position, tcp_rotation = motion.tcp_world()
         in_hand = tcp_rotation.inv().apply(world.product_position(product) - tcp_position)
-        orientation = world.top_down(world.scene.gap.yaw)
-        gap = world_to_base(base_pose, world.scene.gap.position)
-        placed = gap - orientation.apply(in_hand)
-        direction = world.into_shelf()
+        orientation = world.top_down(gap.yaw)
+        placed = world_to_base(base_pose, gap.position) - orientation.apply(in_hand)
+        direction = world.into_shelf(gap)
         inserted = placed + up(place.clearance)
         motion.execution.phase("approach the gap", 0.4)
         motion.move_to_pose(inserted - place.approach_distance * direction, orientation)
@@ -224,37 +241,56 @@ class PlaceItem(PredefinedSkill):
         motion.move_linear(inserted, orientation)
         motion.execution.phase("set down", 0.2)
         motion.move_linear(placed, orientation)
-        horizontal, vertical = world.gap_error(product)
-        if not world.in_gap(product):
-            raise SkillError(f"{product} is not in the gap: {horizontal:.3f} m beside, {vertical:.3f} m above/below")
-        return f"{product} placed in the gap ({1000.0 * horizontal:.1f} mm from its centre)"
+        result = world.placement(product, before, gap.name)
+        problems = result.problems(gap.name)
+        if problems:
+            raise SkillError("; ".join(problems))
+        return f"{product} placed in {gap.name} ({1000.0 * result.distance_m:.1f} mm from its centre)"
 
 
 class DropItem(PredefinedSkill):
     """Release the held product, pull the hand straight back out of the shelf and tuck the arm in."""
 
     def run(self, world: WorldView) -> str:
-        """Release; succeed when the product stays in the gap and the hand is away from it."""
-        motion, place = world.motion, world.config.place
+        """Release; succeed when the product stays upright in the gap and the hand is away from it."""
         product, _ = world.held_product()
         if product is None:
             raise SkillError("no product in the gripper to drop")
-        motion.execution.phase("release", 0.25)
-        motion.gripper(world.config.gripper.release_width)
-        tcp, orientation = motion.tcp_pose()
-        direction = world.into_shelf()
-        motion.execution.phase("retreat", 0.4)
-        motion.move_linear(tcp - place.retreat_distance * direction, orientation)
-        motion.execution.phase("carry posture", 0.35)
-        motion.move_joints(world.config.postures["carry"])
-        horizontal, vertical = world.gap_error(product)
-        if world.held_product()[0] == product:
-            raise SkillError(f"{product} is still in the gripper after releasing it")
-        if not world.in_gap(product):
-            raise SkillError(
-                f"{product} was released but is not in the gap: {horizontal:.3f} m beside, {vertical:.3f} m off"
-            )
-        return f"{product} is on the shelf, {1000.0 * horizontal:.1f} mm from the gap's centre"
+        before = world.motion.robot.product_positions()
+        result = release(world, product, before, progress=1.0)
+        return f"{product} is on the shelf in {result.gap}, {1000.0 * result.distance_m:.1f} mm from its centre"
+
+
+def release(world: WorldView, product: str, before: Dict[str, np.ndarray], progress: float) -> Placement:
+    """Open the gripper, pull the hand straight back out of the shelf, tuck the arm in, and judge the placement.
+
+    The product is judged against the gap nearest to the hand when it lets go: the one it was being put into.
+
+    Args:
+        world: the running skill's view of the world.
+        product: the product in the hand.
+        before: every product's position [m] before it was placed (for the neighbours).
+        progress: the share of the skill's progress these three phases take.
+
+    Raises:
+        SkillError: the product is still held, or does not stand upright in a gap, or pushed a neighbour.
+    """
+    motion, place = world.motion, world.config.place
+    gap = world.gap_near_hand()
+    motion.execution.phase("release", 0.25 * progress)
+    motion.gripper(world.config.gripper.release_width)
+    tcp, orientation = motion.tcp_pose()
+    motion.execution.phase("retreat", 0.4 * progress)
+    motion.move_linear(tcp - place.retreat_distance * world.into_shelf(gap), orientation)
+    motion.execution.phase("carry posture", 0.35 * progress)
+    motion.move_joints(world.config.postures["carry"])
+    if world.held_product()[0] == product:
+        raise SkillError(f"{product} is still in the gripper after releasing it")
+    result = world.placement(product, before, gap.name)
+    problems = result.problems(gap.name)
+    if problems:
+        raise SkillError("; ".join(problems))
+    return result
 
 
 class Idle(PredefinedSkill):

@@ -1,4 +1,4 @@
-"""Replay of a demonstrated stiffness skill on the Cartesian impedance controller.
+"""Replay of a demonstrated placing skill on the Cartesian impedance controller, judged by where the product ends.
 
 The recorded stiffness K(t) and kinematic reference x_r(t) (a :class:`teleteach.skill_file.Skill`) are resampled at
 the playback rate (K linearly, which keeps it SPD; positions linearly, orientations by slerp). Each K is sent as its
@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from teleteach import skill_file
 from teleteach.skills.motion import Motion
+from teleteach.skills.predefined import WorldView, release
 from teleteach.skills.robot import SkillError
 
 PERMUTATIONS = np.array(list(itertools.permutations(range(3))))
@@ -106,10 +107,15 @@ def parse_replay_parameters(parameters: str):
 
 
 class StiffnessReplay:
-    """Plays a demonstrated skill: approach its start, switch to impedance control, play, switch back."""
+    """Places the product in the hand with a demonstrated skill, and judges the placement from the world.
 
-    def run(self, motion: Motion, parameters: str) -> str:
-        """Replay the skill the goal names; returns the success message with the final end-effector error."""
+    Approach the skill's start, switch to impedance control, play the recorded stiffness and reference, switch back,
+    release the product and retreat: the skill succeeds only when the product then stands upright in the gap the
+    playback ended at, without pushing its neighbours. With no product in the hand it fails before moving.
+    """
+
+    def run(self, world: WorldView, parameters: str) -> str:
+        """Replay the skill the goal names; returns the success message saying where the product ended."""
         path, kind = parse_replay_parameters(parameters)
         try:
             skill = skill_file.load(path)
@@ -117,12 +123,17 @@ class StiffnessReplay:
             raise SkillError(str(error)) from None
         if kind is not None and kind != skill.kind:
             raise SkillError(f"skill file {path} holds a '{skill.kind}' skill, the goal asked for '{kind}'")
+        product, _ = world.held_product()
+        if product is None:
+            raise SkillError(f"{skill.name} places a product, but there is none in the hand: pick one first")
+        motion = world.motion
         config = motion.config
         plan = plan_replay(skill, config.replay.rate)
         start_position = plan.positions[0]
         start_orientation = Rotation.from_quat(plan.orientations[0])
+        before = motion.robot.product_positions()
         motion.ensure_position_control()
-        motion.execution.phase("approach the start", 0.15)
+        motion.execution.phase("approach the start", 0.1)
         if np.linalg.norm(motion.tcp_pose()[0] - start_position) > config.replay.approach_tolerance:
             motion.move_to_pose(start_position, start_orientation)
         motion.execution.phase("switch to impedance control", 0.05)
@@ -141,16 +152,18 @@ class StiffnessReplay:
         error = float(np.linalg.norm(robot.cartesian_pose()[0] - plan.positions[-1]))
         motion.execution.phase("switch to position control", 0.05)
         robot.switch_controllers([config.position_controller], [config.impedance_controller])
+        placed = release(world, product, before, progress=0.15)
         return (
             f"replayed {skill.name} ({skill.kind}): {len(plan.times)} samples over {plan.duration:.2f} s, "
-            f"final end-effector error {1000.0 * error:.1f} mm"
+            f"final end-effector error {1000.0 * error:.1f} mm; {product} released upright in {placed.gap}, "
+            f"{1000.0 * placed.distance_m:.1f} mm from its centre"
         )
 
     @staticmethod
     def _play(motion: Motion, plan: ReplayPlan) -> None:
         """Publish the sample due now every 1/rate; when the loop lags it skips ahead, keeping the recorded timing."""
         robot, execution = motion.robot, motion.execution
-        execution.phase("replay", 0.7)
+        execution.phase("replay", 0.6)
         period, last = 1.0 / motion.config.replay.rate, len(plan.times) - 1
         start = robot.now()
         next_tick = start

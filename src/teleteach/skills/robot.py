@@ -45,8 +45,12 @@ class Robot(abc.ABC):
         """base_link in world: x [m], y [m], yaw [rad]; raises SkillError when unknown."""
 
     @abc.abstractmethod
+    def product_poses(self) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+        """Product name -> centre position [m] and (x, y, z, w) quaternion in world, as the scene reports them now."""
+
     def product_positions(self) -> Dict[str, np.ndarray]:
         """Product name -> centre position [m] in world, as the scene reports them now."""
+        return {name: position for name, (position, _) in self.product_poses().items()}
 
     @abc.abstractmethod
     def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:

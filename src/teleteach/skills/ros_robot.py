@@ -20,7 +20,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import MarkerArray
 
 from teleteach.sim import panda
-from teleteach.sim.scene import PRODUCTS_NAMESPACE, product_positions
+from teleteach.sim.scene import PRODUCTS_NAMESPACE, product_poses
 from teleteach.skills.motion import yaw_rotation
 from teleteach.skills.robot import Robot, SkillError
 from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
@@ -80,7 +80,7 @@ class RosRobot(Robot):
                 self._lock.notify_all()
 
     def _on_scene(self, msg):
-        products = product_positions(msg.markers)
+        products = product_poses(msg.markers)
         stamps = [marker.header.stamp.to_sec() for marker in msg.markers if marker.ns == PRODUCTS_NAMESPACE]
         with self._lock:
             self._products = products
@@ -134,12 +134,12 @@ class RosRobot(Robot):
         yaw = 2.0 * np.arctan2(rotation.z, rotation.w)
         return float(translation.x), float(translation.y), float(np.arctan2(np.sin(yaw), np.cos(yaw)))
 
-    def product_positions(self) -> Dict[str, np.ndarray]:
-        """Product centres in world from the latest /teleteach/scene no older than SCENE_FRESHNESS."""
+    def product_poses(self) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+        """Product poses in world from the latest /teleteach/scene no older than SCENE_FRESHNESS."""
         wanted = self.now() - SCENE_FRESHNESS
         with self._lock:
             self._lock.wait_for(lambda: self._scene_stamp >= wanted or rospy.is_shutdown(), timeout=SCENE_WAIT)
-            return {name: position.copy() for name, position in self._products.items()}
+            return {name: (position.copy(), quaternion.copy()) for name, (position, quaternion) in self._products.items()}
 
     def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
         """Latest /cartesian_pose (TCP in base_link)."""

@@ -72,7 +72,7 @@ class SkillRunner:
         motion = Motion(self.robot, self.config, self.ik, execution)
         try:
             if name == REPLAY_SKILL:
-                message = self.replay.run(motion, parameters)
+                message = self.replay.run(WorldView(motion, self.scene), parameters)
             else:
                 skill = self.skills[name]
                 settings = parse_settings(parameters)

@@ -47,9 +47,9 @@ class SimRobot(Robot):
         x, y, yaw = self.sim.world.base_pose
         return float(x), float(y), float(yaw)
 
-    def product_positions(self) -> Dict[str, np.ndarray]:
-        """Product centres in world [m]."""
-        return {name: pose[0] for name, pose in self.sim.world.product_poses().items()}
+    def product_poses(self) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+        """Product centres [m] and orientations in world."""
+        return self.sim.world.product_poses()
 
     def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
         """TCP in base_link as the controllers see it."""
