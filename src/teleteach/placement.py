@@ -1,5 +1,4 @@
-"""Where a product ended on the shelf, judged from the world: in which gap, how far from its target, upright or not,
-and how far it pushed its neighbours.
+"""Where a product ended on the shelf, judged from the world: gap, distance, upright or not, neighbours pushed.
 
 One judgement for everyone who asks "was it placed?": the placing skills (PlaceItem, DropItem, ReplaySkill) on the
 robot's live view of the scene, and run_thesis on the scene recorded in the bag. Plain data in, no ROS.
@@ -140,6 +139,9 @@ def placed_products(
         if start is None or np.linalg.norm(np.asarray(pose[0]) - np.asarray(start)) <= CARRIED:
             continue
         placement = judge(scene, name, pose, initial, positions)
-        if placement.height_error_m <= HEIGHT_TOLERANCE and placement.distance_m <= 2.0 * scene.gap(placement.nearest_gap).width:
+        if (
+            placement.height_error_m <= HEIGHT_TOLERANCE
+            and placement.distance_m <= 2.0 * scene.gap(placement.nearest_gap).width
+        ):
             placements.append(placement)
     return placements

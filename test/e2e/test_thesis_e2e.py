@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
-from rosbags.highlevel import AnyReader
+from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
-from teleteach.sim.scene import load_scene, product_positions
+from teleteach.recording.session import read_session
+from teleteach.sim.scene import load_scene
 
 RUN_TIMEOUT = 330.0  # [s] wall: the runner bounds itself to well under 5 minutes
 
@@ -37,15 +38,10 @@ def run(tmp_path_factory):
 
 
 def scene_products(bag):
-    """First and last product positions [m] on /teleteach/scene."""
-    first, last = None, None
-    with AnyReader([bag]) as reader:
-        connections = [c for c in reader.connections if c.topic == "/teleteach/scene"]
-        for connection, _, raw in reader.messages(connections=connections):
-            message = reader.deserialize(raw, connection.msgtype)
-            products = product_positions(message.markers)
-            first = first or products
-            last = products
+    """First and last product poses (centre [m], quaternion) on /teleteach/scene, read with the project's bag reader."""
+    products = read_session(bag).products
+    first = {name: (series.values[0, :3], series.values[0, 3:]) for name, series in products.items()}
+    last = {name: (series.values[-1, :3], series.values[-1, 3:]) for name, series in products.items()}
     return first, last
 
 
@@ -67,8 +63,8 @@ def test_tree_after_iii_b_and_iii_e_is_exactly_as_expected(run):
     summary = json.loads((folder / "summary.json").read_text())
     taught = summary["taught_skills"][0]["name"]
     after_b = [name for name in initial if name != "PlaceItem"]
-    after_e = after_b[:7] + [taught] + after_b[7:]
-    # Expect: exactly two edits, III-B's removal then III-E's insertion at the dialled index 7
+    after_e = after_b[:8] + [taught] + after_b[8:]
+    # Expect: exactly two edits, III-B's removal then III-E's insertion at the dialled index 8 (after MoveBase2)
     assert summary["tree_changes"] == [initial, after_b, after_e]
     children = [child["name"] for child in yaml.safe_load((folder / "tree_after.yaml").read_text())["children"]]
     assert children == after_e
@@ -98,24 +94,38 @@ def test_recorded_stiffness_shows_the_three_phases_of_iii_c(run):
     assert skill.equilibrium_pose[-1, :3] == pytest.approx([0.61, 0.0, 0.755], abs=1e-3)
 
 
-def test_product_ends_in_the_gap_and_the_neighbours_stay(run):
+def test_both_products_end_upright_in_their_gaps_and_the_neighbours_stay(run):
     _, folder = run
     scene = load_scene()
     first, last = scene_products(next(folder.glob("*.bag")))
-    offset = last["product_pick_1"] - np.array(scene.gap.position)
-    assert np.hypot(offset[0], offset[1]) < 0.02 and abs(offset[2]) < 0.02, offset
+    # Expect, from the scene recorded in the bag: product 1 in gap_1 (the demonstration), product 2 in gap_2 (the
+    # taught skill, reused by the tree), both upright; nothing else on the shelves moved by more than 1 cm
+    for product, gap in (("product_pick_1", "gap_1"), ("product_pick_2", "gap_2")):
+        position, quaternion = last[product]
+        horizontal, vertical = scene.gap(gap).distance(position)
+        assert horizontal < scene.gap(gap).tolerance and vertical < 0.02, (product, position)
+        assert Rotation.from_quat(quaternion).apply([0.0, 0.0, 1.0])[2] > np.cos(np.radians(10.0)), product
     for name in first:
         if name.startswith("product_shelf") or name.startswith("product_low"):
-            assert np.linalg.norm(last[name] - first[name]) < 0.01, name
+            assert np.linalg.norm(last[name][0] - first[name][0]) < 0.01, name
 
 
-def test_tree_runs_the_taught_skill_on_the_robot(run):
-    _, folder = run
+def test_tree_reuses_the_taught_skill_to_place_the_second_product(run):
+    result, folder = run
+    summary = json.loads((folder / "summary.json").read_text())
+    taught = summary["taught_skills"][0]["name"]
     children = yaml.safe_load((folder / "tree_after.yaml").read_text())["children"]
-    taught = next(child for child in children if child["skill"].startswith("DemonstratedPlace"))
-    assert taught["status"] == "success", taught
-    assert taught["message"].startswith(f"replayed {taught['skill']} (stiffness)"), taught
+    leaf = next(child for child in children if child["skill"] == taught)
+    assert leaf["status"] == "success", leaf
+    assert leaf["message"].startswith(f"replayed {taught} (stiffness)"), leaf
+    assert "product_pick_2 released upright in gap_2" in leaf["message"], leaf
     assert all(child["status"] == "success" for child in children), children
+    # Expect: the summary's placements, computed from the bag, credit the taught skill with product 2 in gap_2
+    by_product = {entry["product"]: entry for entry in summary["placements"]}
+    assert by_product["product_pick_1"]["gap"] == "gap_1"
+    assert by_product["product_pick_2"]["gap"] == "gap_2" and by_product["product_pick_2"]["by_skill"] == taught
+    assert "product product_pick_2: on the shelf in gap_2, upright" in result.stdout
+    assert f"put there by {taught}" in result.stdout
 
 
 def test_run_folder_holds_bag_report_and_screenshots(run):
@@ -153,8 +163,8 @@ def test_thesis_iii_d_turns_the_ellipsoid_and_places_at_45_degrees(tmp_path):
     # and the product it placed stands in the gap, the neighbours untouched
     scene = load_scene()
     first, last = scene_products(next(folder.glob("*.bag")))
-    offset = last["product_pick_1"] - np.array(scene.gap.position)
-    assert np.hypot(offset[0], offset[1]) < 0.02 and abs(offset[2]) < 0.02, offset
+    horizontal, vertical = scene.gap("gap_1").distance(last["product_pick_1"][0])
+    assert horizontal < 0.02 and vertical < 0.02, last["product_pick_1"]
     for name in first:
         if name.startswith("product_shelf"):
-            assert np.linalg.norm(last[name] - first[name]) < 0.01, name
+            assert np.linalg.norm(last[name][0] - first[name][0]) < 0.01, name

@@ -54,7 +54,7 @@ class HelpRequestOnTheRobot(unittest.TestCase):
             self.assertEqual(view.status(name), "SUCCESS", f"{name}: {view.summary()[name]}")
         self.assertTrue(robot.goals_sent_as(["LookToShelf", "PickItem", *EDITED[1:]]), robot.sent_goals())
         horizontal, vertical = robot.gap_distance("product_pick_2")
-        self.assertLessEqual(horizontal, robot.scene.gap.tolerance)
+        self.assertLessEqual(horizontal, robot.scene.gap("gap_1").tolerance)
         self.assertLess(vertical, 0.02)
 
 

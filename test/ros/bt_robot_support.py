@@ -59,6 +59,6 @@ class RobotView:
         with self.lock:
             return self.products[name].copy()
 
-    def gap_distance(self, name):
-        """Horizontal and vertical distance [m] of the product's centre from the gap target of the scene file."""
-        return self.scene.gap.distance(self.product(name))
+    def gap_distance(self, name, gap="gap_1"):
+        """Horizontal and vertical distance [m] of the product's centre from a gap target of the scene file."""
+        return self.scene.gap(gap).distance(self.product(name))

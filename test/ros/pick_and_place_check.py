@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The whole predefined sequence through the action servers: product_pick_1 must end in the shelf's gap."""
+"""The whole predefined sequence through the action servers: product_pick_1 must end in the shelf's gap_1."""
 
 import math
 import pathlib
@@ -47,7 +47,7 @@ class PickAndPlaceTest(unittest.TestCase):
             return self.products[name].copy()
 
     def gap_distance(self, name):
-        return self.scene.gap.distance(self.product(name))
+        return self.scene.gap("gap_1").distance(self.product(name))
 
     def run_skill(self, name, skill=None, parameters="", cancel_after=None):
         client = actionlib.SimpleActionClient(f"/skills/{name}", ExecuteSkillAction)
@@ -84,11 +84,11 @@ class PickAndPlaceTest(unittest.TestCase):
                 self.assertGreater(self.product("product_pick_1")[2], table_top + 0.2)
             if name == "DropItem":
                 horizontal, vertical = self.gap_distance("product_pick_1")
-                self.assertLessEqual(horizontal, self.scene.gap.tolerance)
+                self.assertLessEqual(horizontal, self.scene.gap("gap_1").tolerance)
                 self.assertLess(vertical, 0.02)
         # Expect: at the end the first product still stands in the gap, the second one is carried
         horizontal, vertical = self.gap_distance("product_pick_1")
-        self.assertLessEqual(horizontal, self.scene.gap.tolerance)
+        self.assertLessEqual(horizontal, self.scene.gap("gap_1").tolerance)
         self.assertLess(vertical, 0.02)
         self.assertGreater(self.product("product_pick_2")[2], table_top + 0.2)
         # Expect: the neighbours in the shelf were not pushed

@@ -67,26 +67,13 @@ def test_alignment_axis_yaw_follows_the_turned_ellipsoid():
 
 def test_options_follow_the_scenario():
     full = options_for(ROOT / "config" / "scenarios" / "thesis_full.yaml")
-    assert (full.removed, full.insert_index, full.trajectory) == ("PlaceItem", 7, "perpendicular")
+    assert (full.removed, full.insert_index, full.trajectory) == ("PlaceItem", 8, "perpendicular")
+    assert full.placements == (("product_pick_1", "gap_1", False), ("product_pick_2", "gap_2", True))
     angled = options_for(ROOT / "config" / "scenarios" / "thesis_III_D.yaml", timeout=10.0)
     assert angled.tree == ROOT / "config" / "scenarios" / "thesis_III_D_tree.yaml" and angled.tree.is_file()
     assert (angled.trajectory, angled.removed, angled.insert_index, angled.timeout) == ("angled_45", None, None, 10.0)
     assert not angled.stiffer_insertion and angled.alignment_yaw == 45.0
-
-
-def test_placement_measures_the_gap_and_the_neighbours():
-    initial = {"product_pick_1": [0.6, 0.0, 0.5], "product_shelf_3": [2.06, -0.085, 0.72], "product_low_1": [0, 0, 0]}
-    final = {"product_pick_1": [2.07, 0.005, 0.722], "product_shelf_3": [2.06, -0.1, 0.72], "product_low_1": [1, 0, 0]}
-    placed = outcome.placement("product_pick_1", (2.06, 0.0, 0.72), initial, final)
-    assert placed.horizontal_error == pytest.approx(np.hypot(0.01, 0.005))
-    assert placed.vertical_error == pytest.approx(0.002)
-    assert placed.neighbour_moves == {"product_shelf_3": pytest.approx(0.015)}
-    assert placed.displaced == ["product_shelf_3"]
-    assert placed.check() == ["neighbour product_shelf_3 moved 1.5 cm (limit 1 cm)"]
-    fallen = outcome.placement("product_pick_1", (2.06, 0.0, 0.72), initial, {"product_pick_1": [1.8, 0.1, 0.03]})
-    assert "NOT" not in fallen.check()[0] and "above/below the gap's target" in fallen.check()[0]
-    with pytest.raises(ValueError, match="no final position"):
-        outcome.placement("product_pick_1", (2.06, 0.0, 0.72), initial, {})
+    assert angled.placements == (("product_pick_1", "gap_1", False),)
 
 
 def test_tree_sequences_and_edits():

@@ -1,8 +1,9 @@
 """A recorded teaching session read offline from its bag with the ``rosbags`` library (no ROS master).
 
-Only what the report needs is deserialised: device pose, gripper and button, active tab, eigenvalues and
-eigenvectors, end-effector position and the tree log. Times are seconds since the bag's first message
-(the bag's receive time, so topics without a header line up with the others).
+Only what the report and the run's checks need is deserialised: device pose, gripper and button, active tab,
+eigenvalues and eigenvectors, end-effector position, the tree log and the products' poses on /teleteach/scene.
+Times are seconds since the bag's first message (the bag's receive time, so topics without a header line up with
+the others).
 """
 
 import dataclasses
@@ -15,6 +16,9 @@ from scipy.spatial.transform import Rotation
 
 from teleteach.control.validation import InvalidCommandError, validate_eigenvalues, validate_quaternion
 from teleteach.recording.bags import BagError, check_bag
+from teleteach.sim.scene import product_poses
+
+RUNNING, SUCCESS = 2, 3  # teleteach/Behaviour statuses (the message module needs the catkin build, this does not)
 
 
 class SessionError(ValueError):
@@ -39,11 +43,12 @@ class Series:
 
 @dataclasses.dataclass
 class TreeSnapshot:
-    """The tree's structure at one time: behaviour names depth-first, and each composite's children in order."""
+    """The tree at one time: behaviour names depth-first, each composite's children in order, the running leaves."""
 
     time: float
     names: Tuple[str, ...]
     children: Dict[str, Tuple[str, ...]]
+    running: Tuple[str, ...] = ()
 
 
 @dataclasses.dataclass
@@ -71,6 +76,7 @@ class Session:
     eigenvectors: Optional[Series] = None
     cartesian_position: Optional[Series] = None
     trees: List[TreeSnapshot] = dataclasses.field(default_factory=list)
+    products: Dict[str, Series] = dataclasses.field(default_factory=dict)
     rejected: Dict[str, int] = dataclasses.field(default_factory=dict)
 
 
@@ -138,6 +144,16 @@ def tree_structure(behaviours) -> Tuple[Tuple[str, ...], Dict[str, Tuple[str, ..
     return tuple(names), children
 
 
+def running_leaves(behaviours) -> Tuple[str, ...]:
+    """Names of the leaves of a teleteach/BehaviourTree message that are running: none while the tree is paused.
+
+    A pause suspends the running leaf (it keeps its RUNNING status, unticked); a succeeding PauseCondition says so.
+    """
+    if any(b.class_name == "PauseCondition" and b.status == SUCCESS for b in behaviours):
+        return ()
+    return tuple(b.name for b in behaviours if not b.child_ids and b.status == RUNNING)
+
+
 _READ = {
     "/sigma7/pose": "geometry_msgs/msg/PoseStamped",
     "/sigma7/gripper_angle": "std_msgs/msg/Float64",
@@ -147,6 +163,7 @@ _READ = {
     "/eigenvectors": "geometry_msgs/msg/QuaternionStamped",
     "/cartesian_pose": "geometry_msgs/msg/PoseStamped",
     "/behaviour_tree/log/tree": "teleteach/msg/BehaviourTree",
+    "/teleteach/scene": "visualization_msgs/msg/MarkerArray",
 }
 """Topics the report reads, with the type it expects on each (others are counted, not read)."""
 
@@ -209,12 +226,18 @@ def _read(reader, path: pathlib.Path) -> Session:
     times: Dict[str, List[float]] = {topic: [] for topic in _READ}
     rows: Dict[str, List[tuple]] = {topic: [] for topic in _READ}
     trees: List[TreeSnapshot] = []
+    poses: Dict[str, Tuple[List[float], List[tuple]]] = {}
     for connection, timestamp, raw in reader.messages(connections=wanted):
         message = reader.deserialize(raw, connection.msgtype)
         time = (timestamp - start) / 1e9
         if connection.topic == "/behaviour_tree/log/tree":
             names, children = tree_structure(message.behaviours)
-            trees.append(TreeSnapshot(time, names, children))
+            trees.append(TreeSnapshot(time, names, children, running_leaves(message.behaviours)))
+        elif connection.topic == "/teleteach/scene":
+            for name, (position, quaternion) in product_poses(message.markers).items():
+                poses.setdefault(name, ([], []))
+                poses[name][0].append(time)
+                poses[name][1].append((*position, *quaternion))
         else:
             times[connection.topic].append(time)
             rows[connection.topic].append(_row(connection.topic, message))
@@ -244,5 +267,6 @@ def _read(reader, path: pathlib.Path) -> Session:
         eigenvectors=eigenvectors,
         cartesian_position=Series(cartesian.times, cartesian.values[:, :3]) if cartesian else None,
         trees=trees,
+        products={name: _series(*samples) for name, samples in poses.items()},
         rejected={topic: count for topic, count in rejected.items() if count},
     )

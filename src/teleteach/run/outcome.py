@@ -10,6 +10,9 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from teleteach import placement
+from teleteach.recording.session import Session
+from teleteach.sim.scene import Scene
 from teleteach.skill_file import Skill
 
 # Phases of the demonstration trajectories [s from the start of the recording]: approach, alignment, insertion
@@ -81,51 +84,68 @@ def alignment_axis_yaw(skill: Skill, trajectory: str = "perpendicular") -> float
     return yaw - 180.0 if yaw > 90.0 else yaw + 180.0 if yaw <= -90.0 else yaw
 
 
-@dataclasses.dataclass
-class Placement:
-    """Where the placed product ended relative to the gap, and how far every other shelf product moved [m]."""
-
-    product: str
-    horizontal_error: float
-    vertical_error: float
-    neighbour_moves: Dict[str, float]
-
-    def check(self, tolerance: float = 0.02, neighbour_limit: float = 0.01) -> List[str]:
-        """Problems with the placement (empty: on the shelf in the gap, neighbours in place)."""
-        problems = []
-        if self.horizontal_error > tolerance or self.vertical_error > tolerance:
-            problems.append(
-                f"{self.product} is {100 * self.horizontal_error:.1f} cm beside and {100 * self.vertical_error:.1f} cm "
-                f"above/below the gap's target (limit {100 * tolerance:.0f} cm)"
-            )
-        for name, moved in sorted(self.neighbour_moves.items()):
-            if moved > neighbour_limit:
-                problems.append(f"neighbour {name} moved {100 * moved:.1f} cm (limit {100 * neighbour_limit:.0f} cm)")
-        return problems
-
-    @property
-    def displaced(self) -> List[str]:
-        """Neighbours moved by more than 1 cm."""
-        return sorted(name for name, moved in self.neighbour_moves.items() if moved > 0.01)
+LOW_LEVEL_TEACHING = "LOW-LEVEL teaching"  # by_skill of a product set down while the operator taught it
+LOW_LEVEL_TAB = 2  # /teleteach/active_tab of LOW-LEVEL
+REST = 0.005  # [m] a product within this of its final position has come to rest there
 
 
-def placement(
-    product: str,
-    gap_position: Sequence[float],
-    initial: Dict[str, np.ndarray],
-    final: Dict[str, np.ndarray],
-    shelf_prefix: str = "product_shelf",
-) -> Placement:
-    """Compare product positions (world [m]) at the start and the end of a run."""
-    if product not in final:
-        raise ValueError(f"no final position of {product}")
-    offset = np.asarray(final[product], dtype=float) - np.asarray(gap_position, dtype=float)
-    moves = {
-        name: float(np.linalg.norm(np.asarray(final[name]) - np.asarray(start)))
-        for name, start in initial.items()
-        if name.startswith(shelf_prefix) and name in final
-    }
-    return Placement(product, float(np.hypot(offset[0], offset[1])), float(abs(offset[2])), moves)
+def placements(session: Session, scene: Scene) -> List[dict]:
+    """Every product that ended on a shelf, judged from the scene recorded in the bag (teleteach.placement).
+
+    Each entry: product, gap (None when in none), distance_m from the nearest gap's target, upright,
+    neighbours_max_move_m, and by_skill: who put it where it ended, i.e. the tree leaf running when it came to rest
+    there (it stays put once let go), or LOW-LEVEL teaching when the operator's demonstration set it down (the tree
+    paused).
+    """
+    initial = {name: series.values[0, :3] for name, series in session.products.items()}
+    final = {name: (series.values[-1, :3], series.values[-1, 3:]) for name, series in session.products.items()}
+    entries = []
+    for result in placement.placed_products(scene, initial, final):
+        series = session.products[result.product]
+        away = np.flatnonzero(np.linalg.norm(series.values[:, :3] - series.values[-1, :3], axis=1) > REST)
+        rest = series.times[away[-1] + 1] if away.size and away[-1] + 1 < len(series) else series.times[0]
+        entries.append(
+            {
+                "product": result.product,
+                "gap": result.gap,
+                "distance_m": round(result.distance_m, 4),
+                "upright": result.upright,
+                "by_skill": _set_down_by(session, rest),
+                "neighbours_max_move_m": round(result.neighbours_max_move_m, 4),
+            }
+        )
+    return entries
+
+
+def _set_down_by(session: Session, time: float) -> Optional[str]:
+    """The tree leaf running at time; else LOW-LEVEL teaching while that tab was open (the tree paused); else None."""
+    snapshots = [tree for tree in session.trees if tree.time <= time]
+    running = [name for name in (snapshots[-1].running if snapshots else ()) if name != "PauseCondition"]
+    if running:
+        return running[0]
+    if session.active_tab is not None and len(session.active_tab) and session.active_tab.at(time) == LOW_LEVEL_TAB:
+        return LOW_LEVEL_TEACHING
+    return None
+
+
+def placement_problems(entries: List[dict], expected: Dict[str, Tuple[str, Optional[str]]]) -> List[str]:
+    """What differs from the expected placements: product -> (gap, by_skill or None for anyone)."""
+    problems = []
+    by_product = {entry["product"]: entry for entry in entries}
+    for product, (gap, by_skill) in expected.items():
+        entry = by_product.get(product)
+        if entry is None:
+            problems.append(f"{product} did not end on the shelf (expected in {gap})")
+            continue
+        if entry["gap"] != gap:
+            problems.append(f"{product} ended {100 * entry['distance_m']:.1f} cm from a gap's centre, not in {gap}")
+        if not entry["upright"]:
+            problems.append(f"{product} is not upright")
+        if by_skill is not None and entry["by_skill"] != by_skill:
+            problems.append(f"{product} was set down by {entry['by_skill']}, not by {by_skill}")
+        if entry["neighbours_max_move_m"] > placement.NEIGHBOUR_LIMIT:
+            problems.append(f"{product}'s neighbours moved {100 * entry['neighbours_max_move_m']:.1f} cm")
+    return problems
 
 
 def sequence_changes(sequences: Sequence[Tuple[str, ...]]) -> List[Tuple[str, ...]]:

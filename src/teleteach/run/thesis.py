@@ -24,7 +24,7 @@ from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.haptics.scenario import load_scenario
 from teleteach.run import outcome
 from teleteach.run.processes import ProcessError, Processes, free_port, screenshot, start_xvfb
-from teleteach.sim.scene import load_scene, product_positions
+from teleteach.sim.scene import SceneError, load_scene, product_positions
 
 PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[3]
 DEFAULT_SCENARIO = PACKAGE_DIR / "config" / "scenarios" / "thesis_full.yaml"
@@ -45,9 +45,14 @@ class Options:
     rviz: bool = True
     tree: pathlib.Path = TREE_FILE
     trajectory: str = "perpendicular"
-    placed_product: str = "product_pick_1"
+    # (product, gap, placed by the taught skill) for every product that must end in a gap: III-C's demonstration puts
+    # product 1 into gap_1, the tree's second round reuses the taught skill to put product 2 into gap_2 (III-E)
+    placements: Tuple[Tuple[str, str, bool], ...] = (
+        ("product_pick_1", "gap_1", False),
+        ("product_pick_2", "gap_2", True),
+    )
     removed: Optional[str] = "PlaceItem"  # III-B; None: the tree must stay as it was
-    insert_index: Optional[int] = 7  # III-E; None: the taught skill is not inserted
+    insert_index: Optional[int] = 8  # III-E: after MoveBase2 (to gap_2); None: the taught skill is not inserted
     stiffer_insertion: bool = True  # III-C's peg-in-hole X stiffening (III-D omits it)
     alignment_yaw: Optional[float] = None  # [deg] III-D: direction of the stiffest horizontal axis after alignment
     device_rate: float = 250.0
@@ -61,6 +66,7 @@ def options_for(scenario: pathlib.Path, **overrides) -> Options:
         profile = dict(
             tree=scenario.with_name("thesis_III_D_tree.yaml"),
             trajectory="angled_45",
+            placements=(("product_pick_1", "gap_1", False),),
             removed=None,
             insert_index=None,
             stiffer_insertion=False,
@@ -444,16 +450,19 @@ class ThesisRun:
                 problems.append(f"taught skill unreadable: {error}")
         if options.alignment_yaw is not None and yaw is not None and abs(yaw - options.alignment_yaw) > 5.0:
             problems.append(f"stiffest horizontal axis at {yaw:.0f} deg after alignment, not {options.alignment_yaw:g}")
-        # placement
-        placement = None
-        try:
-            scene = load_scene()
-            placement = outcome.placement(
-                options.placed_product, scene.gap.position, monitor.initial_products, monitor.final_products
-            )
-            problems += placement.check()
-        except ValueError as error:
-            problems.append(str(error))
+        # placements, judged from the scene recorded in the bag
+        placements: List[dict] = []
+        if bag is not None:
+            from teleteach.recording.session import SessionError, read_session
+
+            try:
+                placements = outcome.placements(read_session(bag), load_scene())
+            except (SessionError, SceneError) as error:
+                problems.append(f"placements unreadable: {error}")
+            expected = {
+                product: (gap, taught_name if by_taught else None) for product, gap, by_taught in options.placements
+            }
+            problems += outcome.placement_problems(placements, expected)
         # report
         report_dir = folder / "report"
         figures: List[str] = []
@@ -485,8 +494,7 @@ class ThesisRun:
             "alignment_ratio": phases.alignment_ratio if phases else None,
             "insertion_ratio": phases.insertion_ratio if phases else None,
             "alignment_axis_yaw_deg": yaw,
-            "placement": dataclasses.asdict(placement) if placement else None,
-            "neighbours_displaced": placement.displaced if placement else None,
+            "placements": placements,
             "help_requests": monitor.help_requests,
             "tabs": monitor.tabs,
             "screenshots": sorted(path.name for path in folder.glob("*.png")),
@@ -524,20 +532,16 @@ def format_summary(summary: dict) -> str:
             f"insertion X {phases['insertion_x']:.0f} N/m ({summary['insertion_ratio']:.1f}x); stiffest horizontal "
             f"axis after alignment at {summary['alignment_axis_yaw_deg']:.0f} deg"
         )
-    placement = summary["placement"]
-    if placement:
-        on_shelf = placement["horizontal_error"] <= 0.02 and placement["vertical_error"] <= 0.02
+    for entry in summary["placements"]:
+        where = f"in {entry['gap']}" if entry["gap"] else "in NO gap"
+        upright = "upright" if entry["upright"] else "NOT upright"
         lines.append(
-            f"- product {placement['product']}: {'on the shelf in the gap' if on_shelf else 'NOT in the gap'} "
-            f"({100 * placement['horizontal_error']:.1f} cm from the target, "
-            f"{100 * placement['vertical_error']:.1f} cm in height)"
+            f"- product {entry['product']}: on the shelf {where}, {upright}, {100 * entry['distance_m']:.1f} cm from "
+            f"the nearest gap's centre, put there by {entry['by_skill'] or 'nobody known'}; its neighbours moved at "
+            f"most {1000 * entry['neighbours_max_move_m']:.1f} mm"
         )
-        moved = max(placement["neighbour_moves"].values(), default=0.0)
-        displaced = summary["neighbours_displaced"]
-        lines.append(
-            f"- neighbours: {'displaced: ' + ', '.join(displaced) if displaced else 'not displaced'} "
-            f"(largest move {1000 * moved:.1f} mm)"
-        )
+    if not summary["placements"]:
+        lines.append("- products: none ended on the shelf")
     lines.append(
         f"- files: {summary['bag']}, report/ ({len(summary['figures'])} figures), screenshots: "
         f"{len(summary['screenshots'])}, tree_before/after.yaml/.txt, skills/"

@@ -201,7 +201,12 @@ def product_poses(markers: Iterable) -> Dict[str, Tuple[np.ndarray, np.ndarray]]
         marker.text: (
             np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z]),
             np.array(
-                [marker.pose.orientation.x, marker.pose.orientation.y, marker.pose.orientation.z, marker.pose.orientation.w]
+                [
+                    marker.pose.orientation.x,
+                    marker.pose.orientation.y,
+                    marker.pose.orientation.z,
+                    marker.pose.orientation.w,
+                ]
             ),
         )
         for marker in markers

@@ -139,7 +139,9 @@ class RosRobot(Robot):
         wanted = self.now() - SCENE_FRESHNESS
         with self._lock:
             self._lock.wait_for(lambda: self._scene_stamp >= wanted or rospy.is_shutdown(), timeout=SCENE_WAIT)
-            return {name: (position.copy(), quaternion.copy()) for name, (position, quaternion) in self._products.items()}
+            return {
+                name: (position.copy(), quaternion.copy()) for name, (position, quaternion) in self._products.items()
+            }
 
     def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
         """Latest /cartesian_pose (TCP in base_link)."""

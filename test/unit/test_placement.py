@@ -1,0 +1,137 @@
+"""The one placement judgement (teleteach.placement) and the run's placements read from a recorded session."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from teleteach import placement
+from teleteach.recording.session import Series, Session, TreeSnapshot
+from teleteach.run import outcome
+from teleteach.sim.scene import SceneError, load_scene
+
+UPRIGHT = (0.0, 0.0, 0.0, 1.0)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load_scene()
+
+
+def shelf(scene):
+    """Every product's centre at the start [m]."""
+    return {product.name: np.array(product.position) for product in scene.products}
+
+
+def test_a_product_upright_in_a_gap_with_its_neighbours_in_place(scene):
+    initial = shelf(scene)
+    final = dict(initial, product_pick_2=np.array([2.065, 0.42, 0.721]))
+    judged = placement.judge(scene, "product_pick_2", (final["product_pick_2"], UPRIGHT), initial, final)
+    # Expect: in gap_2, 1.1 cm off its centre, upright; its neighbours (within two gap widths) did not move
+    assert judged.gap == "gap_2" and judged.nearest_gap == "gap_2"
+    assert judged.distance_m == pytest.approx(np.hypot(0.005, 0.01))
+    assert judged.upright and judged.problems() == [] and judged.problems("gap_2") == []
+    assert set(judged.neighbour_moves) == {"product_shelf_6", "product_shelf_7", "product_shelf_8", "product_shelf_9"}
+
+
+def test_outside_the_gap_tilted_or_pushing_a_neighbour_is_named(scene):
+    initial = shelf(scene)
+    final = dict(initial, product_pick_2=np.array([2.06, 0.451, 0.72]), product_shelf_9=np.array([2.06, 0.51, 0.72]))
+    tilted = Rotation.from_euler("x", 30.0, degrees=True).as_quat()
+    judged = placement.judge(scene, "product_pick_2", (final["product_pick_2"], tilted), initial, final)
+    assert judged.gap is None and not judged.upright
+    assert judged.problems() == [
+        "product_pick_2 ended 4.1 cm from gap_2 (0.0 cm in height)",
+        "product_pick_2 is not upright (tilted 30 deg)",
+        "product_pick_2's neighbour product_shelf_9 moved 1.5 cm",
+    ]
+    # in gap_1 while gap_2 was meant: the distances are measured from gap_2
+    final = dict(initial, product_pick_2=np.array([2.06, 0.0, 0.72]))
+    judged = placement.judge(scene, "product_pick_2", (final["product_pick_2"], UPRIGHT), initial, final, "gap_2")
+    assert judged.gap is None and judged.problems("gap_2") == [
+        "product_pick_2 ended 41.0 cm from gap_2 (0.0 cm in height)"
+    ]
+
+
+def test_a_gap_the_scene_does_not_have_is_a_clear_error(scene):
+    initial = shelf(scene)
+    with pytest.raises(SceneError, match="no gap 'gap_7'"):
+        placement.judge(scene, "product_pick_1", (initial["product_pick_1"], UPRIGHT), initial, initial, "gap_7")
+
+
+def test_placed_products_are_the_carried_ones_that_ended_near_a_gap(scene):
+    initial = shelf(scene)
+    final = {name: (position, UPRIGHT) for name, position in initial.items()}
+    final["product_pick_1"] = (np.array([2.06, 0.004, 0.72]), UPRIGHT)  # placed
+    final["product_pick_2"] = (np.array([1.8, 0.4, 0.03]), UPRIGHT)  # dropped on the floor
+    final["product_shelf_3"] = (initial["product_shelf_3"] + [0.0, -0.02, 0.0], UPRIGHT)  # pushed, not carried
+    placed = placement.placed_products(scene, initial, final)
+    assert [(entry.product, entry.gap) for entry in placed] == [("product_pick_1", "gap_1")]
+    assert placed[0].displaced == ["product_shelf_3"]
+
+
+def session_of(scene, product_paths, running, tabs):
+    """A recorded session: each product's (times, positions), the running leaf over time, the active tab."""
+    products = {}
+    for product in scene.products:
+        times, positions = product_paths.get(product.name, ([0.0, 100.0], [product.position, product.position]))
+        values = np.hstack([np.asarray(positions, dtype=float), np.tile(UPRIGHT, (len(times), 1))])
+        products[product.name] = Series(np.asarray(times, dtype=float), values)
+    trees = [TreeSnapshot(time, (), {}, (leaf,) if leaf else ()) for time, leaf in running]
+    tab_times, tab_values = zip(*tabs)
+    active_tab = Series(np.array(tab_times, dtype=float), np.array(tab_values, dtype=float)[:, None])
+    return Session(
+        path=None, start_ns=0, duration=100.0, topics={}, active_tab=active_tab, trees=trees, products=products
+    )
+
+
+def test_run_placements_say_who_set_each_product_down(scene):
+    pick_1, pick_2 = scene.product("product_pick_1").position, scene.product("product_pick_2").position
+    gap_1, gap_2 = scene.gap("gap_1").position, scene.gap("gap_2").position
+    session = session_of(
+        scene,
+        {
+            # carried 10-20 s, set down by the operator's demonstration at 25 s, still there when DropItem lets go
+            "product_pick_1": (
+                [0.0, 10.0, 20.0, 25.0, 30.0, 100.0],
+                [pick_1, pick_1, [1.9, 0.0, 0.75], gap_1, gap_1, gap_1],
+            ),
+            # carried 40-60 s, set down at 70 s while the taught skill runs
+            "product_pick_2": ([0.0, 40.0, 60.0, 70.0, 100.0], [pick_2, pick_2, [1.9, 0.41, 0.75], gap_2, gap_2]),
+        },
+        running=[
+            (0.0, "PickItem"),
+            (15.0, "MoveBase"),
+            (22.0, None),
+            (29.0, "DropItem"),
+            (65.0, "Taught_1"),
+            (80.0, "Idle"),
+        ],
+        tabs=[(0.0, 0), (21.0, 2), (31.0, 0)],
+    )
+    entries = outcome.placements(session, scene)
+    assert entries == [
+        {
+            "product": "product_pick_1",
+            "gap": "gap_1",
+            "distance_m": 0.0,
+            "upright": True,
+            "by_skill": outcome.LOW_LEVEL_TEACHING,
+            "neighbours_max_move_m": 0.0,
+        },
+        {
+            "product": "product_pick_2",
+            "gap": "gap_2",
+            "distance_m": 0.0,
+            "upright": True,
+            "by_skill": "Taught_1",
+            "neighbours_max_move_m": 0.0,
+        },
+    ]
+    expected = {"product_pick_1": ("gap_1", None), "product_pick_2": ("gap_2", "Taught_1")}
+    assert outcome.placement_problems(entries, expected) == []
+    assert outcome.placement_problems(entries, {"product_pick_2": ("gap_2", "Other")}) == [
+        "product_pick_2 was set down by Taught_1, not by Other"
+    ]
+    assert outcome.placement_problems(entries[:1], expected) == [
+        "product_pick_2 did not end on the shelf (expected in gap_2)"
+    ]
