@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
-from teleteach.gui.recording import Trajectory
+from teleteach.learning.synthetic import placement_on_trajectory
 from teleteach.sim.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY, RobotSim
 from teleteach.skills.config import load_motion_config
@@ -140,17 +140,8 @@ def write_skill(sim, path, duration=1.0, step=(0.05, 0.0, 0.0)):
 
 
 def placing_skill(path, until=None):
-    """III-C's demonstration on the perpendicular trajectory (compliant approach, Y then X stiffened), or its first
-    ``until`` seconds."""
-    trajectory = Trajectory.load("perpendicular")
-    times = np.arange(0.0, (until or trajectory.duration) + 1e-9, 0.01)
-    poses = np.array([trajectory.sample(t) for t in times])
-    diagonal = np.tile([400.0, 400.0, 2000.0], (len(times), 1))
-    diagonal[times >= 3.0, 1] = 2100.0
-    diagonal[times >= 5.0, 0] = 2100.0
-    stiffness = np.array([np.diag(row) for row in diagonal])
-    skill = skill_file.Skill("DemonstratedPlace_1", "stiffness", times, stiffness, poses, poses)
-    return skill_file.save(skill, path)
+    """III-C's demonstration on the perpendicular trajectory, or its first ``until`` seconds, saved at path."""
+    return skill_file.save(placement_on_trajectory("perpendicular", until), path)
 
 
 def pick_and_face_the_shelf(runner):

@@ -8,12 +8,13 @@ transitions with a small slow wobble); the GUI publishes what it shows at a low,
 recorder stores it at the pose rate as a zero-order-hold staircase, which is what made the thesis' fit fail.
 """
 
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
+from teleteach.gui.recording import Trajectory
 from teleteach.skill_file import Skill
 
 LOW = 300.0  # [N/m] compliant approach stiffness in X and Y
@@ -117,3 +118,27 @@ def placement_demo(
         provenance={"synthetic": True, "angle": angle, "gui_rate": gui_rate or 0.0, "seed": seed},
     )
     return skill, times, truth
+
+
+def placement_on_trajectory(name: str = "perpendicular", until: Optional[float] = None, rate: float = 100.0) -> Skill:
+    """III-C's demonstration, as the GUI records it, on a predefined trajectory.
+
+    A compliant approach (X = Y = 400 N/m), Y stiffened to 2100 N/m for the alignment from 3 s, X stiffened to
+    2100 N/m for the insertion from 5 s, Z at 2000 N/m; the equilibrium follows config/trajectories/<name>.yaml (its
+    first ``until`` seconds, if given) at ``rate`` [Hz].
+    """
+    trajectory = Trajectory.load(name)
+    times = np.arange(0.0, (until or trajectory.duration) + 0.5 / rate, 1.0 / rate)
+    poses = np.array([trajectory.sample(time) for time in times])
+    diagonal = np.tile([400.0, 400.0, 2000.0], (len(times), 1))
+    diagonal[times >= 3.0, 1] = 2100.0
+    diagonal[times >= 5.0, 0] = 2100.0
+    return Skill(
+        name="DemonstratedPlace_1",
+        kind="stiffness",
+        time=times,
+        stiffness=np.array([np.diag(row) for row in diagonal]),
+        equilibrium_pose=poses,
+        cartesian_pose=poses,
+        provenance={"synthetic": True, "trajectory": name},
+    )
