@@ -141,7 +141,7 @@ def test_run_folder_holds_bag_report_and_screenshots(run):
         assert (folder / name).stat().st_size > 0, name
 
 
-def test_thesis_iii_d_turns_the_ellipsoid_and_places_at_45_degrees(tmp_path):
+def test_thesis_iii_d_turns_the_ellipsoid_places_at_45_degrees_and_reuses_it(tmp_path):
     env = dict(os.environ)
     env.pop("DISPLAY", None)
     scenario = ROOT / "config" / "scenarios" / "thesis_III_D.yaml"
@@ -160,11 +160,16 @@ def test_thesis_iii_d_turns_the_ellipsoid_and_places_at_45_degrees(tmp_path):
     assert values.max() >= 3.0 * np.median(skill.stiffness[time < 3.0, 0, 0])
     approach = skill.stiffness[np.searchsorted(time, 1.5)]
     assert approach[0, 0] == pytest.approx(approach[1, 1], rel=0.1) and abs(approach[0, 1]) < 1.0
-    # and the product it placed stands in the gap, the neighbours untouched
+    # and the product it placed stands in gap_1; reused at 45 degrees to gap_2, the taught skill placed the second
+    # product there; the neighbours untouched
     scene = load_scene()
     first, last = scene_products(next(folder.glob("*.bag")))
-    horizontal, vertical = scene.gap("gap_1").distance(last["product_pick_1"][0])
-    assert horizontal < 0.02 and vertical < 0.02, last["product_pick_1"]
+    for product, gap in (("product_pick_1", "gap_1"), ("product_pick_2", "gap_2")):
+        horizontal, vertical = scene.gap(gap).distance(last[product][0])
+        assert horizontal < 0.02 and vertical < 0.02, (product, last[product])
     for name in first:
         if name.startswith("product_shelf"):
             assert np.linalg.norm(last[name][0] - first[name][0]) < 0.01, name
+    summary = json.loads((folder / "summary.json").read_text())
+    by_product = {entry["product"]: entry for entry in summary["placements"]}
+    assert by_product["product_pick_2"]["by_skill"] == summary["taught_skills"][0]["name"]

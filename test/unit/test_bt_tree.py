@@ -64,6 +64,7 @@ def test_dumped_yaml_loads_back_to_the_same_tree(library):
                     "children": [
                         "PickItem",
                         {"name": 'Place "quoted": yes', "skill": "PlaceItem"},
+                        {"name": "MoveBase45", "skill": "MoveBase2", "parameters": {"base_pose": "place_45deg"}},
                         {"type": "parallel", "name": "Both", "policy": "success_on_one", "children": ["Idle"]},
                         {"type": "parallel", "name": "Sync", "synchronise": True, "children": []},
                         {"type": "selector", "name": "Choose", "memory": True, "children": ["DropItem"]},
@@ -79,6 +80,9 @@ def test_dumped_yaml_loads_back_to_the_same_tree(library):
     assert parse_tree(yaml.safe_load(text), library) == spec
     assert dump_live_yaml(root, spec.execution, header="a header\non two lines") == text
     assert describe(create_root(spec.root, library, SkillWorld().make_leaf)) == spec.root
+    # and a leaf's parameters reach the leaf that sends the goal
+    moved = next(node for node in root.iterate() if node.name == "MoveBase45")
+    assert moved.skill == "MoveBase2" and moved.parameters == {"base_pose": "place_45deg"}
 
 
 @pytest.mark.parametrize(
@@ -98,6 +102,13 @@ def test_dumped_yaml_loads_back_to_the_same_tree(library):
         ({"root": {"type": "parallel", "name": "P", "policy": "most"}, "execution": "P"}, "unknown policy 'most'"),
         ({"root": {"type": "sequence", "name": "S", "colour": 1}, "execution": "S"}, "unknown fields ['colour']"),
         ({"root": {"type": "sequence", "name": "S"}, "execution": "S", "extra": 1}, "unknown top-level fields"),
+        (
+            {
+                "root": {"type": "sequence", "name": "S", "children": [{"name": "Idle", "parameters": [1]}]},
+                "execution": "S",
+            },
+            "S/Idle: parameters must map names to names",
+        ),
     ],
 )
 def test_bad_tree_descriptions_are_rejected_with_the_reason(library, data, message):

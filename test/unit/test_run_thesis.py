@@ -11,6 +11,7 @@ import yaml
 from conftest import ROOT
 from scipy.spatial.transform import Rotation
 
+from teleteach.gui.device import scale_to_index
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.scenario import check_clicks, load_scenario
 from teleteach.run import outcome
@@ -71,9 +72,9 @@ def test_options_follow_the_scenario():
     assert full.placements == (("product_pick_1", "gap_1", False), ("product_pick_2", "gap_2", True))
     angled = options_for(ROOT / "config" / "scenarios" / "thesis_III_D.yaml", timeout=10.0)
     assert angled.tree == ROOT / "config" / "scenarios" / "thesis_III_D_tree.yaml" and angled.tree.is_file()
-    assert (angled.trajectory, angled.removed, angled.insert_index, angled.timeout) == ("angled_45", None, None, 10.0)
+    assert (angled.trajectory, angled.removed, angled.insert_index, angled.timeout) == ("angled_45", None, 8, 10.0)
     assert not angled.stiffer_insertion and angled.alignment_yaw == 45.0
-    assert angled.placements == (("product_pick_1", "gap_1", False),)
+    assert angled.placements == full.placements
 
 
 def test_tree_sequences_and_edits():
@@ -104,11 +105,11 @@ def test_thesis_full_drives_the_gui_to_the_expected_buttons():
     # III-B: PlaceItem is button 4 of 21, "remove" the lowest of 4 operations
     assert int((by_time[3.5].position[0] + 0.1) / 0.2 * 21) == 4
     assert int((by_time[6.0].position[1] + 0.1) / 0.2 * 4) == 0
-    # III-E: the new skill is the last of 21 buttons, "insert" the second operation, index 7 of 10 slots
+    # III-E: the new skill is the last of 21 buttons, "insert" the second operation, index 8 of 10 slots (after
+    # MoveBase2, which drives to gap_2)
     assert min(20, int((by_time[34.1].position[0] + 0.1) / 0.2 * 21)) == 20
     assert int((by_time[36.1].position[1] + 0.1) / 0.2 * 4) == 1
-    roll = by_time[38.1].rpy[0]
-    assert int((roll + gui["device_angle_range"]) / (2 * gui["device_angle_range"]) * 10) == 7
+    assert scale_to_index(by_time[38.1].rpy[0], gui["device_angle_range"], 10) == 8
 
 
 def test_free_port_and_display():

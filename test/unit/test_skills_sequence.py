@@ -14,7 +14,7 @@ from teleteach.sim.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY, RobotSim
 from teleteach.skills.config import load_motion_config
 from teleteach.skills.predefined import PREDEFINED_SKILLS
-from teleteach.skills.robot import Execution
+from teleteach.skills.robot import Execution, SkillError
 from teleteach.skills.runner import SkillRunner
 from teleteach.skills.sim_robot import SimRobot
 
@@ -251,3 +251,25 @@ def test_a_preempted_replay_switches_back_to_position_control(sim, runner, tmp_p
     sim.run(0.5)
     assert np.linalg.norm(sim.world.read_state().position - held) < 0.005
     assert IMPEDANCE != sim.manager.running
+
+
+class GuiSwitchesFirst(SimRobot):
+    """The in-process robot where the teaching GUI's switch back to position control lands just before the skill's."""
+
+    def switch_controllers(self, start, stop):
+        if self.sim.manager.running == IMPEDANCE:
+            super().switch_controllers([TRAJECTORY], [IMPEDANCE])
+        super().switch_controllers(start, stop)
+
+
+def test_a_skill_starting_while_the_gui_switches_back_to_position_control_runs(sim, kinematics):
+    robot = GuiSwitchesFirst(sim)
+    runner = SkillRunner(robot, load_motion_config(), sim.scene, kinematics)
+    SimRobot(sim).switch_controllers([IMPEDANCE], [TRAJECTORY])
+    # Expect: the skill's STRICT switch is refused (the impedance controller already stopped), yet the skill runs
+    with pytest.raises(SkillError, match="refused"):
+        robot.switch_controllers([TRAJECTORY], [IMPEDANCE])
+    SimRobot(sim).switch_controllers([IMPEDANCE], [TRAJECTORY])
+    outcome = runner.execute("LookToShelf")
+    assert outcome.success, outcome.message
+    assert sim.manager.running == TRAJECTORY

@@ -62,6 +62,7 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
         self.skill = skill
         self.kind = kind
         self.data_file = data_file
+        self.parameters: typing.Dict[str, str] = {}
         self.awaiting_help = False
         self.goal_active = False
         self.on_failure: typing.Optional[typing.Callable[[SkillLeaf, str], None]] = None

@@ -134,6 +134,8 @@ class ActionSkill(SkillLeaf):
 
     def start(self) -> None:
         """Remember when we asked; the goal leaves as soon as the server is connected (see :meth:`poll`)."""
+        if self.parameters:
+            self.goal.parameters = yaml.safe_dump(self.parameters)
         self.goal_handle = None
         self.progress = ""
         self.started_at = time.monotonic()

@@ -15,9 +15,12 @@ The format (``config/tree.yaml`` holds the thesis tree)::
           children:
             - LookToShelf                         # a skill leaf: name = library skill
             - {name: PlaceItem_2, skill: PlaceItem}  # a leaf named apart from its skill
+            - {name: MoveBase45, skill: MoveBase2, parameters: {base_pose: place_45deg}}  # the goal's parameters
 
-A parallel has ``policy: success_on_all | success_on_one`` and ``synchronise: true | false``. Names are unique in
-the tree. Saved trees are written by :func:`dump_yaml` in the same format, fast enough for 1000-leaf trees.
+A parallel has ``policy: success_on_all | success_on_one`` and ``synchronise: true | false``. A predefined skill
+leaf may carry ``parameters``, a mapping of names sent as its goal's parameters (what the skill acts on: product,
+base_pose, gap; see config/skills_motion.yaml). Names are unique in the tree. Saved trees are written by
+:func:`dump_yaml` in the same format, fast enough for 1000-leaf trees.
 """
 
 import json
@@ -89,7 +92,7 @@ def _parse_node(data: typing.Any, library: SkillLibrary, names: typing.Dict[str,
         "sequence": {"memory", "children"},
         "parallel": {"policy", "synchronise", "children"},
         "pause": set(),
-        "skill": {"skill"},
+        "skill": {"skill", "parameters"},
     }[node_type]
     unknown = set(data) - allowed
     if unknown:
@@ -100,6 +103,15 @@ def _parse_node(data: typing.Any, library: SkillLibrary, names: typing.Dict[str,
         if skill not in library:
             raise TreeSpecError(f"{where}: skill {skill!r} is not in the skill library")
         spec["skill"] = skill
+        parameters = data.get("parameters", {})
+        if not isinstance(parameters, dict) or not all(
+            isinstance(key, str) and isinstance(value, str) for key, value in parameters.items()
+        ):
+            raise TreeSpecError(f"{where}: parameters must map names to names, e.g. {{base_pose: start}}")
+        if parameters and library.get(skill).demonstrated:
+            raise TreeSpecError(f"{where}: parameters are for predefined skills; {skill!r} is a demonstrated skill")
+        if parameters:
+            spec["parameters"] = dict(parameters)
         return spec
     if node_type == "pause":
         return spec
@@ -142,7 +154,9 @@ def create_root(spec: Spec, library: SkillLibrary, make_leaf: LeafFactory) -> py
         entry = library.get(spec["skill"])
         if entry is None:
             raise TreeSpecError(f"{spec['name']}: skill {spec['skill']!r} is not in the skill library")
-        return make_leaf(spec["name"], entry)
+        leaf = make_leaf(spec["name"], entry)
+        leaf.parameters = dict(spec.get("parameters", {}))
+        return leaf
     if node_type == "pause":
         return PauseCondition(spec["name"])
     children = [create_root(child, library, make_leaf) for child in spec["children"]]
@@ -179,6 +193,8 @@ def describe_shallow(node: py_trees.behaviour.Behaviour) -> Spec:
     spec: Spec = {"type": kind, "name": node.name}
     if kind == "skill":
         spec["skill"] = node.skill
+        if node.parameters:
+            spec["parameters"] = dict(node.parameters)
     elif kind == "parallel":
         policy = node.policy
         spec["policy"] = (
@@ -217,7 +233,7 @@ def dump_live_yaml(root: py_trees.behaviour.Behaviour, execution: str, header: s
         node, indent, item = stack.pop()
         text = node.__dict__.get("_yaml_line")
         if text is None and isinstance(node, SkillLeaf):
-            text = node._yaml_line = _flow_leaf(node.name, node.skill)
+            text = node._yaml_line = _flow_leaf(node.name, node.skill, node.parameters)
         if text is not None:
             lines.append(f"{indent}- {text}" if item else f"{indent}{text}")
             continue
@@ -236,8 +252,11 @@ def _header(execution: str, header: str) -> typing.List[str]:
     return lines
 
 
-def _flow_leaf(name: str, skill: str) -> str:
-    return f"{{type: skill, name: {json.dumps(name)}, skill: {json.dumps(skill)}}}"
+def _flow_leaf(name: str, skill: str, parameters: typing.Optional[typing.Dict[str, str]] = None) -> str:
+    text = f"type: skill, name: {json.dumps(name)}, skill: {json.dumps(skill)}"
+    if parameters:
+        text += ", parameters: " + json.dumps(parameters, separators=(", ", ": "))
+    return f"{{{text}}}"
 
 
 def _dump_node(spec: Spec, indent: str, lines: typing.List[str], item: bool) -> str:
@@ -246,7 +265,7 @@ def _dump_node(spec: Spec, indent: str, lines: typing.List[str], item: bool) -> 
     rest = f"{indent}  " if item else indent
     name = json.dumps(spec["name"])
     if spec["type"] == "skill":
-        lines.append(f"{first}{_flow_leaf(spec['name'], spec['skill'])}")
+        lines.append(f"{first}{_flow_leaf(spec['name'], spec['skill'], spec.get('parameters'))}")
         return rest
     if spec["type"] == "pause":
         lines.append(f"{first}{{type: pause, name: {name}}}")

@@ -20,6 +20,8 @@ import numpy as np
 import yaml
 
 from teleteach import skill_file
+from teleteach.bt.library import SkillLibrary
+from teleteach.bt.tree import TreeSpec, load_tree
 from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.haptics.scenario import load_scenario
 from teleteach.run import outcome
@@ -29,6 +31,7 @@ from teleteach.sim.scene import SceneError, load_scene, product_positions
 PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[3]
 DEFAULT_SCENARIO = PACKAGE_DIR / "config" / "scenarios" / "thesis_full.yaml"
 TREE_FILE = PACKAGE_DIR / "config" / "tree.yaml"
+SKILLS_FILE = PACKAGE_DIR / "config" / "skills.yaml"
 RVIZ_CONFIG = PACKAGE_DIR / "rviz" / "teleteach.rviz"
 EXECUTION = "BehaviorExecution"
 TAB_NAMES = {0: "start", 1: "high_level", 2: "low_level", 3: "shared_control"}
@@ -60,15 +63,16 @@ class Options:
 
 
 def options_for(scenario: pathlib.Path, **overrides) -> Options:
-    """The expectations of a thesis scenario: thesis_III_D.yaml runs its own tree and the 45-degree trajectory."""
+    """The expectations of a thesis scenario: thesis_III_D.yaml runs its own tree and the 45-degree trajectory.
+
+    Both reuse the taught skill at gap_2, inserted at index 8 (after the move to gap_2).
+    """
     scenario = pathlib.Path(scenario).resolve()
     if scenario.stem == "thesis_III_D":
         profile = dict(
             tree=scenario.with_name("thesis_III_D_tree.yaml"),
             trajectory="angled_45",
-            placements=(("product_pick_1", "gap_1", False),),
             removed=None,
-            insert_index=None,
             stiffer_insertion=False,
             alignment_yaw=45.0,
         )
@@ -253,6 +257,17 @@ def _run_folder(root: pathlib.Path) -> pathlib.Path:
     return folder
 
 
+def execution_children(tree: TreeSpec) -> Tuple[str, ...]:
+    """The names of the execution composite's children (the sequence the thesis' edits change)."""
+    stack = [tree.root]
+    while stack:
+        node = stack.pop()
+        if node["name"] == tree.execution:
+            return tuple(child["name"] for child in node["children"])
+        stack.extend(node.get("children", []))
+    raise ValueError(f"the tree has no {tree.execution}")
+
+
 def _tree_yaml(children: Tuple[str, ...], leaves: Dict[str, Tuple[int, str, str]]) -> str:
     statuses = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
     data = {
@@ -406,7 +421,7 @@ class ThesisRun:
         if bag is None:
             problems.append("no bag was written")
         # trees
-        initial = tuple(yaml.safe_load(options.tree.read_text())["root"]["children"][1]["children"])
+        initial = execution_children(load_tree(options.tree, SkillLibrary.load(SKILLS_FILE)))
         changes = outcome.sequence_changes([children for _, children in monitor.children])
         shutil.copy(options.tree, folder / "tree_before.yaml")
         if monitor.ascii:
