@@ -235,6 +235,10 @@ def test_replay_of_a_bad_skill_file_fails_with_its_error(sim, runner, tmp_path):
     assert missing.message == f"skill file {tmp_path / 'none.npz'} does not exist"
     path, _, _ = write_skill(sim, tmp_path / "place")
     assert "holds a 'stiffness' skill" in runner.execute("ReplaySkill", f"{{data_file: {path}, kind: dmp}}").message
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    cut = runner.execute("ReplaySkill", f"{{data_file: {truncated}}}")
+    assert not cut.success and cut.message.startswith(f"skill file {truncated} cannot be read")
     assert sim.manager.running == TRAJECTORY
 
 
