@@ -7,8 +7,10 @@ from typing import Any, Dict, Mapping, Tuple
 
 import yaml
 
+from teleteach.paths import config_file
+
 DEVICE_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
-CONFIG_DIR = pathlib.Path(__file__).resolve().parents[3] / "config"
+CONFIG_DIR = config_file()
 
 
 class GuiConfigError(ValueError):

@@ -24,15 +24,15 @@ from teleteach.bt.library import SkillLibrary
 from teleteach.bt.tree import TreeSpec, load_tree
 from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.haptics.scenario import load_scenario
+from teleteach.paths import config_file, share_dir
 from teleteach.run import outcome
 from teleteach.run.processes import ProcessError, Processes, free_port, screenshot, start_xvfb
 from teleteach.sim.scene import SceneError, load_scene, product_positions
 
-PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[3]
-DEFAULT_SCENARIO = PACKAGE_DIR / "config" / "scenarios" / "thesis_full.yaml"
-TREE_FILE = PACKAGE_DIR / "config" / "tree.yaml"
-SKILLS_FILE = PACKAGE_DIR / "config" / "skills.yaml"
-RVIZ_CONFIG = PACKAGE_DIR / "rviz" / "teleteach.rviz"
+DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")
+TREE_FILE = config_file("tree.yaml")
+SKILLS_FILE = config_file("skills.yaml")
+RVIZ_CONFIG = share_dir() / "rviz" / "teleteach.rviz"
 EXECUTION = "BehaviorExecution"
 TAB_NAMES = {0: "start", 1: "high_level", 2: "low_level", 3: "shared_control"}
 SUCCESS = 3

@@ -13,11 +13,12 @@ from teleteach.control import validation
 from teleteach.control.impedance import CartesianImpedanceController, ImpedanceParams
 from teleteach.control.joint_trajectory import JointTrajectoryController
 from teleteach.control.manager import ControllerManager
+from teleteach.paths import config_file
 from teleteach.sim import panda
 from teleteach.sim.scene import Scene, load_scene
 from teleteach.sim.world import SupermarketWorld
 
-DEFAULT_CONTROLLER_FILE = pathlib.Path(__file__).resolve().parents[3] / "config" / "controllers.yaml"
+DEFAULT_CONTROLLER_FILE = config_file("controllers.yaml")
 IMPEDANCE = "cartesian_impedance_controller"
 TRAJECTORY = "position_joint_trajectory_controller"
 BASE_FRAME = "base_link"

@@ -9,9 +9,11 @@ from typing import Dict, Iterable, List, Optional, Tuple
 import numpy as np
 import yaml
 
+from teleteach.paths import config_file
+
 PRODUCTS_NAMESPACE = "products"  # the marker namespace of the products on /teleteach/scene (world frame)
 GAPS_NAMESPACE = "gaps"  # the marker namespace of the free slots on /teleteach/scene: text = gap name
-DEFAULT_SCENE_FILE = pathlib.Path(__file__).resolve().parents[3] / "config" / "supermarket.yaml"
+DEFAULT_SCENE_FILE = config_file("supermarket.yaml")
 
 
 class SceneError(ValueError):

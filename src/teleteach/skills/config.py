@@ -6,7 +6,9 @@ from typing import Dict, Optional, Tuple
 
 import yaml
 
-DEFAULT_MOTION_FILE = pathlib.Path(__file__).resolve().parents[3] / "config" / "skills_motion.yaml"
+from teleteach.paths import config_file
+
+DEFAULT_MOTION_FILE = config_file("skills_motion.yaml")
 
 
 class MotionConfigError(ValueError):
