@@ -3,7 +3,7 @@
 :class:`ActionSkill` leaves are actionlib clients of ``/skills/<Skill>`` (demonstrated skills: ``/skills/ReplaySkill``
 with ``parameters`` = yaml ``{data_file, kind}``). :class:`BehaviourTreeNode` ticks a
 :class:`~teleteach.bt.teaching.TeachingTree`, serves ``/change_tree`` and ``/behaviour_tree/add_skill``, listens to
-``/behaviour_tree/pause`` and publishes the latched topics of DESIGN.md section 3 after each tick that changed
+``/behaviour_tree/pause`` and publishes the latched topics of the README's ROS graph after each tick that changed
 something.
 """
 

@@ -372,7 +372,7 @@ class LowLevelTab(QWidget):
 
         layout = QHBoxLayout(self)
         self.view = EllipsoidView(command)
-        layout.addWidget(self.view, 3)  # no alignment flag: a QOpenGLWidget with one gets 0x0 (DESIGN 7)
+        layout.addWidget(self.view, 3)  # no alignment flag: a QOpenGLWidget with one gets size 0x0 and never paints
         panel = QVBoxLayout()
         self.mode_label = _big(QLabel(), 14)
         self.mode_label.setTextFormat(Qt.RichText)

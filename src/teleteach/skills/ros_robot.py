@@ -3,7 +3,7 @@
 In: /joint_states, TF world->base_link, /teleteach/scene, /cartesian_pose. Out: joint trajectories, gripper, base
 goals, stiffness and equilibrium commands, controller switches.
 
-Topic and service names are the ROS graph contract (DESIGN.md section 3, interfaces of the robot simulation).
+Topic and service names are the ROS graph contract (the README's ROS graph; docs/architecture.md).
 """
 
 import threading
