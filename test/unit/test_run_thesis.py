@@ -1,5 +1,6 @@
 """The main job's pieces that need no ROS: outcome checks, scenario files, process handling."""
 
+import json
 import os
 import subprocess
 import sys
@@ -9,6 +10,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
+from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
 from teleteach.gui.device import scale_to_index
@@ -17,7 +19,7 @@ from teleteach.haptics.scenario import check_clicks, load_scenario
 from teleteach.run import outcome
 from teleteach.run.processes import ProcessError, Processes, free_display, free_port
 from teleteach.run.thesis import options_for
-from teleteach.skill_file import Skill
+from teleteach.skill_file import Skill, save
 
 SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full"]
 
@@ -64,6 +66,84 @@ def test_alignment_axis_yaw_follows_the_turned_ellipsoid():
     pose = skill.equilibrium_pose
     skill = Skill(skill.name, skill.kind, skill.time, turned, pose, pose)
     assert outcome.alignment_axis_yaw(skill, "angled_45") == pytest.approx(45.0)  # III-D: principal Y turned
+
+
+def test_one_check_per_experiment_says_what_is_missing(tmp_path):
+    initial = ("LookToShelf", "PlaceItem", "Idle")
+    removed, inserted = outcome.expected_sequences(initial, "PlaceItem", "Taught_1", 1)
+    # III-B: the removal must have happened at some point
+    assert outcome.check_iii_b([initial, removed, inserted], removed, "PlaceItem") == []
+    assert outcome.check_iii_b([initial], removed, "PlaceItem") == [
+        "the tree never was ['LookToShelf', 'Idle'] (III-B)"
+    ]
+    assert outcome.check_iii_b([initial], initial, None) == []
+    # III-C: a readable skill with the three phases
+    path = save(recorded_skill(), tmp_path / "taught")
+    problems, seen = outcome.check_iii_c(str(path), "perpendicular", stiffer_insertion=True)
+    assert problems == [] and seen["alignment_ratio"] == pytest.approx(5.5)
+    assert outcome.check_iii_c(None, "perpendicular", True)[0] == ["no skill was taught (III-C)"]
+    broken = tmp_path / "broken.npz"
+    broken.write_bytes(b"no skill")
+    assert outcome.check_iii_c(str(broken), "perpendicular", True)[0][0].startswith("taught skill unreadable: ")
+    # III-D: the stiffest axis within 5 degrees of the expected direction
+    assert outcome.check_iii_d(43.0, 45.0) == [] and outcome.check_iii_d(90.0, None) == []
+    assert outcome.check_iii_d(90.0, 45.0) == ["stiffest horizontal axis at 90 deg after alignment, not 45"]
+    # III-E: inserted where the dial said, and run successfully by the tree
+    assert outcome.check_iii_e(inserted, inserted, "Taught_1", Status.SUCCESS, "placed", inserted=True) == []
+    assert outcome.check_iii_e(removed, inserted, "Taught_1", None, "", inserted=True) == [
+        "final tree ['LookToShelf', 'Idle'], expected ['LookToShelf', 'Taught_1', 'Idle'] (III-E)",
+        "the taught skill Taught_1 did not succeed on the robot (never run: )",
+    ]
+    failed = outcome.check_iii_e(inserted, inserted, "Taught_1", Status.FAILURE, "product_pick_2 ended", True)
+    assert failed == ["the taught skill Taught_1 did not succeed on the robot (FAILURE: product_pick_2 ended)"]
+
+
+def test_run_summary_is_written_as_json_and_in_words():
+    summary = outcome.RunSummary(
+        folder="/data/runs/1",
+        problems=[],
+        finished=True,
+        bag="run.bag",
+        tree_initial=["A"],
+        tree_changes=[["A"]],
+        tree_edits=[],
+        tree_final=["A", "Taught_1"],
+        expected_after_iii_b=["A"],
+        expected_after_iii_e=["A", "Taught_1"],
+        taught_skills=[{"name": "Taught_1", "file": "skills/Taught_1.npz"}],
+        taught_skill_result={"status": "SUCCESS", "message": "replayed Taught_1"},
+        stiffness_phases=None,
+        alignment_ratio=None,
+        insertion_ratio=None,
+        alignment_axis_yaw_deg=None,
+        placements=[
+            {
+                "product": "product_pick_2",
+                "gap": "gap_2",
+                "distance_m": 0.004,
+                "upright": True,
+                "by_skill": "Taught_1",
+                "neighbours_max_move_m": 0.001,
+            }
+        ],
+        help_requests=[(12.0, "PickItem", "product_pick_1 is not on the table")],
+        tabs=[],
+        screenshots=[],
+        screenshot_errors=[],
+        figures=[],
+        timings_wall_s={},
+    )
+    data = json.loads(summary.to_json())
+    assert data["passed"] is True and data["placements"][0]["by_skill"] == "Taught_1"
+    text = summary.to_markdown()
+    assert text.startswith("# Thesis run: PASSED")
+    assert "- skill taught: Taught_1 (skills/Taught_1.npz); run by the tree: succeeded" in text
+    placed = "- product product_pick_2: on the shelf in gap_2, upright, 0.4 cm from the nearest gap's centre, put there"
+    assert placed + " by Taught_1" in text
+    assert "- help request: PickItem: product_pick_1 is not on the table" in text
+    summary.problems.append("product_pick_2 did not end on the shelf (expected in gap_2)")
+    assert summary.to_markdown().startswith("# Thesis run: FAILED")
+    assert "- PROBLEM: product_pick_2 did not end on the shelf (expected in gap_2)" in summary.to_markdown()
 
 
 def test_options_follow_the_scenario():

@@ -1,19 +1,23 @@
 """What a thesis run achieved, computed from plain data (no ROS): tree edits, stiffness phases, product placement.
 
-The checks mirror the thesis' results: III-B removes PlaceItem, III-E inserts the demonstrated skill at the dialled
-index, the recorded stiffness shows III-C's three phases (approach compliant with equal low X/Y stiffness, Y
-stiffened for alignment, X stiffened for insertion), and the product ends in the gap without pushing its neighbours.
+One check per experiment mirrors the thesis' results: III-B removes PlaceItem, III-C's recorded stiffness shows its
+three phases (approach compliant with equal low X/Y stiffness, Y stiffened for alignment, X stiffened for insertion),
+III-D turns the stiffest axis 45 degrees, III-E inserts the taught skill at the dialled index and the tree runs it,
+and the products end in their gaps without pushing their neighbours. :class:`RunSummary` holds what was found.
 """
 
 import dataclasses
+import json
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
+from py_trees.common import Status
 
 from teleteach import placement
 from teleteach.recording.session import Session
 from teleteach.sim.scene import Scene
-from teleteach.skill_file import Skill
+from teleteach.skill_file import Skill, SkillFileError
+from teleteach.skill_file import load as load_skill
 
 # Phases of the demonstration trajectories [s from the start of the recording]: approach, alignment, insertion
 PHASES = {
@@ -172,3 +176,158 @@ def expected_sequences(initial: Sequence[str], removed: Optional[str], inserted:
     if inserted is not None and index is not None:
         after_insertion.insert(index, inserted)
     return tuple(after_removal), tuple(after_insertion)
+
+
+# --- one check per experiment: each returns its problems (empty: the experiment did what the thesis shows) ---------
+
+
+def check_iii_b(
+    changes: Sequence[Tuple[str, ...]], after_removal: Tuple[str, ...], removed: Optional[str]
+) -> List[str]:
+    """III-B: the operator removed ``removed`` from the running tree (None: nothing to remove)."""
+    if removed is not None and tuple(after_removal) not in [tuple(children) for children in changes[1:]]:
+        return [f"the tree never was {list(after_removal)} (III-B)"]
+    return []
+
+
+def check_iii_c(skill_path: Optional[str], trajectory: str, stiffer_insertion: bool) -> Tuple[List[str], dict]:
+    """III-C: a skill was taught, and its stiffness shows the three phases.
+
+    Returns the problems and what was seen: ``stiffness_phases``, ``alignment_ratio``, ``insertion_ratio``,
+    ``alignment_axis_yaw_deg`` (each None when there is no readable skill).
+    """
+    seen = {"stiffness_phases": None, "alignment_ratio": None, "insertion_ratio": None, "alignment_axis_yaw_deg": None}
+    if skill_path is None:
+        return ["no skill was taught (III-C)"], seen
+    try:
+        skill = load_skill(skill_path)
+        phases = stiffness_phases(skill, trajectory)
+        yaw = alignment_axis_yaw(skill, trajectory)
+    except (SkillFileError, ValueError) as error:
+        return [f"taught skill unreadable: {error}"], seen
+    seen.update(
+        stiffness_phases=dataclasses.asdict(phases),
+        alignment_ratio=phases.alignment_ratio,
+        insertion_ratio=phases.insertion_ratio,
+        alignment_axis_yaw_deg=yaw,
+    )
+    return phases.check(stiffer_insertion=stiffer_insertion), seen
+
+
+def check_iii_d(yaw: Optional[float], expected_yaw: Optional[float], tolerance: float = 5.0) -> List[str]:
+    """III-D: after the alignment the stiffest horizontal axis points at ``expected_yaw`` [deg] (None: not checked)."""
+    if expected_yaw is None or yaw is None or abs(yaw - expected_yaw) <= tolerance:
+        return []
+    return [f"stiffest horizontal axis at {yaw:.0f} deg after alignment, not {expected_yaw:g}"]
+
+
+def check_iii_e(
+    final_children: Tuple[str, ...],
+    after_insertion: Tuple[str, ...],
+    taught: Optional[str],
+    taught_status: Optional[Status],
+    taught_message: str,
+    inserted: bool,
+) -> List[str]:
+    """III-E: the taught skill sits where the dial put it, and the tree ran it successfully (when it was inserted)."""
+    if taught is None:
+        return []
+    problems = []
+    if tuple(final_children) != tuple(after_insertion):
+        problems.append(f"final tree {list(final_children)}, expected {list(after_insertion)} (III-E)")
+    if inserted and taught_status != Status.SUCCESS:
+        state = taught_status.value if taught_status else "never run"
+        problems.append(f"the taught skill {taught} did not succeed on the robot ({state}: {taught_message})")
+    return problems
+
+
+def check_placements(
+    session: Session, scene: Scene, expected: Dict[str, Tuple[str, Optional[str]]]
+) -> Tuple[List[str], List[dict]]:
+    """Where the products ended (judged from the bag), against product -> (gap, by_skill or None for anyone)."""
+    found = placements(session, scene)
+    return placement_problems(found, expected), found
+
+
+@dataclasses.dataclass
+class RunSummary:
+    """What a run did and found: written as summary.json and, in words, as summary.md."""
+
+    folder: str
+    problems: List[str]
+    finished: bool
+    bag: Optional[str]
+    tree_initial: List[str]
+    tree_changes: List[List[str]]
+    tree_edits: List[str]
+    tree_final: List[str]
+    expected_after_iii_b: List[str]
+    expected_after_iii_e: List[str]
+    taught_skills: List[dict]
+    taught_skill_result: Optional[dict]
+    stiffness_phases: Optional[dict]
+    alignment_ratio: Optional[float]
+    insertion_ratio: Optional[float]
+    alignment_axis_yaw_deg: Optional[float]
+    placements: List[dict]
+    help_requests: List[tuple]
+    tabs: List[tuple]
+    screenshots: List[str]
+    screenshot_errors: List[str]
+    figures: List[str]
+    timings_wall_s: Dict[str, float]
+
+    @property
+    def passed(self) -> bool:
+        """Every check passed."""
+        return not self.problems
+
+    def to_json(self) -> str:
+        """summary.json: every field, and ``passed``."""
+        return json.dumps({"passed": self.passed, **dataclasses.asdict(self)}, indent=2, default=str) + "\n"
+
+    def to_markdown(self) -> str:
+        """summary.md, also printed at the end of a run."""
+        lines = [f"# Thesis run: {'PASSED' if self.passed else 'FAILED'}", "", f"Run folder: {self.folder}", ""]
+        lines.append("- tree: " + ("; ".join(self.tree_edits) or "unchanged"))
+        lines.append("  final BehaviorExecution: " + " -> ".join(self.tree_final))
+        result = self.taught_skill_result
+        if self.taught_skills:
+            taught = self.taught_skills[0]
+            if result is None:
+                ran = "; not in the tree"
+            else:
+                succeeded = result["status"] == Status.SUCCESS.value
+                ran = f"; run by the tree: {'succeeded' if succeeded else 'NOT successful'}"
+            lines.append(f"- skill taught: {taught['name']} ({taught['file']}){ran}")
+            if result:
+                lines.append(f"  {result['message']}")
+        else:
+            lines.append("- skill taught: none")
+        if self.stiffness_phases is not None:
+            phases = self.stiffness_phases
+            lines.append(
+                f"- stiffness phases: approach X/Y {phases['approach_x']:.0f}/{phases['approach_y']:.0f} N/m, "
+                f"alignment Y {phases['alignment_y']:.0f} N/m ({self.alignment_ratio:.1f}x), "
+                f"insertion X {phases['insertion_x']:.0f} N/m ({self.insertion_ratio:.1f}x); stiffest horizontal "
+                f"axis after alignment at {self.alignment_axis_yaw_deg:.0f} deg"
+            )
+        for entry in self.placements:
+            where = f"in {entry['gap']}" if entry["gap"] else "in NO gap"
+            upright = "upright" if entry["upright"] else "NOT upright"
+            lines.append(
+                f"- product {entry['product']}: on the shelf {where}, {upright}, {100 * entry['distance_m']:.1f} cm "
+                f"from the nearest gap's centre, put there by {entry['by_skill'] or 'nobody known'}; its neighbours "
+                f"moved at most {1000 * entry['neighbours_max_move_m']:.1f} mm"
+            )
+        if not self.placements:
+            lines.append("- products: none ended on the shelf")
+        for _, node, reason in self.help_requests:
+            lines.append(f"- help request: {node}: {reason}")
+        lines.append(
+            f"- files: {self.bag}, report/ ({len(self.figures)} figures), screenshots: {len(self.screenshots)}, "
+            "tree_before/after.yaml/.txt, skills/"
+        )
+        lines.extend(f"- PROBLEM: {problem}" for problem in self.problems)
+        lines.append(f"- wall time [s]: {self.timings_wall_s}")
+        return "\n".join(lines) + "\n"

@@ -8,7 +8,6 @@ before and after, the report with the thesis-style plots, the screenshots and ``
 """
 
 import dataclasses
-import json
 import os
 import pathlib
 import shutil
@@ -18,14 +17,17 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 import yaml
+from py_trees.common import Status
 
-from teleteach import skill_file
 from teleteach.bt.library import SkillLibrary
 from teleteach.bt.tree import TreeSpec, load_tree
 from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.haptics.scenario import load_scenario
 from teleteach.paths import config_file, share_dir
+from teleteach.recording.report import make_report
+from teleteach.recording.session import SessionError, read_session
 from teleteach.run import outcome
+from teleteach.run.outcome import RunSummary
 from teleteach.run.processes import ProcessError, Processes, free_port, screenshot, start_xvfb
 from teleteach.sim.scene import SceneError, load_scene, product_positions
 
@@ -35,7 +37,8 @@ SKILLS_FILE = config_file("skills.yaml")
 RVIZ_CONFIG = share_dir() / "rviz" / "teleteach.rviz"
 EXECUTION = "BehaviorExecution"
 TAB_NAMES = {0: "start", 1: "high_level", 2: "low_level", 3: "shared_control"}
-SUCCESS = 3
+# teleteach/Behaviour's status constants (INVALID, RUNNING, SUCCESS, FAILURE) as py_trees' statuses
+STATUSES = {1: Status.INVALID, 2: Status.RUNNING, 3: Status.SUCCESS, 4: Status.FAILURE}
 
 
 @dataclasses.dataclass
@@ -93,7 +96,7 @@ class Monitor:
 
         self._lock = threading.Lock()
         self.children: List[Tuple[float, Tuple[str, ...]]] = []
-        self.leaves: Dict[str, Tuple[int, str, str]] = {}
+        self.leaves: Dict[str, Tuple[Status, str, str]] = {}
         self.completed = False
         self.ascii: List[str] = []
         self.library: Optional[SkillLibrary] = None
@@ -122,8 +125,13 @@ class Monitor:
                 self.children.append((self._now(), children))
             for behaviour in message.behaviours:
                 if not behaviour.child_ids:
-                    self.leaves[behaviour.name] = (behaviour.status, behaviour.message, behaviour.class_name)
-            self.completed = execution is not None and execution.status == SUCCESS and root.status == SUCCESS
+                    self.leaves[behaviour.name] = (
+                        STATUSES.get(behaviour.status),
+                        behaviour.message,
+                        behaviour.class_name,
+                    )
+            done = [node is not None and STATUSES.get(node.status) == Status.SUCCESS for node in (execution, root)]
+            self.completed = all(done)
 
     def _ascii(self, message) -> None:
         with self._lock:
@@ -268,20 +276,15 @@ def execution_children(tree: TreeSpec) -> Tuple[str, ...]:
     raise ValueError(f"the tree has no {tree.execution}")
 
 
-def _tree_yaml(children: Tuple[str, ...], leaves: Dict[str, Tuple[int, str, str]]) -> str:
-    statuses = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
-    data = {
-        "execution": EXECUTION,
-        "children": [
-            {
-                "name": name,
-                "skill": leaves.get(name, (0, "", name))[2],
-                "status": statuses.get(leaves.get(name, (0,))[0], "unknown"),
-                "message": leaves.get(name, (0, ""))[1],
-            }
-            for name in children
-        ],
-    }
+def _tree_yaml(children: Tuple[str, ...], leaves: Dict[str, Tuple[Status, str, str]]) -> str:
+    """The execution sequence's leaves with what each last did: skill, status (lower case), message."""
+    entries = []
+    for name in children:
+        status, message, skill = leaves.get(name, (None, "", name))
+        entries.append(
+            {"name": name, "skill": skill, "status": status.value.lower() if status else "unknown", "message": message}
+        )
+    data = {"execution": EXECUTION, "children": entries}
     return yaml.safe_dump(data, sort_keys=False, width=120)
 
 
@@ -302,14 +305,14 @@ class ThesisRun:
     def _mark(self, name: str) -> None:
         self.timings[name] = round(time.monotonic() - self._start, 1)
 
-    def run(self) -> dict:
+    def run(self) -> RunSummary:
         """Everything; processes are stopped whatever happens."""
         try:
             return self._run()
         finally:
             self.processes.stop_all()
 
-    def _run(self) -> dict:
+    def _run(self) -> RunSummary:
         options, scenario = self.options, self.scenario
         display = os.environ.get("DISPLAY", "")
         if not display:
@@ -380,9 +383,11 @@ class ThesisRun:
             now = rospy.get_time()
             played = start is not None and now >= start + duration + 1.0
             for name, (status, message, _) in list(monitor.leaves.items()):
-                if status in (3, 4) and (name, status) not in reported and name != "PauseCondition":
+                ended = status in (Status.SUCCESS, Status.FAILURE)
+                if ended and (name, status) not in reported and name != "PauseCondition":
                     reported.add((name, status))
-                    self.say(f"run_thesis: t = {now:6.1f} s  {name}: {'done' if status == 3 else 'FAILED'} {message}")
+                    said = "done" if status == Status.SUCCESS else "FAILED"
+                    self.say(f"run_thesis: t = {now:6.1f} s  {name}: {said} {message}")
             if played and monitor.completed:
                 rospy.sleep(1.0)  # a last scene message after the tree's end
                 return True, "scenario played and tree finished"
@@ -414,157 +419,92 @@ class ThesisRun:
             time.sleep(0.5)
         return None
 
-    def _results(self, monitor: Monitor, finished: bool, reason: str, screenshot_errors: List[str]) -> dict:
+    def _results(self, monitor: Monitor, finished: bool, reason: str, screenshot_errors: List[str]) -> RunSummary:
         options, folder = self.options, self.folder
         problems: List[str] = [] if finished else [reason]
         bag = self._collect_bag()
         if bag is None:
             problems.append("no bag was written")
-        # trees
         initial = execution_children(load_tree(options.tree, SkillLibrary.load(SKILLS_FILE)))
         changes = outcome.sequence_changes([children for _, children in monitor.children])
-        shutil.copy(options.tree, folder / "tree_before.yaml")
-        if monitor.ascii:
-            atomic_write_text(folder / "tree_before.txt", monitor.ascii[0] + "\n")
-            atomic_write_text(folder / "tree_after.txt", monitor.ascii[-1] + "\n")
         final_children = changes[-1] if changes else initial
-        atomic_write_text(folder / "tree_after.yaml", _tree_yaml(final_children, monitor.leaves))
-        saved_tree = self.root / "trees" / "current_tree.yaml"
-        if saved_tree.is_file():
-            shutil.copy(saved_tree, folder / "tree_after_saved.yaml")
-        edits = [outcome.describe_edit(a, b) for a, b in zip(changes, changes[1:])]
-        # taught skills
+        self._save_trees(monitor, final_children)
         taught = monitor.demonstrated()
-        (folder / "skills").mkdir(exist_ok=True)
-        for _, data_file in taught:
-            if pathlib.Path(data_file).is_file():
-                shutil.copy(data_file, folder / "skills" / pathlib.Path(data_file).name)
+        self._save_skills(taught)
         taught_name = taught[0][0] if taught else None
         after_removal, after_insertion = outcome.expected_sequences(
             initial, options.removed, taught_name, options.insert_index
         )
-        if options.removed is not None and after_removal not in changes[1:]:
-            problems.append(f"the tree never was {list(after_removal)} (III-B)")
-        if taught_name is None:
-            problems.append("no skill was taught (III-C)")
-        elif final_children != after_insertion:
-            problems.append(f"final tree {list(final_children)}, expected {list(after_insertion)} (III-E)")
-        replay = monitor.leaves.get(taught_name) if taught_name else None
-        replay_ok = replay is not None and replay[0] == SUCCESS
-        if taught_name and options.insert_index is not None and not replay_ok:
-            problems.append(f"the taught skill {taught_name} did not succeed on the robot: {replay}")
-        # stiffness phases
-        phases, yaw = None, None
-        if taught:
-            try:
-                skill = skill_file.load(taught[0][1])
-                phases = outcome.stiffness_phases(skill, options.trajectory)
-                problems += phases.check(stiffer_insertion=options.stiffer_insertion)
-                yaw = outcome.alignment_axis_yaw(skill, options.trajectory)
-            except (skill_file.SkillFileError, ValueError) as error:
-                problems.append(f"taught skill unreadable: {error}")
-        if options.alignment_yaw is not None and yaw is not None and abs(yaw - options.alignment_yaw) > 5.0:
-            problems.append(f"stiffest horizontal axis at {yaw:.0f} deg after alignment, not {options.alignment_yaw:g}")
-        # placements, judged from the scene recorded in the bag
+        # one check per experiment
+        problems += outcome.check_iii_b(changes, after_removal, options.removed)
+        taught_file = taught[0][1] if taught else None
+        problems_c, seen = outcome.check_iii_c(taught_file, options.trajectory, options.stiffer_insertion)
+        problems += problems_c
+        problems += outcome.check_iii_d(seen["alignment_axis_yaw_deg"], options.alignment_yaw)
+        status, message, _ = monitor.leaves.get(taught_name, (None, "", "")) if taught_name else (None, "", "")
+        inserted = options.insert_index is not None
+        problems += outcome.check_iii_e(final_children, after_insertion, taught_name, status, message, inserted)
         placements: List[dict] = []
+        figures: List[str] = []
         if bag is not None:
-            from teleteach.recording.session import SessionError, read_session
-
-            try:
-                placements = outcome.placements(read_session(bag), load_scene())
-            except (SessionError, SceneError) as error:
-                problems.append(f"placements unreadable: {error}")
             expected = {
                 product: (gap, taught_name if by_taught else None) for product, gap, by_taught in options.placements
             }
-            problems += outcome.placement_problems(placements, expected)
-        # report
-        report_dir = folder / "report"
-        figures: List[str] = []
-        if bag is not None:
-            from teleteach.recording.report import make_report
-            from teleteach.recording.session import SessionError
-
             try:
-                report = make_report(bag, report_dir)
+                problems_p, placements = outcome.check_placements(read_session(bag), load_scene(), expected)
+                problems += problems_p
+            except (SessionError, SceneError) as error:
+                problems.append(f"placements unreadable: {error}")
+            try:
+                report = make_report(bag, folder / "report")
                 figures = sorted(str(path.relative_to(folder)) for path in report.figures.values())
             except (SessionError, OSError) as error:
                 problems.append(f"report failed: {error}")
         self._mark("report_done")
-        summary = {
-            "folder": str(folder),
-            "passed": not problems,
-            "problems": problems,
-            "finished": finished,
-            "bag": bag.name if bag else None,
-            "tree_initial": list(initial),
-            "tree_changes": [list(children) for children in changes],
-            "tree_edits": edits,
-            "tree_final": list(final_children),
-            "expected_after_III_B": list(after_removal),
-            "expected_after_III_E": list(after_insertion),
-            "taught_skills": [{"name": n, "file": f"skills/{pathlib.Path(f).name}"} for n, f in taught],
-            "taught_skill_result": {"status": replay[0], "message": replay[1]} if replay else None,
-            "stiffness_phases": dataclasses.asdict(phases) if phases else None,
-            "alignment_ratio": phases.alignment_ratio if phases else None,
-            "insertion_ratio": phases.insertion_ratio if phases else None,
-            "alignment_axis_yaw_deg": yaw,
-            "placements": placements,
-            "help_requests": monitor.help_requests,
-            "tabs": monitor.tabs,
-            "screenshots": sorted(path.name for path in folder.glob("*.png")),
-            "screenshot_errors": screenshot_errors,
-            "figures": figures,
-            "timings_wall_s": self.timings,
-        }
-        atomic_write_text(folder / "summary.json", json.dumps(summary, indent=2, default=str) + "\n")
-        atomic_write_text(folder / "summary.md", format_summary(summary))
+        summary = RunSummary(
+            folder=str(folder),
+            problems=problems,
+            finished=finished,
+            bag=bag.name if bag else None,
+            tree_initial=list(initial),
+            tree_changes=[list(children) for children in changes],
+            tree_edits=[outcome.describe_edit(a, b) for a, b in zip(changes, changes[1:])],
+            tree_final=list(final_children),
+            expected_after_iii_b=list(after_removal),
+            expected_after_iii_e=list(after_insertion),
+            taught_skills=[{"name": n, "file": f"skills/{pathlib.Path(f).name}"} for n, f in taught],
+            taught_skill_result={"status": status.value, "message": message} if status else None,
+            placements=placements,
+            help_requests=monitor.help_requests,
+            tabs=monitor.tabs,
+            screenshots=sorted(path.name for path in folder.glob("*.png")),
+            screenshot_errors=screenshot_errors,
+            figures=figures,
+            timings_wall_s=self.timings,
+            **seen,
+        )
+        atomic_write_text(folder / "summary.json", summary.to_json())
+        atomic_write_text(folder / "summary.md", summary.to_markdown())
         return summary
 
+    def _save_trees(self, monitor: Monitor, final_children: Tuple[str, ...]) -> None:
+        """The tree before and after, as yaml and as the tree node's ascii view, and the node's own saved tree."""
+        folder = self.folder
+        shutil.copy(self.options.tree, folder / "tree_before.yaml")
+        if monitor.ascii:
+            atomic_write_text(folder / "tree_before.txt", monitor.ascii[0] + "\n")
+            atomic_write_text(folder / "tree_after.txt", monitor.ascii[-1] + "\n")
+        atomic_write_text(folder / "tree_after.yaml", _tree_yaml(final_children, monitor.leaves))
+        saved_tree = self.root / "trees" / "current_tree.yaml"
+        if saved_tree.is_file():
+            shutil.copy(saved_tree, folder / "tree_after_saved.yaml")
 
-def format_summary(summary: dict) -> str:
-    """The short human summary printed at the end and saved as summary.md."""
-    lines = [f"# Thesis run: {'PASSED' if summary['passed'] else 'FAILED'}", "", f"Run folder: {summary['folder']}", ""]
-    lines.append("- tree: " + ("; ".join(summary["tree_edits"]) or "unchanged"))
-    lines.append("  final BehaviorExecution: " + " -> ".join(summary["tree_final"]))
-    taught = summary["taught_skills"]
-    result = summary["taught_skill_result"]
-    if taught:
-        if result is None:
-            ran = "; not in the tree"
-        else:
-            ran = f"; run by the tree: {'succeeded' if result['status'] == SUCCESS else 'NOT successful'}"
-        lines.append(f"- skill taught: {taught[0]['name']} ({taught[0]['file']}){ran}")
-        if result:
-            lines.append(f"  {result['message']}")
-    else:
-        lines.append("- skill taught: none")
-    if summary["alignment_ratio"] is not None:
-        phases = summary["stiffness_phases"]
-        lines.append(
-            f"- stiffness phases: approach X/Y {phases['approach_x']:.0f}/{phases['approach_y']:.0f} N/m, "
-            f"alignment Y {phases['alignment_y']:.0f} N/m ({summary['alignment_ratio']:.1f}x), "
-            f"insertion X {phases['insertion_x']:.0f} N/m ({summary['insertion_ratio']:.1f}x); stiffest horizontal "
-            f"axis after alignment at {summary['alignment_axis_yaw_deg']:.0f} deg"
-        )
-    for entry in summary["placements"]:
-        where = f"in {entry['gap']}" if entry["gap"] else "in NO gap"
-        upright = "upright" if entry["upright"] else "NOT upright"
-        lines.append(
-            f"- product {entry['product']}: on the shelf {where}, {upright}, {100 * entry['distance_m']:.1f} cm from "
-            f"the nearest gap's centre, put there by {entry['by_skill'] or 'nobody known'}; its neighbours moved at "
-            f"most {1000 * entry['neighbours_max_move_m']:.1f} mm"
-        )
-    if not summary["placements"]:
-        lines.append("- products: none ended on the shelf")
-    lines.append(
-        f"- files: {summary['bag']}, report/ ({len(summary['figures'])} figures), screenshots: "
-        f"{len(summary['screenshots'])}, tree_before/after.yaml/.txt, skills/"
-    )
-    for problem in summary["problems"]:
-        lines.append(f"- PROBLEM: {problem}")
-    lines.append(f"- wall time [s]: {summary['timings_wall_s']}")
-    return "\n".join(lines) + "\n"
+    def _save_skills(self, taught: List[Tuple[str, str]]) -> None:
+        """Copies of the taught skill files."""
+        (self.folder / "skills").mkdir(exist_ok=True)
+        for _, data_file in taught:
+            if pathlib.Path(data_file).is_file():
+                shutil.copy(data_file, self.folder / "skills" / pathlib.Path(data_file).name)
 
 
 def main(argv=None) -> int:
@@ -592,5 +532,5 @@ def main(argv=None) -> int:
     except (ProcessError, OSError, ValueError) as error:
         print(f"run_thesis: error: {error}")
         return 2
-    print(format_summary(summary), end="")
-    return 0 if summary["passed"] else 1
+    print(summary.to_markdown(), end="")
+    return 0 if summary.passed else 1
