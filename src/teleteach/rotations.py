@@ -22,6 +22,16 @@ def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return Rotation.from_euler(FIXED_AXES, [roll, pitch, yaw]).as_matrix()
 
 
+def yaw_rotation(yaw: float) -> Rotation:
+    """Rotation about the vertical (Z) by yaw [rad]: a mobile base's or a shelf slot's heading."""
+    return Rotation.from_euler("z", yaw)
+
+
+def yaw_quaternion(yaw: float) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) of a rotation about the vertical by yaw [rad]."""
+    return yaw_rotation(yaw).as_quat()
+
+
 def quaternion_to_rpy(quaternion: Sequence[float]) -> np.ndarray:
     """Roll, pitch, yaw [rad] of a quaternion (x, y, z, w) (normalised first), pitch within [-pi/2, pi/2]."""
     return Rotation.from_quat(quaternion).as_euler(FIXED_AXES)

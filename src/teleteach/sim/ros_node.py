@@ -4,7 +4,6 @@ Callbacks unpack messages and hand plain values to RobotSim under one lock; Robo
 message is logged (throttled) and announced on ~rejected; the last good command stays in force.
 """
 
-import math
 import threading
 import time
 import warnings
@@ -21,6 +20,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from teleteach.control.validation import InvalidCommandError
 from teleteach.msg import ControllerState, HardwareInterfaceResources
+from teleteach.rotations import yaw_quaternion
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, RobotSim, load_controller_config
 from teleteach.sim.scene import GAPS_NAMESPACE, PRODUCTS_NAMESPACE, load_scene
@@ -282,7 +282,7 @@ class RobotSimNode:
         transform = TransformStamped(header=self._header("world"), child_frame_id=BASE_FRAME)
         transform.transform.translation.x, transform.transform.translation.y = x, y
         rotation = transform.transform.rotation
-        rotation.x, rotation.y, rotation.z, rotation.w = 0.0, 0.0, *_half_angle(yaw)
+        rotation.x, rotation.y, rotation.z, rotation.w = yaw_quaternion(yaw)
         self._tf.publish(TFMessage(transforms=[transform]))
 
     def _publish_scene(self):
@@ -306,7 +306,7 @@ class RobotSimNode:
                     GAPS_NAMESPACE,
                     index,
                     gap.position,
-                    (0, 0, *_half_angle(gap.yaw)),
+                    yaw_quaternion(gap.yaw),
                     (0.06, gap.width, 0.002),
                     (0.1, 0.8, 0.1, 0.5),
                     gap.name,
@@ -329,10 +329,6 @@ class RobotSimNode:
                 )
             )
         self._scene.publish(markers)
-
-
-def _half_angle(yaw):
-    return math.sin(yaw / 2.0), math.cos(yaw / 2.0)
 
 
 def _box_marker(header, namespace, marker_id, position, quaternion, size, colour, text):

@@ -10,6 +10,7 @@ import numpy as np
 import yaml
 
 from teleteach.paths import config_file
+from teleteach.rotations import yaw_quaternion
 
 PRODUCTS_NAMESPACE = "products"  # the marker namespace of the products on /teleteach/scene (world frame)
 GAPS_NAMESPACE = "gaps"  # the marker namespace of the free slots on /teleteach/scene: text = gap name
@@ -52,7 +53,7 @@ class BasePose:
 
     def quaternion(self):
         """The (x, y, z, w) quaternion of the yaw."""
-        return (0.0, 0.0, math.sin(self.yaw / 2.0), math.cos(self.yaw / 2.0))
+        return yaw_quaternion(self.yaw)
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ import pybullet
 import pybullet_data
 
 from teleteach.control.impedance import JointCommand, RobotState
+from teleteach.rotations import yaw_quaternion
 from teleteach.sim import panda
 from teleteach.sim.scene import BasePose, Scene
 
@@ -22,10 +23,6 @@ TABLE_COLOUR = (0.5, 0.5, 0.5, 1.0)
 PRODUCT_COLOUR = (0.8, 0.2, 0.2, 1.0)
 _ORIGIN = [0.0, 0.0, 0.0]
 _ZEROS9 = [0.0] * 9
-
-
-def _yaw_quaternion(yaw):
-    return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
 
 
 class SupermarketWorld:
@@ -118,7 +115,7 @@ class SupermarketWorld:
         half = [value / 2.0 for value in size]
         shape = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half, **self._call)
         visual = pybullet.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=colour, **self._call)
-        body = pybullet.createMultiBody(mass, shape, visual, center, _yaw_quaternion(yaw), **self._call)
+        body = pybullet.createMultiBody(mass, shape, visual, center, yaw_quaternion(yaw), **self._call)
         pybullet.changeDynamics(body, -1, lateralFriction=friction, **self._call)
         if mass > 0.0:
             # Resting products sleep (a touch wakes them): a shelf full of awake boxes costs 3x the physics time.
@@ -128,7 +125,7 @@ class SupermarketWorld:
     # ----------------------------------------------------------------------------------------------- base frame
     def _panda_base_pose(self):
         x, y, yaw = self.base_pose
-        return [x, y, self.scene.robot.mount_height], _yaw_quaternion(yaw)
+        return [x, y, self.scene.robot.mount_height], yaw_quaternion(yaw)
 
     def base_to_world(self, position):
         """A point [m] in base_link expressed in world."""
@@ -313,7 +310,7 @@ class SupermarketWorld:
         x, y, yaw = self.base_pose
         height = self.scene.robot.base_size[2]
         pybullet.resetBasePositionAndOrientation(
-            self.mobile_base, [x, y, height / 2.0], _yaw_quaternion(yaw), **self._call
+            self.mobile_base, [x, y, height / 2.0], yaw_quaternion(yaw), **self._call
         )
         position, orientation = self._panda_base_pose()
         # pybullet places a base by its centre of mass, not by its URDF frame

@@ -10,6 +10,7 @@ from typing import Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.skills import trajectory
 from teleteach.skills.config import MotionConfig
@@ -17,11 +18,6 @@ from teleteach.skills.robot import Execution, Robot, SkillError
 
 POLL_PERIOD = 0.02  # [s] how often waits look at the robot's state
 TOP_DOWN = Rotation.from_euler("x", math.pi)  # TCP z axis pointing down, fingers closing across base y
-
-
-def yaw_rotation(yaw):
-    """Rotation about the vertical by yaw [rad]."""
-    return Rotation.from_euler("z", yaw)
 
 
 def base_to_world(base_pose, position):

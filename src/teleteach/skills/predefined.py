@@ -13,9 +13,10 @@ from scipy.spatial.transform import Rotation
 
 from teleteach import placement
 from teleteach.placement import Placement
+from teleteach.rotations import yaw_rotation
 from teleteach.sim.scene import Gap, Scene, SceneError
 from teleteach.skills.config import MotionConfig
-from teleteach.skills.motion import TOP_DOWN, Motion, world_to_base, yaw_rotation
+from teleteach.skills.motion import TOP_DOWN, Motion, world_to_base
 from teleteach.skills.robot import SkillError
 
 # The skills of the predefined tree, in the order the tree runs them.

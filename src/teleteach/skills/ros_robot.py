@@ -19,9 +19,9 @@ from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import MarkerArray
 
+from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.sim.scene import PRODUCTS_NAMESPACE, product_poses
-from teleteach.skills.motion import yaw_rotation
 from teleteach.skills.robot import Robot, SkillError
 from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
 

@@ -9,9 +9,9 @@ from typing import Dict, Sequence, Tuple
 import numpy as np
 
 from teleteach.control.manager import STRICT
+from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import RobotSim
-from teleteach.skills.motion import yaw_rotation
 from teleteach.skills.robot import Robot, SkillError
 
 
