@@ -102,3 +102,26 @@ def start_xvfb(processes, size="1280x900x24"):
     assert display != ":", processes.log("xvfb")
     processes.env["DISPLAY"] = display
     return display
+
+
+_MISSING = object()
+
+
+def node_pid(name, missing=_MISSING):
+    """The process id of a ROS node, asked from the node itself (its getPid API); ``missing`` if it does not answer."""
+    import xmlrpc.client
+
+    import rosgraph
+    import rosnode
+
+    try:
+        api = rosnode.get_api_uri(rosgraph.Master("/node_pid"), name, skip_cache=True)
+        code, _, pid = xmlrpc.client.ServerProxy(api).getPid("/node_pid")
+        if code == 1:
+            return pid
+        error = f"{name} answered getPid with code {code}"
+    except (OSError, TypeError, rosnode.ROSNodeIOException, xmlrpc.client.Error) as exception:
+        error = f"{name} does not answer: {exception}"
+    if missing is _MISSING:
+        raise AssertionError(error)
+    return missing
