@@ -151,6 +151,7 @@ class ActionSkill(SkillLeaf):
         self.server_timeout = server_timeout
         self.lost_timeout = lost_timeout
         self.clock_timeout = clock_timeout
+        self.problem = entry.problem
         self.server = REPLAY_SKILL if entry.demonstrated else entry.name
         self.goal = ExecuteSkillGoal(skill=entry.name)
         if entry.demonstrated:
@@ -171,6 +172,8 @@ class ActionSkill(SkillLeaf):
     def poll(self) -> typing.Tuple[Status, str]:
         """Send the goal once the server is up, then follow it."""
         server = f"{self.clients.namespace}/{self.server}"
+        if self.problem:
+            return Status.FAILURE, f"{self.skill} is unavailable: {self.problem}"
         if self.goal_handle is None:
             client = self.clients.get(self.server)
             if ActionClients.ready(client):
@@ -292,8 +295,14 @@ class BehaviourTreeNode:
         data_root = datadir.data_dir(rospy.get_param("~data_dir", "") or None)
         store = TreeStore(data_root / "trees")
         if rospy.get_param("~resume", False):
-            spec, library = store.restore(spec, library)
-            rospy.loginfo("behaviour_tree: resumed the tree and library saved in %s", store.directory)
+            spec, library, problems = store.restore(spec, library)
+            if problems:
+                rospy.logwarn("behaviour_tree: could not resume everything saved in %s: %s", store.directory, problems)
+            else:
+                rospy.loginfo("behaviour_tree: resumed the tree and library saved in %s", store.directory)
+            unavailable = [f"{entry.name} ({entry.problem})" for entry in library if not entry.available]
+            if unavailable:
+                rospy.logwarn("behaviour_tree: unavailable skills (shown, not run): %s", "; ".join(unavailable))
         clients = ActionClients(rospy.get_param("~skill_namespace", "/skills"))
         for server in [entry.name for entry in library if not entry.demonstrated] + [REPLAY_SKILL]:
             clients.get(server)  # connect early: the first goal of each skill leaves without waiting
@@ -387,6 +396,7 @@ class BehaviourTreeNode:
                 names=[entry.name for entry in entries],
                 kinds=[entry.kind for entry in entries],
                 data_files=[entry.data_file for entry in entries],
+                problems=[entry.problem for entry in entries],
             )
             library.header.stamp = rospy.Time.now()
             self.library_publisher.publish(library)
