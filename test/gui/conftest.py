@@ -75,14 +75,15 @@ def start(command, log_path):
         return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
 
 
-def start_bt(data_root, server_timeout=60.0):
+def start_bt(data_root, server_timeout=60.0, resume=False):
     """The real behaviour tree node (config/tree.yaml, config/skills.yaml), its data in ``data_root``."""
     import rospy
 
     from teleteach.msg import BehaviourTree
 
+    node = str(ROOT / "nodes" / "behaviour_tree")
     process = start(
-        [str(ROOT / "nodes" / "behaviour_tree"), f"_data_dir:={data_root}", f"_server_timeout:={server_timeout}"],
+        [node, f"_data_dir:={data_root}", f"_server_timeout:={server_timeout}", f"_resume:={str(resume).lower()}"],
         data_root.parent / "behaviour_tree.log",
     )
     rospy.wait_for_service("/change_tree", timeout=60)

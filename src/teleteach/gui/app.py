@@ -152,7 +152,7 @@ class MainWindow(QMainWindow):
             self.tabs.setCurrentIndex(START_TAB)
 
     def _on_library(self, library: Sequence) -> None:
-        self.library_names = [name for name, _, _ in library]
+        self.library_names = [skill.name for skill in library]
         self.high_level.on_library(library)
 
     def _on_help(self, node_name: str, reason: str) -> None:

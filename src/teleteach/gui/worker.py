@@ -24,7 +24,7 @@ from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory
-from teleteach.gui.selection import TreeNode, TreeSnapshot
+from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
@@ -159,7 +159,7 @@ class RosWorker(QObject):
     clicked = pyqtSignal()
     gripper_opened = pyqtSignal()
     tree_received = pyqtSignal(object)  # TreeSnapshot
-    library_received = pyqtSignal(object)  # list of (name, kind, data_file)
+    library_received = pyqtSignal(object)  # list of LibrarySkill
     help_requested = pyqtSignal(str, str)
     health = pyqtSignal(str)  # "" when all inputs are alive, else what is missing
     shared_state = pyqtSignal(object)  # SharedStatus
@@ -286,9 +286,11 @@ class RosWorker(QObject):
         self.tree_received.emit(TreeSnapshot(nodes))
 
     def _on_library(self, message: SkillLibrary) -> None:
-        kinds = list(message.kinds) + [""] * len(message.names)
-        files = list(message.data_files) + [""] * len(message.names)
-        self.library_received.emit(list(zip(message.names, kinds, files)))
+        padding = [""] * len(message.names)
+        kinds, files, problems = (
+            list(field) + padding for field in (message.kinds, message.data_files, message.problems)
+        )
+        self.library_received.emit([LibrarySkill(*skill) for skill in zip(message.names, kinds, files, problems)])
 
     def _on_help(self, message: HelpRequest) -> None:
         self.help_requested.emit(message.node_name, message.reason)
