@@ -115,3 +115,54 @@ def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, arti
     device.click()
     pump_until(qapp, lambda: not window.recorder.active, 5, "recording stopped after a double click")
     pump_until(qapp, lambda: "not saved" in window.statusBar().currentMessage(), 5, "why nothing was saved")
+
+
+def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log, data_root):
+    """SIGKILL of the real sigma7_node in LOW-LEVEL: the GUI says the device is lost, the stiffness stays, and all is
+    well again when a new sigma7_node comes up."""
+    import os
+    import signal
+    import time
+
+    from conftest import ROOT, start, stop
+
+    position = (0.06, -0.03, 0.02)
+    scenario = data_root / "hold.yaml"
+    keyframe = f"position: {list(position)}, rpy: [0.0, 0.0, 0.0], gripper: 0.25"
+    scenario.write_text(f"keyframes:\n  - {{t: 0.0, {keyframe}}}\n  - {{t: 1.0, {keyframe}}}\n")
+    command = [str(ROOT / "nodes" / "sigma7_node"), "_backend:=scenario", f"_scenario:={scenario}", "_rate:=200"]
+
+    def start_device(name):
+        process = start(command, data_root.parent / f"{name}.log")
+        pump_until(qapp, lambda: not window.low_level.device_lost_label.isVisible(), 30, f"the {name} device")
+        return process
+
+    values_log = topic_log("/eigenvalues", Vector3Stamped)
+    window = make_window(initial_tab=2, service_timeout=1.0)
+    pump_until(qapp, lambda: window.low_level.device_lost_label.isVisible(), 5, "no device yet")
+    device = start_device("first")
+    stiffness = expected_stiffness(position)
+
+    def holds(message):
+        v = message.vector
+        return np.allclose([v.x, v.y, v.z], stiffness, rtol=0.01)
+
+    pump_until(qapp, lambda: values_log.last() is not None and holds(values_log.last()), 10, f"stiffness {stiffness}")
+    os.killpg(device.pid, signal.SIGKILL)
+    device.wait(5)
+    killed = time.monotonic()
+    # Expect the LOW-LEVEL tab to say so within about a second (the deadline is generous for a loaded machine)
+    pump_until(qapp, lambda: window.low_level.device_lost_label.isVisible(), 5, "DEVICE LOST on screen")
+    print(f"device lost shown {time.monotonic() - killed:.2f} s after SIGKILL")
+    assert "device lost" in window.health_label.text()
+    pump(qapp, 1.0)
+    # Expect the last valid stiffness still commanded, nothing else
+    after = values_log.since(killed)
+    assert after and all(holds(message) for message in after)
+    device = start_device("second")
+    try:
+        pump(qapp, 0.5)
+        assert not window.low_level.device_lost_label.isVisible() and "device" not in window.health_label.text()
+        assert holds(values_log.last())
+    finally:
+        stop(device)

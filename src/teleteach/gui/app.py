@@ -24,7 +24,7 @@ from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_
 from teleteach.gui.selection import ChangeRequest
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
-from teleteach.gui.worker import RosWorker, ServiceCaller, TrajectoryPlayer
+from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.node import init_node
 from teleteach.srv import (
     AddSkill,
@@ -167,6 +167,7 @@ class MainWindow(QMainWindow):
     def _on_health(self, problems: str) -> None:
         self.health_label.setText(problems)
         self.health_label.setStyleSheet("color: #d22828;" if problems else "")
+        self.low_level.show_device_lost(DEVICE_LOST in problems)
 
     # tabs -----------------------------------------------------------------------------------------
     def _on_tab_changed(self, index: int) -> None:

@@ -392,6 +392,10 @@ class LowLevelTab(QWidget):
             label = _big(QLabel(), 12, bold=False)
             panel.addWidget(label)
             self.axis_labels.append(label)
+        self.device_lost_label = _big(QLabel("DEVICE LOST\nholding the last stiffness until it is back"), 13)
+        self.device_lost_label.setStyleSheet("background: #d22828; color: white; padding: 6px;")
+        self.device_lost_label.hide()
+        panel.addWidget(self.device_lost_label)
         self.recording_label = _big(QLabel(), 14)
         panel.addWidget(self.recording_label)
         self.controller_label = QLabel("controller: -")
@@ -424,6 +428,10 @@ class LowLevelTab(QWidget):
         """Clicks are classified: single -> next mode (after the double-click window), double -> recording."""
         if self.active and self.clicks.click(time.monotonic()) == ClickClassifier.DOUBLE:
             self.recording_toggled.emit()
+
+    def show_device_lost(self, lost: bool) -> None:
+        """Say that the device is gone (the ellipsoid, and the stiffness sent, stay as they were) or back."""
+        self.device_lost_label.setVisible(lost)
 
     def on_leave(self) -> None:
         """Drop a pending click."""

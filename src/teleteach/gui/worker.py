@@ -38,6 +38,9 @@ def pose_to_array(pose) -> np.ndarray:
     return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w])
 
 
+DEVICE_LOST = "device lost (/sigma7/pose silent)"
+
+
 class TrajectoryPlayer:
     """Plays the predefined kinematic trajectory on /equilibrium_pose from its own thread (thesis A.2.2)."""
 
@@ -196,6 +199,7 @@ class RosWorker(QObject):
         self._last_publish = -1.0
         self._last_seen = {}
         self._rejected = 0
+        self._health: Optional[str] = None
         self._subscribers: Dict[str, rospy.Subscriber] = {}
         self._timers: List[QTimer] = []
 
@@ -227,7 +231,7 @@ class RosWorker(QObject):
         for rate, slot in (
             (self.config.publish_rate, self._publish_stiffness),
             (self.config.device_ui_rate, self._emit_device),
-            (1.0, self._check_health),
+            (self.config.health_rate, self._check_health),
         ):
             timer = QTimer(self)
             timer.setTimerType(Qt.PreciseTimer)
@@ -398,9 +402,18 @@ class RosWorker(QObject):
         self.device_changed.emit(sample)
 
     def _check_health(self) -> None:
+        """Emit what is missing when that changes.
+
+        The device counts as lost as soon as its publisher disconnects (the node died) or its poses stop for
+        ``device_timeout``; the stiffness keeps its last valid value meanwhile.
+        """
         missing = []
-        if time.monotonic() - self._last_seen.get("/sigma7/pose", -1e9) > 2.0:
-            missing.append("no device (/sigma7/pose silent)")
+        silent = time.monotonic() - self._last_seen.get("/sigma7/pose", -1e9) > self.config.device_timeout
+        if silent or self._subscribers["/sigma7/pose"].get_num_connections() == 0:
+            missing.append(DEVICE_LOST)
         if self._subscribers["/behaviour_tree/log/tree"].get_num_connections() == 0:
             missing.append("no behaviour tree (/behaviour_tree/log/tree)")
-        self.health.emit("; ".join(missing))
+        problems = "; ".join(missing)
+        if problems != self._health:
+            self._health = problems
+            self.health.emit(problems)
