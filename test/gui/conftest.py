@@ -254,6 +254,10 @@ class TopicLog:
         with self._lock:
             self.messages.append((time.monotonic(), message))
 
+    def connected(self):
+        """Whether a publisher of the topic is connected (so what it sends from now on arrives here)."""
+        return self._subscriber.get_num_connections() > 0
+
     def last(self):
         with self._lock:
             return self.messages[-1][1] if self.messages else None
