@@ -5,9 +5,11 @@ missing or bad stays in the library as unavailable, and /change_tree refuses it 
 import numpy as np
 import pytest
 from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, thesis_tree
+from py_trees.common import Status
 
 from teleteach import skill_file
-from teleteach.bt.library import SkillLibrary
+from teleteach.bt.library import SkillEntry, SkillLibrary
+from teleteach.bt.ros import ActionClients, ActionSkill
 from teleteach.bt.teaching import TeachingTree, TreeStore
 from teleteach.bt.tree import create_root, load_tree
 
@@ -143,3 +145,13 @@ def test_a_skill_whose_file_went_bad_is_unavailable_and_refused(tmp_path, predef
     before = execution_names(tree.root)
     assert tree.change("PickItem", "add").success
     assert execution_names(tree.root) == [*before, "PickItem_2"]
+
+
+def test_a_leaf_of_an_unavailable_skill_fails_at_once_with_the_reason():
+    entry = SkillEntry("Wipe", "stiffness", "/data/skills/wipe.npz", problem="skill file /data/skills/wipe.npz gone")
+    leaf = ActionSkill("Wipe", entry, ActionClients("/skills"))
+    leaf.initialise()
+    # Expect a failure naming the file before any goal is sent (no server is asked to replay a missing file)
+    assert leaf.update() == Status.FAILURE
+    assert "unavailable" in leaf.feedback_message and "/data/skills/wipe.npz" in leaf.feedback_message
+    assert leaf.goal_handle is None
