@@ -99,9 +99,11 @@ def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, 
     assert len(values_log.messages) - count < 5
 
 
-def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, artifacts_dir):
+def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, topic_log, artifacts_dir):
     """No BT node, no controller manager: the status bar says so and the GUI keeps working."""
+    recording_log = topic_log("/teleteach/recording", Bool)
     window = make_window(service_timeout=1.0)
+    pump_until(qapp, lambda: recording_log.last() is not None and not recording_log.last().data, 5, "not recording")
     pump_until(qapp, lambda: "behaviour_tree" in window.health_label.text(), 5, "the missing BT in the status bar")
     open_low_level(qapp, window, device)
     pump_until(
@@ -115,10 +117,12 @@ def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, arti
     device.click()
     device.click()
     pump_until(qapp, lambda: window.recorder.active, 5, "recording after a double click")
+    pump_until(qapp, lambda: recording_log.last().data, 5, "/teleteach/recording true")
     pump(qapp, 0.5)
     device.click()
     device.click()
     pump_until(qapp, lambda: not window.recorder.active, 5, "recording stopped after a double click")
+    pump_until(qapp, lambda: not recording_log.last().data, 5, "/teleteach/recording false")
     pump_until(qapp, lambda: "not saved" in window.statusBar().currentMessage(), 5, "why nothing was saved")
 
 

@@ -59,6 +59,8 @@ class MainWindow(QMainWindow):
 
         self._tab_publisher = rospy.Publisher("/teleteach/active_tab", Int8, queue_size=1, latch=True)
         self._pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
+        self._recording_publisher = rospy.Publisher("/teleteach/recording", Bool, queue_size=1, latch=True)
+        self._recording_publisher.publish(Bool(False))
         equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
 
@@ -239,6 +241,7 @@ class MainWindow(QMainWindow):
         if not self._session:
             self._begin_session()
         self.recorder.start()
+        self._recording_publisher.publish(Bool(True))
         self.player.start()
         self.low_level.recording_since = time.monotonic()
         self.statusBar().showMessage(f"recording: playing trajectory {self.trajectory.name}", 5000)
@@ -246,6 +249,7 @@ class MainWindow(QMainWindow):
     def _stop_recording(self) -> None:
         """Save the demonstration as a new skill, add it to the library, end the teaching session (III-E)."""
         self.recorder.stop()
+        self._recording_publisher.publish(Bool(False))
         self.player.stop()
         self.low_level.recording_since = None
         self._save_recording(self.recorder, "stiffness", self.config.skill_prefix, {"trajectory": self.trajectory.name})
@@ -281,12 +285,14 @@ class MainWindow(QMainWindow):
         if not self._session:
             self._begin_session()
         self.shared_recorder.start()
+        self._recording_publisher.publish(Bool(True))
         self.shared_control.recording_since = time.monotonic()
         self.statusBar().showMessage("recording the shared-control trajectory", 5000)
 
     def _stop_shared_recording(self, end_session: bool) -> None:
         """Save the shared-control recording as a ``shared_control`` skill; the session goes on in the tab."""
         self.shared_recorder.stop()
+        self._recording_publisher.publish(Bool(False))
         self.shared_control.recording_since = None
         self.shared_control.show_status(self.shared_control.status)
         stiffness = [float(value) for value in self.config.shared_control_stiffness]
