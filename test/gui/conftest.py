@@ -35,31 +35,51 @@ def stop(process, timeout=10.0):
 
 @pytest.fixture(scope="session")
 def ros_master(tmp_path_factory):
-    """A roscore on a free port; this process becomes the rospy node 'gui_test'."""
-    import rosgraph
+    """A roscore on a free port; this process becomes the rospy node 'gui_test'.
+
+    The port is probed free, then bound by roscore: another run may take it in between, so a roscore that exits, or
+    a master on that port that is not this roscore's child, means: try another port.
+    """
     import rospy
 
     if rospy.core.is_initialized():
         raise RuntimeError("rospy was initialised by another test in this process; GUI tests need their own master")
-    uri = f"http://127.0.0.1:{free_port()}"
-    os.environ["ROS_MASTER_URI"] = uri
     os.environ["ROS_HOSTNAME"] = "127.0.0.1"
-    logs = tmp_path_factory.mktemp("ros_logs")
-    os.environ["ROS_LOG_DIR"] = str(logs)
-    core = subprocess.Popen(
-        ["roscore", "-p", uri.rsplit(":", 1)[1]],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        start_new_session=True,
-    )
-    deadline = time.monotonic() + 30
-    while not rosgraph.is_master_online(uri):
-        assert time.monotonic() < deadline, "roscore did not come up within 30 s"
-        time.sleep(0.1)
+    os.environ["ROS_LOG_DIR"] = str(tmp_path_factory.mktemp("ros_logs"))
+    for _ in range(5):
+        uri = f"http://127.0.0.1:{free_port()}"
+        os.environ["ROS_MASTER_URI"] = uri
+        core = subprocess.Popen(
+            ["roscore", "-p", uri.rsplit(":", 1)[1]],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+        if _wait_for_own_master(uri, core):
+            break
+        stop(core)
+    else:
+        raise AssertionError("no roscore of our own after 5 ports")
     rospy.init_node("gui_test", disable_signals=True)
     yield uri
     rospy.signal_shutdown("GUI tests done")
     stop(core)
+
+
+def _wait_for_own_master(uri, core, timeout=30.0):
+    """Whether the master that answers at ``uri`` is ``core``'s (False: roscore ended, or another master is there)."""
+    import xmlrpc.client
+
+    deadline = time.monotonic() + timeout
+    while core.poll() is None and time.monotonic() < deadline:
+        try:
+            code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/gui_test")
+        except (OSError, xmlrpc.client.Error):
+            time.sleep(0.1)
+            continue
+        stat = pathlib.Path(f"/proc/{pid}/stat")
+        return code == 1 and stat.exists() and int(stat.read_text().rsplit(")", 1)[1].split()[1]) == core.pid
+    return False
 
 
 @pytest.fixture
@@ -75,14 +95,15 @@ def start(command, log_path):
         return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
 
 
-def start_bt(data_root, server_timeout=60.0):
+def start_bt(data_root, server_timeout=60.0, resume=False):
     """The real behaviour tree node (config/tree.yaml, config/skills.yaml), its data in ``data_root``."""
     import rospy
 
     from teleteach.msg import BehaviourTree
 
+    node = str(ROOT / "nodes" / "behaviour_tree")
     process = start(
-        [str(ROOT / "nodes" / "behaviour_tree"), f"_data_dir:={data_root}", f"_server_timeout:={server_timeout}"],
+        [node, f"_data_dir:={data_root}", f"_server_timeout:={server_timeout}", f"_resume:={str(resume).lower()}"],
         data_root.parent / "behaviour_tree.log",
     )
     rospy.wait_for_service("/change_tree", timeout=60)
@@ -232,6 +253,10 @@ class TopicLog:
     def _on(self, message):
         with self._lock:
             self.messages.append((time.monotonic(), message))
+
+    def connected(self):
+        """Whether a publisher of the topic is connected (so what it sends from now on arrives here)."""
+        return self._subscriber.get_num_connections() > 0
 
     def last(self):
         with self._lock:

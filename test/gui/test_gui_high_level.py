@@ -83,7 +83,7 @@ def test_insert_at_an_index_via_the_dial(qapp, bt_node, device, make_window, top
     tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
     window = make_window()
     high = window.high_level
-    pump_until(qapp, lambda: "DropItem" in [name for name, _, _ in high.library], 20, "the skill library")
+    pump_until(qapp, lambda: "DropItem" in [skill.name for skill in high.library], 20, "the skill library")
     open_high_level(qapp, window, device)
     # the library's DropItem button (after the tree's buttons)
     groups, library = high.choices()
@@ -133,3 +133,39 @@ def test_help_request_is_shown_and_answered_from_the_gui(qapp, impatient_bt_node
     pump_until(qapp, lambda: window.tabs.currentIndex() == 0, 5, "START after opening the gripper")
     # Expect: the tree went on to PickItem, which has no server either and asks for help in turn
     pump_until(qapp, lambda: "PickItem" in window.help_banner.text(), 20, "the next help request (PickItem)")
+
+
+@pytest.fixture
+def bt_node_with_a_lost_skill(ros_master, data_root):
+    """The behaviour tree node resuming a saved library whose taught skill Gone has no file any more."""
+    trees = data_root / "trees"
+    trees.mkdir()
+    (trees / "skill_library.yaml").write_text(
+        f"skills:\n  - {{name: Gone, kind: stiffness, data_file: {data_root / 'skills' / 'gone.npz'}}}\n"
+    )
+    process = start_bt(data_root, resume=True)
+    yield process
+    stop(process)
+
+
+def test_a_skill_whose_file_is_gone_is_greyed_and_refused(
+    qapp, bt_node_with_a_lost_skill, device, make_window, data_root
+):
+    window = make_window()
+    high = window.high_level
+    pump_until(qapp, lambda: "Gone" in [skill.name for skill in high.library], 20, "the skill library")
+    groups, library = high.choices()
+    index = sum(len(names) for _, names in groups) + library.index("Gone")
+    button, neighbour = high.buttons[index], high.buttons[index - 1]
+    # Expect the button greyed, saying why; the other library buttons usable
+    missing = str(data_root / "skills" / "gone.npz")
+    assert not button.isEnabled() and missing in button.toolTip()
+    assert neighbour.isEnabled() and neighbour.text() == "Idle"
+    # Expect the operator who selects it anyway to be refused with the file named, and the tree unchanged
+    open_high_level(qapp, window, device)
+    select_node(qapp, window, device, index)
+    select_operation(qapp, window, device, "add")
+    device.click()
+    pump_until(qapp, lambda: high.flow.answer.startswith("refused"), 10, "the refusal on screen")
+    assert missing in high.flow.answer
+    assert "Gone" not in [name for _, names in high.choices()[0] for name in names]

@@ -29,8 +29,11 @@ def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, 
     vectors_log = topic_log("/eigenvectors", QuaternionStamped)
     pause_log = topic_log("/behaviour_tree/pause", Bool)
     window = make_window()
+    # nothing is commanded outside LOW-LEVEL: checked once this log is connected to the GUI's publishers, so a
+    # message sent would have arrived
+    pump_until(qapp, lambda: values_log.connected() and vectors_log.connected(), 10, "the logs connected to the GUI")
     pump(qapp, 0.5)
-    assert values_log.last() is None  # nothing is commanded outside LOW-LEVEL
+    assert values_log.last() is None and vectors_log.last() is None
     open_low_level(qapp, window, device)
     pump_until(qapp, lambda: pause_log.last() is not None and pause_log.last().data, 5, "the BT paused")
 
@@ -45,12 +48,14 @@ def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, 
         return v is not None and np.allclose([v.x, v.y, v.z], stiffness, rtol=0.01)
 
     pump_until(qapp, commanded, 5, f"/eigenvalues = {stiffness}")
+    held = len(values_log.messages)
     pump(qapp, 2.0)
     window.screenshot().save(str(artifacts_dir / "gui_low_level_all.png"))
-    values = values_log.messages[-200:]
+    # Expect the command repeated while the device is still (the controller holds what it last got; the rate is
+    # measured by bench/gui_latency.py)
+    values = values_log.messages[held:]
     stamps = [message.header.stamp.to_sec() for _, message in values]
-    rate = (len(stamps) - 1) / (stamps[-1] - stamps[0])
-    assert rate >= 100.0, f"/eigenvalues at {rate:.0f} Hz"
+    assert len(stamps) >= 2 and all(later > earlier for earlier, later in zip(stamps, stamps[1:]))
     vector = values[-1][1].vector
     assert np.allclose([vector.x, vector.y, vector.z], stiffness, rtol=0.01)
     assert values[-1][1].header.frame_id == "base_link"
@@ -94,9 +99,11 @@ def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, 
     assert len(values_log.messages) - count < 5
 
 
-def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, artifacts_dir):
+def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, topic_log, artifacts_dir):
     """No BT node, no controller manager: the status bar says so and the GUI keeps working."""
+    recording_log = topic_log("/teleteach/recording", Bool)
     window = make_window(service_timeout=1.0)
+    pump_until(qapp, lambda: recording_log.last() is not None and not recording_log.last().data, 5, "not recording")
     pump_until(qapp, lambda: "behaviour_tree" in window.health_label.text(), 5, "the missing BT in the status bar")
     open_low_level(qapp, window, device)
     pump_until(
@@ -110,8 +117,61 @@ def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, arti
     device.click()
     device.click()
     pump_until(qapp, lambda: window.recorder.active, 5, "recording after a double click")
+    pump_until(qapp, lambda: recording_log.last().data, 5, "/teleteach/recording true")
     pump(qapp, 0.5)
     device.click()
     device.click()
     pump_until(qapp, lambda: not window.recorder.active, 5, "recording stopped after a double click")
+    pump_until(qapp, lambda: not recording_log.last().data, 5, "/teleteach/recording false")
     pump_until(qapp, lambda: "not saved" in window.statusBar().currentMessage(), 5, "why nothing was saved")
+
+
+def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log, data_root):
+    """SIGKILL of the real sigma7_node in LOW-LEVEL: the GUI says the device is lost, the stiffness stays, and all is
+    well again when a new sigma7_node comes up."""
+    import os
+    import signal
+    import time
+
+    from conftest import ROOT, start, stop
+
+    position = (0.06, -0.03, 0.02)
+    scenario = data_root / "hold.yaml"
+    keyframe = f"position: {list(position)}, rpy: [0.0, 0.0, 0.0], gripper: 0.25"
+    scenario.write_text(f"keyframes:\n  - {{t: 0.0, {keyframe}}}\n  - {{t: 1.0, {keyframe}}}\n")
+    command = [str(ROOT / "nodes" / "sigma7_node"), "_backend:=scenario", f"_scenario:={scenario}", "_rate:=200"]
+
+    def start_device(name):
+        process = start(command, data_root.parent / f"{name}.log")
+        pump_until(qapp, lambda: not window.low_level.device_lost_label.isVisible(), 30, f"the {name} device")
+        return process
+
+    values_log = topic_log("/eigenvalues", Vector3Stamped)
+    window = make_window(initial_tab=2, service_timeout=1.0)
+    pump_until(qapp, lambda: window.low_level.device_lost_label.isVisible(), 5, "no device yet")
+    device = start_device("first")
+    stiffness = expected_stiffness(position)
+
+    def holds(message):
+        v = message.vector
+        return np.allclose([v.x, v.y, v.z], stiffness, rtol=0.01)
+
+    pump_until(qapp, lambda: values_log.last() is not None and holds(values_log.last()), 10, f"stiffness {stiffness}")
+    os.killpg(device.pid, signal.SIGKILL)
+    device.wait(5)
+    killed = time.monotonic()
+    # Expect the LOW-LEVEL tab to say so within about a second (the deadline is generous for a loaded machine)
+    pump_until(qapp, lambda: window.low_level.device_lost_label.isVisible(), 5, "DEVICE LOST on screen")
+    print(f"device lost shown {time.monotonic() - killed:.2f} s after SIGKILL")
+    assert "device lost" in window.health_label.text()
+    pump(qapp, 1.0)
+    # Expect the last valid stiffness still commanded, nothing else
+    after = values_log.since(killed)
+    assert after and all(holds(message) for message in after)
+    device = start_device("second")
+    try:
+        pump(qapp, 0.5)
+        assert not window.low_level.device_lost_label.isVisible() and "device" not in window.health_label.text()
+        assert holds(values_log.last())
+    finally:
+        stop(device)

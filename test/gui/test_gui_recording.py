@@ -155,3 +155,80 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
         return by_id[execution.child_ids[4]].class_name == name
 
     pump_until(qapp, inserted, 15, f"{name} at index 4 of BehaviorExecution")
+
+
+class RobotPoseStandIn:
+    """Publishes a still /cartesian_pose at 100 Hz, what the recorder samples beside the commanded stiffness."""
+
+    def __init__(self):
+        import threading
+
+        import rospy
+
+        self._publisher = rospy.Publisher("/cartesian_pose", PoseStamped, queue_size=10)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self):
+        import rospy
+
+        message = PoseStamped()
+        message.header.frame_id = "base_link"
+        message.pose.position.x, message.pose.position.z, message.pose.orientation.w = 0.5, 0.4, 1.0
+        while not self._stop.wait(0.01):
+            message.header.stamp = rospy.Time.now()
+            self._publisher.publish(message)
+
+    def close(self):
+        self._stop.set()
+        self._thread.join(2)
+
+
+def test_gui_killed_while_recording_leaves_no_skill_file(qapp, bt_node, device, topic_log, data_root):
+    """SIGKILL of the real teaching_gui process in the middle of a recording: no skill file (whole or partial) in the
+    data directory, and the behaviour tree's library unchanged. The robot is a stand-in publishing /cartesian_pose
+    (the recording is what matters here; with robot_sim on a loaded machine the scripted double click was lost)."""
+    import os
+    import signal
+    import subprocess
+
+    from conftest import ROOT
+
+    library_log = topic_log("/behaviour_tree/skill_library", SkillLibrary)
+    equilibrium_log = topic_log("/equilibrium_pose", PoseStamped)
+    pump_until(qapp, lambda: library_log.last() is not None, 20, "the skill library")
+    before = list(library_log.last().names)
+    robot = RobotPoseStandIn()
+    with open(data_root.parent / "teaching_gui.log", "w") as log:
+        gui = subprocess.Popen(
+            [str(ROOT / "nodes" / "teaching_gui"), "_initial_tab:=2", "_repaint_rate:=5", "_service_timeout:=1.0"],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=dict(os.environ, TELETEACH_DATA=str(data_root)),
+            start_new_session=True,
+        )
+    try:
+        pump_until(qapp, gui_records_the_robot, 60, "the GUI subscribed to the device and the robot")
+        pump(qapp, 2.0)  # the GUI's failed controller switch (no robot) has been reported
+        started = time.monotonic()
+        double_click(device)
+        # Expect the trajectory to play (the recording runs), then kill the GUI in the middle of it
+        pump_until(qapp, lambda: len(equilibrium_log.since(started)) >= 50, 20, "the recorded trajectory playing")
+        os.killpg(gui.pid, signal.SIGKILL)
+        gui.wait(10)
+    finally:
+        stop(gui)
+        robot.close()
+    # Expect no skill file, whole or partial, and the library as it was (a late add_skill would show within 1 s)
+    assert [path.name for path in (data_root / "skills").iterdir()] == []
+    pump(qapp, 1.0)
+    assert list(library_log.last().names) == before
+
+
+def gui_records_the_robot():
+    import rosgraph
+
+    _, subscribers, _ = rosgraph.Master("/gui_test").getSystemState()
+    topics = {topic for topic, nodes in subscribers if "/teaching_gui" in nodes}
+    return {"/sigma7/button", "/cartesian_pose"} <= topics

@@ -1,6 +1,7 @@
 """Helpers for the behaviour-tree rostest checks: watch /behaviour_tree/log/tree and the test skill server's events,
 call /change_tree, wait for conditions with a deadline (a failing check reports what it saw, never hangs)."""
 
+import json
 import threading
 import time
 
@@ -33,7 +34,7 @@ class TreeView:
         self.tree = None
         self.help = None
         self.library = None
-        self.events = []
+        self.histories = {}  # skill_test_server process id -> its events (a respawned server is a new process)
         rospy.Subscriber("/behaviour_tree/log/tree", BehaviourTree, self._on_tree, queue_size=10)
         rospy.Subscriber("/behaviour_tree/help_request", HelpRequest, self._on_help, queue_size=10)
         rospy.Subscriber("/behaviour_tree/skill_library", SkillLibrary, self._on_library, queue_size=10)
@@ -56,8 +57,15 @@ class TreeView:
             self.library = message
 
     def _on_event(self, message):
+        history = json.loads(message.data)
         with self.lock:
-            self.events.append(tuple(message.data.split("|", 3)))
+            self.histories[history["pid"]] = [tuple(event) for event in history["events"]]
+
+    @property
+    def events(self):
+        """Every skill server event so far, (event, server, skill, parameters), servers in the order they started."""
+        with self.lock:
+            return [event for events in self.histories.values() for event in events]
 
     def change(self, node_name, operation, index=0, parent=""):
         return self.change_tree(node_name=node_name, operation=operation, index=index, parent=parent)
@@ -84,12 +92,10 @@ class TreeView:
         return {b.name: [by_id[i] for i in b.child_ids] for b in nodes.values()}
 
     def started(self, server=None):
-        with self.lock:
-            return [e[2] for e in self.events if e[0] == "start" and (server is None or e[1] == server)]
+        return [e[2] for e in self.events if e[0] == "start" and (server is None or e[1] == server)]
 
     def event_list(self, kind):
-        with self.lock:
-            return [e for e in self.events if e[0] == kind]
+        return [e for e in self.events if e[0] == kind]
 
     def wait_for(self, condition, timeout, what):
         deadline = time.monotonic() + timeout

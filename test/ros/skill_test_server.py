@@ -1,12 +1,16 @@
 #!/usr/bin/env python3
 """Stand-in skill server for the behaviour-tree rostests: real actionlib servers /skills/<Name> whose goals take a
-configurable time and succeed or fail as configured; every goal event is published on ~events as
-"event|server|skill|parameters" (events: start, succeed, fail, cancel).
+configurable time and succeed or fail as configured. ~events (latched) carries, after every goal event, this process'
+whole history as JSON ``{"pid": pid, "events": [[event, server, skill, parameters], ...]}`` (events: start,
+succeed, fail, cancel), so a check that subscribes late still sees the first event, and a respawned server's events
+are told apart from its predecessor's.
 
 Params: ~skills (names; default: config/skills.yaml + ReplaySkill), ~duration [s] (default 0.3),
 ~durations {skill: s}, ~failures {skill: reason} (those goals always fail).
 """
 
+import json
+import os
 import threading
 
 import actionlib
@@ -25,7 +29,8 @@ class SkillTestServer:
         self.duration = float(rospy.get_param("~duration", 0.3))
         self.durations = rospy.get_param("~durations", {})
         self.failures = rospy.get_param("~failures", {})
-        self.events = rospy.Publisher("~events", String, queue_size=100, latch=False)
+        self.events = rospy.Publisher("~events", String, queue_size=100, latch=True)
+        self.history = []
         self.lock = threading.Lock()
         self.by_name = {}
         for name in rospy.get_param("~skills", default):
@@ -40,7 +45,8 @@ class SkillTestServer:
 
     def emit(self, event, server, goal):
         with self.lock:
-            self.events.publish(String(data=f"{event}|{server}|{goal.skill}|{goal.parameters}"))
+            self.history.append([event, server, goal.skill, goal.parameters])
+            self.events.publish(String(data=json.dumps({"pid": os.getpid(), "events": self.history})))
 
     def execute(self, name, goal):
         server = self.by_name[name]

@@ -1,11 +1,17 @@
 """RViz with the teleteach layout: a valid config, and a real RViz under Xvfb showing the simulated robot, the
-supermarket scene and the stiffness ellipsoid for 10 s without errors (screenshot kept in test-artifacts/)."""
+supermarket scene and the stiffness ellipsoid for 10 s without errors (screenshots kept in test-artifacts/).
+
+What RViz shows is read from its screenshot: the 3D view is where RViz's background colour is, the robot is its white
+links, the shelf is brown, and the ellipsoid is the red that goes away when the commanded stiffness shrinks it
+(the products are red too, and stay).
+"""
 
 import re
 import shutil
 import subprocess
 import time
 
+import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
@@ -17,6 +23,10 @@ ERROR_LINE = re.compile(r"\[ *(ERROR|FATAL)\]|has died|Segmentation fault|Traceb
 # is a Windows path of its author ("D:\dev\pybullet_robots\..."): RViz reports it and draws those links untextured.
 # An upstream data defect, allowed by this exact path only; any other error fails the test.
 UPSTREAM_TEXTURE = "D:\\dev\\pybullet_robots\\data\\franka_panda\\meshes\\visual\\colors.png"
+
+
+BACKGROUND = 48  # RViz's background colour (48; 48; 48), the layout's Background Color
+MIN_PIXELS = {"robot": 1000, "shelf": 10000, "ellipsoid": 1000}  # a fifth or less of what an 820x690 view shows
 
 
 def displays(config):
@@ -66,23 +76,39 @@ def test_rviz_shows_robot_scene_and_ellipsoid_without_errors(tmp_path, artifacts
             "{header: {frame_id: base_link}, quaternion: {x: 0, y: 0, z: 0.3826834, w: 0.9238795}}",
         )
 
-        def marker_published():
+        def marker_diameter():
+            """The largest diameter of the ellipsoid marker (a SPHERE) [m], 0 while there is none."""
             result = subprocess.run(
-                ["rostopic", "echo", "-n", "1", "/visualization_marker/type"],
+                ["rostopic", "echo", "-n", "1", "/visualization_marker"],
                 env=processes.env,
                 capture_output=True,
                 text=True,
                 timeout=30,
             )
-            return result.stdout.startswith("2")
+            marker = yaml.safe_load(result.stdout.split("---")[0] or "{}") or {}
+            if marker.get("type") != 2:
+                return 0.0
+            return max(marker["scale"].values())
 
         rviz = processes.start("rviz", ["roslaunch", "teleteach", "rviz.launch"])
-        wait_until(marker_published, 60, "the ellipsoid marker (SPHERE) on /visualization_marker")
+        wait_until(lambda: marker_diameter() > 0.1, 60, "the ellipsoid marker (SPHERE) on /visualization_marker")
         time.sleep(10.0)
         assert rviz.poll() is None, processes.log("rviz")
-        screenshot = tmp_path / "rviz.png"
-        subprocess.run(["import", "-window", "root", str(screenshot)], env=processes.env, check=True, timeout=30)
-        shutil.copy(screenshot, artifacts_dir / "rviz.png")
+        large = screenshot(processes, tmp_path / "rviz.png")
+        shutil.copy(tmp_path / "rviz.png", artifacts_dir / "rviz.png")
+        # the smallest stiffness: the ellipsoid shrinks to its minimum diameter (2 cm), everything else stays
+        processes.stop("eigenvalues")
+        publish(
+            processes,
+            "small_eigenvalues",
+            "/eigenvalues",
+            "geometry_msgs/Vector3Stamped",
+            "{header: {frame_id: base_link}, vector: {x: 50, y: 50, z: 50}}",
+        )
+        wait_until(lambda: marker_diameter() < 0.05, 30, "the shrunk ellipsoid marker")
+        time.sleep(2.0)  # RViz draws at 30 Hz: a few frames
+        small = screenshot(processes, tmp_path / "rviz_small_ellipsoid.png")
+        shutil.copy(tmp_path / "rviz_small_ellipsoid.png", artifacts_dir / "rviz_small_ellipsoid.png")
         # The 10 s of running are what is judged (errors go to stderr, unbuffered): RViz 1.14 on llvmpipe sometimes
         # segfaults while tearing down. Its INFO lines (stdout, buffered in a pipe) may only arrive at the stop.
         running_log = processes.log("rviz")
@@ -91,4 +117,40 @@ def test_rviz_shows_robot_scene_and_ellipsoid_without_errors(tmp_path, artifacts
     assert "rviz version" in log, log
     errors = [line for line in running_log.splitlines() if ERROR_LINE.search(line) and UPSTREAM_TEXTURE not in line]
     assert errors == [], "\n".join(errors)
-    assert screenshot.stat().st_size > 50_000
+    # Expect the robot, the shelf and the ellipsoid in the 3D view
+    seen = {
+        "robot": int(white(large).sum()),
+        "shelf": int(brown(large).sum()),
+        "ellipsoid": int(red(large).sum() - red(small).sum()),
+    }
+    assert all(seen[part] >= MIN_PIXELS[part] for part in seen), f"pixels seen {seen}, expected at least {MIN_PIXELS}"
+
+
+def screenshot(processes, path):
+    """The 3D view of RViz (the rows and columns where its background colour dominates) as an RGB int array."""
+    from PIL import Image
+
+    subprocess.run(["import", "-window", "root", str(path)], env=processes.env, check=True, timeout=30)
+    image = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    background = np.all(image == BACKGROUND, axis=2)
+    rows = np.flatnonzero(background.sum(axis=1) > 50)
+    columns = np.flatnonzero(background.sum(axis=0) > 50)
+    assert rows.size and columns.size, "no RViz 3D view (background colour) in the screenshot"
+    return image[rows[0] : rows[-1] + 1, columns[0] : columns[-1] + 1]
+
+
+def white(view):
+    """The Panda's links (white material, lit): bright, nearly grey."""
+    return (view.min(axis=2) > 170) & (view.max(axis=2) - view.min(axis=2) < 30)
+
+
+def brown(view):
+    """The shelf's colour (0.55, 0.4, 0.25), lit."""
+    r, g, b = view[..., 0], view[..., 1], view[..., 2]
+    return (r > g) & (g > b) & (r - b > 30) & (g > 0.55 * r)
+
+
+def red(view):
+    """The products' and the ellipsoid's red."""
+    r, g, b = view[..., 0], view[..., 1], view[..., 2]
+    return (r > 80) & (g < 0.6 * r) & (b < 0.6 * r)

@@ -131,8 +131,9 @@ def test_changes_and_taught_skills_are_saved_and_restored(library, tmp_path):
     # Expect both files written, and a restart from them to rebuild the edited tree with the taught skill
     assert store.tree_path.is_file() and store.library_path.is_file()
     default = load_tree(CONFIG / "tree.yaml", library)
-    spec, restored_library = store.restore(default, SkillLibrary.load(CONFIG / "skills.yaml"))
-    assert restored_library.get("PlaceStiff").kind == "stiffness"
+    spec, restored_library, problems = store.restore(default, SkillLibrary.load(CONFIG / "skills.yaml"))
+    assert problems == ""
+    assert restored_library.get("PlaceStiff").kind == "stiffness" and restored_library.get("PlaceStiff").available
     root = create_root(spec.root, restored_library, SkillWorld().make_leaf)
     assert describe(root) == describe(tree.root)
     assert leaf_names(root.children[1]) == [
@@ -149,14 +150,18 @@ def test_changes_and_taught_skills_are_saved_and_restored(library, tmp_path):
         "PickItem_2",
     ]
     assert root.children[1].children[3].data_file == restored_library.get("PlaceStiff").data_file
-    # Expect no temporary files left behind by the atomic writes
-    assert sorted(p.name for p in store.directory.iterdir()) == ["current_tree.yaml", "skill_library.yaml"]
+    # Expect the previous version of the tree kept, and no temporary files left behind by the atomic writes
+    assert sorted(p.name for p in store.directory.iterdir()) == [
+        "current_tree.previous.yaml",
+        "current_tree.yaml",
+        "skill_library.yaml",
+    ]
 
 
 def test_restore_without_saved_files_gives_the_defaults(library, tmp_path):
     default = load_tree(CONFIG / "tree.yaml", library)
-    spec, restored = TreeStore(tmp_path).restore(default, library)
-    assert spec == default and restored is library
+    spec, restored, problems = TreeStore(tmp_path).restore(default, library)
+    assert spec == default and list(restored) == list(library) and problems == ""
 
 
 def test_refused_skill_is_not_saved(tmp_path):
@@ -187,5 +192,6 @@ def test_a_burst_of_saves_is_made_durable_by_one_background_fsync(tmp_path, monk
     while len(synced) < 2 and time.monotonic() < deadline:
         time.sleep(0.01)
     time.sleep(3 * TreeStore.flush_delay)
-    assert synced == [str(store.tree_path), str(store.directory)]
+    previous = str(store.tree_path.with_name("current_tree.previous.yaml"))
+    assert sorted(synced[:-1]) == sorted([str(store.tree_path), previous]) and synced[-1] == str(store.directory)
     assert load_tree(store.tree_path, tree.library).root == describe(tree.root)

@@ -14,6 +14,7 @@ from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
 from teleteach.gui.device import scale_to_index
+from teleteach.gui.selection import OPERATIONS
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.scenario import check_clicks, load_scenario
 from teleteach.run import outcome
@@ -182,14 +183,15 @@ def test_thesis_full_drives_the_gui_to_the_expected_buttons():
     scenario = load_scenario(ROOT / "config" / "scenarios" / "thesis_full.yaml")
     gui = yaml.safe_load((ROOT / "config" / "gui.yaml").read_text())
     by_time = {frame.time: frame for frame in scenario.keyframes}
-    # III-B: PlaceItem is button 4 of 21, "remove" the lowest of 4 operations
-    assert int((by_time[3.5].position[0] + 0.1) / 0.2 * 21) == 4
-    assert int((by_time[6.0].position[1] + 0.1) / 0.2 * 4) == 0
-    # III-E: the new skill is the last of 21 buttons, "insert" the second operation, index 8 of 10 slots (after
-    # MoveBase2, which drives to gap_2)
-    assert min(20, int((by_time[34.1].position[0] + 0.1) / 0.2 * 21)) == 20
-    assert int((by_time[36.1].position[1] + 0.1) / 0.2 * 4) == 1
-    assert scale_to_index(by_time[38.1].rpy[0], gui["device_angle_range"], 10) == 8
+    reach, turn = gui["device_range"], gui["device_angle_range"]
+    # III-B: PlaceItem is button 4 of 21, "remove" the lowest of 4 operations (the GUI's own slider mapping)
+    assert scale_to_index(by_time[3.5].position[0], reach, 21) == 4
+    assert OPERATIONS[scale_to_index(by_time[6.0].position[1], reach, len(OPERATIONS))] == "remove"
+    # III-E: the new skill is the last of 21 buttons, "insert" the operation, index 8 of 10 slots (after MoveBase2,
+    # which drives to gap_2)
+    assert scale_to_index(by_time[34.1].position[0], reach, 21) == 20
+    assert OPERATIONS[scale_to_index(by_time[36.1].position[1], reach, len(OPERATIONS))] == "insert"
+    assert scale_to_index(by_time[38.1].rpy[0], turn, 10) == 8
 
 
 def test_free_port_and_display():

@@ -13,7 +13,7 @@ from teleteach.sim.scene import SceneError, load_scene
 from teleteach.sim.urdf import robot_description
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def robot_sim():
     yield from robot_sim_for_module()
 

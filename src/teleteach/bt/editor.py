@@ -137,6 +137,9 @@ class TreeEditor:
             origin = f"library skill '{node_name}'"
         else:
             return ChangeResult(False, f"'{node_name}' is neither a node of the tree nor a skill in the library")
+        unavailable = self._unavailable_skill(spec)
+        if unavailable:
+            return ChangeResult(False, f"cannot {operation} '{node_name}': {unavailable}")
         new_node = create_root(spec, self.library, self.make_leaf)
         parent.insert_child(new_node, position)
         for descendant in new_node.iterate():
@@ -157,6 +160,17 @@ class TreeEditor:
         if following is not None and following is parent.current_child and getattr(following, "awaiting_help", False):
             following.stop(Status.INVALID)
             parent.current_child = new_node
+
+    def _unavailable_skill(self, spec: Spec) -> str:
+        """Why a skill the description runs is unavailable (its file is missing or bad), or "" if all can run."""
+        if spec["type"] == "skill":
+            entry = self.library.get(spec["skill"])
+            return f"skill '{entry.name}' is unavailable: {entry.problem}" if entry and not entry.available else ""
+        for child in spec.get("children", []):
+            reason = self._unavailable_skill(child)
+            if reason:
+                return reason
+        return ""
 
     def _renamed(self, spec: Spec) -> Spec:
         """Give every node of a description a name unused in the tree (and in the description itself)."""

@@ -2,7 +2,8 @@
 
 A tree leaf runs one library skill. Predefined skills are served by ``/skills/<name>``; demonstrated (or learned)
 skills are replayed by ``/skills/ReplaySkill`` from their recorded file, which :meth:`SkillLibrary.add_demonstrated`
-validates with :func:`teleteach.skill_file.load` before accepting it.
+validates with :func:`teleteach.skill_file.load` before accepting it. A saved entry whose file went missing or bad
+since stays in the library as *unavailable* (:meth:`SkillLibrary.with_checked_files`): shown, never run or inserted.
 """
 
 import dataclasses
@@ -28,11 +29,17 @@ class SkillEntry:
     kind: str = PREDEFINED
     data_file: str = ""
     description: str = ""
+    problem: str = ""  # why a demonstrated skill cannot run (its file is missing or bad); "" when it can
 
     @property
     def demonstrated(self) -> bool:
         """True for taught skills, which run through ReplaySkill."""
         return self.kind != PREDEFINED
+
+    @property
+    def available(self) -> bool:
+        """Whether the skill can run (its file was valid when the library was loaded)."""
+        return not self.problem
 
 
 class SkillLibrary:
@@ -93,6 +100,23 @@ class SkillLibrary:
         entry = SkillEntry(name=name, kind=kind, data_file=str(path.resolve()))
         self._entries[name] = entry
         return entry
+
+    def with_checked_files(self) -> "SkillLibrary":
+        """This library, with each demonstrated skill whose file does not load marked unavailable (and why)."""
+        entries = []
+        for entry in self._entries.values():
+            problem = ""
+            if entry.demonstrated:
+                try:
+                    skill = skill_file.load(entry.data_file)
+                    if skill.kind != entry.kind:
+                        problem = f"skill file {entry.data_file} holds a {skill.kind} skill, not a {entry.kind} skill"
+                except skill_file.SkillFileError as error:
+                    problem = str(error)
+                    if entry.data_file not in problem:
+                        problem = f"skill file {entry.data_file}: {problem}"
+            entries.append(dataclasses.replace(entry, problem=problem))
+        return SkillLibrary(entries)
 
     def to_dict(self) -> typing.Dict[str, typing.Any]:
         """Plain data for yaml (the format of config/skills.yaml)."""

@@ -107,23 +107,51 @@ class ActionClients:
         feedback = any(c.callerid_pub == server_id for c in client.feedback_sub.impl.connections)
         return result and feedback
 
+    @staticmethod
+    def server_id(client: actionlib.ActionClient) -> str:
+        """The node name of the server whose status the client heard last ("" before any)."""
+        status = client.last_status_msg
+        return "" if status is None else status._connection_header["callerid"]
+
+    @staticmethod
+    def connected_to(client: actionlib.ActionClient, server_id: str) -> bool:
+        """Whether the server node still sends its goal status (the connection closes when it dies, even by SIGKILL)."""
+        return any(c.callerid_pub == server_id for c in client.status_sub.impl.connections)
+
 
 class ActionSkill(SkillLeaf):
     """A leaf that executes its skill as an action goal: sent in initialise, polled in update, cancelled on interrupt.
 
     A server that is not up within ``server_timeout`` seconds fails the skill with a message (never blocks a tick).
+    Once the goal is out, the skill fails (so the tree asks for help instead of waiting forever) when the server's
+    connection is gone for ``lost_timeout`` seconds (its process died), or when the simulated clock stood still for
+    ``clock_timeout`` seconds (the simulator died: the server can neither move the robot nor time out). All
+    timeouts are wall time.
 
     Args:
         name: unique leaf name
         entry: the library skill
         clients: the shared action clients
         server_timeout: [s] how long to wait for the server before failing
+        lost_timeout: [s] how long the server may be disconnected while it runs the goal
+        clock_timeout: [s] how long the ROS clock may stand still (simulated time only) while the goal runs
     """
 
-    def __init__(self, name: str, entry: SkillEntry, clients: ActionClients, server_timeout: float = 2.0):
+    def __init__(
+        self,
+        name: str,
+        entry: SkillEntry,
+        clients: ActionClients,
+        server_timeout: float = 2.0,
+        lost_timeout: float = 1.0,
+        clock_timeout: float = 3.0,
+    ):
         super().__init__(name, entry.name, entry.kind, entry.data_file)
         self.clients = clients
         self.server_timeout = server_timeout
+        self.lost_timeout = lost_timeout
+        self.clock_timeout = clock_timeout
+        self.problem = entry.problem
         self.server = REPLAY_SKILL if entry.demonstrated else entry.name
         self.goal = ExecuteSkillGoal(skill=entry.name)
         if entry.demonstrated:
@@ -131,6 +159,9 @@ class ActionSkill(SkillLeaf):
         self.goal_handle: typing.Optional[actionlib.ClientGoalHandle] = None
         self.started_at = 0.0
         self.progress = ""
+        self.goal_server_id = ""
+        self.connected_at = 0.0
+        self.clock_moved_at = (0.0, 0.0)  # (wall time, ROS time) when the ROS clock last advanced
 
     def start(self) -> None:
         """Remember when we asked; the goal leaves as soon as the server is connected (see :meth:`poll`)."""
@@ -143,16 +174,25 @@ class ActionSkill(SkillLeaf):
     def poll(self) -> typing.Tuple[Status, str]:
         """Send the goal once the server is up, then follow it."""
         server = f"{self.clients.namespace}/{self.server}"
+        if self.problem:
+            return Status.FAILURE, f"{self.skill} is unavailable: {self.problem}"
         if self.goal_handle is None:
             client = self.clients.get(self.server)
             if ActionClients.ready(client):
                 self.goal_handle = client.send_goal(self.goal, feedback_cb=self._feedback)
+                self.goal_server_id = ActionClients.server_id(client)
+                self.connected_at = time.monotonic()
+                self.clock_moved_at = (self.connected_at, rospy.get_time())
                 return Status.RUNNING, f"goal sent to {server}"
             waited = time.monotonic() - self.started_at
             if waited > self.server_timeout:
                 return Status.FAILURE, f"no action server {server} (waited {waited:.1f} s)"
             return Status.RUNNING, f"waiting for {server}"
         if self.goal_handle.get_comm_state() != actionlib.CommState.DONE:
+            lost = self._lost(server)
+            if lost:
+                self.goal_handle = None
+                return Status.FAILURE, lost
             return Status.RUNNING, self.progress or f"{self.skill} running"
         state = self.goal_handle.get_goal_status()
         result = self.goal_handle.get_result()
@@ -161,6 +201,26 @@ class ActionSkill(SkillLeaf):
             return Status.SUCCESS, message or f"{self.skill} done"
         state_name = GoalStatus.to_string(state) if hasattr(GoalStatus, "to_string") else str(state)
         return Status.FAILURE, message or f"{self.skill} ended in state {state_name}"
+
+    def _lost(self, server: str) -> str:
+        """Why the running goal can no longer finish (server gone, clock stopped), or "" while it can."""
+        now = time.monotonic()
+        last = f" (last: {self.progress})" if self.progress else ""
+        client = self.clients.get(self.server)
+        if ActionClients.connected_to(client, self.goal_server_id):
+            self.connected_at = now
+        elif now - self.connected_at > self.lost_timeout:
+            return f"lost the skill server {self.goal_server_id} of {server} while {self.skill} was running{last}"
+        ros_time = rospy.get_time()
+        if ros_time != self.clock_moved_at[1] or rospy.rostime.is_wallclock():
+            self.clock_moved_at = (now, ros_time)
+        elif now - self.clock_moved_at[0] > self.clock_timeout:
+            stopped = now - self.clock_moved_at[0]
+            return (
+                f"the simulated clock (/clock) stopped {stopped:.0f} s ago while {self.skill} was running{last}:"
+                " is robot_sim running?"
+            )
+        return ""
 
     def cancel(self) -> None:
         """Cancel the goal if it is out."""
@@ -237,15 +297,25 @@ class BehaviourTreeNode:
         data_root = datadir.data_dir(rospy.get_param("~data_dir", "") or None)
         store = TreeStore(data_root / "trees")
         if rospy.get_param("~resume", False):
-            spec, library = store.restore(spec, library)
-            rospy.loginfo("behaviour_tree: resumed the tree and library saved in %s", store.directory)
+            spec, library, problems = store.restore(spec, library)
+            if problems:
+                rospy.logwarn("behaviour_tree: could not resume everything saved in %s: %s", store.directory, problems)
+            else:
+                rospy.loginfo("behaviour_tree: resumed the tree and library saved in %s", store.directory)
+            unavailable = [f"{entry.name} ({entry.problem})" for entry in library if not entry.available]
+            if unavailable:
+                rospy.logwarn("behaviour_tree: unavailable skills (shown, not run): %s", "; ".join(unavailable))
         clients = ActionClients(rospy.get_param("~skill_namespace", "/skills"))
         for server in [entry.name for entry in library if not entry.demonstrated] + [REPLAY_SKILL]:
             clients.get(server)  # connect early: the first goal of each skill leaves without waiting
-        timeout = float(rospy.get_param("~server_timeout", 2.0))
+        timeouts = {
+            "server_timeout": float(rospy.get_param("~server_timeout", 2.0)),
+            "lost_timeout": float(rospy.get_param("~lost_timeout", 1.0)),
+            "clock_timeout": float(rospy.get_param("~clock_timeout", 3.0)),
+        }
 
         def make_leaf(name: str, entry: SkillEntry) -> ActionSkill:
-            return ActionSkill(name, entry, clients, server_timeout=timeout)
+            return ActionSkill(name, entry, clients, **timeouts)
 
         tree = TeachingTree(spec, library, make_leaf, store=store, data_root=data_root)
         return cls(
@@ -256,18 +326,19 @@ class BehaviourTreeNode:
         )
 
     def spin(self) -> None:
-        """Tick at the tick rate until shutdown, publishing whatever changed."""
+        """Tick at the tick rate (wall time) until shutdown, publishing whatever changed.
+
+        Wall time, not ROS time: when the simulator dies its clock stops, and the tree must still tick to notice
+        (its leaves fail, the operator is asked for help).
+        """
         self.publish(changed=True)
         self._wait_for_skill_servers()
-        rate = rospy.Rate(self.tick_rate)
+        period = 1.0 / self.tick_rate
+        next_tick = time.monotonic()
         while not rospy.is_shutdown():
             self.publish(changed=self.tree.tick())
-            try:
-                rate.sleep()
-            except rospy.ROSTimeMovedBackwardsException:
-                continue  # the simulation clock was reset: keep ticking
-            except rospy.ROSInterruptException:
-                break
+            next_tick = max(next_tick + period, time.monotonic())
+            time.sleep(max(0.0, next_tick - time.monotonic()))
         with self.tree.lock:
             self.tree.tree.interrupt()  # cancels the running goal
         if self.tree.store is not None:
@@ -327,6 +398,7 @@ class BehaviourTreeNode:
                 names=[entry.name for entry in entries],
                 kinds=[entry.kind for entry in entries],
                 data_files=[entry.data_file for entry in entries],
+                problems=[entry.problem for entry in entries],
             )
             library.header.stamp = rospy.Time.now()
             self.library_publisher.publish(library)

@@ -13,6 +13,7 @@ operator unpauses. What happens then depends on the operator's edits while pause
 - a node was inserted right in front of the failed leaf: that node runs first, then the failed skill is retried.
 """
 
+import datetime
 import os
 import pathlib
 import tempfile
@@ -27,10 +28,12 @@ from py_trees.common import Status
 from teleteach.bt.behaviours import PAUSE_KEY, SkillLeaf
 from teleteach.bt.editor import ChangeResult, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
-from teleteach.bt.tree import LeafFactory, TreeSpec, create_root, dump_live_yaml, load_tree, node_type
+from teleteach.bt.tree import LeafFactory, TreeSpec, TreeSpecError, create_root, dump_live_yaml, load_tree, node_type
 
 TREE_FILE = "current_tree.yaml"
 LIBRARY_FILE = "skill_library.yaml"
+PREVIOUS = "previous"  # current_tree.yaml -> current_tree.previous.yaml: the version before the last save
+CORRUPT = "corrupt"  # current_tree.yaml -> current_tree.corrupt-<time>.yaml: a file that could not be loaded
 
 
 class HelpRequest(typing.NamedTuple):
@@ -112,11 +115,21 @@ class TickedNodesTree(py_trees.trees.BehaviourTree):
         self.count += 1
 
 
+class Restored(typing.NamedTuple):
+    """What :meth:`TreeStore.restore` resumed from, and what it had to set aside ("" when everything loaded)."""
+
+    tree: TreeSpec
+    library: SkillLibrary
+    problems: str
+
+
 class TreeStore:
     """The saved tree and library in ``<data dir>/trees/``, replaced atomically after every successful change.
 
     A save is a write to a temporary file renamed over the old one before the edit is answered, so a process that
-    dies (even by SIGKILL) right after leaves either the old or the new file, whole. The fsync that makes the file
+    dies (even by SIGKILL) right after leaves either the old or the new file, whole. The version it replaces stays
+    as ``*.previous.yaml``: if a saved file cannot be loaded (edited by hand, disk trouble), :meth:`restore` sets it
+    aside as ``*.corrupt-<time>.yaml`` for the user and resumes from the previous version. The fsync that makes the file
     survive a power loss too costs 5-25 ms on a busy disk, so a background thread does it just after, off the
     path of /change_tree, at most every ``flush_delay`` seconds: a burst of edits shares one fsync instead of
     keeping the disk's journal busy under the renames of the next edits.
@@ -147,8 +160,11 @@ class TreeStore:
         with self._flush_lock:
             paths, self._unflushed = self._unflushed, set()
             for path in paths:
-                with open(path, "rb") as stream:
-                    os.fsync(stream.fileno())
+                try:
+                    with open(path, "rb") as stream:
+                        os.fsync(stream.fileno())
+                except FileNotFoundError:
+                    continue  # a previous version that was never made
             if paths:
                 directory = os.open(self.directory, os.O_RDONLY)
                 try:
@@ -157,16 +173,24 @@ class TreeStore:
                     os.close(directory)
 
     def _replace(self, path: pathlib.Path, text: str) -> None:
+        """Write ``path`` atomically; the file it replaces becomes the previous version (``path`` never vanishes)."""
         handle, temporary = tempfile.mkstemp(dir=self.directory, prefix=f".{path.name}.", suffix=".tmp")
+        link = f"{temporary}.previous"
         try:
             with os.fdopen(handle, "w", encoding="utf-8") as stream:
                 stream.write(text)
+            try:
+                os.link(path, link)
+                os.replace(link, previous_path(path))
+            except FileNotFoundError:
+                pass  # nothing saved yet (or it was set aside as corrupt): the previous version stays
             os.replace(temporary, path)
         except BaseException:
             pathlib.Path(temporary).unlink(missing_ok=True)
+            pathlib.Path(link).unlink(missing_ok=True)
             raise
         with self._flush_lock:
-            self._unflushed.add(path)
+            self._unflushed.update((path, previous_path(path)))
         self._flush_wanted.set()
 
     def _flush_loop(self) -> None:
@@ -179,13 +203,68 @@ class TreeStore:
             except OSError:
                 continue  # the next save tries again; the renamed file is already in place
 
-    def restore(self, default_tree: TreeSpec, library: SkillLibrary) -> typing.Tuple[TreeSpec, SkillLibrary]:
-        """The saved tree and library (saved demonstrated skills join ``library``), or the defaults if none saved."""
-        if self.library_path.is_file():
-            saved = SkillLibrary.load(self.library_path)
+    def restore(self, default_tree: TreeSpec, library: SkillLibrary) -> Restored:
+        """The saved tree and library (saved demonstrated skills join ``library``), or the defaults if none saved.
+
+        A saved file that does not load is set aside and its previous version used (else the default tree, or no
+        demonstrated skills); ``problems`` says what happened, in one line. Demonstrated skills whose file is missing
+        or bad load as unavailable.
+        """
+        problems: typing.List[str] = []
+        saved = self._load_or_set_aside(self.library_path, SkillLibrary.load, problems)
+        if saved is not None:
             library = SkillLibrary([*library, *(entry for entry in saved if entry.name not in library)])
-        tree = load_tree(self.tree_path, library) if self.tree_path.is_file() else default_tree
-        return tree, library
+        library = library.with_checked_files()
+        tree = self._load_or_set_aside(self.tree_path, lambda path: load_tree(path, library), problems)
+        if tree is None:
+            tree = default_tree
+            if problems and problems[-1].startswith("tree"):
+                problems[-1] += "; starting from the default tree"
+        return Restored(tree, library, "; ".join(problems))
+
+    def _load_or_set_aside(
+        self, path: pathlib.Path, load: typing.Callable[[pathlib.Path], typing.Any], problems: typing.List[str]
+    ) -> typing.Any:
+        """``load(path)``, else ``load`` of its previous version, else None; each file that fails is set aside."""
+        what = "tree" if path == self.tree_path else "library"
+        failures = []
+        for candidate in (path, previous_path(path)):
+            if not candidate.is_file():
+                continue
+            try:
+                value = load(candidate)
+            except (LibraryError, TreeSpecError, OSError, UnicodeDecodeError) as error:
+                reason = " ".join(str(error).split())  # yaml errors span lines: the log says it in one
+                reason = reason if str(candidate) in reason else f"{candidate}: {reason}"
+                failures.append(f"{reason} (moved to {set_aside(candidate).name})")
+                continue
+            if failures:
+                problems.append(f"{what}: {'; '.join(failures)}; resumed from {candidate.name}")
+            return value
+        if failures:
+            problems.append(f"{what}: {'; '.join(failures)}")
+        return None
+
+
+def previous_path(path: pathlib.Path) -> pathlib.Path:
+    """Where the version before the last save of ``path`` is kept."""
+    return path.with_name(f"{path.stem}.{PREVIOUS}{path.suffix}")
+
+
+def set_aside(path: pathlib.Path) -> pathlib.Path:
+    """Rename a file that could not be loaded to a new name (never over another file); return the new path."""
+    stamp = datetime.datetime.now().strftime("%Y%m%dT%H%M%S")
+    stem = path.stem.replace(f".{PREVIOUS}", "")
+    for number in range(1000):
+        suffix = f"-{number}" if number else ""
+        target = path.with_name(f"{stem}.{CORRUPT}-{stamp}{suffix}{path.suffix}")
+        try:
+            os.link(path, target)  # fails if the target exists: nothing is overwritten
+        except FileExistsError:
+            continue
+        path.unlink()
+        return target
+    raise OSError(f"cannot set {path} aside: 1000 files named {stem}.{CORRUPT}-{stamp}-* exist")
 
 
 class TeachingTree:

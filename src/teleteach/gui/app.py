@@ -24,7 +24,7 @@ from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_
 from teleteach.gui.selection import ChangeRequest
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
-from teleteach.gui.worker import RosWorker, ServiceCaller, TrajectoryPlayer
+from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.node import init_node
 from teleteach.srv import (
     AddSkill,
@@ -59,6 +59,8 @@ class MainWindow(QMainWindow):
 
         self._tab_publisher = rospy.Publisher("/teleteach/active_tab", Int8, queue_size=1, latch=True)
         self._pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
+        self._recording_publisher = rospy.Publisher("/teleteach/recording", Bool, queue_size=1, latch=True)
+        self._recording_publisher.publish(Bool(False))
         equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
 
@@ -152,7 +154,7 @@ class MainWindow(QMainWindow):
             self.tabs.setCurrentIndex(START_TAB)
 
     def _on_library(self, library: Sequence) -> None:
-        self.library_names = [name for name, _, _ in library]
+        self.library_names = [skill.name for skill in library]
         self.high_level.on_library(library)
 
     def _on_help(self, node_name: str, reason: str) -> None:
@@ -167,6 +169,7 @@ class MainWindow(QMainWindow):
     def _on_health(self, problems: str) -> None:
         self.health_label.setText(problems)
         self.health_label.setStyleSheet("color: #d22828;" if problems else "")
+        self.low_level.show_device_lost(DEVICE_LOST in problems)
 
     # tabs -----------------------------------------------------------------------------------------
     def _on_tab_changed(self, index: int) -> None:
@@ -238,6 +241,7 @@ class MainWindow(QMainWindow):
         if not self._session:
             self._begin_session()
         self.recorder.start()
+        self._recording_publisher.publish(Bool(True))
         self.player.start()
         self.low_level.recording_since = time.monotonic()
         self.statusBar().showMessage(f"recording: playing trajectory {self.trajectory.name}", 5000)
@@ -245,6 +249,7 @@ class MainWindow(QMainWindow):
     def _stop_recording(self) -> None:
         """Save the demonstration as a new skill, add it to the library, end the teaching session (III-E)."""
         self.recorder.stop()
+        self._recording_publisher.publish(Bool(False))
         self.player.stop()
         self.low_level.recording_since = None
         self._save_recording(self.recorder, "stiffness", self.config.skill_prefix, {"trajectory": self.trajectory.name})
@@ -280,12 +285,14 @@ class MainWindow(QMainWindow):
         if not self._session:
             self._begin_session()
         self.shared_recorder.start()
+        self._recording_publisher.publish(Bool(True))
         self.shared_control.recording_since = time.monotonic()
         self.statusBar().showMessage("recording the shared-control trajectory", 5000)
 
     def _stop_shared_recording(self, end_session: bool) -> None:
         """Save the shared-control recording as a ``shared_control`` skill; the session goes on in the tab."""
         self.shared_recorder.stop()
+        self._recording_publisher.publish(Bool(False))
         self.shared_control.recording_since = None
         self.shared_control.show_status(self.shared_control.status)
         stiffness = [float(value) for value in self.config.shared_control_stiffness]

@@ -42,6 +42,8 @@ class GuiConfig:
     repaint_rate: float = 30.0
     player_rate: float = 100.0
     service_timeout: float = 5.0
+    device_timeout: float = 0.5
+    health_rate: float = 5.0
     base_frame: str = "base_link"
     impedance_controller: str = "cartesian_impedance_controller"
     position_controller: str = "position_joint_trajectory_controller"
@@ -69,6 +71,8 @@ class GuiConfig:
             "repaint_rate",
             "player_rate",
             "service_timeout",
+            "device_timeout",
+            "health_rate",
             "rotation_gain",
         )
         for name in positive:

@@ -6,7 +6,7 @@ insert an index (dial, device rotation about X); each click confirms one step, t
 
 import dataclasses
 import enum
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceSample, scale_to_index
@@ -16,6 +16,20 @@ OPERATIONS = ("remove", "insert", "prepend", "add")
 DEFAULT_PARENT = "BehaviorExecution"
 
 STATUS_NAMES = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
+
+
+class LibrarySkill(NamedTuple):
+    """A skill of the library as the HIGH-LEVEL tab shows it (the fields of teleteach/SkillLibrary)."""
+
+    name: str
+    kind: str
+    data_file: str
+    problem: str = ""  # why it cannot run (its file is missing or bad): its button is greyed out
+
+    @property
+    def available(self) -> bool:
+        """Whether the skill can be added to the tree."""
+        return not self.problem
 
 
 @dataclasses.dataclass(frozen=True)

@@ -5,7 +5,7 @@ device signals only while it is the active one (thesis A.2.1).
 """
 
 import time
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Set, Tuple
 
 from PyQt5.QtCore import Qt, QTimer, pyqtSignal
 from PyQt5.QtGui import QBrush, QColor, QFont
@@ -33,6 +33,7 @@ from teleteach.gui.selection import (
     OPERATIONS,
     STATUS_NAMES,
     ChangeRequest,
+    LibrarySkill,
     SelectionFlow,
     Step,
     TreeSnapshot,
@@ -42,6 +43,7 @@ STATUS_COLOURS = {2: QColor(40, 90, 220), 3: QColor(30, 150, 50), 4: QColor(210,
 NOT_VISITED = QColor(150, 150, 150)
 SELECTED_STYLE = "QPushButton { background: #ffd54f; border: 3px solid #e65100; font-weight: bold; padding: 6px; }"
 BUTTON_STYLE = "QPushButton { padding: 6px; }"
+UNAVAILABLE_STYLE = "QPushButton { padding: 6px; color: #9e9e9e; background: #eeeeee; }"
 _GROUP = "QGroupBox#step {{ border: {}; border-radius: 4px; margin-top: 1.3em; }} "
 _TITLE = "QGroupBox#step::title {{ subcontrol-origin: margin; left: 8px; {} }}"
 ACTIVE_STEP_STYLE = _GROUP.format("3px solid #2e7d32") + _TITLE.format("color: #1b5e20; font-weight: bold;")
@@ -85,6 +87,7 @@ class StartTab(QWidget):
         layout.addWidget(hint)
         row = QHBoxLayout()
         self.buttons: List[QPushButton] = []
+        self.unavailable: Set[int] = set()  # indices in buttons of library skills that cannot run
         for index, (text, colour, height) in enumerate(
             (
                 ("HIGH-LEVEL teaching\nchange the behaviour tree", "#c8e6c9", 240),
@@ -176,7 +179,7 @@ class HighLevelTab(QWidget):
         self.active = False
         self.flow = SelectionFlow(config)
         self.tree: Optional[TreeSnapshot] = None
-        self.library: List[Tuple[str, str, str]] = []
+        self.library: List[LibrarySkill] = []
         self._layout_signature: Optional[tuple] = None
         self.buttons: List[QPushButton] = []
 
@@ -255,7 +258,7 @@ class HighLevelTab(QWidget):
                 leaves = [child.name for child in self.tree.children(node) if not child.child_ids]
                 if leaves:
                     groups.append((node.name, leaves))
-        return groups, [name for name, _, _ in self.library]
+        return groups, [skill.name for skill in self.library]
 
     def on_tree(self, tree: TreeSnapshot) -> None:
         """A new tree snapshot (always accepted; the view stays current even when the tab is hidden)."""
@@ -263,14 +266,15 @@ class HighLevelTab(QWidget):
         self.tree_view.show_tree(tree)
         self._rebuild()
 
-    def on_library(self, library: Sequence[Tuple[str, str, str]]) -> None:
-        """The skill library changed (a demonstrated skill appears here, thesis III-E)."""
+    def on_library(self, library: Sequence[LibrarySkill]) -> None:
+        """The skill library changed (a demonstrated skill appears here, thesis III-E; a broken one is greyed)."""
         self.library = list(library)
         self._rebuild()
 
     def _rebuild(self) -> None:
         groups, library = self.choices()
-        signature = (tuple((name, tuple(leaves)) for name, leaves in groups), tuple(library))
+        problems = {skill.name: skill.problem for skill in self.library if not skill.available}
+        signature = (tuple((name, tuple(leaves)) for name, leaves in groups), tuple(library), tuple(problems.items()))
         if signature == self._layout_signature:
             return
         self._layout_signature = signature
@@ -279,6 +283,7 @@ class HighLevelTab(QWidget):
             old.hide()  # gone from the screen now, not when the event loop gets round to deleting it
             old.deleteLater()
         self.buttons = []
+        self.unavailable = set()
         names: List[str] = []
         for title, entries in [*groups, ("Skill library", library)]:
             if not entries:
@@ -289,6 +294,10 @@ class HighLevelTab(QWidget):
             for position, name in enumerate(entries):
                 button = QPushButton(name)
                 button.setFocusPolicy(Qt.NoFocus)
+                if title == "Skill library" and name in problems:
+                    button.setEnabled(False)  # greyed: /change_tree refuses it (its file is missing or bad)
+                    button.setToolTip(f"unavailable: {problems[name]}")
+                    self.unavailable.add(len(self.buttons))
                 grid.addWidget(button, position // 6, position % 6)
                 self.buttons.append(button)
                 names.append(name)
@@ -333,7 +342,8 @@ class HighLevelTab(QWidget):
             box.setEnabled(flow.step is step)
             box.setStyleSheet(ACTIVE_STEP_STYLE if flow.step is step else STEP_STYLE)
         for index, button in enumerate(self.buttons):
-            button.setStyleSheet(SELECTED_STYLE if index == flow.node_index else BUTTON_STYLE)
+            style = UNAVAILABLE_STYLE if index in self.unavailable else BUTTON_STYLE
+            button.setStyleSheet(SELECTED_STYLE if index == flow.node_index else style)
         self.node_slider.setValue(flow.node_index)
         self.operation_slider.setValue(flow.operation_index)
         for operation, label in self.operation_labels.items():
@@ -382,6 +392,10 @@ class LowLevelTab(QWidget):
             label = _big(QLabel(), 12, bold=False)
             panel.addWidget(label)
             self.axis_labels.append(label)
+        self.device_lost_label = _big(QLabel("DEVICE LOST\nholding the last stiffness until it is back"), 13)
+        self.device_lost_label.setStyleSheet("background: #d22828; color: white; padding: 6px;")
+        self.device_lost_label.hide()
+        panel.addWidget(self.device_lost_label)
         self.recording_label = _big(QLabel(), 14)
         panel.addWidget(self.recording_label)
         self.controller_label = QLabel("controller: -")
@@ -414,6 +428,10 @@ class LowLevelTab(QWidget):
         """Clicks are classified: single -> next mode (after the double-click window), double -> recording."""
         if self.active and self.clicks.click(time.monotonic()) == ClickClassifier.DOUBLE:
             self.recording_toggled.emit()
+
+    def show_device_lost(self, lost: bool) -> None:
+        """Say that the device is gone (the ellipsoid, and the stiffness sent, stay as they were) or back."""
+        self.device_lost_label.setVisible(lost)
 
     def on_leave(self) -> None:
         """Drop a pending click."""

@@ -24,7 +24,7 @@ from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory
-from teleteach.gui.selection import TreeNode, TreeSnapshot
+from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
@@ -36,6 +36,9 @@ def pose_to_array(pose) -> np.ndarray:
     """(x, y, z, qx, qy, qz, qw) of a geometry_msgs/Pose."""
     p, q = pose.position, pose.orientation
     return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w])
+
+
+DEVICE_LOST = "device lost (/sigma7/pose silent)"
 
 
 class TrajectoryPlayer:
@@ -159,7 +162,7 @@ class RosWorker(QObject):
     clicked = pyqtSignal()
     gripper_opened = pyqtSignal()
     tree_received = pyqtSignal(object)  # TreeSnapshot
-    library_received = pyqtSignal(object)  # list of (name, kind, data_file)
+    library_received = pyqtSignal(object)  # list of LibrarySkill
     help_requested = pyqtSignal(str, str)
     health = pyqtSignal(str)  # "" when all inputs are alive, else what is missing
     shared_state = pyqtSignal(object)  # SharedStatus
@@ -196,6 +199,7 @@ class RosWorker(QObject):
         self._last_publish = -1.0
         self._last_seen = {}
         self._rejected = 0
+        self._health: Optional[str] = None
         self._subscribers: Dict[str, rospy.Subscriber] = {}
         self._timers: List[QTimer] = []
 
@@ -227,7 +231,7 @@ class RosWorker(QObject):
         for rate, slot in (
             (self.config.publish_rate, self._publish_stiffness),
             (self.config.device_ui_rate, self._emit_device),
-            (1.0, self._check_health),
+            (self.config.health_rate, self._check_health),
         ):
             timer = QTimer(self)
             timer.setTimerType(Qt.PreciseTimer)
@@ -286,9 +290,11 @@ class RosWorker(QObject):
         self.tree_received.emit(TreeSnapshot(nodes))
 
     def _on_library(self, message: SkillLibrary) -> None:
-        kinds = list(message.kinds) + [""] * len(message.names)
-        files = list(message.data_files) + [""] * len(message.names)
-        self.library_received.emit(list(zip(message.names, kinds, files)))
+        padding = [""] * len(message.names)
+        kinds, files, problems = (
+            list(field) + padding for field in (message.kinds, message.data_files, message.problems)
+        )
+        self.library_received.emit([LibrarySkill(*skill) for skill in zip(message.names, kinds, files, problems)])
 
     def _on_help(self, message: HelpRequest) -> None:
         self.help_requested.emit(message.node_name, message.reason)
@@ -396,9 +402,18 @@ class RosWorker(QObject):
         self.device_changed.emit(sample)
 
     def _check_health(self) -> None:
+        """Emit what is missing when that changes.
+
+        The device counts as lost as soon as its publisher disconnects (the node died) or its poses stop for
+        ``device_timeout``; the stiffness keeps its last valid value meanwhile.
+        """
         missing = []
-        if time.monotonic() - self._last_seen.get("/sigma7/pose", -1e9) > 2.0:
-            missing.append("no device (/sigma7/pose silent)")
+        silent = time.monotonic() - self._last_seen.get("/sigma7/pose", -1e9) > self.config.device_timeout
+        if silent or self._subscribers["/sigma7/pose"].get_num_connections() == 0:
+            missing.append(DEVICE_LOST)
         if self._subscribers["/behaviour_tree/log/tree"].get_num_connections() == 0:
             missing.append("no behaviour tree (/behaviour_tree/log/tree)")
-        self.health.emit("; ".join(missing))
+        problems = "; ".join(missing)
+        if problems != self._health:
+            self._health = problems
+            self.health.emit(problems)

@@ -157,7 +157,11 @@ class Sigma7Node:
             f"playing {scenario.source} ({len(scenario.keyframes)} keyframes, {scenario.duration:g} s, "
             f"{len(scenario.click_times())} clicks) from ROS time {start_time:.3f}"
         )
-        return ScenarioBackend(scenario, start_time, config.at_end)
+        if not scenario.waits:
+            return ScenarioBackend(scenario, start_time, config.at_end)
+        from teleteach.haptics.system_view import RosSystemView
+
+        return ScenarioBackend(scenario, start_time, config.at_end, system=RosSystemView())
 
     @staticmethod
     def _wait_for_ros_time() -> float:
@@ -193,6 +197,13 @@ class Sigma7Node:
             f"published {self.loop.published} cycles at {self.loop.achieved_rate:.1f} Hz on average, "
             f"{self.loop.failed_reads} failed reads, {rate.overruns} stalls longer than {rate.max_lag} s"
         )
+        if self.failure:
+            rospy.logfatal(f"sigma7_node: scenario failed: {self.failure}")
+
+    @property
+    def failure(self) -> str:
+        """Why the scenario failed (a wait timed out), or ""."""
+        return getattr(self.backend, "failure", "")
 
     def _spin_with_window(self, rate: WallRate) -> None:
         from PyQt5 import QtCore

@@ -13,12 +13,18 @@ The format (documented for users in ``config/scenarios/example.yaml``)::
 R = Rz(yaw) Ry(pitch) Rx(roll), ``gripper`` [rad] >= 0 (0 closed, ~0.25 resting, >= 0.45 fully open), ``click``
 (optional) starts a flick of the gripper at ``t``. Every problem is reported with the file, line, keyframe index
 and field, because a scenario is written by hand.
+
+A keyframe may also wait for the system, like a patient operator: ``wait: {tab: LOW_LEVEL, tree_running:
+PickItem2, recording: true, help_request: true}`` (any of these) with ``timeout`` [s] (default 30). When the
+scenario reaches that keyframe, the device holds it (the scenario's clock stops) until everything named holds, then
+goes on (a click of that keyframe comes after the wait); when the timeout expires first, the scenario fails with a
+message naming the keyframe and what it saw.
 """
 
 import dataclasses
 import math
 import pathlib
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, FrozenSet, List, Optional, Tuple
 
 import numpy as np
 import yaml
@@ -31,13 +37,53 @@ from teleteach.haptics.device import DeviceBackend, DeviceSample
 INTERPOLATIONS = ("linear", "smooth")
 AT_END_CHOICES = ("hold", "exit")
 DEFAULT_CLICK_DURATION = 0.2  # [s]
+DEFAULT_WAIT_TIMEOUT = 30.0  # [s] of ROS time
+TABS = ("START", "HIGH_LEVEL", "LOW_LEVEL", "SHARED_CONTROL")  # /teleteach/active_tab 0..3
 _TOP_LEVEL_FIELDS = ("description", "interpolation", "click_duration", "keyframes")
-_KEYFRAME_FIELDS = ("t", "position", "rpy", "gripper", "click")
+_KEYFRAME_FIELDS = ("t", "position", "rpy", "gripper", "click", "wait", "timeout")
+_WAIT_FIELDS = ("tab", "tree_running", "recording", "help_request")
 _REQUIRED_KEYFRAME_FIELDS = ("t", "position", "rpy", "gripper")
 
 
 class ScenarioError(ValueError):
     """A scenario file that cannot be played; the message names the file, line, keyframe and field."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Wait:
+    """What the system must show before a scenario goes on past a keyframe; unset fields are not checked."""
+
+    tab: Optional[int] = None  # index in TABS
+    tree_running: Optional[str] = None  # a tree node that must be RUNNING
+    recording: Optional[bool] = None
+    help_request: Optional[bool] = None  # whether a help request must be open
+    timeout: float = DEFAULT_WAIT_TIMEOUT  # [s]
+
+
+@dataclasses.dataclass(frozen=True)
+class SystemState:
+    """What a scenario can wait for, as last seen (None: nothing heard yet)."""
+
+    tab: Optional[int] = None
+    running: FrozenSet[str] = frozenset()
+    recording: Optional[bool] = None
+    help_request: Optional[bool] = None
+
+
+def unmet(wait: Wait, state: SystemState) -> List[str]:
+    """The conditions of ``wait`` that ``state`` does not meet, each with what was seen ([] when all are met)."""
+    missing = []
+    if wait.tab is not None and state.tab != wait.tab:
+        seen = TABS[state.tab] if state.tab is not None and 0 <= state.tab < len(TABS) else state.tab
+        missing.append(f"tab {TABS[wait.tab]} (seen {seen})")
+    if wait.tree_running is not None and wait.tree_running not in state.running:
+        running = ", ".join(sorted(state.running)) or "nothing"
+        missing.append(f"tree_running {wait.tree_running} (running: {running})")
+    if wait.recording is not None and state.recording != wait.recording:
+        missing.append(f"recording {str(wait.recording).lower()} (seen {state.recording})")
+    if wait.help_request is not None and state.help_request != wait.help_request:
+        missing.append(f"help_request {str(wait.help_request).lower()} (seen {state.help_request})")
+    return missing
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,6 +97,7 @@ class Keyframe:
         gripper: [rad] gripper opening angle.
         click: a scripted click (gripper flick) starts at ``time``.
         line: line of the keyframe in its file (1-based), for messages.
+        wait: what the system must show before the scenario goes on past ``time`` (None: nothing).
     """
 
     time: float
@@ -59,6 +106,7 @@ class Keyframe:
     gripper: float
     click: bool = False
     line: int = 0
+    wait: Optional[Wait] = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,6 +127,11 @@ class Scenario:
     def click_times(self) -> List[float]:
         """[s] start times of the scripted clicks."""
         return [keyframe.time for keyframe in self.keyframes if keyframe.click]
+
+    @property
+    def waits(self) -> bool:
+        """Whether any keyframe waits for the system."""
+        return any(keyframe.wait is not None for keyframe in self.keyframes)
 
 
 def load_scenario(path) -> Scenario:
@@ -235,30 +288,66 @@ class ScenarioTrajectory:
 
 
 class ScenarioBackend(DeviceBackend):
-    """Plays a scenario: the sample read at ``time`` is the scenario's state at ``time - start_time``.
+    """Plays a scenario: the sample read at ``time`` is the scenario's state at ``time - start_time - held``.
 
-    The node reads it with ROS time (so it follows /clock under use_sim_time). After the last keyframe the device
-    holds its last state; with ``at_end="exit"`` the backend then reports :attr:`finished`.
+    The node reads it with ROS time (so it follows /clock under use_sim_time). ``held`` is the time spent at
+    keyframes that wait for the system (``system()`` says what it shows): the device holds such a keyframe until
+    its conditions are met; when its timeout expires first, :attr:`failure` says why and the backend has
+    :attr:`finished`. After the last keyframe the device holds its last state; with ``at_end="exit"`` the backend
+    then reports :attr:`finished`.
     """
 
-    def __init__(self, scenario: Scenario, start_time: float, at_end: str = "hold") -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        start_time: float,
+        at_end: str = "hold",
+        system: Callable[[], SystemState] = SystemState,
+    ) -> None:
         if at_end not in AT_END_CHOICES:
             raise ValueError(f"at_end must be one of {', '.join(AT_END_CHOICES)}, got {at_end!r}")
+        self._scenario = scenario
         self._trajectory = ScenarioTrajectory(scenario)
         self._start_time = start_time
         self._at_end = at_end
+        self._system = system
+        self._waits = [(index, keyframe) for index, keyframe in enumerate(scenario.keyframes) if keyframe.wait]
+        self._next_wait = 0
+        self._held = 0.0
+        self._waiting_since: Optional[float] = None
         self._elapsed = 0.0
         self.duration = scenario.duration
+        self.failure = ""
 
     def read(self, time: float) -> DeviceSample:
         """The scenario's device state at ``time`` [s]."""
-        self._elapsed = time - self._start_time
-        return self._trajectory.sample(self._elapsed)
+        elapsed = time - self._start_time - self._held
+        while self._next_wait < len(self._waits) and not self.failure:
+            index, keyframe = self._waits[self._next_wait]
+            if keyframe.time > elapsed:
+                break
+            missing = unmet(keyframe.wait, self._system())
+            if not missing:
+                self._next_wait += 1
+                self._waiting_since = None
+                continue
+            if self._waiting_since is None:
+                self._waiting_since = time - (elapsed - keyframe.time)
+            self._held += elapsed - keyframe.time
+            elapsed = keyframe.time
+            if time - self._waiting_since > keyframe.wait.timeout:
+                self.failure = (
+                    f"{self._scenario.source}:{keyframe.line}: keyframes[{index}].wait: still waiting after "
+                    f"{keyframe.wait.timeout:g} s for {'; '.join(missing)}"
+                )
+            break
+        self._elapsed = elapsed
+        return self._trajectory.sample(elapsed)
 
     @property
     def finished(self) -> bool:
-        """True once the last keyframe has been played, if the scenario should end there."""
-        return self._at_end == "exit" and self._elapsed > self.duration
+        """True once a wait timed out, or once the last keyframe has been played if the scenario should end there."""
+        return bool(self.failure) or (self._at_end == "exit" and self._elapsed > self.duration)
 
 
 def _is_number(value: Any) -> bool:
@@ -322,4 +411,36 @@ def _parse_keyframe(raw: Any, node: yaml.Node, index: int, source: str) -> Keyfr
     click = raw.get("click", False)
     if not isinstance(click, bool):
         raise ScenarioError(f"{field_where('click')}: must be true or false, got {click!r}")
-    return Keyframe(time, triple("position", "m"), triple("rpy", "rad"), gripper, click, line)
+    wait = _parse_wait(raw, field_where) if "wait" in raw else None
+    if wait is None and "timeout" in raw:
+        raise ScenarioError(f"{field_where('timeout')}: only a keyframe that waits has a timeout (add 'wait')")
+    return Keyframe(time, triple("position", "m"), triple("rpy", "rad"), gripper, click, line, wait)
+
+
+def _parse_wait(raw: Dict[str, Any], field_where: Callable[[str], str]) -> Wait:
+    conditions = raw["wait"]
+    if not isinstance(conditions, dict) or not conditions:
+        raise ScenarioError(
+            f"{field_where('wait')}: must be a mapping of one or more of {', '.join(_WAIT_FIELDS)}, got {conditions!r}"
+        )
+    unknown = sorted(set(conditions) - set(_WAIT_FIELDS))
+    if unknown:
+        raise ScenarioError(
+            f"{field_where('wait')}: unknown condition {unknown[0]!r} (allowed: {', '.join(_WAIT_FIELDS)})"
+        )
+    tab = conditions.get("tab")
+    if tab is not None:
+        if tab in TABS:
+            tab = TABS.index(tab)
+        elif not (isinstance(tab, int) and not isinstance(tab, bool) and 0 <= tab < len(TABS)):
+            raise ScenarioError(f"{field_where('wait')}: tab must be one of {', '.join(TABS)} (or 0..3), got {tab!r}")
+    running = conditions.get("tree_running")
+    if running is not None and not (isinstance(running, str) and running):
+        raise ScenarioError(f"{field_where('wait')}: tree_running must name a tree node, got {running!r}")
+    for key in ("recording", "help_request"):
+        if key in conditions and not isinstance(conditions[key], bool):
+            raise ScenarioError(f"{field_where('wait')}: {key} must be true or false, got {conditions[key]!r}")
+    timeout = raw.get("timeout", DEFAULT_WAIT_TIMEOUT)
+    if not _is_number(timeout) or not math.isfinite(timeout) or timeout <= 0.0:
+        raise ScenarioError(f"{field_where('timeout')}: must be a positive number of seconds, got {timeout!r}")
+    return Wait(tab, running, conditions.get("recording"), conditions.get("help_request"), float(timeout))

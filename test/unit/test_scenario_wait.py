@@ -1,0 +1,90 @@
+"""Scenario keyframes that wait for the system (a patient scripted operator): parsing, holding, timing out."""
+
+import numpy as np
+import pytest
+
+from teleteach.haptics.scenario import (
+    ScenarioBackend,
+    ScenarioError,
+    SystemState,
+    Wait,
+    parse_scenario,
+    unmet,
+)
+
+WAITING = """
+keyframes:
+  - {t: 0.0, position: [0.0, 0.0, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25}
+  - {t: 1.0, position: [0.05, 0.0, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25, click: true,
+     wait: {tab: LOW_LEVEL, tree_running: PickItem2}, timeout: 5.0}
+  - {t: 2.0, position: [0.05, 0.05, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25}
+"""
+
+
+def test_a_wait_is_parsed_with_its_timeout():
+    scenario = parse_scenario(WAITING)
+    # Expect the tab by name as its index, the tree node, the timeout; the other keyframes wait for nothing
+    assert scenario.keyframes[1].wait == Wait(tab=2, tree_running="PickItem2", timeout=5.0)
+    assert scenario.keyframes[0].wait is None and scenario.waits
+
+
+@pytest.mark.parametrize(
+    "keyframe, message",
+    [
+        ("wait: {tab: LOWLEVEL}", "tab must be one of START, HIGH_LEVEL, LOW_LEVEL, SHARED_CONTROL"),
+        ("wait: {recording: yes please}", "recording must be true or false"),
+        ("wait: {colour: red}", "unknown condition 'colour'"),
+        ("wait: {}", "must be a mapping of one or more of"),
+        ("wait: {help_request: true}, timeout: -1", "keyframes[1].timeout: must be a positive number"),
+        ("timeout: 3", "only a keyframe that waits has a timeout"),
+    ],
+)
+def test_bad_waits_name_the_line_and_field(keyframe, message):
+    text = (
+        "keyframes:\n"
+        "  - {t: 0.0, position: [0, 0, 0], rpy: [0, 0, 0], gripper: 0.25}\n"
+        f"  - {{t: 1.0, position: [0, 0, 0], rpy: [0, 0, 0], gripper: 0.25, {keyframe}}}\n"
+    )
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(text, source="s.yaml")
+    assert str(caught.value).startswith("s.yaml:3: keyframes[1]") and message in str(caught.value)
+
+
+def test_unmet_says_what_was_seen():
+    wait = Wait(tab=2, tree_running="PickItem2", recording=True, help_request=False)
+    state = SystemState(tab=0, running=frozenset({"Root", "MoveBase"}), recording=False, help_request=False)
+    # Expect each unmet condition with what the system showed instead
+    assert unmet(wait, state) == [
+        "tab LOW_LEVEL (seen START)",
+        "tree_running PickItem2 (running: MoveBase, Root)",
+        "recording true (seen False)",
+    ]
+    assert unmet(wait, SystemState(2, frozenset({"PickItem2"}), True, False)) == []
+
+
+def test_the_device_holds_the_waiting_keyframe_until_the_system_is_ready():
+    state = {"now": SystemState(tab=0)}
+    backend = ScenarioBackend(parse_scenario(WAITING), start_time=100.0, system=lambda: state["now"])
+    # Expect the motion up to the keyframe, then the device held there while the GUI is elsewhere
+    assert backend.read(100.5).position[0] == pytest.approx(0.025)
+    for time in (101.0, 101.5, 103.0):
+        assert np.allclose(backend.read(time).position, [0.05, 0.0, 0.0])
+        assert backend.read(time).gripper == pytest.approx(0.25)  # the keyframe's click waits too
+    state["now"] = SystemState(tab=2, running=frozenset({"PickItem2"}))
+    # Expect the scenario to go on from the keyframe (its click first) once the system shows what it waits for
+    assert backend.read(103.0).position[0] == pytest.approx(0.05)
+    assert backend.read(103.1).gripper < 0.2
+    assert backend.read(103.5).position[1] == pytest.approx(0.025)
+    assert not backend.finished and backend.failure == ""
+
+
+def test_a_wait_that_times_out_fails_the_scenario_naming_the_keyframe():
+    backend = ScenarioBackend(parse_scenario(WAITING, source="s.yaml"), start_time=0.0, system=lambda: SystemState(1))
+    backend.read(1.0)
+    backend.read(5.9)
+    assert not backend.finished
+    backend.read(6.1)
+    # Expect the backend finished with one message: file, line, keyframe, what it waited for and what it saw
+    assert backend.finished
+    assert backend.failure.startswith("s.yaml:4: keyframes[1].wait: still waiting after 5 s for tab LOW_LEVEL")
+    assert "(seen HIGH_LEVEL)" in backend.failure and "tree_running PickItem2 (running: nothing)" in backend.failure
