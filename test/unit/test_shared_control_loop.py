@@ -232,3 +232,27 @@ def test_two_clothoid_segments_run_and_keep_the_boundary():
     assert records[-1].mode == SHARED and records[-1].skill == "wave"
     assert len(records[-1].parameters) == 9  # two (phi0, phi1) pairs
     assert violation(np.array([r.state for r in records]).T, box, None) <= TOLERANCE
+
+
+@pytest.mark.parametrize("skill", ["wave", "cycloid"])
+def test_start_from_rest_follows_the_operator_at_every_start_timing(controller, skill):
+    """Issue 15: after rest, a window half full of zeros made the first heading arbitrary (21 of 50 went backwards)."""
+    controller.set_boundary(None)
+    controller.set_obstacle(None)
+    rng = np.random.default_rng(15)
+    wrong = []
+    for start in range(25):
+        rest = 0.3 + 0.07 * start  # the window restarts every 1 s of rest: every phase of it is covered
+        heading = rng.uniform(-math.pi, math.pi)
+        times = np.arange(0, 2.5, DT)
+        push = synthetic_commands(skill, (0.03, 20.0, 0.0), heading, 0.05, times, 0.005, rng)
+        push *= np.minimum(times / 0.3, 1.0)[:, None]  # a human starts gently
+        still = 0.001 * rng.standard_normal((int(round(rest / DT)), 2))  # a device at rest is not exactly still
+        controller.reset((0.0, 0.0))
+        records = [controller.step(c) for c in np.vstack([still, push])]
+        moved = np.array(records[-1].state) - np.array(records[len(still)].state)
+        along = moved @ np.array([math.cos(heading), math.sin(heading)])
+        assert records[-1].mode == SHARED
+        if along < 0.5 * 0.05 * times[-1]:
+            wrong.append((rest, heading, along))
+    assert not wrong, f"went against or short of the operator's push (rest [s], heading [rad], along [m]): {wrong}"

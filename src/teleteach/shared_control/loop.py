@@ -50,7 +50,8 @@ class SharedControlConfig:
         speed_scale: typical operator speed [m/s] (scales the fitting residuals).
         max_command_speed: commands faster than this are clipped [m/s].
         idle_speed: when the RMS command speed over a full window is below this, the operator is idle: the window
-            restarts (direct control for t_w again), so estimation starts afresh when they move again [m/s].
+            restarts (direct control for t_w again), so estimation starts afresh when they move again; commands
+            slower than this before the first move are left out of the window [m/s].
         regularisation_weights: W_R on (curvature, heading, speed, skill) of theta / scale [-].
         curvature_weight: always-on penalty on phi / scale in estimation [-].
         optimisation_weights: W_TO on (curvature, heading, speed, skill) of theta / scale [-].
@@ -251,6 +252,8 @@ class SharedControl:
         self._cpu = [0.0, 0.0]
         command, notes = self._sanitise(command)
         self.window.append(command)
+        if len(self.window) < cfg.n_window:
+            self._trim_idle_start()
         if len(self.window) == cfg.n_window and self._idle():
             self.window.clear()
             self.window.append(command)
@@ -264,6 +267,15 @@ class SharedControl:
         except Exception as error:  # the loop must keep the robot safe whatever a solver does
             self._forget()
             return self._fallback(command, [*notes, f"shared control error: {error}"], [], [], 0.0, 0.0, (0, 0))
+
+    def _trim_idle_start(self) -> None:
+        """Drop the rest before the operator's first move, so the first estimate sees motion only.
+
+        A window that starts with rest fits a skill to zeros; its heading is then arbitrary and can point against
+        the operator (issue 15: 21 of 50 start timings went the wrong way).
+        """
+        while self.window and np.linalg.norm(self.window[0]) < self.config.idle_speed:
+            self.window.popleft()
 
     def _idle(self) -> bool:
         speeds = np.linalg.norm(np.array(self.window), axis=1)
