@@ -1,8 +1,10 @@
 """Cartesian impedance control (thesis eq 5) with the safety features of franka_human_friendly_controllers.
 
-tau = J^T (-K e - D J dq) + N (k_ns (q_ns - q) - 2 sqrt(k_ns) dq) + g(q) + C(q, dq) dq, with the pose error e
-clipped per axis (attractor clipping), K and D filtered toward their targets each tick, the torque rate limited,
-and the stiffness from the ellipsoid (eqs 1-4) with eq 7 or mass-aware damping.
+tau = J^T (-K e - D (J dq - x_dot_r)) + N (k_ns (q_ns - q) - 2 sqrt(k_ns) dq) + g(q) + C(q, dq) dq, with the pose
+error e clipped per axis (attractor clipping), K and D filtered toward their targets each tick, the torque rate
+limited, and the stiffness from the ellipsoid (eqs 1-4) with eq 7 or mass-aware damping. The reference velocity
+x_dot_r is zero unless a fresh one came with the reference: a moving reference (shared control's plan) is then
+tracked without the lag D/K that a zero x_dot_r causes.
 """
 
 import math
@@ -69,6 +71,7 @@ class ImpedanceParams:
     stiffness_filter: float = 0.005
     max_torque_step: float = 1.0
     model_update_period: int = 10
+    reference_velocity_timeout: float = 0.05
 
     def __post_init__(self):
         if self.damping not in DAMPING_KINDS:
@@ -77,6 +80,8 @@ class ImpedanceParams:
             raise ValueError("stiffness_filter must be in (0, 1]")
         if self.model_update_period < 1:
             raise ValueError("model_update_period must be >= 1 tick")
+        if not self.reference_velocity_timeout >= 0.0:
+            raise ValueError("reference_velocity_timeout must be >= 0 s")
 
 
 def orientation_error(quaternion, reference):
@@ -117,6 +122,8 @@ class CartesianImpedanceController:
         self.damping = np.zeros((6, 6))
         self.equilibrium_position = np.zeros(3)
         self.equilibrium_quaternion = np.array([0.0, 0.0, 0.0, 1.0])
+        self.reference_velocity = np.zeros(6)
+        self.reference_velocity_time = -math.inf
         self.nullspace_posture = np.zeros(7)
         self.nullspace_projector = np.eye(7)
         self.last_torque = np.zeros(7)
@@ -144,6 +151,20 @@ class CartesianImpedanceController:
         """New reference pose x_r in base_link (position [m], unit quaternion x, y, z, w)."""
         self.equilibrium_position = np.array(position, dtype=float)
         self.equilibrium_quaternion = np.array(quaternion, dtype=float)
+
+    def set_reference_velocity(self, linear, angular, time):
+        """Velocity x_dot_r of the reference in base_link (linear [m/s], angular [rad/s]), valid at ``time`` [s].
+
+        It is used for ``reference_velocity_timeout`` after ``time``, then counts as zero, so a reference that comes
+        without one (e.g. a trajectory player) is held as before.
+        """
+        self.reference_velocity = np.concatenate((np.asarray(linear, dtype=float), np.asarray(angular, dtype=float)))
+        self.reference_velocity_time = float(time)
+
+    def _reference_velocity(self, now):
+        if now - self.reference_velocity_time <= self.params.reference_velocity_timeout:
+            return self.reference_velocity
+        return np.zeros(6)
 
     def starting(self, state: RobotState):
         """Bumpless start: hold the current pose and posture, stiffness already at its target, torque = model."""
@@ -179,8 +200,9 @@ class CartesianImpedanceController:
             )
         )
         error = np.minimum(np.maximum(error, self._negative_error_limit), self._error_limit)
-        # Cartesian spring-damper (eq 5 with x_r velocity zero): the arm is pushed with -(K e + D x_dot)
-        spring_damper = self.stiffness @ error + self.damping @ (state.jacobian @ state.dq)
+        # Cartesian spring-damper (eq 5): the arm is pushed with -(K e + D (x_dot - x_dot_r))
+        velocity_error = state.jacobian @ state.dq - self._reference_velocity(state.time)
+        spring_damper = self.stiffness @ error + self.damping @ velocity_error
         # Posture spring in the nullspace of the task
         nullspace = self.nullspace_projector @ (
             params.nullspace_stiffness * (self.nullspace_posture - state.q) - self._nullspace_damping * state.dq
