@@ -256,3 +256,19 @@ def test_start_from_rest_follows_the_operator_at_every_start_timing(controller, 
         if along < 0.5 * 0.05 * times[-1]:
             wrong.append((rest, heading, along))
     assert not wrong, f"went against or short of the operator's push (rest [s], heading [rad], along [m]): {wrong}"
+
+
+def test_record_velocity_is_the_velocity_of_the_executed_states(controller):
+    """The velocity sent as the impedance controller's x_dot_r matches how the executed state really moves."""
+    controller.reset((0.0, 0.0))
+    controller.set_boundary(None)
+    controller.set_obstacle(None)
+    records = [controller.step(c) for c in wave(4.0, heading=0.4, seed=3)]
+    states = np.array([r.state for r in records])
+    velocities = np.array([r.velocity for r in records])
+    moved = np.gradient(states, DT, axis=0)
+    assert np.allclose(velocities[1:40], np.diff(states, axis=0)[:39] / DT, atol=1e-9)
+    shared = [k for k in range(60, len(records) - 1) if records[k].mode == SHARED and records[k + 1].mode == SHARED]
+    assert len(shared) > 100
+    error = np.linalg.norm(velocities[shared] - moved[shared], axis=1)
+    assert np.median(error) < 0.1 * np.median(np.linalg.norm(moved[shared], axis=1))

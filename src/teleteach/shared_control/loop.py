@@ -117,6 +117,8 @@ class SharedControlRecord:
         iterations: (estimation iterations summed over skills, optimisation iterations).
         cpu_times: CPU time of (all estimations, optimisation) [s] (load-independent, as the paper reports).
         plan: planned states (2 x (n_horizon + 1)) [m], empty in direct control.
+        velocity: velocity of the executed state (x, y) [m/s]: the plan's at that state, else the direct step's
+            (the impedance controller's x_dot_r, so the arm follows a moving reference without lag).
     """
 
     mode: int
@@ -132,6 +134,7 @@ class SharedControlRecord:
     iterations: Tuple[int, int] = (0, 0)
     cpu_times: Tuple[float, float] = (0.0, 0.0)
     plan: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((2, 0)))
+    velocity: Tuple[float, float] = (0.0, 0.0)
 
 
 def _weights(layout: ParameterLayout, groups: Sequence[float]) -> np.ndarray:
@@ -310,8 +313,11 @@ class SharedControl:
             else:
                 message += "; stopped at the constraint"
             target = safe
+        velocity = (target - self.state) / self.config.dt if mode == DIRECT else np.zeros(2)
         self.state = target
-        return self._record(mode, "", [], [], [], 0.0, 0.0, command, "; ".join([*notes, message]), (0, 0))
+        return self._record(
+            mode, "", [], [], [], 0.0, 0.0, command, "; ".join([*notes, message]), (0, 0), velocity=velocity
+        )
 
     def _shared(self, command, notes) -> SharedControlRecord:
         cfg = self.config
@@ -389,7 +395,12 @@ class SharedControl:
             "; ".join([*notes, message]),
             iterations,
             plan,
+            self._plan_velocity(1),
         )
+
+    def _plan_velocity(self, index: int) -> np.ndarray:
+        """Velocity of the plan at its ``index``-th state [m/s] (central difference inside, one-sided at the ends)."""
+        return np.gradient(self.plan, self.config.dt, axis=1)[:, index]
 
     def _estimate_if_feasible(self, optimisation: TrajectoryOptimisation, theta_hat) -> Optional[SolveResult]:
         """theta* = theta_hat when its plan already keeps the margin: then it is the exact minimiser of eq. 10."""
@@ -480,7 +491,7 @@ class SharedControl:
                 notes.append("fallback: following the previous plan")
                 return self._record(
                     FALLBACK, skill, self.skills, errors, parameters, estimation_time, optimisation_time, command,
-                    "; ".join(notes), iterations, self.plan,
+                    "; ".join(notes), iterations, self.plan, self._plan_velocity(self.plan_index),
                 )  # fmt: skip
         self.plan = np.zeros((2, 0))
         if constraints.violation(self.state, self.box, self.obstacle) == 0.0:
@@ -513,6 +524,7 @@ class SharedControl:
         message,
         iterations,
         plan=None,
+        velocity=(0.0, 0.0),
     ) -> SharedControlRecord:
         return SharedControlRecord(
             mode=mode,
@@ -528,4 +540,5 @@ class SharedControl:
             iterations=(int(iterations[0]), int(iterations[1])),
             cpu_times=(float(self._cpu[0]), float(self._cpu[1])),
             plan=np.zeros((2, 0)) if plan is None else np.array(plan),
+            velocity=(float(velocity[0]), float(velocity[1])),
         )

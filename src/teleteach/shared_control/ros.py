@@ -61,7 +61,11 @@ class TaskPlane:
 
     def to_base(self, point: Sequence[float]) -> np.ndarray:
         """Task-plane point (x, y) [m] -> base_link position [m]."""
-        return self.origin + point[0] * self.x_axis + point[1] * self.y_axis
+        return self.origin + self.vector_to_base(point)
+
+    def vector_to_base(self, vector: Sequence[float]) -> np.ndarray:
+        """Task-plane vector (x, y) (e.g. a velocity) -> base_link vector."""
+        return vector[0] * self.x_axis + vector[1] * self.y_axis
 
     def to_plane(self, position: Sequence[float]) -> np.ndarray:
         """base_link position [m] -> task-plane point (x, y) [m] (the orthogonal projection)."""
@@ -133,7 +137,9 @@ class SharedControlNode:
         (geometry_msgs/TwistStamped), or /joy (sensor_msgs/Joy); /shared_control/obstacle (geometry_msgs/PoseStamped)
 
     ROS Publishers:
-        /equilibrium_pose (geometry_msgs/PoseStamped), /shared_control/state (teleteach/SharedControlState),
+        /equilibrium_pose (geometry_msgs/PoseStamped), /equilibrium_twist (geometry_msgs/TwistStamped: the plan's
+        velocity at that pose, x_dot_r of the impedance law, same stamp and frame),
+        /shared_control/state (teleteach/SharedControlState),
         /shared_control/plan (nav_msgs/Path: the planned horizon, in ``frame_id``, each cycle; empty in direct
         control), /shared_control/boundary (geometry_msgs/PolygonStamped, latched: the box in ``frame_id``)
     """
@@ -173,6 +179,7 @@ class SharedControlNode:
         self._state_type = SharedControlState
         self._pose_type = PoseStamped
         self._path_type = Path
+        self._twist_type = TwistStamped
         self.plane = plane
         self.frame_id = frame_id
         self.command_timeout = command_timeout
@@ -184,6 +191,7 @@ class SharedControlNode:
         self._obstacle_stamp = -math.inf
         self.controller = self._build(config, box, initial_state)
         self.pose_publisher = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=1)
+        self.twist_publisher = rospy.Publisher("/equilibrium_twist", TwistStamped, queue_size=1)
         self.state_publisher = rospy.Publisher("/shared_control/state", SharedControlState, queue_size=10)
         self.plan_publisher = rospy.Publisher("/shared_control/plan", Path, queue_size=1)
         self.boundary_publisher = rospy.Publisher("/shared_control/boundary", PolygonStamped, queue_size=1, latch=True)
@@ -288,8 +296,15 @@ class SharedControlNode:
         return pose
 
     def publish(self, record: SharedControlRecord) -> None:
-        """Send the executed state as the equilibrium pose, the plan as a path and the record as the state message."""
+        """Send the executed state and its velocity as the equilibrium, the plan as a path, the record as the state."""
         stamp = self._rospy.Time.now()
+        twist = self._twist_type()
+        twist.header.stamp = stamp
+        twist.header.frame_id = self.frame_id
+        twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = (
+            float(v) for v in self.plane.vector_to_base(record.velocity)
+        )
+        self.twist_publisher.publish(twist)
         self.pose_publisher.publish(self._pose(stamp, record.state))
         path = self._path_type()
         path.header.stamp = stamp
@@ -317,6 +332,7 @@ class SharedControlNode:
         for subscriber in self._subscribers:
             subscriber.unregister()
         self.pose_publisher.unregister()
+        self.twist_publisher.unregister()
         self.state_publisher.unregister()
         self.plan_publisher.unregister()
         self.boundary_publisher.unregister()
