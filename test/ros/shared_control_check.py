@@ -15,7 +15,7 @@ from teleteach.msg import SharedControlState
 from teleteach.shared_control.models import synthetic_commands
 
 # From config/shared_control.yaml (plane) and the .test file (boundary)
-ORIGIN = np.array([0.55, 0.0, 0.45])
+ORIGIN = np.array([0.55, 0.0, 0.62])
 BOUNDARY = (-0.25, -0.05, 0.25, 0.08)
 
 
