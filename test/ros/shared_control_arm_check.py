@@ -157,25 +157,10 @@ class SharedControlOnTheArm(unittest.TestCase):
         self.assertLess(pressed[1].min(), OBSTACLE.y + 0.02, summary)  # it did go down to the edge
 
         errors = self.recorder.tracking_errors(run_start, run_end)
-        import pickle
-
-        with self.recorder.lock:
-            pickle.dump(
-                (
-                    list(self.recorder.arm[0]),
-                    list(self.recorder.arm[1]),
-                    list(self.recorder.equilibrium[0]),
-                    list(self.recorder.equilibrium[1]),
-                    [(s.header.stamp.to_sec(), s.mode, s.state.x, s.state.y) for s in self.recorder.states],
-                    run_start,
-                    run_end,
-                ),
-                open("/tmp/sc/dump.pkl", "wb"),
-            )
         p50, p95 = (1e3 * float(np.percentile(errors, q)) for q in (50, 95))
         rospy.loginfo(f"arm to latest /equilibrium_pose on the plane: p50 {p50:.1f} mm, p95 {p95:.1f} mm")
         print(f"\ntracking on the plane: p50 {p50:.1f} mm, p95 {p95:.1f} mm, n {len(errors)}")
-        self.assertLess(p95, 10.0)  # follows the plan (the bench figure is p95 <= 5 mm on an idle machine)
+        self.assertLessEqual(p95, 5.0)  # issue 15: it follows the plan (19 mm before x_dot_r and Lambda x_ddot_r)
         modes = [s.mode for s in self.recorder.states if run_start <= s.header.stamp.to_sec() <= run_end]
         self.assertIn(SharedControlState.SHARED, modes)
 
