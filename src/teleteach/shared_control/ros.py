@@ -15,6 +15,7 @@ from teleteach.rotations import quaternion_to_rpy
 from teleteach.shared_control import cache
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.loop import SharedControl, SharedControlConfig, SharedControlRecord
+from teleteach.shared_control.timeline import CommandTimeline
 
 INPUTS = ("operator_command", "twist", "joy")
 
@@ -128,7 +129,9 @@ class SharedControlNode:
         twist_scale: task-plane speed per device speed [-] (``twist``).
         joy_axes: indices of the joystick axes for x and y (``joy``).
         joy_scale: task-plane speed at full deflection per axis [m/s] (``joy``).
-        command_timeout: a command older than this counts as zero [s].
+        command_timeout: a command older than this, or a gap between commands longer than this, counts as zero [s].
+        command_delay: each cycle reads the operator's commands this much before its own time, placed by their
+            header stamps (messages up to this late, bunched or out of order give the same window) [s].
         obstacle_timeout: the obstacle is dropped when not refreshed for this long [s] (0: never).
         frame_id: frame of /equilibrium_pose.
 
@@ -158,6 +161,7 @@ class SharedControlNode:
         joy_axes: Sequence[int] = (0, 1),
         joy_scale: Sequence[float] = (0.2, 0.2),
         command_timeout: float = 0.2,
+        command_delay: float = 0.03,
         obstacle_timeout: float = 1.0,
         frame_id: str = "base_link",
     ):
@@ -173,8 +177,8 @@ class SharedControlNode:
         projection = np.asarray(twist_projection, dtype=float)
         if projection.shape != (2, 3) or not np.all(np.isfinite(projection)):
             raise ValueError(f"twist_projection must be a finite 2 x 3 matrix, got {twist_projection}")
-        if config.dt <= 0 or command_timeout <= 0:
-            raise ValueError("dt and command_timeout must be > 0")
+        if config.dt <= 0 or command_timeout <= 0 or not 0 <= command_delay < command_timeout:
+            raise ValueError("dt and command_timeout must be > 0, command_delay in [0, command_timeout)")
         self._rospy = rospy
         self._state_type = SharedControlState
         self._pose_type = PoseStamped
@@ -183,10 +187,10 @@ class SharedControlNode:
         self.plane = plane
         self.frame_id = frame_id
         self.command_timeout = command_timeout
+        self.command_delay = command_delay
         self.obstacle_timeout = obstacle_timeout
         self._lock = threading.Lock()
-        self._command = np.zeros(2)
-        self._command_stamp = -math.inf
+        self._commands = CommandTimeline(command_timeout)
         self._obstacle: Optional[StraightEdge] = None
         self._obstacle_stamp = -math.inf
         self.controller = self._build(config, box, initial_state)
@@ -218,7 +222,7 @@ class SharedControlNode:
                 return command_from_joy(message, joy_axes, joy_scale)
 
         self._subscribers = [
-            rospy.Subscriber(topic, message_type, self._guarded(self._set_command, convert), queue_size=1),
+            rospy.Subscriber(topic, message_type, self._guarded(self._set_command, convert, stamped=True)),
             rospy.Subscriber(
                 "/shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
             ),
@@ -252,30 +256,41 @@ class SharedControlNode:
             self.controller = compiled
         self._rospy.loginfo("shared_control: switched to the compiled solvers")
 
-    def _guarded(self, setter, convert):
+    def _guarded(self, setter, convert, stamped=False):
         def callback(message):
             try:
-                setter(convert(message))
+                if stamped:
+                    setter(convert(message), self._stamp(message))
+                else:
+                    setter(convert(message))
             except (InvalidMessageError, ValueError) as error:
                 self._rospy.logwarn_throttle(self.WARN_PERIOD, f"shared_control: rejected a message: {error}")
 
         return callback
 
-    def _set_command(self, command: np.ndarray) -> None:
+    def _stamp(self, message) -> float:
+        """The header stamp [s] (zero: now); one further ahead than command_timeout is rejected."""
+        now = self._rospy.get_time()
+        stamp = message.header.stamp.to_sec() or now
+        if stamp > now + self.command_timeout:
+            raise InvalidMessageError(f"command stamped {stamp - now:.3f} s in the future")
+        return stamp
+
+    def _set_command(self, command: np.ndarray, stamp: float) -> None:
         with self._lock:
-            self._command = command
-            self._command_stamp = self._rospy.get_time()
+            self._commands.add(stamp, command)
 
     def _set_obstacle(self, obstacle: StraightEdge) -> None:
         with self._lock:
             self._obstacle = obstacle
             self._obstacle_stamp = self._rospy.get_time()
 
-    def _cycle(self, _event) -> None:
+    def _cycle(self, event) -> None:
         now = self._rospy.get_time()
+        # The nominal time of this cycle, so that the timer's own jitter does not shift the samples either.
+        cycle_time = event.current_expected.to_sec() if event.current_expected else now
         with self._lock:
-            fresh = now - self._command_stamp <= self.command_timeout
-            command = self._command if fresh else np.zeros(2)
+            command = self._commands.sample(cycle_time - self.command_delay)
             obstacle = self._obstacle
             if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
                 obstacle = None
@@ -324,6 +339,7 @@ class SharedControlNode:
         state.command.x, state.command.y = record.command
         state.state.x, state.state.y = record.state
         state.message = record.message
+        state.confidence = record.confidence
         self.state_publisher.publish(state)
 
     def shutdown(self) -> None:
