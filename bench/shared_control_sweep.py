@@ -8,7 +8,7 @@ clock makes the figures independent of the machine's load, which ``--busy`` demo
 a busy loop on one core. ``--latest`` uses the node's previous reading (the latest message that has arrived) and
 ``--paper`` the paper's identification (no hysteresis, 1 s window), for comparison.
 
-Per cell: misidentified cycles (shared cycles off the operator's pattern, outside the switch_delay_limit after the
+Per cell: misidentified cycles (estimation cycles, SHARED or UNKNOWN, whose skill is off the operator's pattern, outside the switch_delay_limit after the
 switch), flicker (returns to a skill the identification had left), switch delay. Prints a table, writes
 bench/results/shared_control_sweep.json.
 
@@ -30,7 +30,7 @@ import time
 import numpy as np
 import yaml
 
-from teleteach.shared_control.loop import SHARED, SharedControl, SharedControlConfig
+from teleteach.shared_control.loop import SHARED, UNKNOWN, SharedControl, SharedControlConfig
 from teleteach.shared_control.models import synthetic_commands
 from teleteach.shared_control.timeline import CommandTimeline
 
@@ -86,7 +86,7 @@ def run_through_message_path(controller, commands, rng, params, latest):
 def score(records, first, second, switch):
     """Misidentified cycles, flicker and switch delay of one run (switch: index of the first cycle of ``second``)."""
     limit = int(round(GOALS["switch_delay_s"] / DT))
-    skills = [r.skill if r.mode == SHARED else None for r in records]
+    skills = [r.skill if r.mode in (SHARED, UNKNOWN) else None for r in records]
     judged = [(k, s) for k, s in enumerate(skills) if s is not None and not switch <= k < switch + limit]
     wrong = sum(s != (first if k < switch else second) for k, s in judged)
     detected = next((k for k in range(switch, len(skills)) if skills[k] == second), None)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from teleteach.shared_control.constraints import Box, StraightEdge, violation
-from teleteach.shared_control.loop import DIRECT, FALLBACK, SHARED, SharedControl, SharedControlConfig
+from teleteach.shared_control.loop import DIRECT, FALLBACK, SHARED, UNKNOWN, SharedControl, SharedControlConfig
 from teleteach.shared_control.models import synthetic_commands
 
 DT = 0.02
@@ -272,3 +272,47 @@ def test_record_velocity_is_the_velocity_of_the_executed_states(controller):
     assert len(shared) > 100
     error = np.linalg.norm(velocities[shared] - moved[shared], axis=1)
     assert np.median(error) < 0.1 * np.median(np.linalg.norm(moved[shared], axis=1))
+
+
+def zigzag(duration, heading=0.25):
+    """Straight strokes alternating +-45 degrees about the heading, 0.5 s each: a pattern no skill has."""
+    times = np.arange(0, duration, DT)
+    angle = heading + np.where(np.floor(times / 0.5) % 2 == 0, 1.0, -1.0) * math.pi / 4
+    return 0.05 * math.sqrt(2) * np.column_stack([np.cos(angle), np.sin(angle)])
+
+
+def test_authority_follows_confidence_and_the_paper_switch_restores_the_plan_always():
+    box = Box(-0.25, -0.15, 0.25, 0.06)
+    blended = SharedControl(SharedControlConfig(solver="fast", blend_authority=True))
+    paper = SharedControl(SharedControlConfig(solver="fast", blend_authority=False))
+    authorities = {}
+    for name, controller in (("blended", blended), ("paper", paper)):
+        controller.reset((-0.2, 0.0))
+        controller.set_boundary(box)
+        records = [controller.step(c) for c in zigzag(6.0)]
+        assert violation(np.array([r.state for r in records]).T, box, None) <= TOLERANCE
+        authorities[name] = np.array([r.authority for r in records if r.mode != DIRECT])
+    assert np.all(authorities["paper"] == 1.0)
+    assert authorities["blended"].mean() < 0.6  # the zig-zag stays mostly the operator's
+    blended.reset((-0.2, 0.0))
+    records = [blended.step(c) for c in wave(4.0, heading=0.25)]
+    assert np.mean([r.authority for r in records if r.mode != DIRECT]) > 0.6  # a known wave is mostly the plan's
+
+
+def test_unknown_pattern_executes_the_operators_step_inside_the_constraints():
+    box = Box(-0.25, -0.15, 0.25, 0.06)
+    # Residual bounds so strict that nothing counts as known: every estimation cycle is UNKNOWN.
+    config = SharedControlConfig(solver="fast", blend_authority=True, authority_residual=(1e-9, 2e-9))
+    controller = SharedControl(config, (-0.2, 0.0), box)
+    commands = zigzag(5.0)
+    records = [controller.step(c) for c in commands]
+    unknown = [k for k, r in enumerate(records) if r.mode == UNKNOWN]
+    assert len(unknown) > 150
+    for k in unknown:
+        step = np.array(records[k - 1].state) + commands[k] * DT
+        expected = step if violation(step, box, None) == 0.0 else None
+        if expected is not None:
+            assert np.allclose(records[k].state, expected)
+        assert records[k].authority == 0.0
+    assert violation(np.array([r.state for r in records]).T, box, None) <= TOLERANCE
+    assert max(r.state[1] for r in records) > 0.05  # it went along the top of the boundary, as the operator pushed

@@ -23,7 +23,8 @@ from teleteach.shared_control.problems import SkillEstimation, SolveResult, Traj
 DIRECT = 0
 SHARED = 1
 FALLBACK = 2
-MODE_NAMES = {DIRECT: "DIRECT", SHARED: "SHARED", FALLBACK: "FALLBACK"}
+UNKNOWN = 3
+MODE_NAMES = {DIRECT: "DIRECT", SHARED: "SHARED", FALLBACK: "FALLBACK", UNKNOWN: "UNKNOWN"}
 
 # A box so large that it never binds: the default when no boundary is given [m].
 UNBOUNDED = Box(-1e3, -1e3, 1e3, 1e3)
@@ -67,6 +68,13 @@ class SharedControlConfig:
             new best skill needs before it counts towards a switch [-].
         switch_hold: the new best skill must keep that confidence this long before the identification switches
             (hysteresis: noise around a crossing of the fitting errors does not flick the skill back and forth) [s].
+        blend_authority: True: the executed step blends the plan and the operator's direct step by ``authority``
+            (a pattern no skill explains stays the operator's, kept inside the constraints); False: the paper's
+            behaviour, the plan always (the library's default; the node's yaml turns the blend on).
+        authority_confidence: confidence at and above which the margin between skills gives the plan full
+            authority (below, authority falls in proportion) [-].
+        authority_residual: (full, none): relative fitting error e_1 / mean |h|^2 of the identified skill below
+            which the plan has full authority and above which the operator has it (linear between) [-].
         reseed_period: every this long, each skill's warm-started estimate is compared with a fresh grid seed and
             restarted from it when the seed fits better: after the operator changes pattern, the estimate of the
             new pattern's skill can sit in a local minimum fitted to the old one (0: never) [s].
@@ -98,6 +106,9 @@ class SharedControlConfig:
     switch_confidence: float = 0.05
     switch_hold: float = 0.06
     reseed_period: float = 0.2
+    blend_authority: bool = False
+    authority_confidence: float = 0.9
+    authority_residual: Tuple[float, float] = (0.05, 0.2)
 
     @property
     def n_window(self) -> int:
@@ -115,7 +126,8 @@ class SharedControlRecord:
     """One cycle, with the fields of teleteach/SharedControlState (plus the plan, for displays).
 
     Attributes:
-        mode: DIRECT, SHARED or FALLBACK.
+        mode: DIRECT, SHARED, FALLBACK or UNKNOWN (no skill explains the commands: the operator's step, kept
+            inside the constraints).
         skill: identified skill this cycle ("" in direct control).
         skills: all skills, in the order of fitting_errors.
         fitting_errors: epsilon_i of each skill (eq. 8) [(m/s)^2] (inf when its estimation failed).
@@ -131,6 +143,7 @@ class SharedControlRecord:
         velocity: velocity of the executed state (x, y) [m/s]: the plan's at that state, else the direct step's
             (the impedance controller's x_dot_r, so the arm follows a moving reference without lag).
         confidence: ``identification_confidence`` of this cycle's fitting errors [-] (0 in direct control).
+        authority: weight of the plan in the executed step (1: the plan, 0: the operator's direct step) [-].
     """
 
     mode: int
@@ -148,6 +161,7 @@ class SharedControlRecord:
     plan: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((2, 0)))
     velocity: Tuple[float, float] = (0.0, 0.0)
     confidence: float = 0.0
+    authority: float = 0.0
 
 
 def identification_confidence(errors: Sequence[float]) -> float:
@@ -161,6 +175,11 @@ def identification_confidence(errors: Sequence[float]) -> float:
     if finite.size == 1 or finite[1] <= 0.0:
         return 1.0 if finite.size == 1 else 0.0
     return float((finite[1] - finite[0]) / finite[1])
+
+
+def plan_velocity(plan: np.ndarray, dt: float, index: int) -> np.ndarray:
+    """Velocity of a plan (2 x n states dt apart) at its ``index``-th state [m/s] (central difference inside)."""
+    return np.gradient(plan, dt, axis=1)[:, index]
 
 
 def _weights(layout: ParameterLayout, groups: Sequence[float]) -> np.ndarray:
@@ -416,12 +435,18 @@ class SharedControl:
         if not result.success:
             message += f" (optimisation {result.status} after {result.iterations} iterations; plan feasible)"
         self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
-        self.plan, self.plan_index = plan, 1
-        self.state = plan[:, 1].copy()
+        authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
+        state, velocity = self._blend(plan, command, authority)
+        # The stored plan passes through the executed state, so a fallback continues from where the robot is.
+        self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
+        self.state = state
         self.alpha_c = float(headings[1])
         self._advance(results, result.theta)
+        mode = SHARED if authority > 0.0 else UNKNOWN
+        if authority < 1.0:
+            message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
         return self._record(
-            SHARED,
+            mode,
             skill,
             self.skills,
             errors,
@@ -432,9 +457,41 @@ class SharedControl:
             "; ".join([*notes, message]),
             iterations,
             plan,
-            self._plan_velocity(1),
+            velocity,
             confidence,
+            authority,
         )
+
+    def _authority(self, error: float, confidence: float, commands: np.ndarray) -> float:
+        """Weight of the plan: high when one skill explains the commands well and clearly better than the others."""
+        cfg = self.config
+        if not cfg.blend_authority:
+            return 1.0
+        energy = float(np.mean(np.sum(commands**2, axis=1)))
+        residual = error / energy if energy > 0.0 else math.inf
+        full, none = cfg.authority_residual
+        fit = float(np.clip((none - residual) / (none - full), 0.0, 1.0))
+        margin = (
+            float(np.clip(confidence / cfg.authority_confidence, 0.0, 1.0)) if cfg.authority_confidence > 0 else 1.0
+        )
+        return fit * margin
+
+    def _blend(self, plan: np.ndarray, command: np.ndarray, authority: float) -> Tuple[np.ndarray, np.ndarray]:
+        """Executed state and velocity: authority x the plan's next state + the rest x the operator's direct step.
+
+        A blend that leaves the constraints moves to the nearest free point (the plan's step never leaves them).
+        """
+        dt = self.config.dt
+        planned, planned_velocity = plan[:, 1], plan_velocity(plan, dt, 1)
+        if authority >= 1.0:
+            return planned.copy(), planned_velocity
+        state = authority * planned + (1.0 - authority) * (self.state + command * dt)
+        velocity = authority * planned_velocity + (1.0 - authority) * command
+        if constraints.violation(state, self.box, self.obstacle) > 0.0:
+            safe = self._safe_state(state)
+            state = planned.copy() if safe is None else safe
+            velocity = (state - self.state) / dt
+        return state, velocity
 
     def _identify(self, best: str, confidence: float, errors: Sequence[float]) -> str:
         """The skill to follow: ``best`` once it has kept ``switch_confidence`` for ``switch_hold`` (hysteresis)."""
@@ -451,10 +508,6 @@ class SharedControl:
         if self._candidate_cycles * cfg.dt >= cfg.switch_hold - 1e-9:
             self.identified, self._candidate, self._candidate_cycles = best, None, 0
         return self.identified
-
-    def _plan_velocity(self, index: int) -> np.ndarray:
-        """Velocity of the plan at its ``index``-th state [m/s] (central difference inside, one-sided at the ends)."""
-        return np.gradient(self.plan, self.config.dt, axis=1)[:, index]
 
     def _estimate_if_feasible(self, optimisation: TrajectoryOptimisation, theta_hat) -> Optional[SolveResult]:
         """theta* = theta_hat when its plan already keeps the margin: then it is the exact minimiser of eq. 10."""
@@ -580,7 +633,8 @@ class SharedControl:
                 notes.append("fallback: following the previous plan")
                 return self._record(
                     FALLBACK, skill, self.skills, errors, parameters, estimation_time, optimisation_time, command,
-                    "; ".join(notes), iterations, self.plan, self._plan_velocity(self.plan_index), confidence,
+                    "; ".join(notes), iterations, self.plan,
+                    plan_velocity(self.plan, self.config.dt, self.plan_index), confidence,
                 )  # fmt: skip
         self.plan = np.zeros((2, 0))
         if constraints.violation(self.state, self.box, self.obstacle) == 0.0:
@@ -615,6 +669,7 @@ class SharedControl:
         plan=None,
         velocity=(0.0, 0.0),
         confidence=0.0,
+        authority=0.0,
     ) -> SharedControlRecord:
         return SharedControlRecord(
             mode=mode,
@@ -632,4 +687,5 @@ class SharedControl:
             plan=np.zeros((2, 0)) if plan is None else np.array(plan),
             velocity=(float(velocity[0]), float(velocity[1])),
             confidence=float(confidence),
+            authority=float(authority),
         )

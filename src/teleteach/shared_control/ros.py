@@ -340,6 +340,7 @@ class SharedControlNode:
         state.state.x, state.state.y = record.state
         state.message = record.message
         state.confidence = record.confidence
+        state.authority = record.authority
         self.state_publisher.publish(state)
 
     def shutdown(self) -> None:
