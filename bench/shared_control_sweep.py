@@ -8,9 +8,9 @@ clock makes the figures independent of the machine's load, which ``--busy`` demo
 a busy loop on one core. ``--latest`` uses the node's previous reading (the latest message that has arrived) and
 ``--paper`` the paper's identification (no hysteresis, 1 s window), for comparison.
 
-Per cell: misidentified cycles (estimation cycles, SHARED or UNKNOWN, whose skill is off the operator's pattern, outside the switch_delay_limit after the
-switch), flicker (returns to a skill the identification had left), switch delay. Prints a table, writes
-bench/results/shared_control_sweep.json.
+Per cell: misidentified cycles (estimation cycles, SHARED or UNKNOWN, whose skill is off the operator's pattern,
+outside the 0.5 s allowed after the switch), flicker (returns to a skill the identification had left), switch
+delay. Prints a table, writes bench/results/shared_control_sweep.json.
 
     source build/env.sh && python bench/shared_control_sweep.py [--quick] [--busy] [--latest] [--paper]
 """
