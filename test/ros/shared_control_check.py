@@ -13,15 +13,28 @@ from nav_msgs.msg import Path
 
 from teleteach.msg import SharedControlState
 from teleteach.shared_control.models import synthetic_commands
+from teleteach.shared_control.ros import TaskPlane
 
-# From config/shared_control.yaml (plane) and the .test file (boundary)
-ORIGIN = np.array([0.55, 0.0, 0.45])
+# From the .test file
 BOUNDARY = (-0.25, -0.05, 0.25, 0.08)
 
 
+def task_plane():
+    """The plane the node was given."""
+    return TaskPlane.from_params(rospy.get_param("/shared_control/plane"))
+
+
 def to_plane(pose):
+    """(task-plane point, distance from the plane) of a pose."""
     p = pose.pose.position
-    return np.array([p.y - ORIGIN[1], p.z - ORIGIN[2]]), p.x
+    position = np.array([p.x, p.y, p.z])
+    point = task_plane().to_plane(position)
+    return point, float(np.linalg.norm(position - task_plane().to_base(point)))
+
+
+def to_plane_point(point):
+    """Task-plane point of a geometry_msgs/Point32."""
+    return task_plane().to_plane((point.x, point.y, point.z))
 
 
 class SharedControlNode(unittest.TestCase):
@@ -83,7 +96,7 @@ class SharedControlNode(unittest.TestCase):
         for pose in self.poses:
             self.assertEqual(pose.header.frame_id, "base_link")
             point, depth = to_plane(pose)
-            self.assertAlmostEqual(depth, ORIGIN[0])
+            self.assertAlmostEqual(depth, 0.0)
             self.assertGreaterEqual(point[0], BOUNDARY[0] - 1e-6)
             self.assertGreaterEqual(point[1], BOUNDARY[1] - 1e-6)
             self.assertLessEqual(point[0], BOUNDARY[2] + 1e-6)
@@ -100,12 +113,12 @@ class SharedControlNode(unittest.TestCase):
             self.assertEqual(plan.header.frame_id, "base_link")
             for pose in plan.poses:
                 point, depth = to_plane(pose)
-                self.assertAlmostEqual(depth, ORIGIN[0])
+                self.assertAlmostEqual(depth, 0.0)
                 self.assertTrue(BOUNDARY[0] - 1e-6 <= point[0] <= BOUNDARY[2] + 1e-6, point)
                 self.assertTrue(BOUNDARY[1] - 1e-6 <= point[1] <= BOUNDARY[3] + 1e-6, point)
         # The latched boundary: the box's corners in base_link.
         boundary = rospy.wait_for_message("/shared_control/boundary", PolygonStamped, timeout=5)
-        corners = sorted((round(c.y - ORIGIN[1], 6), round(c.z - ORIGIN[2], 6)) for c in boundary.polygon.points)
+        corners = sorted(tuple(np.round(to_plane_point(c), 6)) for c in boundary.polygon.points)
         self.assertEqual(corners, sorted([(-0.25, -0.05), (-0.25, 0.08), (0.25, -0.05), (0.25, 0.08)]))
         # The state message mirrors the executed state, and the command is the operator's.
         self.assertTrue(all(math.isfinite(s.command.x) for s in states))

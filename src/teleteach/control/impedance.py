@@ -1,8 +1,11 @@
 """Cartesian impedance control (thesis eq 5) with the safety features of franka_human_friendly_controllers.
 
-tau = J^T (-K e - D J dq) + N (k_ns (q_ns - q) - 2 sqrt(k_ns) dq) + g(q) + C(q, dq) dq, with the pose error e
-clipped per axis (attractor clipping), K and D filtered toward their targets each tick, the torque rate limited,
-and the stiffness from the ellipsoid (eqs 1-4) with eq 7 or mass-aware damping.
+tau = J^T (Lambda x_ddot_r - K e - D (J dq - x_dot_r)) + N (k_ns (q_ns - q) - 2 sqrt(k_ns) dq) + g(q) + C(q, dq) dq,
+with the pose error e clipped per axis (attractor clipping), K and D filtered toward their targets each tick, the
+torque rate limited, and the stiffness from the ellipsoid (eqs 1-4) with eq 7 or mass-aware damping. The reference
+velocity x_dot_r and acceleration x_ddot_r are zero unless a fresh velocity came with the reference (x_ddot_r from
+successive ones); a moving reference (shared control's plan) then obeys eq 5 in the tracking error,
+Lambda e_ddot + D e_dot + K e = f_ext, instead of lagging by D/K and by Lambda x_ddot_r / K.
 """
 
 import math
@@ -10,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 import numpy as np
+import scipy.linalg
 
 from teleteach.control import stiffness as ellipsoid
 
@@ -69,6 +73,7 @@ class ImpedanceParams:
     stiffness_filter: float = 0.005
     max_torque_step: float = 1.0
     model_update_period: int = 10
+    reference_velocity_timeout: float = 0.05
 
     def __post_init__(self):
         if self.damping not in DAMPING_KINDS:
@@ -77,6 +82,8 @@ class ImpedanceParams:
             raise ValueError("stiffness_filter must be in (0, 1]")
         if self.model_update_period < 1:
             raise ValueError("model_update_period must be >= 1 tick")
+        if not self.reference_velocity_timeout >= 0.0:
+            raise ValueError("reference_velocity_timeout must be >= 0 s")
 
 
 def orientation_error(quaternion, reference):
@@ -117,6 +124,10 @@ class CartesianImpedanceController:
         self.damping = np.zeros((6, 6))
         self.equilibrium_position = np.zeros(3)
         self.equilibrium_quaternion = np.array([0.0, 0.0, 0.0, 1.0])
+        self.reference_velocity = np.zeros(6)
+        self.reference_acceleration = np.zeros(6)
+        self.reference_velocity_time = -math.inf
+        self.cartesian_inertia = np.zeros((6, 6))
         self.nullspace_posture = np.zeros(7)
         self.nullspace_projector = np.eye(7)
         self.last_torque = np.zeros(7)
@@ -145,6 +156,28 @@ class CartesianImpedanceController:
         self.equilibrium_position = np.array(position, dtype=float)
         self.equilibrium_quaternion = np.array(quaternion, dtype=float)
 
+    def set_reference_velocity(self, linear, angular, time):
+        """Velocity x_dot_r of the reference in base_link (linear [m/s], angular [rad/s]), valid at ``time`` [s].
+
+        It is used for ``reference_velocity_timeout`` after ``time``, then counts as zero, so a reference that comes
+        without one (e.g. a trajectory player) is held as before. The reference acceleration is the difference of
+        two velocities that arrive within that time.
+        """
+        velocity = np.concatenate((np.asarray(linear, dtype=float), np.asarray(angular, dtype=float)))
+        elapsed = float(time) - self.reference_velocity_time
+        if 0.0 < elapsed <= self.params.reference_velocity_timeout:
+            self.reference_acceleration = (velocity - self.reference_velocity) / elapsed
+        else:
+            self.reference_acceleration = np.zeros(6)
+        self.reference_velocity = velocity
+        self.reference_velocity_time = float(time)
+
+    def _reference_motion(self, now):
+        """(x_dot_r, x_ddot_r) while the reference velocity is fresh, else zeros."""
+        if now - self.reference_velocity_time <= self.params.reference_velocity_timeout:
+            return self.reference_velocity, self.reference_acceleration
+        return np.zeros(6), np.zeros(6)
+
     def starting(self, state: RobotState):
         """Bumpless start: hold the current pose and posture, stiffness already at its target, torque = model."""
         self.set_equilibrium(state.position, state.quaternion)
@@ -160,8 +193,9 @@ class CartesianImpedanceController:
         self.nullspace_projector = np.eye(7) - jacobian.T @ np.linalg.solve(
             jacobian @ jacobian.T + 1e-6 * np.eye(6), jacobian
         )
+        inertia = ellipsoid.cartesian_inertia_blocks(jacobian, state.mass_matrix())
+        self.cartesian_inertia = scipy.linalg.block_diag(*inertia)
         if self.params.damping == MASS_AWARE:
-            inertia = ellipsoid.cartesian_inertia_blocks(jacobian, state.mass_matrix())
             self.damping_target = ellipsoid.damping_mass_aware(self.stiffness_target, inertia, self._ratios)
         self._check_filter()
 
@@ -179,8 +213,12 @@ class CartesianImpedanceController:
             )
         )
         error = np.minimum(np.maximum(error, self._negative_error_limit), self._error_limit)
-        # Cartesian spring-damper (eq 5 with x_r velocity zero): the arm is pushed with -(K e + D x_dot)
-        spring_damper = self.stiffness @ error + self.damping @ (state.jacobian @ state.dq)
+        # Cartesian spring-damper (eq 5): the arm is pushed with -(K e + D (x_dot - x_dot_r))
+        reference_velocity, reference_acceleration = self._reference_motion(state.time)
+        velocity_error = state.jacobian @ state.dq - reference_velocity
+        spring_damper = (
+            self.stiffness @ error + self.damping @ velocity_error - self.cartesian_inertia @ reference_acceleration
+        )
         # Posture spring in the nullspace of the task
         nullspace = self.nullspace_projector @ (
             params.nullspace_stiffness * (self.nullspace_posture - state.q) - self._nullspace_damping * state.dq

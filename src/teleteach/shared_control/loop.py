@@ -8,6 +8,7 @@ is infeasible it falls back (previous plan, hold, nearest free point) and says s
 
 import collections
 import dataclasses
+import itertools
 import math
 import time
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -22,7 +23,8 @@ from teleteach.shared_control.problems import SkillEstimation, SolveResult, Traj
 DIRECT = 0
 SHARED = 1
 FALLBACK = 2
-MODE_NAMES = {DIRECT: "DIRECT", SHARED: "SHARED", FALLBACK: "FALLBACK"}
+UNKNOWN = 3
+MODE_NAMES = {DIRECT: "DIRECT", SHARED: "SHARED", FALLBACK: "FALLBACK", UNKNOWN: "UNKNOWN"}
 
 # A box so large that it never binds: the default when no boundary is given [m].
 UNBOUNDED = Box(-1e3, -1e3, 1e3, 1e3)
@@ -50,7 +52,8 @@ class SharedControlConfig:
         speed_scale: typical operator speed [m/s] (scales the fitting residuals).
         max_command_speed: commands faster than this are clipped [m/s].
         idle_speed: when the RMS command speed over a full window is below this, the operator is idle: the window
-            restarts (direct control for t_w again), so estimation starts afresh when they move again [m/s].
+            restarts (direct control for t_w again), so estimation starts afresh when they move again; commands
+            slower than this before the first move are left out of the window [m/s].
         regularisation_weights: W_R on (curvature, heading, speed, skill) of theta / scale [-].
         curvature_weight: always-on penalty on phi / scale in estimation [-].
         optimisation_weights: W_TO on (curvature, heading, speed, skill) of theta / scale [-].
@@ -61,6 +64,20 @@ class SharedControlConfig:
         max_iterations_estimation: iteration cap of each skill estimation [-].
         max_iterations_optimisation: iteration cap of the trajectory optimisation [-].
         cache_dir: folder of compiled code (None: ``cache.cache_dir()``).
+        switch_confidence: confidence (normalised margin of the fitting errors, ``identification_confidence``) a
+            new best skill needs before it counts towards a switch [-].
+        switch_hold: the new best skill must keep that confidence this long before the identification switches
+            (hysteresis: noise around a crossing of the fitting errors does not flick the skill back and forth) [s].
+        blend_authority: True: the executed step blends the plan and the operator's direct step by ``authority``
+            (a pattern no skill explains stays the operator's, kept inside the constraints); False: the paper's
+            behaviour, the plan always (the library's default; the node's yaml turns the blend on).
+        authority_confidence: confidence at and above which the margin between skills gives the plan full
+            authority (below, authority falls in proportion) [-].
+        authority_residual: (full, none): relative fitting error e_1 / mean |h|^2 of the identified skill below
+            which the plan has full authority and above which the operator has it (linear between) [-].
+        reseed_period: every this long, each skill's warm-started estimate is compared with a fresh grid seed and
+            restarted from it when the seed fits better: after the operator changes pattern, the estimate of the
+            new pattern's skill can sit in a local minimum fitted to the old one (0: never) [s].
     """
 
     dt: float = 0.02
@@ -86,6 +103,12 @@ class SharedControlConfig:
     max_iterations_estimation: int = 10
     max_iterations_optimisation: int = 10
     cache_dir: Optional[str] = None
+    switch_confidence: float = 0.05
+    switch_hold: float = 0.06
+    reseed_period: float = 0.2
+    blend_authority: bool = False
+    authority_confidence: float = 0.9
+    authority_residual: Tuple[float, float] = (0.05, 0.2)
 
     @property
     def n_window(self) -> int:
@@ -103,7 +126,8 @@ class SharedControlRecord:
     """One cycle, with the fields of teleteach/SharedControlState (plus the plan, for displays).
 
     Attributes:
-        mode: DIRECT, SHARED or FALLBACK.
+        mode: DIRECT, SHARED, FALLBACK or UNKNOWN (no skill explains the commands: the operator's step, kept
+            inside the constraints).
         skill: identified skill this cycle ("" in direct control).
         skills: all skills, in the order of fitting_errors.
         fitting_errors: epsilon_i of each skill (eq. 8) [(m/s)^2] (inf when its estimation failed).
@@ -116,6 +140,10 @@ class SharedControlRecord:
         iterations: (estimation iterations summed over skills, optimisation iterations).
         cpu_times: CPU time of (all estimations, optimisation) [s] (load-independent, as the paper reports).
         plan: planned states (2 x (n_horizon + 1)) [m], empty in direct control.
+        velocity: velocity of the executed state (x, y) [m/s]: the plan's at that state, else the direct step's
+            (the impedance controller's x_dot_r, so the arm follows a moving reference without lag).
+        confidence: ``identification_confidence`` of this cycle's fitting errors [-] (0 in direct control).
+        authority: weight of the plan in the executed step (1: the plan, 0: the operator's direct step) [-].
     """
 
     mode: int
@@ -131,6 +159,27 @@ class SharedControlRecord:
     iterations: Tuple[int, int] = (0, 0)
     cpu_times: Tuple[float, float] = (0.0, 0.0)
     plan: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((2, 0)))
+    velocity: Tuple[float, float] = (0.0, 0.0)
+    confidence: float = 0.0
+    authority: float = 0.0
+
+
+def identification_confidence(errors: Sequence[float]) -> float:
+    """Normalised margin (e_2 - e_1) / e_2 between the best and second-best fitting errors, in [0, 1].
+
+    1: only one skill explains the commands; 0: two explain them equally well (or none could be fitted).
+    """
+    finite = np.sort(np.asarray([e for e in errors if math.isfinite(e)], dtype=float))
+    if finite.size == 0:
+        return 0.0
+    if finite.size == 1 or finite[1] <= 0.0:
+        return 1.0 if finite.size == 1 else 0.0
+    return float((finite[1] - finite[0]) / finite[1])
+
+
+def plan_velocity(plan: np.ndarray, dt: float, index: int) -> np.ndarray:
+    """Velocity of a plan (2 x n states dt apart) at its ``index``-th state [m/s] (central difference inside)."""
+    return np.gradient(plan, dt, axis=1)[:, index]
 
 
 def _weights(layout: ParameterLayout, groups: Sequence[float]) -> np.ndarray:
@@ -232,6 +281,13 @@ class SharedControl:
         self.plan = np.zeros((2, 0))
         self.plan_index = 0
         self._cpu = [0.0, 0.0]
+        self._estimation_cycles = 0
+        self._forget_identification()
+
+    def _forget_identification(self) -> None:
+        self.identified: Optional[str] = None
+        self._candidate: Optional[str] = None
+        self._candidate_cycles = 0
 
     def adopt(self, other: "SharedControl") -> None:
         """Take over ``other``'s state, window, environment and plan (e.g. when compiled solvers become ready).
@@ -251,10 +307,13 @@ class SharedControl:
         self._cpu = [0.0, 0.0]
         command, notes = self._sanitise(command)
         self.window.append(command)
+        if len(self.window) < cfg.n_window:
+            self._trim_idle_start()
         if len(self.window) == cfg.n_window and self._idle():
             self.window.clear()
             self.window.append(command)
             self._forget()
+            self._forget_identification()
             self.plan, self.plan_index = np.zeros((2, 0)), 0
             notes.append("operator idle: estimation restarts")
         if len(self.window) < cfg.n_window:
@@ -264,6 +323,15 @@ class SharedControl:
         except Exception as error:  # the loop must keep the robot safe whatever a solver does
             self._forget()
             return self._fallback(command, [*notes, f"shared control error: {error}"], [], [], 0.0, 0.0, (0, 0))
+
+    def _trim_idle_start(self) -> None:
+        """Drop the rest before the operator's first move, so the first estimate sees motion only.
+
+        A window that starts with rest fits a skill to zeros; its heading is then arbitrary and can point against
+        the operator (issue 15: 21 of 50 start timings went the wrong way).
+        """
+        while self.window and np.linalg.norm(self.window[0]) < self.config.idle_speed:
+            self.window.popleft()
 
     def _idle(self) -> bool:
         speeds = np.linalg.norm(np.array(self.window), axis=1)
@@ -298,12 +366,16 @@ class SharedControl:
             else:
                 message += "; stopped at the constraint"
             target = safe
+        velocity = (target - self.state) / self.config.dt if mode == DIRECT else np.zeros(2)
         self.state = target
-        return self._record(mode, "", [], [], [], 0.0, 0.0, command, "; ".join([*notes, message]), (0, 0))
+        return self._record(
+            mode, "", [], [], [], 0.0, 0.0, command, "; ".join([*notes, message]), (0, 0), velocity=velocity
+        )
 
     def _shared(self, command, notes) -> SharedControlRecord:
         cfg = self.config
         commands = np.array(self.window)
+        self._estimation_cycles += 1
         errors, results = [], {}
         estimation_time, estimation_iterations = 0.0, 0
         for name in self.skills:
@@ -318,7 +390,8 @@ class SharedControl:
             self._forget()
             notes.append("skill estimation failed for every skill")
             return self._fallback(command, notes, errors, [], estimation_time, 0.0, (estimation_iterations, 0))
-        skill = self.skills[best]
+        confidence = identification_confidence(errors)
+        skill = self._identify(self.skills[best], confidence, errors)
         theta_hat = results[skill].theta
         layout = self.optimisation_layouts[skill]
         if skill == self.skill and self.theta_star is not None:
@@ -355,18 +428,25 @@ class SharedControl:
             )
             self.skill = None
             return self._fallback(
-                command, notes, errors, result.theta.tolist(), estimation_time, result.time, iterations, skill
-            )
+                command, notes, errors, result.theta.tolist(), estimation_time, result.time, iterations, skill,
+                confidence,
+            )  # fmt: skip
         message = f"shared control: {skill}"
         if not result.success:
             message += f" (optimisation {result.status} after {result.iterations} iterations; plan feasible)"
         self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
-        self.plan, self.plan_index = plan, 1
-        self.state = plan[:, 1].copy()
+        authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
+        state, velocity = self._blend(plan, command, authority)
+        # The stored plan passes through the executed state, so a fallback continues from where the robot is.
+        self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
+        self.state = state
         self.alpha_c = float(headings[1])
         self._advance(results, result.theta)
+        mode = SHARED if authority > 0.0 else UNKNOWN
+        if authority < 1.0:
+            message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
         return self._record(
-            SHARED,
+            mode,
             skill,
             self.skills,
             errors,
@@ -377,7 +457,57 @@ class SharedControl:
             "; ".join([*notes, message]),
             iterations,
             plan,
+            velocity,
+            confidence,
+            authority,
         )
+
+    def _authority(self, error: float, confidence: float, commands: np.ndarray) -> float:
+        """Weight of the plan: high when one skill explains the commands well and clearly better than the others."""
+        cfg = self.config
+        if not cfg.blend_authority:
+            return 1.0
+        energy = float(np.mean(np.sum(commands**2, axis=1)))
+        residual = error / energy if energy > 0.0 else math.inf
+        full, none = cfg.authority_residual
+        fit = float(np.clip((none - residual) / (none - full), 0.0, 1.0))
+        margin = (
+            float(np.clip(confidence / cfg.authority_confidence, 0.0, 1.0)) if cfg.authority_confidence > 0 else 1.0
+        )
+        return fit * margin
+
+    def _blend(self, plan: np.ndarray, command: np.ndarray, authority: float) -> Tuple[np.ndarray, np.ndarray]:
+        """Executed state and velocity: authority x the plan's next state + the rest x the operator's direct step.
+
+        A blend that leaves the constraints moves to the nearest free point (the plan's step never leaves them).
+        """
+        dt = self.config.dt
+        planned, planned_velocity = plan[:, 1], plan_velocity(plan, dt, 1)
+        if authority >= 1.0:
+            return planned.copy(), planned_velocity
+        state = authority * planned + (1.0 - authority) * (self.state + command * dt)
+        velocity = authority * planned_velocity + (1.0 - authority) * command
+        if constraints.violation(state, self.box, self.obstacle) > 0.0:
+            safe = self._safe_state(state)
+            state = planned.copy() if safe is None else safe
+            velocity = (state - self.state) / dt
+        return state, velocity
+
+    def _identify(self, best: str, confidence: float, errors: Sequence[float]) -> str:
+        """The skill to follow: ``best`` once it has kept ``switch_confidence`` for ``switch_hold`` (hysteresis)."""
+        cfg = self.config
+        current = self.identified
+        if current is None or not math.isfinite(errors[self.skills.index(current)]):
+            self.identified, self._candidate, self._candidate_cycles = best, None, 0
+            return best
+        if best == current or confidence < cfg.switch_confidence:
+            self._candidate, self._candidate_cycles = None, 0
+            return current
+        self._candidate_cycles = self._candidate_cycles + 1 if best == self._candidate else 1
+        self._candidate = best
+        if self._candidate_cycles * cfg.dt >= cfg.switch_hold - 1e-9:
+            self.identified, self._candidate, self._candidate_cycles = best, None, 0
+        return self.identified
 
     def _estimate_if_feasible(self, optimisation: TrajectoryOptimisation, theta_hat) -> Optional[SolveResult]:
         """theta* = theta_hat when its plan already keeps the margin: then it is the exact minimiser of eq. 10."""
@@ -398,37 +528,63 @@ class SharedControl:
         curvature[: layout.i_alpha] = cfg.curvature_weight
         if previous is None:
             guess = self._seed(name, commands)
-            result = estimation.solve(commands, guess, None, np.zeros(layout.n), None, curvature)
-        else:
-            weights = _weights(layout, cfg.regularisation_weights)
-            result = estimation.solve(
-                commands, previous, previous, weights, self.alpha_c, curvature, cfg.heading_continuity
-            )
+            return estimation.solve(commands, guess, None, np.zeros(layout.n), None, curvature)
+        weights = _weights(layout, cfg.regularisation_weights)
+        result = estimation.solve(
+            commands, previous, previous, weights, self.alpha_c, curvature, cfg.heading_continuity
+        )
+        if self._reseed_due(name) and result.theta is not None:
+            seed = self._seed(name, commands)
+            if estimation.fitting_error(seed, commands) < estimation.fitting_error(result.theta, commands):
+                reseeded = estimation.solve(
+                    commands, seed, seed, weights, self.alpha_c, curvature, cfg.heading_continuity
+                )
+                if reseeded.theta is not None and np.isfinite(reseeded.cost) and reseeded.cost < result.cost:
+                    result = reseeded
         return result
 
+    def _reseed_due(self, name: str) -> bool:
+        """True once per reseed_period for each skill, the skills in turn (one grid search per cycle at most)."""
+        period = int(round(self.config.reseed_period / self.config.dt))
+        if period <= 0:
+            return False
+        return (self._estimation_cycles + self.skills.index(name) * period // len(self.skills)) % period == 0
+
     def _seed(self, name: str, commands: np.ndarray) -> np.ndarray:
-        """First guess of an estimation: heading and speed from the mean command, frequency and phase from a grid."""
+        """First guess of an estimation: the best fit over a grid of heading, speed, amplitude, frequency and phase.
+
+        The mean command alone is a biased heading and speed when the window holds a fraction of a large, fast loop
+        (measured: a 4.5 cm cycloid at 1.5 Hz seeded 3 rad off, and heading continuity kept it there); a single
+        guessed amplitude left small, fast loops in a local minimum where the wrong skill fitted better. After the
+        first estimate the heading is alpha_c's.
+        """
         layout = self.estimation_layouts[name]
-        estimation = self.estimations[name]
-        mean = commands.mean(axis=0)
-        alpha = math.atan2(mean[1], mean[0]) if np.linalg.norm(mean) > 1e-9 else 0.0
-        if self.alpha_c is not None:
-            alpha = self.alpha_c
-        v0 = float(np.clip(np.linalg.norm(mean), *self.config.speed_bounds))
         skill = layout.skill
-        base = layout.guess(alpha, v0)
-        best, best_error = base, math.inf
+        mean = commands.mean(axis=0)
+        if self.alpha_c is not None:
+            headings = np.array([self.alpha_c])
+        else:
+            mean_heading = math.atan2(mean[1], mean[0]) if np.linalg.norm(mean) > 1e-9 else 0.0
+            headings = mean_heading + np.linspace(0.0, 2 * math.pi, 8, endpoint=False)
+        speed = float(np.clip(np.linalg.norm(mean), *self.config.speed_bounds))
         low, high = skill.rho_lower[skill.frequency_index], skill.rho_upper[skill.frequency_index]
-        for frequency in np.geomspace(low, high, 8):
-            for fraction in (0.0, 0.25, 0.5, 0.75):
-                candidate = base.copy()
-                candidate[layout.i_rho + skill.frequency_index] = frequency
-                candidate[layout.i_rho + skill.phase_index] = fraction / frequency
-                candidate = np.clip(candidate, layout.lower, layout.upper)
-                error = estimation.fitting_error(candidate, commands)
-                if error < best_error:
-                    best, best_error = candidate, error
-        return best
+        amplitudes = np.geomspace(skill.rho_lower[skill.amplitude_index], skill.rho_upper[skill.amplitude_index], 4)
+        grid = np.array(
+            list(
+                itertools.product(
+                    headings, speed * np.array([0.5, 1.0, 2.0]), amplitudes, np.geomspace(low, high, 8), range(4)
+                )
+            )
+        )
+        candidates = np.tile(layout.guess(0.0, speed), (len(grid), 1))
+        candidates[:, layout.i_alpha] = grid[:, 0]
+        candidates[:, layout.i_v0] = grid[:, 1]
+        candidates[:, layout.i_rho + skill.amplitude_index] = grid[:, 2]
+        candidates[:, layout.i_rho + skill.frequency_index] = grid[:, 3]
+        candidates[:, layout.i_rho + skill.phase_index] = grid[:, 4] / 4 / grid[:, 3]
+        candidates = np.clip(candidates, layout.lower, layout.upper)
+        errors = self.estimations[name].fitting_errors(candidates, commands)
+        return candidates[int(np.argmin(errors))]
 
     def _advance(self, results: Dict[str, SolveResult], theta_star: np.ndarray) -> None:
         """Move every estimate to the next cycle's s_c (each with its own v0)."""
@@ -454,7 +610,16 @@ class SharedControl:
         self.lam = (None, None)
 
     def _fallback(
-        self, command, notes, errors, parameters, estimation_time, optimisation_time, iterations, skill=""
+        self,
+        command,
+        notes,
+        errors,
+        parameters,
+        estimation_time,
+        optimisation_time,
+        iterations,
+        skill="",
+        confidence=0.0,
     ) -> SharedControlRecord:
         """Safe output: the previous plan's next state, else hold, else the nearest free state."""
         for name in self.skills:
@@ -469,6 +634,7 @@ class SharedControl:
                 return self._record(
                     FALLBACK, skill, self.skills, errors, parameters, estimation_time, optimisation_time, command,
                     "; ".join(notes), iterations, self.plan,
+                    plan_velocity(self.plan, self.config.dt, self.plan_index), confidence,
                 )  # fmt: skip
         self.plan = np.zeros((2, 0))
         if constraints.violation(self.state, self.box, self.obstacle) == 0.0:
@@ -482,7 +648,7 @@ class SharedControl:
                 notes.append("fallback: current state not free (obstacle covers it); moved to the nearest free state")
         return self._record(
             FALLBACK, skill, self.skills, errors, parameters, estimation_time, optimisation_time, command,
-            "; ".join(notes), iterations,
+            "; ".join(notes), iterations, confidence=confidence,
         )  # fmt: skip
 
     def _safe_state(self, point) -> Optional[np.ndarray]:
@@ -501,6 +667,9 @@ class SharedControl:
         message,
         iterations,
         plan=None,
+        velocity=(0.0, 0.0),
+        confidence=0.0,
+        authority=0.0,
     ) -> SharedControlRecord:
         return SharedControlRecord(
             mode=mode,
@@ -516,4 +685,7 @@ class SharedControl:
             iterations=(int(iterations[0]), int(iterations[1])),
             cpu_times=(float(self._cpu[0]), float(self._cpu[1])),
             plan=np.zeros((2, 0)) if plan is None else np.array(plan),
+            velocity=(float(velocity[0]), float(velocity[1])),
+            confidence=float(confidence),
+            authority=float(authority),
         )

@@ -36,6 +36,7 @@ class SkillModel:
         rho_scale: typical magnitude of each entry (the solvers work on theta / scale).
         phase_index: index of the phase entry of rho (wrapped to one period when s_c moves on).
         frequency_index: index of the spatial frequency entry of rho [1/m] (period = 1 / rho[frequency_index]).
+        amplitude_index: index of the amplitude (or radius) entry of rho [m].
     """
 
     name: str
@@ -48,6 +49,7 @@ class SkillModel:
     rho_scale: Tuple[float, ...]
     phase_index: int
     frequency_index: int
+    amplitude_index: int = 0
 
     def matrix(self, s, rho):
         """S_i(s; rho) as a 2x2 casadi matrix."""

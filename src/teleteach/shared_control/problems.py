@@ -189,6 +189,7 @@ class SkillEstimation:
         velocity = v0 * self.control.map(n_window)(s_window, z)
         fit_residuals = ca.vec(velocity - commands) / np.sqrt(n_window)
         self.fit = ca.Function("fit", [z, commands], [ca.sumsqr(fit_residuals)], ["z", "h"], ["fit"])
+        self._mapped_fits = {}
         residuals = ca.vertcat(fit_residuals / speed_scale, root_weights * (z - z_prev))
         p = ca.vertcat(ca.vec(commands), z_prev, root_weights)
         name = f"estimation_{layout.skill.name}_{n_window}"
@@ -313,6 +314,16 @@ class SkillEstimation:
     def fitting_error(self, theta: np.ndarray, commands: np.ndarray) -> float:
         """Mean squared velocity error of ``theta`` on ``commands`` (eq. 8 without regularisation) [(m/s)^2]."""
         return float(self.fit(theta / self.layout.scale, np.asarray(commands, dtype=float).T))
+
+    def fitting_errors(self, thetas: np.ndarray, commands: np.ndarray) -> np.ndarray:
+        """``fitting_error`` of each row of ``thetas`` (m x n) on the same commands, in one mapped call."""
+        thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
+        mapped = self._mapped_fits.get(len(thetas))
+        if mapped is None:
+            mapped = self.fit.map(len(thetas), [False, True], [False])
+            self._mapped_fits[len(thetas)] = mapped
+        scaled = (thetas / self.layout.scale).T
+        return np.asarray(mapped(scaled, np.asarray(commands, dtype=float).T), dtype=float).ravel()
 
 
 class TrajectoryOptimisation:

@@ -15,6 +15,7 @@ from teleteach.rotations import quaternion_to_rpy
 from teleteach.shared_control import cache
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.loop import SharedControl, SharedControlConfig, SharedControlRecord
+from teleteach.shared_control.timeline import CommandTimeline
 
 INPUTS = ("operator_command", "twist", "joy")
 
@@ -61,7 +62,11 @@ class TaskPlane:
 
     def to_base(self, point: Sequence[float]) -> np.ndarray:
         """Task-plane point (x, y) [m] -> base_link position [m]."""
-        return self.origin + point[0] * self.x_axis + point[1] * self.y_axis
+        return self.origin + self.vector_to_base(point)
+
+    def vector_to_base(self, vector: Sequence[float]) -> np.ndarray:
+        """Task-plane vector (x, y) (e.g. a velocity) -> base_link vector."""
+        return vector[0] * self.x_axis + vector[1] * self.y_axis
 
     def to_plane(self, position: Sequence[float]) -> np.ndarray:
         """base_link position [m] -> task-plane point (x, y) [m] (the orthogonal projection)."""
@@ -124,7 +129,9 @@ class SharedControlNode:
         twist_scale: task-plane speed per device speed [-] (``twist``).
         joy_axes: indices of the joystick axes for x and y (``joy``).
         joy_scale: task-plane speed at full deflection per axis [m/s] (``joy``).
-        command_timeout: a command older than this counts as zero [s].
+        command_timeout: a command older than this, or a gap between commands longer than this, counts as zero [s].
+        command_delay: each cycle reads the operator's commands this much before its own time, placed by their
+            header stamps (messages up to this late, bunched or out of order give the same window) [s].
         obstacle_timeout: the obstacle is dropped when not refreshed for this long [s] (0: never).
         frame_id: frame of /equilibrium_pose.
 
@@ -133,7 +140,9 @@ class SharedControlNode:
         (geometry_msgs/TwistStamped), or /joy (sensor_msgs/Joy); /shared_control/obstacle (geometry_msgs/PoseStamped)
 
     ROS Publishers:
-        /equilibrium_pose (geometry_msgs/PoseStamped), /shared_control/state (teleteach/SharedControlState),
+        /equilibrium_pose (geometry_msgs/PoseStamped), /equilibrium_twist (geometry_msgs/TwistStamped: the plan's
+        velocity at that pose, x_dot_r of the impedance law, same stamp and frame),
+        /shared_control/state (teleteach/SharedControlState),
         /shared_control/plan (nav_msgs/Path: the planned horizon, in ``frame_id``, each cycle; empty in direct
         control), /shared_control/boundary (geometry_msgs/PolygonStamped, latched: the box in ``frame_id``)
     """
@@ -152,6 +161,7 @@ class SharedControlNode:
         joy_axes: Sequence[int] = (0, 1),
         joy_scale: Sequence[float] = (0.2, 0.2),
         command_timeout: float = 0.2,
+        command_delay: float = 0.03,
         obstacle_timeout: float = 1.0,
         frame_id: str = "base_link",
     ):
@@ -167,23 +177,25 @@ class SharedControlNode:
         projection = np.asarray(twist_projection, dtype=float)
         if projection.shape != (2, 3) or not np.all(np.isfinite(projection)):
             raise ValueError(f"twist_projection must be a finite 2 x 3 matrix, got {twist_projection}")
-        if config.dt <= 0 or command_timeout <= 0:
-            raise ValueError("dt and command_timeout must be > 0")
+        if config.dt <= 0 or command_timeout <= 0 or not 0 <= command_delay < command_timeout:
+            raise ValueError("dt and command_timeout must be > 0, command_delay in [0, command_timeout)")
         self._rospy = rospy
         self._state_type = SharedControlState
         self._pose_type = PoseStamped
         self._path_type = Path
+        self._twist_type = TwistStamped
         self.plane = plane
         self.frame_id = frame_id
         self.command_timeout = command_timeout
+        self.command_delay = command_delay
         self.obstacle_timeout = obstacle_timeout
         self._lock = threading.Lock()
-        self._command = np.zeros(2)
-        self._command_stamp = -math.inf
+        self._commands = CommandTimeline(command_timeout)
         self._obstacle: Optional[StraightEdge] = None
         self._obstacle_stamp = -math.inf
         self.controller = self._build(config, box, initial_state)
         self.pose_publisher = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=1)
+        self.twist_publisher = rospy.Publisher("/equilibrium_twist", TwistStamped, queue_size=1)
         self.state_publisher = rospy.Publisher("/shared_control/state", SharedControlState, queue_size=10)
         self.plan_publisher = rospy.Publisher("/shared_control/plan", Path, queue_size=1)
         self.boundary_publisher = rospy.Publisher("/shared_control/boundary", PolygonStamped, queue_size=1, latch=True)
@@ -210,7 +222,7 @@ class SharedControlNode:
                 return command_from_joy(message, joy_axes, joy_scale)
 
         self._subscribers = [
-            rospy.Subscriber(topic, message_type, self._guarded(self._set_command, convert), queue_size=1),
+            rospy.Subscriber(topic, message_type, self._guarded(self._set_command, convert, stamped=True)),
             rospy.Subscriber(
                 "/shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
             ),
@@ -244,30 +256,41 @@ class SharedControlNode:
             self.controller = compiled
         self._rospy.loginfo("shared_control: switched to the compiled solvers")
 
-    def _guarded(self, setter, convert):
+    def _guarded(self, setter, convert, stamped=False):
         def callback(message):
             try:
-                setter(convert(message))
+                if stamped:
+                    setter(convert(message), self._stamp(message))
+                else:
+                    setter(convert(message))
             except (InvalidMessageError, ValueError) as error:
                 self._rospy.logwarn_throttle(self.WARN_PERIOD, f"shared_control: rejected a message: {error}")
 
         return callback
 
-    def _set_command(self, command: np.ndarray) -> None:
+    def _stamp(self, message) -> float:
+        """The header stamp [s] (zero: now); one further ahead than command_timeout is rejected."""
+        now = self._rospy.get_time()
+        stamp = message.header.stamp.to_sec() or now
+        if stamp > now + self.command_timeout:
+            raise InvalidMessageError(f"command stamped {stamp - now:.3f} s in the future")
+        return stamp
+
+    def _set_command(self, command: np.ndarray, stamp: float) -> None:
         with self._lock:
-            self._command = command
-            self._command_stamp = self._rospy.get_time()
+            self._commands.add(stamp, command)
 
     def _set_obstacle(self, obstacle: StraightEdge) -> None:
         with self._lock:
             self._obstacle = obstacle
             self._obstacle_stamp = self._rospy.get_time()
 
-    def _cycle(self, _event) -> None:
+    def _cycle(self, event) -> None:
         now = self._rospy.get_time()
+        # The nominal time of this cycle, so that the timer's own jitter does not shift the samples either.
+        cycle_time = event.current_expected.to_sec() if event.current_expected else now
         with self._lock:
-            fresh = now - self._command_stamp <= self.command_timeout
-            command = self._command if fresh else np.zeros(2)
+            command = self._commands.sample(cycle_time - self.command_delay)
             obstacle = self._obstacle
             if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
                 obstacle = None
@@ -288,8 +311,15 @@ class SharedControlNode:
         return pose
 
     def publish(self, record: SharedControlRecord) -> None:
-        """Send the executed state as the equilibrium pose, the plan as a path and the record as the state message."""
+        """Send the executed state and its velocity as the equilibrium, the plan as a path, the record as the state."""
         stamp = self._rospy.Time.now()
+        twist = self._twist_type()
+        twist.header.stamp = stamp
+        twist.header.frame_id = self.frame_id
+        twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = (
+            float(v) for v in self.plane.vector_to_base(record.velocity)
+        )
+        self.twist_publisher.publish(twist)
         self.pose_publisher.publish(self._pose(stamp, record.state))
         path = self._path_type()
         path.header.stamp = stamp
@@ -309,6 +339,8 @@ class SharedControlNode:
         state.command.x, state.command.y = record.command
         state.state.x, state.state.y = record.state
         state.message = record.message
+        state.confidence = record.confidence
+        state.authority = record.authority
         self.state_publisher.publish(state)
 
     def shutdown(self) -> None:
@@ -317,6 +349,7 @@ class SharedControlNode:
         for subscriber in self._subscribers:
             subscriber.unregister()
         self.pose_publisher.unregister()
+        self.twist_publisher.unregister()
         self.state_publisher.unregister()
         self.plan_publisher.unregister()
         self.boundary_publisher.unregister()

@@ -110,6 +110,14 @@ class RobotSim:
         position, quaternion = validation.validate_pose(frame_id, BASE_FRAME, position, quaternion)
         self.impedance.set_equilibrium(position, quaternion)
 
+    def command_equilibrium_twist(self, frame_id, linear, angular, stamp=0.0):
+        """Velocity x_dot_r of the reference pose (/equilibrium_twist) in base_link [m/s, rad/s]."""
+        validation.check_stamp(stamp, self.time, self.max_age)
+        validation.check_frame(frame_id, BASE_FRAME)
+        linear = validation.finite_vector(linear, 3, "equilibrium twist linear")
+        angular = validation.finite_vector(angular, 3, "equilibrium twist angular")
+        self.impedance.set_reference_velocity(linear, angular, stamp if stamp != 0.0 else self.time)
+
     def command_trajectory(self, joint_names, points, stamp=0.0):
         """Joint trajectory: points are (positions [rad], velocities [rad/s] or [], time_from_start [s])."""
         validation.check_stamp(stamp, self.time, self.max_age)

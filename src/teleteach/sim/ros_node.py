@@ -10,7 +10,14 @@ import warnings
 
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PoseStamped, QuaternionStamped, TransformStamped, Vector3Stamped, WrenchStamped
+from geometry_msgs.msg import (
+    PoseStamped,
+    QuaternionStamped,
+    TransformStamped,
+    TwistStamped,
+    Vector3Stamped,
+    WrenchStamped,
+)
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
@@ -68,8 +75,8 @@ class RobotSimNode:
         world -> base_link (100 Hz).
 
     ROS Subscribers:
-        /eigenvalues, /eigenvectors, /equilibrium_pose, /position_joint_trajectory_controller/command,
-        /gripper/command, /base/goal.
+        /eigenvalues, /eigenvectors, /equilibrium_pose, /equilibrium_twist (x_dot_r of eq 5),
+        /position_joint_trajectory_controller/command, /gripper/command, /base/goal.
 
     ROS Services:
         /controller_manager/switch_controller, /controller_manager/list_controllers.
@@ -99,6 +106,9 @@ class RobotSimNode:
             rospy.Subscriber("/eigenvalues", Vector3Stamped, self._guard("/eigenvalues", self._on_eigenvalues)),
             rospy.Subscriber("/eigenvectors", QuaternionStamped, self._guard("/eigenvectors", self._on_eigenvectors)),
             rospy.Subscriber("/equilibrium_pose", PoseStamped, self._guard("/equilibrium_pose", self._on_equilibrium)),
+            rospy.Subscriber(
+                "/equilibrium_twist", TwistStamped, self._guard("/equilibrium_twist", self._on_equilibrium_twist)
+            ),
             rospy.Subscriber(
                 "/position_joint_trajectory_controller/command",
                 JointTrajectory,
@@ -150,6 +160,11 @@ class RobotSimNode:
     def _on_equilibrium(self, msg):
         self.sim.command_equilibrium(
             msg.header.frame_id, _xyz(msg.pose.position), _xyzw(msg.pose.orientation), _stamp(msg)
+        )
+
+    def _on_equilibrium_twist(self, msg):
+        self.sim.command_equilibrium_twist(
+            msg.header.frame_id, _xyz(msg.twist.linear), _xyz(msg.twist.angular), _stamp(msg)
         )
 
     def _on_trajectory(self, msg):

@@ -1,0 +1,170 @@
+#!/usr/bin/env python3
+"""rostest check of shared control on the simulated arm, judged where the arm is (/cartesian_pose on the plane).
+
+A scripted operator rests for a different time before each push (start timings), pushes a wave or a cycloid, then
+keeps pushing outside the boundary and into an obstacle edge. Every check is on positions in sim time.
+"""
+
+import bisect
+import math
+import threading
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+from geometry_msgs.msg import PoseStamped, Vector3Stamped
+
+from teleteach.msg import SharedControlState
+from teleteach.shared_control.constraints import Box, StraightEdge, violation
+from teleteach.shared_control.models import synthetic_commands
+from teleteach.shared_control.ros import TaskPlane
+
+STIFFNESS = 1500.0  # [N/m] as in issue 15
+SPEED = 0.05  # [m/s] the paper's v0
+RHO = (0.03, 20.0, 0.0)  # the paper's amplitude/radius [m], spatial frequency [1/m], phase [m]
+RATE = 50.0  # [Hz] of the operator's commands
+BOUNDARY_TOLERANCE = 0.005  # [m] "never leaves the boundary by more than a few millimetres"
+EDGE_TOLERANCE = 0.002  # [m] the arm's tracking error at the edge (the plan keeps a 1 mm margin)
+OBSTACLE = StraightEdge(0.0, -0.05, math.pi / 2)  # free side up: the arm must stay above y = -0.05 m
+
+
+class Recorder:
+    """Keeps /cartesian_pose and /equilibrium_pose on the task plane, keyed by their sim-time stamps."""
+
+    def __init__(self, plane: TaskPlane):
+        self.plane = plane
+        self.lock = threading.Lock()
+        self.arm = ([], [])  # stamps [s], plane points [m]
+        self.equilibrium = ([], [])
+        self.states = []
+        rospy.Subscriber("/cartesian_pose", PoseStamped, self._on_pose, (self.arm,), queue_size=1000)
+        rospy.Subscriber("/equilibrium_pose", PoseStamped, self._on_pose, (self.equilibrium,), queue_size=1000)
+        rospy.Subscriber("/shared_control/state", SharedControlState, self.states.append, queue_size=1000)
+
+    def _on_pose(self, message, store):
+        p = message.pose.position
+        with self.lock:
+            store[0][0].append(message.header.stamp.to_sec())
+            store[0][1].append(self.plane.to_plane((p.x, p.y, p.z)))
+
+    def arm_between(self, start, end):
+        with self.lock:
+            stamps, points = self.arm
+            return np.array([q for t, q in zip(stamps, points) if start <= t <= end])
+
+    def tracking_errors(self, start, end):
+        """Distance from each arm pose to the latest equilibrium pose stamped before it [m]."""
+        with self.lock:
+            reference_stamps, references = list(self.equilibrium[0]), list(self.equilibrium[1])
+            samples = [(t, q) for t, q in zip(*self.arm) if start <= t <= end]
+        errors = []
+        for t, q in samples:
+            i = bisect.bisect_right(reference_stamps, t) - 1
+            if i >= 0:
+                errors.append(float(np.linalg.norm(q - references[i])))
+        return np.array(errors)
+
+
+class SharedControlOnTheArm(unittest.TestCase):
+    def setUp(self):
+        params = rospy.get_param("/shared_control")
+        self.plane = TaskPlane.from_params(params["plane"])
+        self.box = Box(*params["boundary"])
+        self.recorder = Recorder(self.plane)
+        self.command = rospy.Publisher("/shared_control/operator_command", Vector3Stamped, queue_size=10)
+        self.obstacle = rospy.Publisher("/shared_control/obstacle", PoseStamped, queue_size=10)
+        self.eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1, latch=True)
+        self.wait_for(lambda: self.recorder.states and self.recorder.arm[0], "robot_sim and shared_control")
+        stiffness = Vector3Stamped()
+        stiffness.vector.x = stiffness.vector.y = stiffness.vector.z = STIFFNESS
+        self.eigenvalues.publish(stiffness)
+        self.rate = rospy.Rate(RATE)
+        self.obstacle_on = False
+
+    def wait_for(self, condition, what, timeout=60.0):
+        deadline = rospy.Time.now().to_sec() + timeout
+        while rospy.Time.now().to_sec() < deadline and not rospy.is_shutdown():
+            if condition():
+                return
+            rospy.sleep(0.05)
+        self.fail(f"timed out waiting for {what}")
+
+    def operate(self, commands):
+        """Publish commands at 50 Hz in sim time (the obstacle too, while on); returns (start, end) sim times."""
+        start = rospy.Time.now().to_sec()
+        for x, y in commands:
+            message = Vector3Stamped()
+            message.header.stamp = rospy.Time.now()
+            message.vector.x, message.vector.y = float(x), float(y)
+            self.command.publish(message)
+            if self.obstacle_on:
+                edge = PoseStamped()
+                edge.header.stamp = message.header.stamp
+                edge.pose.position.x, edge.pose.position.y = OBSTACLE.x, OBSTACLE.y
+                edge.pose.orientation.z = math.sin(OBSTACLE.yaw / 2)
+                edge.pose.orientation.w = math.cos(OBSTACLE.yaw / 2)
+                self.obstacle.publish(edge)
+            self.rate.sleep()
+        return start, rospy.Time.now().to_sec()
+
+    def rest(self, seconds):
+        return self.operate(np.zeros((int(round(seconds * RATE)), 2)))
+
+    def push(self, skill, heading, seconds, seed):
+        times = np.arange(0.0, seconds, 1.0 / RATE)
+        rng = np.random.default_rng(seed)
+        return self.operate(synthetic_commands(skill, RHO, heading, SPEED, times, 0.005, rng))
+
+    def moved_along(self, start, end, heading):
+        points = self.recorder.arm_between(start, end)
+        return float((points[-1] - points[0]) @ np.array([math.cos(heading), math.sin(heading)]))
+
+    def test_arm_follows_the_operator_within_the_constraints(self):
+        self.rest(3.0)  # the arm reaches the initial state and the stiffness its target
+        run_start = rospy.Time.now().to_sec()
+        pushes = [
+            # (rest before [s], skill, heading [rad], push [s]): each rest ends at another phase of the idle restart
+            (0.4, "wave", 0.0, 3.0),
+            (1.0, "cycloid", math.pi, 3.0),
+            (1.7, "wave", math.pi / 2, 5.0),  # 0.25 m up: keeps pushing across the top of the boundary
+        ]
+        for seed, (rest, skill, heading, seconds) in enumerate(pushes):
+            self.rest(rest)
+            start, end = self.push(skill, heading, seconds, seed)
+            along = self.moved_along(start, end, heading)
+            rospy.loginfo(f"rest {rest} s, {skill} at {heading:.2f} rad: the arm moved {along:.3f} m that way")
+            self.assertGreater(along, 0.3 * SPEED * seconds, f"{skill} after {rest} s of rest went {along:.3f} m")
+        # The operator pushes down into an obstacle edge and keeps pushing.
+        self.obstacle_on = True
+        self.rest(1.2)
+        obstacle_start, end = self.push("wave", -math.pi / 2, 6.0, 7)
+        self.obstacle_on = False
+        self.rest(1.0)
+        run_end = rospy.Time.now().to_sec()
+
+        arm = self.recorder.arm_between(run_start, run_end).T
+        outside = violation(arm, self.box, None)
+        rospy.loginfo(f"worst excursion beyond the boundary: {1e3 * outside:.1f} mm")
+        self.assertLessEqual(outside, BOUNDARY_TOLERANCE)
+        self.assertGreater(arm[1].max(), self.box.y_max - 0.02)  # it did go up to the boundary
+        pressed = self.recorder.arm_between(obstacle_start + 0.2, end).T
+        crossed = float(-OBSTACLE.distance(pressed).min())
+        rospy.loginfo(f"worst crossing of the obstacle edge: {1e3 * crossed:.1f} mm; lowest y {pressed[1].min():.3f}")
+        self.assertLessEqual(crossed, EDGE_TOLERANCE)
+        during = [s for s in self.recorder.states if obstacle_start <= s.header.stamp.to_sec() <= end]
+        summary = [(s.mode, s.skill, round(s.state.y, 3), s.message[:60]) for s in during[::25]]
+        self.assertLess(pressed[1].min(), OBSTACLE.y + 0.02, summary)  # it did go down to the edge
+
+        errors = self.recorder.tracking_errors(run_start, run_end)
+        p50, p95 = (1e3 * float(np.percentile(errors, q)) for q in (50, 95))
+        rospy.loginfo(f"arm to latest /equilibrium_pose on the plane: p50 {p50:.1f} mm, p95 {p95:.1f} mm")
+        print(f"\ntracking on the plane: p50 {p50:.1f} mm, p95 {p95:.1f} mm, n {len(errors)}")
+        self.assertLessEqual(p95, 5.0)  # issue 15: it follows the plan (19 mm before x_dot_r and Lambda x_ddot_r)
+        modes = [s.mode for s in self.recorder.states if run_start <= s.header.stamp.to_sec() <= run_end]
+        self.assertIn(SharedControlState.SHARED, modes)
+
+
+if __name__ == "__main__":
+    rospy.init_node("shared_control_arm_check")
+    rostest.rosrun("teleteach", "shared_control_arm_check", SharedControlOnTheArm)
