@@ -1,7 +1,10 @@
-"""Lint is part of the tests: ruff (lint + format) and catkin_lint must pass."""
+"""Lint is part of the tests: ruff (lint + format), catkin_lint, Python 3.8 compatibility (vermin) and the Noetic
+pins, which must resolve for CPython 3.8 (Ubuntu 20.04's 3.8.10)."""
 
 import subprocess
+import sys
 
+import pytest
 from conftest import ROOT
 
 
@@ -23,3 +26,28 @@ def test_catkin_lint():
     # Checked through the workspace link so that the folder name is the package name.
     result = run("catkin_lint", "-W2", "--strict", str(ROOT / "build" / "src" / "teleteach"))
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_code_runs_on_python_3_8():
+    """ROS Noetic's Python: no syntax, module or library call newer than 3.8 in the library and the nodes."""
+    nodes = sorted(str(path) for path in (ROOT / "nodes").iterdir())
+    result = run("vermin", "--target=3.8-", "--no-tips", "--violations", "--eval-annotations", "src", "bench", *nodes)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_noetic_pins_resolve_for_python_3_8(tmp_path):
+    """Every pin of requirements-noetic.txt has a CPython 3.8 wheel (the file pins the closed set, so --no-deps)."""
+    command = [sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary=:all:", "--python-version"]
+    command += ["3.8.10", "--disable-pip-version-check", "-d", str(tmp_path), "-r", "requirements-noetic.txt"]
+    result = run(*command)
+    offline = (
+        "Could not fetch URL",
+        "NewConnectionError",
+        "Temporary failure in name resolution",
+        "Network is unreachable",
+    )
+    if result.returncode != 0 and any(sign in result.stdout + result.stderr for sign in offline):
+        pytest.skip(f"PyPI cannot be reached, so the Noetic pins cannot be checked: {result.stderr.strip()[-300:]}")
+    assert result.returncode == 0, result.stdout + result.stderr
+    pins = [line.split("==")[0] for line in (ROOT / "requirements-noetic.txt").read_text().splitlines() if "==" in line]
+    assert len(list(tmp_path.glob("*.whl"))) == len(pins)
