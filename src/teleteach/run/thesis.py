@@ -229,6 +229,8 @@ class TabScreenshots:
 
 def _ros_env(port: int, display: str, data_root: pathlib.Path) -> Dict[str, str]:
     env = dict(os.environ)
+    if not env.get("ROS_IP") and not env.get("ROS_HOSTNAME"):
+        env["ROS_IP"] = "127.0.0.1"  # a run listens on loopback only, unless the user set up a network
     env.update(
         ROS_MASTER_URI=f"http://localhost:{port}",
         DISPLAY=display,
