@@ -1,0 +1,123 @@
+"""The teaching session's rules, without Qt: tab changes, recordings and help requests in, the window's actions out."""
+
+import pytest
+
+from teleteach.gui.session import Action, Recording, Tab, TeachingSession
+
+A = Action
+
+
+@pytest.fixture
+def session():
+    machine = TeachingSession()
+    assert machine.tab_changed(Tab.START) == []
+    return machine
+
+
+def test_a_teaching_tab_pauses_the_tree_and_hands_the_arm_to_impedance_control(session):
+    # Expect: entering LOW-LEVEL starts a session; SHARED CONTROL keeps it; START ends it, arm first, then the tree
+    assert session.tab_changed(Tab.LOW_LEVEL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL]
+    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.LEAVE_LOW_LEVEL]
+    assert session.tab_changed(Tab.START) == [A.POSITION_CONTROL, A.RESUME_TREE]
+    assert not session.session
+    assert session.tab_changed(Tab.START) == []  # the same tab again: nothing
+
+
+def test_a_demonstration_is_saved_and_ends_the_session(session):
+    session.tab_changed(Tab.LOW_LEVEL)
+    assert session.toggle_stiffness_recording() == [A.START_STIFFNESS_RECORDING]
+    assert session.recording == Recording.STIFFNESS
+    # Expect: the second double click stops, saves, and gives the arm back to the tree
+    stop = [A.STOP_STIFFNESS_RECORDING, A.SAVE_STIFFNESS_SKILL, A.POSITION_CONTROL, A.RESUME_TREE]
+    assert session.toggle_stiffness_recording() == stop
+    assert session.recording is None and not session.session
+    # leaving LOW-LEVEL afterwards has nothing left to end
+    assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL]
+
+
+def test_leaving_mid_recording_keeps_what_was_recorded(session):
+    session.tab_changed(Tab.LOW_LEVEL)
+    session.toggle_stiffness_recording()
+    stop = [A.STOP_STIFFNESS_RECORDING, A.SAVE_STIFFNESS_SKILL, A.POSITION_CONTROL, A.RESUME_TREE]
+    assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL, *stop]
+
+
+def test_a_shared_control_recording_goes_on_in_the_tab_and_stops_when_it_is_left(session):
+    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL]
+    assert session.toggle_shared_recording() == [A.START_SHARED_RECORDING]
+    assert session.toggle_shared_recording() == [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL]
+    assert session.session  # the operator goes on in the tab
+    session.toggle_shared_recording()
+    # Expect: to LOW-LEVEL, the recording is saved and the session goes on; to START, the session ends too
+    assert session.tab_changed(Tab.LOW_LEVEL) == [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL]
+    session.tab_changed(Tab.SHARED_CONTROL)
+    session.toggle_shared_recording()
+    stop = [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL, A.POSITION_CONTROL, A.RESUME_TREE]
+    assert session.tab_changed(Tab.START) == stop
+
+
+def test_recording_from_outside_a_session_starts_one(session):
+    # the GUI tests toggle recording directly: the arm must be on impedance control first
+    assert session.toggle_stiffness_recording() == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL, A.START_STIFFNESS_RECORDING]
+
+
+def test_leaving_high_level_answers_the_help_request(session):
+    session.help_requested("PickItem")
+    assert session.tab_changed(Tab.HIGH_LEVEL) == [A.RESET_HIGH_LEVEL]
+    # Expect: back to START, the operator's edits answer the request and the tree resumes
+    assert session.tab_changed(Tab.START) == [A.RESUME_TREE, A.ANNOUNCE_HELP_ANSWERED]
+    # to LOW-LEVEL instead, teaching continues the answer: the session pauses the tree
+    session.tab_changed(Tab.HIGH_LEVEL)
+    assert session.tab_changed(Tab.LOW_LEVEL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL]
+    # a closed request (empty node name) needs no answer
+    session.help_requested("")
+    session.tab_changed(Tab.HIGH_LEVEL)
+    assert session.tab_changed(Tab.START) == []
+
+
+@pytest.mark.parametrize(
+    "steps, expected",
+    [
+        ([], []),
+        ([Tab.LOW_LEVEL], [A.POSITION_CONTROL, A.RESUME_TREE]),
+        (
+            [Tab.LOW_LEVEL, "record"],
+            [A.STOP_STIFFNESS_RECORDING, A.SAVE_STIFFNESS_SKILL, A.POSITION_CONTROL, A.RESUME_TREE],
+        ),
+        (
+            [Tab.SHARED_CONTROL, "record"],
+            [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL, A.POSITION_CONTROL, A.RESUME_TREE],
+        ),
+    ],
+)
+def test_shutdown_saves_and_gives_the_arm_back(session, steps, expected):
+    for step in steps:
+        if step == "record":
+            (session.toggle_stiffness_recording if session.tab == Tab.LOW_LEVEL else session.toggle_shared_recording)()
+        else:
+            session.tab_changed(step)
+    assert session.shutdown() == expected
+
+
+def test_every_path_through_the_tabs_gives_the_arm_back():
+    """Whatever the operator does, a session that took the arm returns it before the tree resumes."""
+    import itertools
+
+    events = [*Tab, "record"]
+    for path in itertools.product(events, repeat=4):
+        machine, actions = TeachingSession(), []
+        for event in (Tab.START, *path):
+            if event == "record":
+                toggle = {
+                    Tab.LOW_LEVEL: machine.toggle_stiffness_recording,
+                    Tab.SHARED_CONTROL: machine.toggle_shared_recording,
+                }
+                actions += toggle[machine.tab]() if machine.tab in toggle else []
+            else:
+                actions += machine.tab_changed(event)
+        actions += machine.shutdown()
+        assert actions.count(A.IMPEDANCE_CONTROL) == actions.count(A.POSITION_CONTROL), path
+        starts = actions.count(A.START_STIFFNESS_RECORDING) + actions.count(A.START_SHARED_RECORDING)
+        saves = actions.count(A.SAVE_STIFFNESS_SKILL) + actions.count(A.SAVE_SHARED_SKILL)
+        assert starts == saves, path
+        assert not machine.session and machine.recording is None, path
