@@ -9,11 +9,10 @@ import subprocess
 import numpy as np
 from conftest import ROOT
 from ros_processes import Processes, start_roscore, start_xvfb, wait_until
-from rosbags.highlevel import AnyReader
 
 from teleteach.recording.bags import DEVICE_TOPICS
 from teleteach.recording.report import make_report, tree_edits
-from teleteach.recording.session import read_session
+from teleteach.recording.session import open_bag, read_session
 
 SCRIPTED_DEVICE = ROOT / "test" / "ros" / "scripted_device.py"
 DEVICE_RATE = 100  # [Hz] lower than the real 1 kHz to keep the test light on a loaded 2-core machine
@@ -23,7 +22,7 @@ HELD = 0.3  # [s] a stiffness command held this long is deliberate (the script h
 def device_stream(bag):
     """Every device message's content (stamps included) in order, per topic."""
     streams = {topic: [] for topic in DEVICE_TOPICS}
-    with AnyReader([bag]) as reader:
+    with open_bag(bag) as reader:
         wanted = [connection for connection in reader.connections if connection.topic in streams]
         for connection, _, raw in reader.messages(connections=wanted):
             message = reader.deserialize(raw, connection.msgtype)

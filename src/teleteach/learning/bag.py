@@ -1,4 +1,4 @@
-"""Reading a stiffness demonstration from a session bag with ``rosbags`` (no ROS installation needed).
+"""Reading a stiffness demonstration from a session bag (opened by teleteach.recording.session, with ``rosbags``).
 
 The GUI publishes the principal stiffnesses on ``/eigenvalues`` (Vector3Stamped [N/m]) and the principal axes on
 ``/eigenvectors`` (QuaternionStamped, V = R(q)); the controller publishes ``/cartesian_pose`` and the trajectory
@@ -13,6 +13,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from teleteach.learning.preprocess import LearningError
+from teleteach.recording.session import SessionError, open_bag
 
 EIGENVALUES = "/eigenvalues"
 EIGENVECTORS = "/eigenvectors"
@@ -25,14 +26,22 @@ def _stamp(message, received: int) -> float:
     return seconds if seconds > 0 else received * 1e-9
 
 
+def _values(topic: str, message) -> List[float]:
+    if topic == EIGENVALUES:
+        return [message.vector.x, message.vector.y, message.vector.z]
+    if topic == EIGENVECTORS:
+        quaternion = message.quaternion
+        return [quaternion.x, quaternion.y, quaternion.z, quaternion.w]
+    position, orientation = message.pose.position, message.pose.orientation
+    return [position.x, position.y, position.z, orientation.x, orientation.y, orientation.z, orientation.w]
+
+
 def read_bag(path: Union[str, pathlib.Path]) -> Tuple[np.ndarray, np.ndarray, Dict[str, Tuple[np.ndarray, np.ndarray]]]:
     """(stiffness times, stiffness (n, 3, 3), poses name -> (times, (k, 7))) from a session bag.
 
     Raises:
         LearningError: the bag is missing or unreadable, or lacks /eigenvalues, /eigenvectors or /cartesian_pose.
     """
-    from rosbags.highlevel import AnyReader  # imported here: only bag users need it
-
     path = pathlib.Path(path).expanduser()
     if not path.is_file():
         raise LearningError(f"bag file {path} does not exist")
@@ -42,25 +51,16 @@ def read_bag(path: Union[str, pathlib.Path]) -> Tuple[np.ndarray, np.ndarray, Di
         **{topic: [] for topic in POSE_TOPICS.values()},
     }
     try:
-        with AnyReader([path]) as reader:
+        with open_bag(path) as reader:
             connections = [connection for connection in reader.connections if connection.topic in rows]
             for connection, received, raw in reader.messages(connections=connections):
                 message = reader.deserialize(raw, connection.msgtype)
-                topic = connection.topic
-                if topic == EIGENVALUES:
-                    values = [message.vector.x, message.vector.y, message.vector.z]
-                elif topic == EIGENVECTORS:
-                    quaternion = message.quaternion
-                    values = [quaternion.x, quaternion.y, quaternion.z, quaternion.w]
-                else:
-                    position, orientation = message.pose.position, message.pose.orientation
-                    values = [position.x, position.y, position.z, orientation.x, orientation.y, orientation.z]
-                    values.append(orientation.w)
-                rows[topic].append((_stamp(message, received), values))
-    except LearningError:
-        raise
-    except Exception as error:  # rosbags raises several unrelated types for corrupt bags
-        raise LearningError(f"cannot read bag {path}: {error}") from None
+                rows[connection.topic].append((_stamp(message, received), _values(connection.topic, message)))
+    except SessionError as error:
+        reason = str(error)
+        raise LearningError(
+            reason if reason.startswith("cannot read bag") else f"cannot read bag {path}: {reason}"
+        ) from None
     for topic in (EIGENVALUES, EIGENVECTORS, POSE_TOPICS["cartesian_pose"]):
         if not rows[topic]:
             raise LearningError(f"bag {path} has no {topic} messages")

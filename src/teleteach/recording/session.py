@@ -6,10 +6,11 @@ Times are seconds since the bag's first message (the bag's receive time, so topi
 the others).
 """
 
+import contextlib
 import dataclasses
 import pathlib
 import struct
-from typing import Dict, List, Optional, Tuple, Union
+from typing import Dict, Iterator, List, Optional, Tuple, Union
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -186,8 +187,13 @@ def _series(times: List[float], rows: List[tuple]) -> Optional[Series]:
     return Series(np.asarray(times, dtype=float), np.asarray(rows, dtype=float))
 
 
-def read_session(path: Union[str, pathlib.Path]) -> Session:
-    """Read a session bag, or raise :class:`SessionError` naming the file and what is wrong with it."""
+@contextlib.contextmanager
+def open_bag(path: Union[str, pathlib.Path]) -> Iterator:
+    """A ``rosbags`` reader of a session bag: the one place where teleteach opens bags (report, run checks, learning).
+
+    Raises:
+        SessionError: naming the file and what is wrong with it, also for errors while its messages are read.
+    """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.rosbag1 import ReaderError
 
@@ -199,7 +205,7 @@ def read_session(path: Union[str, pathlib.Path]) -> Session:
         raise SessionError(f"{path} does not end in .bag (an unfinished recording? run `rosbag reindex` first)")
     try:
         with AnyReader([path]) as reader:
-            return _read(reader, path)
+            yield reader
     except (
         AnyReaderError,
         ReaderError,
@@ -212,6 +218,12 @@ def read_session(path: Union[str, pathlib.Path]) -> Session:
     ) as error:
         reason = str(error) or type(error).__name__
         raise SessionError(f"cannot read bag {path}: {reason} (truncated or damaged?)") from None
+
+
+def read_session(path: Union[str, pathlib.Path]) -> Session:
+    """Read a session bag, or raise :class:`SessionError` naming the file and what is wrong with it."""
+    with open_bag(path) as reader:
+        return _read(reader, pathlib.Path(path).expanduser())
 
 
 def _read(reader, path: pathlib.Path) -> Session:
