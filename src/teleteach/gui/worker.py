@@ -361,6 +361,8 @@ class RosWorker(QObject):
     # worker thread timers -----------------------------------------------------------------------
     def _publish_stiffness(self) -> None:
         """The steady stream (and the recording's samples) at publish_rate while LOW-LEVEL is active."""
+        if rospy.is_shutdown():
+            return  # Ctrl-C closed the publishers; the window closes within the watchdog's period
         if self.active_tab == SHARED_CONTROL_TAB:
             self._send_stiffness(self.config.shared_control_stiffness, (0.0, 0.0, 0.0, 1.0))
             return
