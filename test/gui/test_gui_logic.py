@@ -109,6 +109,18 @@ def test_click_classifier_tells_single_from_double():
     assert clicks.poll(3.0) is None
 
 
+def test_click_classifier_waits_for_a_click_on_its_way_and_reports_a_late_single():
+    clicks = ClickClassifier(0.6)
+    # A busy GUI thread gets two clicks that arrived 0.3 s apart only at 1.0 s: still one double click
+    assert clicks.click(0.0) is None
+    assert clicks.poll(1.0, last_arrival=0.3) is None  # the second click arrived, it is on its way
+    assert clicks.click(0.3) == ClickClassifier.DOUBLE
+    # Two clicks that arrived 1 s apart, handled together: the first one is single, the second one pending
+    assert clicks.click(2.0) is None
+    assert clicks.click(3.0) == ClickClassifier.SINGLE
+    assert clicks.poll(3.7, last_arrival=3.0) == ClickClassifier.SINGLE
+
+
 def test_edge_detector_fires_once_per_opening_and_not_at_start():
     gripper = EdgeDetector(0.45, 0.35)
     assert not gripper.update(0.5)  # starts open: no gesture

@@ -187,8 +187,8 @@ class RobotPoseStandIn:
 
 def test_gui_killed_while_recording_leaves_no_skill_file(qapp, bt_node, device, topic_log, data_root):
     """SIGKILL of the real teaching_gui process in the middle of a recording: no skill file (whole or partial) in the
-    data directory, and the behaviour tree's library unchanged. The robot is a stand-in publishing /cartesian_pose
-    (the recording is what matters here; with robot_sim on a loaded machine the scripted double click was lost)."""
+    data directory, and the behaviour tree's library unchanged. The robot is a stand-in publishing /cartesian_pose:
+    the recording is what matters here, and robot_sim would cost a core."""
     import os
     import signal
     import subprocess

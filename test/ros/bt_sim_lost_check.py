@@ -12,7 +12,7 @@ from bt_ros_support import TreeView
 from ros_processes import node_pid
 
 STARTUP_TIMEOUT = 180.0  # [s] wall: sim, skill servers and tree on a loaded machine
-HELP_TIMEOUT = 30.0  # [s] wall: clock_timeout (3 s) plus the skill server's own reaction, on a loaded machine
+HELP_TIMEOUT = 30.0  # [s] wall: clock_timeout (5 s) plus the skill server's own reaction, on a loaded machine
 
 
 class SimulatorKilled(unittest.TestCase):

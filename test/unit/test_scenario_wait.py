@@ -1,8 +1,12 @@
 """Scenario keyframes that wait for the system (a patient scripted operator): parsing, holding, timing out."""
 
+import pathlib
+
 import numpy as np
 import pytest
+import yaml
 
+from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.scenario import (
     ScenarioBackend,
     ScenarioError,
@@ -12,11 +16,20 @@ from teleteach.haptics.scenario import (
     unmet,
 )
 
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / "config"
 WAITING = """
 keyframes:
   - {t: 0.0, position: [0.0, 0.0, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25}
   - {t: 1.0, position: [0.05, 0.0, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25, click: true,
      wait: {tab: LOW_LEVEL, tree_running: PickItem2}, timeout: 5.0}
+  - {t: 2.0, position: [0.05, 0.05, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25}
+"""
+
+
+CLICKING = """
+keyframes:
+  - {t: 0.0, position: [0.0, 0.0, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25}
+  - {t: 1.0, position: [0.05, 0.0, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25, click: true}
   - {t: 2.0, position: [0.05, 0.05, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25}
 """
 
@@ -88,3 +101,24 @@ def test_a_wait_that_times_out_fails_the_scenario_naming_the_keyframe():
     assert backend.finished
     assert backend.failure.startswith("s.yaml:4: keyframes[1].wait: still waiting after 5 s for tab LOW_LEVEL")
     assert "(seen HIGH_LEVEL)" in backend.failure and "tree_running PickItem2 (running: nothing)" in backend.failure
+
+
+def clicks_seen(backend, times):
+    detector = ClickDetector(ClickParameters(**yaml.safe_load((CONFIG / "device.yaml").read_text())["click"]))
+    for time in times:
+        detector.update(time, backend.read(time).gripper)
+    return detector.clicks
+
+
+@pytest.mark.parametrize("resume", [1.1, 1.4, 2.5])
+def test_a_stall_over_a_click_does_not_swallow_it(resume):
+    scenario = parse_scenario(CLICKING)
+    steady = np.arange(0.0, 3.5, 0.001)
+    stalled = np.concatenate([np.arange(0.0, 0.99, 0.001), np.arange(resume, 3.5, 0.001)])  # no read in between
+    # Expect the click of keyframe 1 (at 1.0 s, 0.2 s long) seen once, whether the loop stalled over it or not
+    assert clicks_seen(ScenarioBackend(scenario, start_time=0.0), steady) == 1
+    assert clicks_seen(ScenarioBackend(scenario, start_time=0.0), stalled) == 1
+    # Expect the motion to go on as scripted meanwhile
+    backend = ScenarioBackend(scenario, start_time=0.0)
+    backend.read(0.98)
+    assert backend.read(1.5).position[1] == pytest.approx(0.025)

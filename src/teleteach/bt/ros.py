@@ -144,7 +144,7 @@ class ActionSkill(SkillLeaf):
         clients: ActionClients,
         server_timeout: float = 2.0,
         lost_timeout: float = 1.0,
-        clock_timeout: float = 3.0,
+        clock_timeout: float = 5.0,
     ):
         super().__init__(name, entry.name, entry.kind, entry.data_file)
         self.clients = clients
@@ -311,7 +311,7 @@ class BehaviourTreeNode:
         timeouts = {
             "server_timeout": float(rospy.get_param("~server_timeout", 2.0)),
             "lost_timeout": float(rospy.get_param("~lost_timeout", 1.0)),
-            "clock_timeout": float(rospy.get_param("~clock_timeout", 3.0)),
+            "clock_timeout": float(rospy.get_param("~clock_timeout", 5.0)),
         }
 
         def make_leaf(name: str, entry: SkillEntry) -> ActionSkill:

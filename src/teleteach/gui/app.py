@@ -100,6 +100,7 @@ class MainWindow(QMainWindow):
         self.services.finished.connect(self._on_service)
         self.worker = RosWorker(config, self.command, self.recorder, self.shared_recorder)
         self.worker.equilibrium = self.player.current
+        self.low_level.last_click = lambda: self.worker.last_click
         self.thread = QThread(self)
         self.thread.setObjectName("ros_worker")
         self.worker.moveToThread(self.thread)
@@ -128,7 +129,7 @@ class MainWindow(QMainWindow):
     def add_tab(self, tab: QWidget, title: str) -> int:
         """Append a tab; returns its index.
 
-        The tab needs an ``active`` attribute and an ``on_click()`` slot, ``on_device(sample)`` if it uses the
+        The tab needs an ``active`` attribute and an ``on_click(stamp)`` slot, ``on_device(sample)`` if it uses the
         device's position; only the active tab receives them.
         """
         self._tab_widgets.append(tab)
@@ -144,10 +145,10 @@ class MainWindow(QMainWindow):
         if tab is not None and hasattr(tab, "on_device"):
             tab.on_device(sample)
 
-    def _on_click(self) -> None:
+    def _on_click(self, stamp: float) -> None:
         tab = self._active_tab_widget()
         if tab is not None:
-            tab.on_click()
+            tab.on_click(stamp)
 
     def _on_gripper_opened(self) -> None:
         if self._tab in (HIGH_LEVEL_TAB, LOW_LEVEL_TAB, SHARED_CONTROL_TAB):

@@ -85,7 +85,10 @@ def scale_to_index(value: float, half_range: float, count: int) -> int:
 class ClickClassifier:
     """Tells single clicks from double clicks (LOW-LEVEL: click = next mode, double click = start/stop recording).
 
-    A click is reported as single only once the double-click window has passed without a second click.
+    A click is reported as single only once the double-click window has passed without a second click. Clicks are
+    stamped where they arrive (the worker's ROS thread), not where the GUI thread gets to them: a busy GUI thread
+    then neither splits a double click into two singles nor joins two singles into a double. ``poll`` is told when
+    the last click arrived, so it does not call a click single while the next one is still on its way to the GUI.
     """
 
     SINGLE = "single"
@@ -104,17 +107,22 @@ class ClickClassifier:
         """True while a first click waits for a possible second one."""
         return self._pending is not None
 
-    def click(self, now: float) -> Optional[str]:
-        """Register a click at ``now`` [s]; returns DOUBLE when it completes a double click."""
-        if self._pending is not None and now - self._pending <= self.window:
+    def click(self, stamp: float) -> Optional[str]:
+        """Register a click that arrived at ``stamp`` [s].
+
+        Returns DOUBLE when it completes a double click, SINGLE when it follows a pending click whose window had
+        passed (that one was single), else None.
+        """
+        if self._pending is not None and stamp - self._pending <= self.window:
             self._pending = None
             return self.DOUBLE
-        self._pending = now
-        return None
+        expired = self._pending is not None
+        self._pending = stamp
+        return self.SINGLE if expired else None
 
-    def poll(self, now: float) -> Optional[str]:
-        """Returns SINGLE once a pending click has outlived the window."""
-        if self._pending is not None and now - self._pending > self.window:
+    def poll(self, now: float, last_arrival: float = -math.inf) -> Optional[str]:
+        """Returns SINGLE once a pending click has outlived the window and no later click has arrived since."""
+        if self._pending is not None and now - self._pending > self.window and last_arrival <= self._pending:
             self._pending = None
             return self.SINGLE
         return None

@@ -174,9 +174,9 @@ class SharedControlTab(QWidget):
         row.addLayout(panel, 2)
         self.show_status(None)
 
-    def on_click(self) -> None:
+    def on_click(self, stamp: float) -> None:
         """A double click starts or stops the recording (single clicks do nothing here)."""
-        if self.active and self.clicks.click(time.monotonic()) == ClickClassifier.DOUBLE:
+        if self.active and self.clicks.click(stamp) == ClickClassifier.DOUBLE:
             self.recording_toggled.emit()
 
     def on_state(self, status: SharedStatus) -> None:

@@ -4,8 +4,9 @@ Tabs only display and collect the operator's choices; talking to ROS is the main
 device signals only while it is the active one (thesis A.2.1).
 """
 
+import math
 import time
-from typing import List, Optional, Sequence, Set, Tuple
+from typing import Callable, List, Optional, Sequence, Set, Tuple
 
 from PyQt5.QtCore import Qt, QTimer, pyqtSignal
 from PyQt5.QtGui import QBrush, QColor, QFont
@@ -128,7 +129,7 @@ class StartTab(QWidget):
                 self.selected = selected
                 self._show()
 
-    def on_click(self) -> None:
+    def on_click(self, _stamp: float = 0.0) -> None:
         """Open the chosen mode."""
         if self.active:
             self.mode_chosen.emit(self.selected + 1)
@@ -314,7 +315,7 @@ class HighLevelTab(QWidget):
             self.flow.device(sample)
             self.refresh()
 
-    def on_click(self) -> None:
+    def on_click(self, _stamp: float = 0.0) -> None:
         """Confirm the current step; the last one sends the request."""
         if not self.active:
             return
@@ -378,6 +379,7 @@ class LowLevelTab(QWidget):
         self.recording_since: Optional[float] = None
         self.recorded_samples = lambda: 0
         self.clicks = ClickClassifier(config.double_click_window)
+        self.last_click: Callable[[], float] = lambda: -math.inf  # when the last click arrived (the worker's clock)
         self._drawn_version = -1
 
         layout = QHBoxLayout(self)
@@ -424,10 +426,15 @@ class LowLevelTab(QWidget):
         self._repaint.start(max(1, int(round(1000.0 / config.repaint_rate))))
         self._refresh_labels()
 
-    def on_click(self) -> None:
+    def on_click(self, stamp: float) -> None:
         """Clicks are classified: single -> next mode (after the double-click window), double -> recording."""
-        if self.active and self.clicks.click(time.monotonic()) == ClickClassifier.DOUBLE:
+        if not self.active:
+            return
+        kind = self.clicks.click(stamp)
+        if kind == ClickClassifier.DOUBLE:
             self.recording_toggled.emit()
+        elif kind == ClickClassifier.SINGLE:
+            self.command.next_mode()
 
     def show_device_lost(self, lost: bool) -> None:
         """Say that the device is gone (the ellipsoid, and the stiffness sent, stay as they were) or back."""
@@ -441,7 +448,7 @@ class LowLevelTab(QWidget):
         """Capped repaint: mode changes from pending clicks, then redraw only what changed."""
         if not self.active:
             return
-        if self.clicks.poll(time.monotonic()) == ClickClassifier.SINGLE:
+        if self.clicks.poll(time.monotonic(), self.last_click()) == ClickClassifier.SINGLE:
             self.command.next_mode()
         version = self.command.state()[3]
         if version != self._drawn_version:

@@ -159,7 +159,7 @@ class RosWorker(QObject):
     """
 
     device_changed = pyqtSignal(object)  # DeviceSample, at most device_ui_rate
-    clicked = pyqtSignal()
+    clicked = pyqtSignal(float)  # time.monotonic() when the click arrived here
     gripper_opened = pyqtSignal()
     tree_received = pyqtSignal(object)  # TreeSnapshot
     library_received = pyqtSignal(object)  # list of LibrarySkill
@@ -200,6 +200,7 @@ class RosWorker(QObject):
         self._last_seen = {}
         self._rejected = 0
         self._health: Optional[str] = None
+        self.last_click = -math.inf  # time.monotonic() of the last click that arrived
         self._subscribers: Dict[str, rospy.Subscriber] = {}
         self._timers: List[QTimer] = []
 
@@ -271,7 +272,8 @@ class RosWorker(QObject):
 
     def _on_button(self, message: Bool) -> None:
         if self._button.update(1.0 if message.data else 0.0):
-            self.clicked.emit()
+            self.last_click = time.monotonic()
+            self.clicked.emit(self.last_click)
 
     def _on_gripper(self, message: Float64) -> None:
         if self._gripper.update(message.data):
@@ -361,6 +363,8 @@ class RosWorker(QObject):
     # worker thread timers -----------------------------------------------------------------------
     def _publish_stiffness(self) -> None:
         """The steady stream (and the recording's samples) at publish_rate while LOW-LEVEL is active."""
+        if rospy.is_shutdown():
+            return  # Ctrl-C closed the publishers; the window closes within the watchdog's period
         if self.active_tab == SHARED_CONTROL_TAB:
             self._send_stiffness(self.config.shared_control_stiffness, (0.0, 0.0, 0.0, 1.0))
             return

@@ -266,8 +266,11 @@ class ScenarioTrajectory:
 
     def gripper(self, time: float) -> float:
         """[rad] gripper angle at ``time`` [s] of the scenario, scripted flicks included."""
-        base = float(self._values(self._clamped(time))[3])
-        return self._with_flick(time, base)
+        return self._with_flick(time, self.resting_gripper(time))
+
+    def resting_gripper(self, time: float) -> float:
+        """[rad] gripper angle at ``time`` [s] of the scenario without the scripted flicks."""
+        return float(self._values(self._clamped(time))[3])
 
     def _with_flick(self, time: float, base: float) -> float:
         index = int(np.searchsorted(self._click_times, time, side="right")) - 1
@@ -295,7 +298,13 @@ class ScenarioBackend(DeviceBackend):
     its conditions are met; when its timeout expires first, :attr:`failure` says why and the backend has
     :attr:`finished`. After the last keyframe the device holds its last state; with ``at_end="exit"`` the backend
     then reports :attr:`finished`.
+
+    A stall of the reading loop must not swallow a click: when a read jumps over more than
+    ``late_click_fraction`` of a scripted flick, the whole flick is played from that read on instead (late, as an
+    operator would click after a freeze), while the motion goes on as scripted.
     """
+
+    late_click_fraction = 0.25
 
     def __init__(
         self,
@@ -313,6 +322,9 @@ class ScenarioBackend(DeviceBackend):
         self._system = system
         self._waits = [(index, keyframe) for index, keyframe in enumerate(scenario.keyframes) if keyframe.wait]
         self._next_wait = 0
+        self._clicks = scenario.click_times()
+        self._next_click = 0
+        self._late_click_at: Optional[float] = None  # reading time from which a skipped flick plays
         self._held = 0.0
         self._waiting_since: Optional[float] = None
         self._elapsed = 0.0
@@ -341,8 +353,28 @@ class ScenarioBackend(DeviceBackend):
                     f"{keyframe.wait.timeout:g} s for {'; '.join(missing)}"
                 )
             break
+        self._note_skipped_click(time, elapsed)
         self._elapsed = elapsed
-        return self._trajectory.sample(elapsed)
+        sample = self._trajectory.sample(elapsed)
+        if self._late_click_at is not None:
+            since = time - self._late_click_at
+            duration = self._scenario.click_duration
+            if since <= duration:
+                resting = self._trajectory.resting_gripper(elapsed)
+                return dataclasses.replace(sample, gripper=flick_gripper_angle(resting, since, duration))
+            self._late_click_at = None
+        return sample
+
+    def _note_skipped_click(self, time: float, elapsed: float) -> None:
+        """Start a late flick when this read jumped over a good part of a scripted one."""
+        while self._next_click < len(self._clicks) and self._clicks[self._next_click] <= elapsed:
+            start = self._clicks[self._next_click]
+            self._next_click += 1
+            jumped = (
+                self._elapsed <= start and elapsed - start > self.late_click_fraction * self._scenario.click_duration
+            )
+            if jumped:
+                self._late_click_at = time
 
     @property
     def finished(self) -> bool:
