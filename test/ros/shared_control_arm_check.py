@@ -27,6 +27,7 @@ RATE = 50.0  # [Hz] of the operator's commands
 BOUNDARY_TOLERANCE = 0.005  # [m] "never leaves the boundary by more than a few millimetres"
 EDGE_TOLERANCE = 0.002  # [m] the arm's tracking error at the edge (the plan keeps a 1 mm margin)
 OBSTACLE = StraightEdge(0.0, -0.05, math.pi / 2)  # free side up: the arm must stay above y = -0.05 m
+REACH = 0.1  # [m] each push goes on until the arm has moved this far the operator's way
 
 
 class Recorder:
@@ -90,10 +91,13 @@ class SharedControlOnTheArm(unittest.TestCase):
             rospy.sleep(0.05)
         self.fail(f"timed out waiting for {what}")
 
-    def operate(self, commands):
-        """Publish commands at 50 Hz in sim time (the obstacle too, while on); returns (start, end) sim times."""
+    def operate(self, commands, until=None):
+        """Publish commands at 50 Hz in sim time (the obstacle too, while on), stopping early once ``until(start)``
+        holds (checked every 0.5 s); returns (start, end) sim times."""
         start = rospy.Time.now().to_sec()
-        for x, y in commands:
+        for k, (x, y) in enumerate(commands):
+            if until is not None and k % 25 == 0 and until(start):
+                break
             message = Vector3Stamped()
             message.header.stamp = rospy.Time.now()
             message.vector.x, message.vector.y = float(x), float(y)
@@ -111,10 +115,15 @@ class SharedControlOnTheArm(unittest.TestCase):
     def rest(self, seconds):
         return self.operate(np.zeros((int(round(seconds * RATE)), 2)))
 
-    def push(self, skill, heading, seconds, seed):
+    def push(self, skill, heading, seconds, seed, until=None):
+        """The operator draws ``skill`` towards ``heading`` for ``seconds`` at most (less once ``until`` holds)."""
         times = np.arange(0.0, seconds, 1.0 / RATE)
         rng = np.random.default_rng(seed)
-        return self.operate(synthetic_commands(skill, RHO, heading, SPEED, times, 0.005, rng))
+        return self.operate(synthetic_commands(skill, RHO, heading, SPEED, times, 0.005, rng), until)
+
+    def arm_since(self, start):
+        """The arm's plane points since ``start`` (2 columns, maybe none)."""
+        return self.recorder.arm_between(start, math.inf).reshape(-1, 2)
 
     def moved_along(self, start, end, heading):
         points = self.recorder.arm_between(start, end)
@@ -123,22 +132,38 @@ class SharedControlOnTheArm(unittest.TestCase):
     def test_arm_follows_the_operator_within_the_constraints(self):
         self.rest(3.0)  # the arm reaches the initial state and the stiffness its target
         run_start = rospy.Time.now().to_sec()
+        # Each push lasts until the arm has gone 10 cm the operator's way (at most 12 s: an arm going the other way
+        # never gets there), so the check does not depend on how fast the machine runs the nodes.
         pushes = [
-            # (rest before [s], skill, heading [rad], push [s]): each rest ends at another phase of the idle restart
-            (0.4, "wave", 0.0, 3.0),
-            (1.0, "cycloid", math.pi, 3.0),
-            (1.7, "wave", math.pi / 2, 5.0),  # 0.25 m up: keeps pushing across the top of the boundary
+            # (rest before [s], skill, heading [rad]): each rest ends at another phase of the idle restart
+            (0.4, "wave", 0.0),
+            (1.0, "cycloid", math.pi),
+            (1.7, "wave", math.pi / 2),
         ]
-        for seed, (rest, skill, heading, seconds) in enumerate(pushes):
+        for seed, (rest, skill, heading) in enumerate(pushes):
             self.rest(rest)
-            start, end = self.push(skill, heading, seconds, seed)
+
+            def far_enough(start, heading=heading):
+                points = self.arm_since(start)
+                direction = np.array([math.cos(heading), math.sin(heading)])
+                return len(points) > 1 and (points[-1] - points[0]) @ direction > REACH
+
+            start, end = self.push(skill, heading, 12.0, seed, far_enough)
             along = self.moved_along(start, end, heading)
             rospy.loginfo(f"rest {rest} s, {skill} at {heading:.2f} rad: the arm moved {along:.3f} m that way")
-            self.assertGreater(along, 0.3 * SPEED * seconds, f"{skill} after {rest} s of rest went {along:.3f} m")
-        # The operator pushes down into an obstacle edge and keeps pushing.
+            self.assertGreater(along, REACH, f"{skill} after {rest} s of rest went {along:.3f} m")
+        # The operator keeps pushing up across the top of the boundary for 3 s.
+        self.push(
+            "wave", math.pi / 2, 12.0, 5, lambda start: np.any(self.arm_since(start)[:, 1] > self.box.y_max - 0.01)
+        )
+        self.push("wave", math.pi / 2, 3.0, 6)
+        # The operator pushes down into an obstacle edge until the arm is at it, and keeps pushing for 3 s.
         self.obstacle_on = True
         self.rest(1.2)
-        obstacle_start, end = self.push("wave", -math.pi / 2, 6.0, 7)
+        obstacle_start, _ = self.push(
+            "wave", -math.pi / 2, 15.0, 7, lambda start: np.any(self.arm_since(start)[:, 1] < OBSTACLE.y + 0.01)
+        )
+        _, end = self.push("wave", -math.pi / 2, 3.0, 8)
         self.obstacle_on = False
         self.rest(1.0)
         run_end = rospy.Time.now().to_sec()

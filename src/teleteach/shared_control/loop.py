@@ -103,8 +103,8 @@ class SharedControlConfig:
     max_iterations_estimation: int = 10
     max_iterations_optimisation: int = 10
     cache_dir: Optional[str] = None
-    switch_confidence: float = 0.05
-    switch_hold: float = 0.06
+    switch_confidence: float = 0.08
+    switch_hold: float = 0.04
     reseed_period: float = 0.2
     blend_authority: bool = False
     authority_confidence: float = 0.9

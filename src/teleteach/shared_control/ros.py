@@ -129,7 +129,7 @@ class SharedControlNode:
         twist_scale: task-plane speed per device speed [-] (``twist``).
         joy_axes: indices of the joystick axes for x and y (``joy``).
         joy_scale: task-plane speed at full deflection per axis [m/s] (``joy``).
-        command_timeout: a command older than this, or a gap between commands longer than this, counts as zero [s].
+        command_timeout: a command older than this counts as zero [s].
         command_delay: each cycle reads the operator's commands this much before its own time, placed by their
             header stamps (messages up to this late, bunched or out of order give the same window) [s].
         obstacle_timeout: the obstacle is dropped when not refreshed for this long [s] (0: never).
@@ -161,7 +161,7 @@ class SharedControlNode:
         joy_axes: Sequence[int] = (0, 1),
         joy_scale: Sequence[float] = (0.2, 0.2),
         command_timeout: float = 0.2,
-        command_delay: float = 0.03,
+        command_delay: float = 0.02,
         obstacle_timeout: float = 1.0,
         frame_id: str = "base_link",
     ):
@@ -222,7 +222,10 @@ class SharedControlNode:
                 return command_from_joy(message, joy_axes, joy_scale)
 
         self._subscribers = [
-            rospy.Subscriber(topic, message_type, self._guarded(self._set_command, convert, stamped=True)),
+            # Every command is kept (by its stamp), so the queue holds a second of them rather than only the last.
+            rospy.Subscriber(
+                topic, message_type, self._guarded(self._set_command, convert, stamped=True), queue_size=1000
+            ),
             rospy.Subscriber(
                 "/shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
             ),

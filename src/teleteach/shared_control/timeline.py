@@ -3,8 +3,9 @@
 The estimation window must hold the operator's signal at evenly spaced times. Taking "the latest message" each cycle
 makes it depend on delivery instead: a late message repeats the previous command, two bunched ones skip one, and the
 fitted skill changes with the network (issue 15). Here every message is kept at its stamp and the cycle reads the
-signal ``delay`` earlier than its own time, by linear interpolation between the stamped samples around it, so
-messages up to ``delay`` late, bunched or out of order give the same window, and a dropped one is interpolated over.
+signal ``delay`` earlier than its own time: the newest command stamped at or before that time. So messages up to
+``delay`` late, bunched or out of order give the same window, and a dropped one repeats its predecessor. (Linear
+interpolation would need the next message too, i.e. ``delay`` longer by a period, which delays every switch.)
 """
 
 import bisect
@@ -17,8 +18,7 @@ class CommandTimeline:
     """Stamped operator commands h^r, sampled at any time.
 
     Args:
-        timeout: a gap between samples longer than this [s], or a sample older than this, means no command (zero):
-            the operator stopped sending.
+        timeout: a sample older than this [s] means no command (zero): the operator stopped sending.
         history: samples older than this before the latest sampled time are forgotten [s].
     """
 
@@ -41,25 +41,12 @@ class CommandTimeline:
         self._commands.insert(index, value)
 
     def sample(self, time: float) -> np.ndarray:
-        """The command at ``time`` [s].
-
-        Interpolated between the samples around it, held for ``timeout`` after the last one, zero when there is none
-        within ``timeout``.
-        """
+        """The command at ``time`` [s]: the newest stamped at or before it, zero when that is older than ``timeout``."""
         self._forget(time - self.history)
-        after = bisect.bisect_left(self._stamps, time)
-        before = after - 1
-        if before < 0:
+        before = bisect.bisect_right(self._stamps, time) - 1
+        if before < 0 or time - self._stamps[before] > self.timeout:
             return np.zeros(2)
-        if after >= len(self._stamps):
-            if time - self._stamps[before] <= self.timeout:
-                return self._commands[before].copy()
-            return np.zeros(2)
-        start, end = self._stamps[before], self._stamps[after]
-        if end - start > self.timeout:
-            return np.zeros(2) if time - start > self.timeout else self._commands[before].copy()
-        bracket = np.array([self._commands[before], self._commands[after]])
-        return np.array([np.interp(time, (start, end), bracket[:, axis]) for axis in range(2)])
+        return self._commands[before].copy()
 
     def latest_stamp(self) -> Optional[float]:
         """Stamp of the newest command kept [s], None when empty."""
