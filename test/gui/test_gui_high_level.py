@@ -4,6 +4,7 @@ import pytest
 from conftest import pump_until, start_bt, stop
 
 from teleteach.gui.selection import OPERATIONS, Step
+from teleteach.gui.session import Tab
 from teleteach.msg import BehaviourTree
 
 pytestmark = pytest.mark.gui
@@ -51,7 +52,7 @@ def test_thesis_flow_removes_place_item(qapp, bt_node, device, make_window, topi
     pump_until(qapp, lambda: "PlaceItem" in window.high_level.flow.choices, 20, "buttons from the tree")
     window.screenshot().save(str(artifacts_dir / "gui_start.png"))
     open_high_level(qapp, window, device)
-    pump_until(qapp, lambda: tab_log.last() is not None and tab_log.last().data == 1, 5, "/teleteach/active_tab = 1")
+    pump_until(qapp, lambda: tab_log.last() is not None and tab_log.last().data == Tab.HIGH_LEVEL, 5, "HIGH-LEVEL")
 
     # Phase A/B: device X to PlaceItem, click; step 2 and 3 stay greyed while selecting
     assert not window.high_level.step2.isEnabled() and not window.high_level.step3.isEnabled()
@@ -74,7 +75,7 @@ def test_thesis_flow_removes_place_item(qapp, bt_node, device, make_window, topi
     # Gripper fully open: back to START
     device.set_gripper(0.5)
     pump_until(qapp, lambda: window.tabs.currentIndex() == 0, 5, "START after opening the gripper")
-    pump_until(qapp, lambda: tab_log.last().data == 0, 5, "/teleteach/active_tab = 0")
+    pump_until(qapp, lambda: tab_log.last().data == Tab.START, 5, "/teleteach/active_tab START")
 
 
 def test_insert_at_an_index_via_the_dial(qapp, bt_node, device, make_window, topic_log, artifacts_dir):

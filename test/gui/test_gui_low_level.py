@@ -9,6 +9,8 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from scipy.spatial.transform import Rotation
 from std_msgs.msg import Bool
 
+from teleteach.gui.session import Tab
+
 pytestmark = pytest.mark.gui
 
 
@@ -147,7 +149,7 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
         return process
 
     values_log = topic_log("/eigenvalues", Vector3Stamped)
-    window = make_window(initial_tab=2, service_timeout=1.0)
+    window = make_window(initial_tab=Tab.LOW_LEVEL, service_timeout=1.0)
     pump_until(qapp, lambda: window.low_level.device_lost_label.isVisible(), 5, "no device yet")
     device = start_device("first")
     stiffness = expected_stiffness(position)

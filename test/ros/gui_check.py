@@ -12,7 +12,7 @@ import yaml
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from std_msgs.msg import Int8
 
-LOW_LEVEL = 2
+from teleteach.gui.session import Tab
 
 
 class GuiPublishes(unittest.TestCase):
@@ -23,7 +23,7 @@ class GuiPublishes(unittest.TestCase):
         values = rospy.wait_for_message("/eigenvalues", Vector3Stamped, timeout=60)
         vectors = rospy.wait_for_message("/eigenvectors", QuaternionStamped, timeout=60)
         # Expect the LOW-LEVEL tab, the configured stiffness on each axis, no rotation, in the base frame
-        self.assertEqual(tab.data, LOW_LEVEL)
+        self.assertEqual(tab.data, Tab.LOW_LEVEL)
         stiffness = gui["initial_stiffness"]
         for axis in "xyz":
             self.assertAlmostEqual(getattr(values.vector, axis), stiffness, delta=1e-6 * stiffness)

@@ -121,3 +121,12 @@ def test_every_path_through_the_tabs_gives_the_arm_back():
         saves = actions.count(A.SAVE_STIFFNESS_SKILL) + actions.count(A.SAVE_SHARED_SKILL)
         assert starts == saves, path
         assert not machine.session and machine.recording is None, path
+
+
+def test_tab_ids_and_titles_are_the_contract_of_active_tab():
+    assert [(int(tab), tab.title) for tab in Tab] == [
+        (0, "START"),
+        (1, "HIGH-LEVEL"),
+        (2, "LOW-LEVEL"),
+        (3, "SHARED CONTROL"),
+    ]

@@ -22,6 +22,7 @@ from teleteach.gui.config import GuiConfig
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_name
 from teleteach.gui.selection import ChangeRequest
+from teleteach.gui.session import Action, Tab, TeachingSession
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
@@ -35,8 +36,6 @@ from teleteach.srv import (
     SwitchControllerRequest,
 )
 
-START_TAB, HIGH_LEVEL_TAB, LOW_LEVEL_TAB, SHARED_CONTROL_TAB = 0, 1, 2, 3
-TEACHING_TABS = (LOW_LEVEL_TAB, SHARED_CONTROL_TAB)  # the tree pauses and the impedance controller drives the arm
 SWITCH_SERVICE = "/controller_manager/switch_controller"
 
 
@@ -53,9 +52,8 @@ class MainWindow(QMainWindow):
         self.shared_recorder = StiffnessRecorder()
         self.library_names: List[str] = []
         self.saved_skills: List[str] = []
+        self.session = TeachingSession()
         self._tab = -1
-        self._session = False
-        self._help_open = False
 
         self._tab_publisher = rospy.Publisher("/teleteach/active_tab", Int8, queue_size=1, latch=True)
         self._pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
@@ -83,13 +81,13 @@ class MainWindow(QMainWindow):
         self.shared_control = SharedControlTab(config)
         self.shared_control.recorded_samples = lambda: len(self.shared_recorder)
         self._tab_widgets: List[QWidget] = []
-        for tab, title in (
-            (self.start_tab, "START"),
-            (self.high_level, "HIGH-LEVEL"),
-            (self.low_level, "LOW-LEVEL"),
-            (self.shared_control, "SHARED CONTROL"),
+        for tab, index in (
+            (self.start_tab, Tab.START),
+            (self.high_level, Tab.HIGH_LEVEL),
+            (self.low_level, Tab.LOW_LEVEL),
+            (self.shared_control, Tab.SHARED_CONTROL),
         ):
-            self.add_tab(tab, title)
+            self.add_tab(tab, index.title)
         self.tabs.setStyleSheet("QTabBar::tab { min-width: 170px; min-height: 28px; font-weight: bold; }")
         column.addWidget(self.tabs)
         self.setCentralWidget(central)
@@ -122,6 +120,23 @@ class MainWindow(QMainWindow):
         self.low_level.recording_toggled.connect(self._toggle_recording)
         self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
         self.tabs.currentChanged.connect(self._on_tab_changed)
+        self._actions = {  # what each of the teaching session's actions does here
+            Action.LEAVE_LOW_LEVEL: self.low_level.on_leave,
+            Action.RESET_HIGH_LEVEL: self.high_level.reset,
+            Action.PAUSE_TREE: lambda: self._pause_tree(True),
+            Action.RESUME_TREE: lambda: self._pause_tree(False),
+            Action.ANNOUNCE_HELP_ANSWERED: lambda: self.statusBar().showMessage(
+                "help request answered: the tree resumes", 15000
+            ),
+            Action.IMPEDANCE_CONTROL: lambda: self._switch(config.impedance_controller, config.position_controller),
+            Action.POSITION_CONTROL: lambda: self._switch(config.position_controller, config.impedance_controller),
+            Action.START_STIFFNESS_RECORDING: self._start_recording,
+            Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
+            Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,
+            Action.START_SHARED_RECORDING: self._start_shared_recording,
+            Action.STOP_SHARED_RECORDING: self._stop_shared_recording,
+            Action.SAVE_SHARED_SKILL: self._save_shared_skill,
+        }
         self.thread.start()
         self.tabs.setCurrentIndex(config.initial_tab)
         self._on_tab_changed(config.initial_tab)
@@ -151,15 +166,15 @@ class MainWindow(QMainWindow):
             tab.on_click(stamp)
 
     def _on_gripper_opened(self) -> None:
-        if self._tab in (HIGH_LEVEL_TAB, LOW_LEVEL_TAB, SHARED_CONTROL_TAB):
-            self.tabs.setCurrentIndex(START_TAB)
+        if self._tab != Tab.START:
+            self.tabs.setCurrentIndex(Tab.START)
 
     def _on_library(self, library: Sequence) -> None:
         self.library_names = [skill.name for skill in library]
         self.high_level.on_library(library)
 
     def _on_help(self, node_name: str, reason: str) -> None:
-        self._help_open = bool(node_name)
+        self._carry_out(self.session.help_requested(node_name))
         if not node_name:  # the tree clears its request with an empty node name once answered
             self.help_banner.hide()
             return
@@ -176,31 +191,18 @@ class MainWindow(QMainWindow):
     def _on_tab_changed(self, index: int) -> None:
         if index == self._tab:
             return
-        previous, self._tab = self._tab, index
+        self._tab = index
         self.worker.active_tab = index
         self.worker.reset_device_filter()
         for position, tab in enumerate(self._tab_widgets):
             tab.active = position == index
         self._tab_publisher.publish(Int8(index))
-        if previous == LOW_LEVEL_TAB:
-            self.low_level.on_leave()
-            if self.recorder.active:
-                self._stop_recording()  # leaving mid-recording keeps what was recorded
-            elif self._session and index != SHARED_CONTROL_TAB:
-                self._end_session()
-        if previous == SHARED_CONTROL_TAB:
-            if self.shared_recorder.active:
-                self._stop_shared_recording(end_session=index != LOW_LEVEL_TAB)
-            elif self._session and index != LOW_LEVEL_TAB:
-                self._end_session()
-        if previous == HIGH_LEVEL_TAB and index != LOW_LEVEL_TAB and self._help_open:
-            # the operator has answered the help request with the tree edits just made: the tree goes on
-            self._pause_publisher.publish(Bool(False))
-            self.statusBar().showMessage("help request answered: the tree resumes", 15000)
-        if index == HIGH_LEVEL_TAB:
-            self.high_level.reset()
-        elif index in TEACHING_TABS and not self._session:
-            self._begin_session()
+        self._carry_out(self.session.tab_changed(index))
+
+    def _carry_out(self, actions) -> None:
+        """Do what the teaching session says (teleteach.gui.session), in its order."""
+        for action in actions:
+            self._actions[action]()
 
     # HIGH-LEVEL -----------------------------------------------------------------------------------
     def _send_change(self, request: ChangeRequest) -> None:
@@ -223,24 +225,13 @@ class MainWindow(QMainWindow):
         )
         self.services.call("switch:" + start, SWITCH_SERVICE, SwitchController, request)
 
-    def _begin_session(self) -> None:
-        """Pause the tree and hand the arm to the impedance controller (thesis III-A)."""
-        self._session = True
-        self._pause_publisher.publish(Bool(True))
-        self._switch(self.config.impedance_controller, self.config.position_controller)
-
-    def _end_session(self) -> None:
-        """Position controller back, tree running again."""
-        self._session = False
-        self._switch(self.config.position_controller, self.config.impedance_controller)
-        self._pause_publisher.publish(Bool(False))
+    def _pause_tree(self, paused: bool) -> None:
+        self._pause_publisher.publish(Bool(paused))
 
     def _toggle_recording(self) -> None:
-        if self.recorder.active:
-            self._stop_recording()
-            return
-        if not self._session:
-            self._begin_session()
+        self._carry_out(self.session.toggle_stiffness_recording())
+
+    def _start_recording(self) -> None:
         self.recorder.start()
         self._recording_publisher.publish(Bool(True))
         self.player.start()
@@ -248,13 +239,14 @@ class MainWindow(QMainWindow):
         self.statusBar().showMessage(f"recording: playing trajectory {self.trajectory.name}", 5000)
 
     def _stop_recording(self) -> None:
-        """Save the demonstration as a new skill, add it to the library, end the teaching session (III-E)."""
         self.recorder.stop()
         self._recording_publisher.publish(Bool(False))
         self.player.stop()
         self.low_level.recording_since = None
+
+    def _save_stiffness_skill(self) -> None:
+        """The demonstration becomes a new skill of the library (III-E)."""
         self._save_recording(self.recorder, "stiffness", self.config.skill_prefix, {"trajectory": self.trajectory.name})
-        self._end_session()
 
     def _save_recording(self, recorder: StiffnessRecorder, kind: str, prefix: str, provenance: dict) -> None:
         """A stopped recording -> skill file in data_dir()/skills -> /behaviour_tree/add_skill (failures: status)."""
@@ -280,28 +272,26 @@ class MainWindow(QMainWindow):
     # SHARED CONTROL -------------------------------------------------------------------------------
     def _toggle_shared_recording(self) -> None:
         """Double click in SHARED CONTROL: record the MPC's /equilibrium_pose and /cartesian_pose, or stop."""
-        if self.shared_recorder.active:
-            self._stop_shared_recording(end_session=False)
-            return
-        if not self._session:
-            self._begin_session()
+        self._carry_out(self.session.toggle_shared_recording())
+
+    def _start_shared_recording(self) -> None:
         self.shared_recorder.start()
         self._recording_publisher.publish(Bool(True))
         self.shared_control.recording_since = time.monotonic()
         self.statusBar().showMessage("recording the shared-control trajectory", 5000)
 
-    def _stop_shared_recording(self, end_session: bool) -> None:
-        """Save the shared-control recording as a ``shared_control`` skill; the session goes on in the tab."""
+    def _stop_shared_recording(self) -> None:
         self.shared_recorder.stop()
         self._recording_publisher.publish(Bool(False))
         self.shared_control.recording_since = None
         self.shared_control.show_status(self.shared_control.status)
+
+    def _save_shared_skill(self) -> None:
+        """The shared-control recording becomes a ``shared_control`` skill."""
         stiffness = [float(value) for value in self.config.shared_control_stiffness]
         self._save_recording(
             self.shared_recorder, "shared_control", self.config.shared_skill_prefix, {"stiffness": stiffness}
         )
-        if end_session:
-            self._end_session()
 
     # service answers ------------------------------------------------------------------------------
     def _on_service(self, key: str, success: bool, message: str, response) -> None:
@@ -343,12 +333,7 @@ class MainWindow(QMainWindow):
     def shutdown(self) -> None:
         """Idempotent: what closing the window does."""
         if self.thread.isRunning():
-            if self.recorder.active:
-                self._stop_recording()
-            elif self.shared_recorder.active:
-                self._stop_shared_recording(end_session=True)
-            elif self._session:
-                self._end_session()
+            self._carry_out(self.session.shutdown())
             self.player.stop()
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)
             self.thread.quit()

@@ -25,6 +25,11 @@ class Tab(enum.IntEnum):
     LOW_LEVEL = 2
     SHARED_CONTROL = 3
 
+    @property
+    def title(self) -> str:
+        """The tab's title as the operator reads it (START, HIGH-LEVEL, LOW-LEVEL, SHARED CONTROL)."""
+        return self.name.replace("_LEVEL", "-LEVEL").replace("_", " ")
+
 
 TEACHING_TABS = (Tab.LOW_LEVEL, Tab.SHARED_CONTROL)  # the tree pauses and the impedance controller drives the arm
 

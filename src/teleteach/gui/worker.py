@@ -25,11 +25,10 @@ from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
+from teleteach.gui.session import Tab
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
-
-LOW_LEVEL_TAB, SHARED_CONTROL_TAB = 2, 3
 
 
 def pose_to_array(pose) -> np.ndarray:
@@ -267,7 +266,7 @@ class RosWorker(QObject):
             sample = self._filter.apply(raw)
             self._sample = sample
             self._sample_seq += 1
-        if self.active_tab == LOW_LEVEL_TAB and self.command.device(sample):
+        if self.active_tab == Tab.LOW_LEVEL and self.command.device(sample):
             self._publish(urgent=True)
 
     def _on_button(self, message: Bool) -> None:
@@ -354,7 +353,7 @@ class RosWorker(QObject):
 
     def _on_equilibrium(self, message: PoseStamped) -> None:
         """In SHARED CONTROL the MPC's equilibrium pose is recorded with the constant stiffness."""
-        if self.active_tab == SHARED_CONTROL_TAB and self.shared_recorder.active:
+        if self.active_tab == Tab.SHARED_CONTROL and self.shared_recorder.active:
             stiffness = np.diag(np.asarray(self.config.shared_control_stiffness, dtype=float))
             self.shared_recorder.add(
                 message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self._cartesian
@@ -365,10 +364,10 @@ class RosWorker(QObject):
         """The steady stream (and the recording's samples) at publish_rate while LOW-LEVEL is active."""
         if rospy.is_shutdown():
             return  # Ctrl-C closed the publishers; the window closes within the watchdog's period
-        if self.active_tab == SHARED_CONTROL_TAB:
+        if self.active_tab == Tab.SHARED_CONTROL:
             self._send_stiffness(self.config.shared_control_stiffness, (0.0, 0.0, 0.0, 1.0))
             return
-        if self.active_tab != LOW_LEVEL_TAB:
+        if self.active_tab != Tab.LOW_LEVEL:
             return
         stamp = self._publish(urgent=False)
         if self.recorder.active:

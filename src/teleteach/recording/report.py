@@ -25,10 +25,10 @@ from matplotlib.patches import Ellipse
 
 from teleteach.control.stiffness import translational_stiffness
 from teleteach.datadir import atomic_write_bytes, atomic_write_text
+from teleteach.gui.session import Tab
 from teleteach.recording.session import Series, Session, TreeSnapshot, read_session, yaw_of
 
-TAB_NAMES = {0: "START", 1: "HIGH-LEVEL", 2: "LOW-LEVEL", 3: "SHARED CONTROL"}
-TAB_COLOURS = {1: "#d9f2d9", 2: "#f8d7d7", 3: "#d7e3f8"}
+TAB_COLOURS = {Tab.HIGH_LEVEL: "#d9f2d9", Tab.LOW_LEVEL: "#f8d7d7", Tab.SHARED_CONTROL: "#d7e3f8"}
 AXIS_COLOURS = {"dark": ("#b2182b", "#1a7a1a", "#2b4fb2"), "light": ("#f4a6a6", "#9be09b", "#a6bdf4")}
 ELLIPSES_OVER_TIME = 12
 
@@ -110,7 +110,7 @@ def _shade_tabs(axes, session: Session) -> None:
     labelled = set()
     for start, end, value in zip(boundaries[:-1], boundaries[1:], tab.values[:, 0].astype(int)):
         if value in TAB_COLOURS:
-            label = TAB_NAMES[value] if value not in labelled else None
+            label = Tab(value).title if value not in labelled else None
             labelled.add(value)
             axes.axvspan(start, end, color=TAB_COLOURS[value], alpha=0.6, lw=0, label=label)
 

@@ -14,6 +14,7 @@ import numpy as np
 from py_trees.common import Status
 
 from teleteach import placement
+from teleteach.gui.session import Tab
 from teleteach.recording.session import Session
 from teleteach.sim.scene import Scene
 from teleteach.skill_file import Skill, SkillFileError
@@ -89,7 +90,6 @@ def alignment_axis_yaw(skill: Skill, trajectory: str = "perpendicular") -> float
 
 
 LOW_LEVEL_TEACHING = "LOW-LEVEL teaching"  # by_skill of a product set down while the operator taught it
-LOW_LEVEL_TAB = 2  # /teleteach/active_tab of LOW-LEVEL
 REST = 0.005  # [m] a product within this of its final position has come to rest there
 
 
@@ -127,7 +127,7 @@ def _set_down_by(session: Session, time: float) -> Optional[str]:
     running = [name for name in (snapshots[-1].running if snapshots else ()) if name != "PauseCondition"]
     if running:
         return running[0]
-    if session.active_tab is not None and len(session.active_tab) and session.active_tab.at(time) == LOW_LEVEL_TAB:
+    if session.active_tab is not None and len(session.active_tab) and session.active_tab.at(time) == Tab.LOW_LEVEL:
         return LOW_LEVEL_TEACHING
     return None
 

@@ -22,6 +22,7 @@ from py_trees.common import Status
 from teleteach.bt.library import SkillLibrary
 from teleteach.bt.tree import TreeSpec, load_tree
 from teleteach.datadir import atomic_write_text, data_dir
+from teleteach.gui.session import Tab
 from teleteach.haptics.scenario import load_scenario
 from teleteach.paths import config_file, share_dir
 from teleteach.recording.report import make_report
@@ -36,7 +37,6 @@ TREE_FILE = config_file("tree.yaml")
 SKILLS_FILE = config_file("skills.yaml")
 RVIZ_CONFIG = share_dir() / "rviz" / "teleteach.rviz"
 EXECUTION = "BehaviorExecution"
-TAB_NAMES = {0: "start", 1: "high_level", 2: "low_level", 3: "shared_control"}
 # teleteach/Behaviour's status constants (INVALID, RUNNING, SUCCESS, FAILURE) as py_trees' statuses
 STATUSES = {1: Status.INVALID, 2: Status.RUNNING, 3: Status.SUCCESS, 4: Status.FAILURE}
 
@@ -205,7 +205,7 @@ class TabScreenshots:
             now = time.monotonic()
             if tab is None or now - since < 1.5 or (last and now - last < self.period):
                 continue
-            name = f"gui_{visit:02d}_{TAB_NAMES.get(tab, str(tab))}"
+            name = f"gui_{visit:02d}_{Tab(tab).name.lower() if tab in list(Tab) else tab}"
             path = self.folder / (f"{name}.png" if not last else f"{name}_latest.png")
             self.take(path)
             with self._lock:
