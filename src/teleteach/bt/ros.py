@@ -10,7 +10,6 @@ something.
 import io
 import pathlib
 import struct
-import sys
 import time
 import typing
 
@@ -78,7 +77,14 @@ class PreserializedTree(BehaviourTree):
 
 
 class ActionClients:
-    """One actionlib client per skill server, shared by all leaves of that skill (each leaf has its own goal)."""
+    """One actionlib client per skill server, shared by all leaves of that skill (each leaf has its own goal).
+
+    Which node serves a skill, and whether that very node is still connected, is not in actionlib's or rospy's public
+    API: it is read from rospy's connection objects (``Publisher.impl.has_connection``, ``Subscriber.impl.connections``
+    and their ``callerid_pub``) and the messages' ``_connection_header``, as ``ActionClient.wait_for_server`` itself
+    does. It is worth it: a respawned server is a different node that has forgotten the goal, and only the caller id
+    tells it apart. test/ros/test_bt_action_internals.py pins that layout against the installed rospy.
+    """
 
     def __init__(self, namespace: str = "/skills"):
         self.namespace = namespace.rstrip("/")
@@ -267,9 +273,6 @@ class BehaviourTreeNode:
         self.tick_rate = tick_rate
         self.clients = clients
         self.startup_timeout = startup_timeout
-        # Publishing a 1000-node log/tree after an edit is ~2 ms of pure Python; a short GIL switch interval keeps
-        # /change_tree answers from waiting behind it (5 ms slices by default).
-        sys.setswitchinterval(0.0005)
         latched = {"queue_size": 1, "latch": True}
         self.log_publisher = rospy.Publisher("/behaviour_tree/log/tree", BehaviourTree, **latched)
         self.tip_publisher = rospy.Publisher("/behaviour_tree/tip", Behaviour, **latched)
