@@ -262,7 +262,9 @@ class DropItem(PredefinedSkill):
         return f"{product} is on the shelf in {result.gap}, {1000.0 * result.distance_m:.1f} mm from its centre"
 
 
-def release(world: WorldView, product: str, before: Dict[str, np.ndarray], progress: float) -> Placement:
+def release(
+    world: WorldView, product: str, before: Dict[str, np.ndarray], progress: float, only_in_gap: bool = False
+) -> Placement:
     """Open the gripper, pull the hand straight back out of the shelf, tuck the arm in, and judge the placement.
 
     The product is judged against the gap nearest to the hand when it lets go: the one it was being put into.
@@ -272,12 +274,18 @@ def release(world: WorldView, product: str, before: Dict[str, np.ndarray], progr
         product: the product in the hand.
         before: every product's position [m] before it was placed (for the neighbours).
         progress: the share of the skill's progress these three phases take.
+        only_in_gap: keep the product in the hand unless it already stands in the gap (a placement that missed
+            must not drop it in front of the shelf).
 
     Raises:
         SkillError: the product is still held, or does not stand upright in a gap, or pushed a neighbour.
     """
     motion, place = world.motion, world.config.place
     gap = world.gap_near_hand()
+    if only_in_gap:
+        held = world.placement(product, before, gap.name)
+        if held.gap is None:
+            raise SkillError(f"{held.problems(gap.name)[0]}; it is still in the hand")
     motion.execution.phase("release", 0.25 * progress)
     motion.gripper(world.config.gripper.release_width)
     tcp, orientation = motion.tcp_pose()

@@ -111,7 +111,8 @@ class StiffnessReplay:
 
     Approach the skill's start, switch to impedance control, play the recorded stiffness and reference, switch back,
     release the product and retreat: the skill succeeds only when the product then stands upright in the gap the
-    playback ended at, without pushing its neighbours. With no product in the hand it fails before moving.
+    playback ended at, without pushing its neighbours. With no product in the hand it fails before moving; when the
+    playback leaves the product outside the gap it fails without letting it go (it would fall).
     """
 
     def run(self, world: WorldView, parameters: str) -> str:
@@ -152,7 +153,7 @@ class StiffnessReplay:
         error = float(np.linalg.norm(robot.cartesian_pose()[0] - plan.positions[-1]))
         motion.execution.phase("switch to position control", 0.05)
         robot.switch_controllers([config.position_controller], [config.impedance_controller])
-        placed = release(world, product, before, progress=0.15)
+        placed = release(world, product, before, progress=0.15, only_in_gap=True)
         return (
             f"replayed {skill.name} ({skill.kind}): {len(plan.times)} samples over {plan.duration:.2f} s, "
             f"final end-effector error {1000.0 * error:.1f} mm; {product} released upright in {placed.gap}, "
