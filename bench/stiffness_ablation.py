@@ -48,7 +48,6 @@ BENCH = pathlib.Path(__file__).resolve().parent
 SCENE_FILE = BENCH / "scenes" / "tight_gap.yaml"
 SKILL_FILE = BENCH / "data" / "DemonstratedPlace_1.npz"
 RESULTS = BENCH / "results" / "stiffness_ablation.json"
-PLOT = RESULTS.with_suffix(".png")
 
 PRODUCT = "product_pick_1"
 GAP = "gap_1"
@@ -59,6 +58,13 @@ MAX_OFFSET = 0.01  # [m] largest base position error, in x and in y
 MAX_YAW = math.radians(2.0)  # [rad] largest base yaw error
 SEED = 14
 PROFILES = ("constant_low", "constant_high", "taught")
+
+
+def results_file(scene_file: pathlib.Path) -> pathlib.Path:
+    """Where the results of a scene go: RESULTS for the default scene, a name with the scene's otherwise."""
+    if scene_file.resolve() == SCENE_FILE:
+        return RESULTS
+    return RESULTS.with_name(f"{RESULTS.stem}_{scene_file.stem}.json")
 
 
 def base_pose_errors(trials: int, seed: int = SEED) -> np.ndarray:
@@ -255,9 +261,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=int, default=20, help="trials per stiffness profile (default 20)")
     parser.add_argument("--seed", type=int, default=SEED, help=f"seed of the base pose errors (default {SEED})")
+    parser.add_argument(
+        "--scene",
+        type=pathlib.Path,
+        default=SCENE_FILE,
+        help="scene file with gap_1, the product and its neighbours (default bench/scenes/tight_gap.yaml)",
+    )
     options = parser.parse_args()
     started = time.perf_counter()
-    scene = load_scene(str(SCENE_FILE))
+    scene = load_scene(str(options.scene))
     taught = skill_file.load(SKILL_FILE)
     config = load_motion_config()
     kinematics = PandaKinematics(scene.robot.mount_height)
@@ -293,7 +305,7 @@ def main():
         "settings": {
             "trials": options.trials,
             "seed": options.seed,
-            "scene_file": str(SCENE_FILE.relative_to(BENCH.parent)),
+            "scene_file": str(options.scene),
             "skill_file": str(SKILL_FILE.relative_to(BENCH.parent)),
             "gap_width_m": gap.width,
             "clearance_m": (gap.width - scene.product(PRODUCT).size[1]) / 2.0,
@@ -310,10 +322,11 @@ def main():
         "trials": trials,
     }
     print_table(results)
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(results, indent=2))
-    plot(results, PLOT)
-    print(f"wrote {RESULTS} and {PLOT} ({results['settings']['total_wall_s']:.0f} s)")
+    path = results_file(options.scene)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(results, indent=2))
+    plot(results, path.with_suffix(".png"))
+    print(f"wrote {path} and {path.with_suffix('.png')} ({results['settings']['total_wall_s']:.0f} s)")
 
 
 if __name__ == "__main__":
