@@ -59,21 +59,21 @@ class JointCommand:
 
 @dataclass
 class ImpedanceParams:
-    """Gains and limits of the Cartesian impedance controller (config/controllers.yaml documents each)."""
+    """Gains and limits of the Cartesian impedance controller, each set and documented in config/controllers.yaml."""
 
-    rotational_stiffness: float = 30.0
-    max_stiffness: float = 3000.0
-    initial_eigenvalues: tuple = (500.0, 500.0, 500.0)
-    damping: str = MASS_AWARE
-    translational_damping_ratio: float = 1.0
-    rotational_damping_ratio: float = 1.0
-    nullspace_stiffness: float = 2.0
-    max_position_error: float = 0.05
-    max_orientation_error: float = 0.15
-    stiffness_filter: float = 0.005
-    max_torque_step: float = 1.0
-    model_update_period: int = 10
-    reference_velocity_timeout: float = 0.05
+    rotational_stiffness: float
+    max_stiffness: float
+    initial_eigenvalues: tuple
+    damping: str
+    translational_damping_ratio: float
+    rotational_damping_ratio: float
+    nullspace_stiffness: float
+    max_position_error: float
+    max_orientation_error: float
+    stiffness_filter: float
+    max_torque_step: float
+    model_update_period: int
+    reference_velocity_timeout: float
 
     def __post_init__(self):
         if self.damping not in DAMPING_KINDS:

@@ -4,6 +4,7 @@ The ROS node (teleteach.sim.ros_node) calls these methods from its callbacks and
 benchmarks call them directly.
 """
 
+import dataclasses
 import pathlib
 
 import numpy as np
@@ -24,9 +25,29 @@ TRAJECTORY = "position_joint_trajectory_controller"
 BASE_FRAME = "base_link"
 
 
+class ControllerConfigError(ValueError):
+    """The controller settings lack a value or hold a wrong one; the message names the file's section and field."""
+
+
 def load_controller_config(path=None):
     """The controller settings (config/controllers.yaml by default) as a dict."""
     return yaml.safe_load(pathlib.Path(path or DEFAULT_CONTROLLER_FILE).read_text())
+
+
+def impedance_params(config) -> ImpedanceParams:
+    """The impedance controller's gains from the controller settings (every one must be there: no code defaults)."""
+    values = dict(config.get(IMPEDANCE) or {})
+    fields = [field.name for field in dataclasses.fields(ImpedanceParams)]
+    missing = [name for name in fields if name not in values]
+    unknown = sorted(set(values) - set(fields))
+    if missing or unknown:
+        said = [f"missing {', '.join(missing)}" if missing else "", f"unknown {', '.join(unknown)}" if unknown else ""]
+        raise ControllerConfigError(f"controller settings, {IMPEDANCE}: {'; '.join(filter(None, said))}")
+    values["initial_eigenvalues"] = tuple(values["initial_eigenvalues"])
+    try:
+        return ImpedanceParams(**values)
+    except ValueError as error:
+        raise ControllerConfigError(f"controller settings, {IMPEDANCE}: {error}") from None
 
 
 class RobotSim:
@@ -57,9 +78,7 @@ class RobotSim:
             solver_residual_threshold=float(simulation["solver_residual_threshold"]),
         )
         self.max_age = float(self.config["command_validation"]["max_age"])
-        impedance_params = dict(self.config[IMPEDANCE])
-        impedance_params["initial_eigenvalues"] = tuple(impedance_params["initial_eigenvalues"])
-        self.impedance = CartesianImpedanceController(ImpedanceParams(**impedance_params))
+        self.impedance = CartesianImpedanceController(impedance_params(self.config))
         self.trajectory = JointTrajectoryController()
         self.manager = ControllerManager({TRAJECTORY: self.trajectory, IMPEDANCE: self.impedance}, panda.ARM_JOINTS)
         self._eigenvalues = self.impedance.eigenvalues.copy()

@@ -1,0 +1,71 @@
+"""Defaults live in the yaml files: a parameter dataclass either has no code default for a value its yaml sets, or
+the same one, so that reading the code never misleads about what runs; a missing value is named in one line."""
+
+import dataclasses
+
+import pytest
+import yaml
+from conftest import ROOT
+
+from teleteach.control.impedance import ImpedanceParams
+from teleteach.gui.config import GuiConfig
+from teleteach.haptics.click import ClickParameters
+from teleteach.haptics.node import Sigma7Config
+from teleteach.sim.robot_sim import ControllerConfigError, impedance_params, load_controller_config
+
+
+def config(name, *section):
+    data = yaml.safe_load((ROOT / "config" / name).read_text())
+    for key in section:
+        data = data[key]
+    return data
+
+
+def comparable(value):
+    if dataclasses.is_dataclass(value):
+        return comparable(dataclasses.asdict(value))
+    if isinstance(value, dict):
+        return {key: comparable(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [comparable(item) for item in value]
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    return value
+
+
+@pytest.mark.parametrize(
+    "parameters, yaml_values",
+    [
+        (ImpedanceParams, config("controllers.yaml", "cartesian_impedance_controller")),
+        (GuiConfig, config("gui.yaml")),
+        (Sigma7Config, config("device.yaml")),
+        (ClickParameters, config("device.yaml", "click")),
+    ],
+    ids=["impedance", "gui", "sigma7", "click"],
+)
+def test_no_code_default_disagrees_with_its_yaml(parameters, yaml_values):
+    disagreeing = {}
+    for field in dataclasses.fields(parameters):
+        if field.name not in yaml_values:
+            continue
+        if field.default is not dataclasses.MISSING:
+            default = field.default
+        elif field.default_factory is not dataclasses.MISSING:
+            default = field.default_factory()
+        else:
+            continue
+        if comparable(default) != comparable(yaml_values[field.name]):
+            disagreeing[field.name] = (default, yaml_values[field.name])
+    assert disagreeing == {}
+
+
+def test_the_impedance_gains_come_only_from_the_yaml_and_a_missing_one_is_named():
+    settings = load_controller_config()
+    assert impedance_params(settings).initial_eigenvalues == (800.0, 800.0, 800.0)
+    del settings["cartesian_impedance_controller"]["nullspace_stiffness"]
+    settings["cartesian_impedance_controller"]["nullspace_damping"] = 1.0
+    with pytest.raises(ControllerConfigError) as error:
+        impedance_params(settings)
+    assert str(error.value) == (
+        "controller settings, cartesian_impedance_controller: missing nullspace_stiffness; unknown nullspace_damping"
+    )
