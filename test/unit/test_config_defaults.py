@@ -10,7 +10,7 @@ from conftest import ROOT
 from teleteach.control.impedance import ImpedanceParams
 from teleteach.gui.config import GuiConfig
 from teleteach.haptics.click import ClickParameters
-from teleteach.haptics.node import Sigma7Config
+from teleteach.haptics.ros import Sigma7Config
 from teleteach.sim.robot_sim import ControllerConfigError, impedance_params, load_controller_config
 
 

@@ -15,7 +15,7 @@ import time
 import pytest
 import roslib.packages
 
-from teleteach.haptics.node import Sigma7Config
+from teleteach.haptics.ros import Sigma7Config
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 

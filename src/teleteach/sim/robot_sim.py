@@ -1,6 +1,6 @@
 """The simulated robot without ROS: world + controller manager + validated command entry points.
 
-The ROS node (teleteach.sim.ros_node) calls these methods from its callbacks and `tick()` from its loop; tests and
+The ROS node (teleteach.sim.ros) calls these methods from its callbacks and `tick()` from its loop; tests and
 benchmarks call them directly.
 """
 

@@ -1,6 +1,6 @@
 """The small robot interface the skills run on, and how a running skill reports and gets stopped.
 
-The ROS layer (:mod:`teleteach.skills.ros_robot`) implements :class:`Robot` over topics, TF and services; anything
+The ROS layer (:mod:`teleteach.skills.ros`) implements :class:`Robot` over topics, TF and services; anything
 else that can report joint states, product poses and the base pose and take joint trajectories, gripper widths and
 base goals (a simulation stepped in-process, for example) can run the same skills.
 """
