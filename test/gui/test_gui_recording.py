@@ -64,8 +64,10 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     device.click()
     pump_until(qapp, lambda: window.tabs.currentIndex() == 2, 5, "LOW-LEVEL")
     pump_until(qapp, lambda: pause_log.last() is not None and pause_log.last().data, 5, "the BT paused")
-    pump_until(qapp, lambda: IMPEDANCE in window.low_level.controller_label.text(), 15, "the impedance controller")
-    assert "active" in window.low_level.controller_label.text(), window.low_level.controller_label.text()
+    # the label says "switching to <controller>..." first: wait for the switch's answer
+    label = window.low_level.controller_label
+    pump_until(qapp, lambda: not label.text().startswith("controller: switching"), 30, "the controller switch answer")
+    assert label.text() == f"controller: {IMPEDANCE} active", label.text()
     assert IMPEDANCE in running_controllers()
 
     # compliant approach (phase 1), then stiff along Y (phase 2), as in thesis III-C
