@@ -74,6 +74,7 @@ class ImpedanceParams:
     max_torque_step: float
     model_update_period: int
     reference_velocity_timeout: float
+    max_reference_acceleration: float
 
     def __post_init__(self):
         if self.damping not in DAMPING_KINDS:
@@ -84,6 +85,8 @@ class ImpedanceParams:
             raise ValueError("model_update_period must be >= 1 tick")
         if not self.reference_velocity_timeout >= 0.0:
             raise ValueError("reference_velocity_timeout must be >= 0 s")
+        if not self.max_reference_acceleration >= 0.0:
+            raise ValueError("max_reference_acceleration must be >= 0")
 
 
 def orientation_error(quaternion, reference):
@@ -161,12 +164,19 @@ class CartesianImpedanceController:
 
         It is used for ``reference_velocity_timeout`` after ``time``, then counts as zero, so a reference that comes
         without one (e.g. a trajectory player) is held as before. The reference acceleration is the difference of
-        two velocities that arrive within that time.
+        two velocities that arrive within that time, its norm capped at ``max_reference_acceleration``.
         """
         velocity = np.concatenate((np.asarray(linear, dtype=float), np.asarray(angular, dtype=float)))
         elapsed = float(time) - self.reference_velocity_time
         if 0.0 < elapsed <= self.params.reference_velocity_timeout:
-            self.reference_acceleration = (velocity - self.reference_velocity) / elapsed
+            acceleration = (velocity - self.reference_velocity) / elapsed
+            # A jump of the reference velocity (a mode change, a missed cycle) must not become a force impulse.
+            limit = self.params.max_reference_acceleration
+            for part in (acceleration[:3], acceleration[3:]):
+                norm = float(np.linalg.norm(part))
+                if norm > limit:
+                    part *= limit / norm
+            self.reference_acceleration = acceleration
         else:
             self.reference_acceleration = np.zeros(6)
         self.reference_velocity = velocity
