@@ -7,13 +7,15 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import pump, pump_until, start, stop
+import yaml
+from conftest import ROOT, pump, pump_until, start, stop
 from geometry_msgs.msg import PoseStamped, Vector3Stamped
 from test_gui_recording import robot_sim  # noqa: F401 - the fixture
 
 from teleteach import skill_file
 from teleteach.msg import SharedControlState, SkillLibrary
 from teleteach.shared_control.models import synthetic_commands
+from teleteach.shared_control.ros import TaskPlane
 
 pytestmark = pytest.mark.gui
 BOUNDARY = (-0.25, -0.15, 0.25, 0.15)  # config/shared_control.yaml
@@ -37,8 +39,7 @@ class Operator:
         for x, y in self._commands:
             if self._stop.is_set() or self._rospy.is_shutdown():
                 return
-            message = Vector3Stamped()
-            message.header.stamp = self._rospy.Time.now()
+            message = Vector3Stamped()  # stamp 0 = "now" for the node: this process is not on the sim's /clock
             message.vector.x, message.vector.y = float(x), float(y)
             self._publisher.publish(message)
             rate.sleep()
@@ -133,8 +134,9 @@ def test_shared_control_tab_shows_the_plan_and_records_a_skill(
     assert skill.kind == "shared_control"
     assert np.allclose(skill.stiffness, np.diag([500.0, 500.0, 500.0]))
     # the recorded equilibrium is the MPC's: on the task plane (config/shared_control.yaml), inside the boundary
-    assert np.allclose(skill.equilibrium_pose[:, 0], 0.55, atol=1e-6)
-    planar = np.column_stack([skill.equilibrium_pose[:, 1], skill.equilibrium_pose[:, 2] - 0.45])
+    plane = TaskPlane.from_params(yaml.safe_load((ROOT / "config" / "shared_control.yaml").read_text())["plane"])
+    planar = np.array([plane.to_plane(position) for position in skill.equilibrium_pose[:, :3]])
+    np.testing.assert_allclose([plane.to_base(point) for point in planar], skill.equilibrium_pose[:, :3], atol=1e-6)
     assert inside(planar)
     assert np.ptp(planar[:, 0]) > 0.01  # the robot moved
     assert np.all(np.isfinite(skill.cartesian_pose))
