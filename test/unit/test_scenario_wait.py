@@ -89,6 +89,10 @@ def test_the_device_holds_the_waiting_keyframe_until_the_system_is_ready():
     assert backend.read(103.1).gripper < 0.2
     assert backend.read(103.5).position[1] == pytest.approx(0.025)
     assert not backend.finished and backend.failure == ""
+    # Expect: played only once the last keyframe is reached on the scenario's clock, which stood still 2 s
+    assert not backend.played  # at 103.5, 1.5 s of the 2 s scenario
+    backend.read(104.1)
+    assert backend.played
 
 
 def test_a_wait_that_times_out_fails_the_scenario_naming_the_keyframe():

@@ -99,6 +99,7 @@ class MainWindow(QMainWindow):
         self.worker = RosWorker(config, self.command, self.recorder, self.shared_recorder)
         self.worker.equilibrium = self.player.current
         self.low_level.last_click = lambda: self.worker.last_click
+        self.low_level.device_time = lambda: self.worker.device_time
         self.thread = QThread(self)
         self.thread.setObjectName("ros_worker")
         self.worker.moveToThread(self.thread)

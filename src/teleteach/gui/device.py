@@ -86,9 +86,10 @@ class ClickClassifier:
     """Tells single clicks from double clicks (LOW-LEVEL: click = next mode, double click = start/stop recording).
 
     A click is reported as single only once the double-click window has passed without a second click. Clicks are
-    stamped where they arrive (the worker's ROS thread), not where the GUI thread gets to them: a busy GUI thread
-    then neither splits a double click into two singles nor joins two singles into a double. ``poll`` is told when
-    the last click arrived, so it does not call a click single while the next one is still on its way to the GUI.
+    stamped with the device's own clock (the stamp of its latest pose), not when the GUI thread gets to them: a busy
+    GUI thread or a slow simulation then neither splits a double click into two singles nor joins two singles into a
+    double. ``poll`` is told when the last click arrived, so it does not call a click single while the next one is
+    still on its way to the GUI.
     """
 
     SINGLE = "single"

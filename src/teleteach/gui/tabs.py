@@ -379,7 +379,8 @@ class LowLevelTab(QWidget):
         self.recording_since: Optional[float] = None
         self.recorded_samples = lambda: 0
         self.clicks = ClickClassifier(config.double_click_window)
-        self.last_click: Callable[[], float] = lambda: -math.inf  # when the last click arrived (the worker's clock)
+        self.last_click: Callable[[], float] = lambda: -math.inf  # when the last click arrived (the device's clock)
+        self.device_time: Callable[[], float] = time.monotonic  # the device's clock now (the worker's, when wired)
         self._drawn_version = -1
 
         layout = QHBoxLayout(self)
@@ -448,7 +449,7 @@ class LowLevelTab(QWidget):
         """Capped repaint: mode changes from pending clicks, then redraw only what changed."""
         if not self.active:
             return
-        if self.clicks.poll(time.monotonic(), self.last_click()) == ClickClassifier.SINGLE:
+        if self.clicks.poll(self.device_time(), self.last_click()) == ClickClassifier.SINGLE:
             self.command.next_mode()
         version = self.command.state()[3]
         if version != self._drawn_version:

@@ -158,7 +158,7 @@ class RosWorker(QObject):
     """
 
     device_changed = pyqtSignal(object)  # DeviceSample, at most device_ui_rate
-    clicked = pyqtSignal(float)  # time.monotonic() when the click arrived here
+    clicked = pyqtSignal(float)  # the device's clock at the click: the stamp of its latest pose
     gripper_opened = pyqtSignal()
     tree_received = pyqtSignal(object)  # TreeSnapshot
     library_received = pyqtSignal(object)  # list of LibrarySkill
@@ -199,7 +199,8 @@ class RosWorker(QObject):
         self._last_seen = {}
         self._rejected = 0
         self._health: Optional[str] = None
-        self.last_click = -math.inf  # time.monotonic() of the last click that arrived
+        self.last_click = -math.inf  # the device's clock at the last click that arrived
+        self.device_time = 0.0  # the device's clock: the header stamp of its latest pose [s]
         self._subscribers: Dict[str, rospy.Subscriber] = {}
         self._timers: List[QTimer] = []
 
@@ -258,6 +259,7 @@ class RosWorker(QObject):
         p, q = message.pose.position, message.pose.orientation
         raw = parse_pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w), self.config)
         self._last_seen["/sigma7/pose"] = time.monotonic()
+        self.device_time = message.header.stamp.to_sec() or self.device_time
         if raw is None:
             self._rejected += 1
             rospy.logwarn_throttle(5.0, f"teaching_gui: ignored {self._rejected} NaN or out-of-range device poses")
@@ -271,7 +273,9 @@ class RosWorker(QObject):
 
     def _on_button(self, message: Bool) -> None:
         if self._button.update(1.0 if message.data else 0.0):
-            self.last_click = time.monotonic()
+            # the click is timed by the device that made it (ROS time of the device node: simulated time when a
+            # scenario plays it), so neither a slow simulation nor a busy GUI splits or joins a double click
+            self.last_click = self.device_time
             self.clicked.emit(self.last_click)
 
     def _on_gripper(self, message: Float64) -> None:

@@ -157,11 +157,23 @@ class Sigma7Node:
             f"playing {scenario.source} ({len(scenario.keyframes)} keyframes, {scenario.duration:g} s, "
             f"{len(scenario.click_times())} clicks) from ROS time {start_time:.3f}"
         )
-        if not scenario.waits:
-            return ScenarioBackend(scenario, start_time, config.at_end)
-        from teleteach.haptics.system_view import RosSystemView
+        if scenario.waits:
+            from teleteach.haptics.system_view import RosSystemView
 
-        return ScenarioBackend(scenario, start_time, config.at_end, system=RosSystemView())
+            backend = ScenarioBackend(scenario, start_time, config.at_end, system=RosSystemView())
+        else:
+            backend = ScenarioBackend(scenario, start_time, config.at_end)
+        self._played_timer = rospy.Timer(rospy.Duration(0.1), lambda _: self._note_played(backend))
+        return backend
+
+    def _note_played(self, backend: ScenarioBackend) -> None:
+        """Set ~scenario_played once the last keyframe has been played.
+
+        With waits, nobody can tell the end from the start time and the duration; the main job waits for this.
+        """
+        if backend.played:
+            rospy.set_param("~scenario_played", True)
+            self._played_timer.shutdown()
 
     @staticmethod
     def _wait_for_ros_time() -> float:

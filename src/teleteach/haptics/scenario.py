@@ -377,6 +377,11 @@ class ScenarioBackend(DeviceBackend):
                 self._late_click_at = time
 
     @property
+    def played(self) -> bool:
+        """True once the last keyframe has been played (waits included)."""
+        return self._elapsed > self.duration
+
+    @property
     def finished(self) -> bool:
         """True once a wait timed out, or once the last keyframe has been played if the scenario should end there."""
         return bool(self.failure) or (self._at_end == "exit" and self._elapsed > self.duration)

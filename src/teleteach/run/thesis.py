@@ -62,7 +62,6 @@ class Options:
     stiffer_insertion: bool = True  # III-C's peg-in-hole X stiffening (III-D omits it)
     alignment_yaw: Optional[float] = None  # [deg] III-D: direction of the stiffest horizontal axis after alignment
     device_rate: float = 250.0
-    double_click_window: float = 1.2  # [s] wall: tolerates a simulation at 0.3x real time (clicks 0.35 s apart)
 
 
 def options_for(scenario: pathlib.Path, **overrides) -> Options:
@@ -334,7 +333,6 @@ class ThesisRun:
                 "device:=scenario",
                 f"scenario:={options.scenario}",
                 f"device_rate:={options.device_rate:g}",
-                f"double_click_window:={options.double_click_window:g}",
                 f"tree:={options.tree}",
                 f"trajectory:={options.trajectory}",
                 "record:=true",
@@ -374,16 +372,20 @@ class ThesisRun:
     def _wait(self, monitor: Monitor, launch, duration: float, rospy) -> Tuple[bool, str]:
         """Until the scenario has ended and the tree has finished, roslaunch died or the wall time is up."""
         deadline = time.monotonic() + self.options.timeout
-        start = None
+        start, played_at = None, None
         reported = set()
         while time.monotonic() < deadline:
             if launch.poll() is not None:
                 return False, f"roslaunch ended early (exit {launch.returncode}); see launch.log"
             if start is None and rospy.has_param("/sigma7_node/scenario_start"):
                 start = float(rospy.get_param("/sigma7_node/scenario_start"))
-                self.say(f"run_thesis: scenario started at simulated t = {start:.2f} s ({duration:.0f} s long)")
+                self.say(
+                    f"run_thesis: scenario started at simulated t = {start:.2f} s ({duration:.0f} s without waits)"
+                )
             now = rospy.get_time()
-            played = start is not None and now >= start + duration + 1.0
+            if played_at is None and rospy.get_param("/sigma7_node/scenario_played", False):
+                played_at = now  # the device node says so: with waits, the end is not start + duration
+            played = played_at is not None and now >= played_at + 1.0
             for name, (status, message, _) in list(monitor.leaves.items()):
                 ended = status in (Status.SUCCESS, Status.FAILURE)
                 if ended and (name, status) not in reported and name != "PauseCondition":
@@ -394,7 +396,7 @@ class ThesisRun:
                 rospy.sleep(1.0)  # a last scene message after the tree's end
                 return True, "scenario played and tree finished"
             time.sleep(0.2)
-        state = "scenario not over" if start is None or rospy.get_time() < start + duration else "tree not finished"
+        state = "scenario not over" if played_at is None else "tree not finished"
         return False, f"timeout after {self.options.timeout:.0f} s wall time ({state})"
 
     def _rviz_view(self, env, display: str, shots: TabScreenshots) -> None:
