@@ -191,6 +191,22 @@ def _weights(layout: ParameterLayout, groups: Sequence[float]) -> np.ndarray:
     return weights
 
 
+@dataclasses.dataclass
+class CycleReport:
+    """What one cycle has found so far: the facts its record carries, whether it ends shared, direct or in fallback."""
+
+    command: np.ndarray
+    notes: List[str]
+    skills: List[str] = dataclasses.field(default_factory=list)
+    errors: List[float] = dataclasses.field(default_factory=list)
+    skill: str = ""
+    parameters: List[float] = dataclasses.field(default_factory=list)
+    estimation_time: float = 0.0
+    optimisation_time: float = 0.0
+    iterations: Tuple[int, int] = (0, 0)
+    confidence: float = 0.0
+
+
 class SharedControl:
     """Skill-based shared control MPC (the paper's Fig. 2), one ``step`` per cycle.
 
@@ -322,7 +338,7 @@ class SharedControl:
             return self._shared(command, notes)
         except Exception as error:  # the loop must keep the robot safe whatever a solver does
             self._forget()
-            return self._fallback(command, [*notes, f"shared control error: {error}"], [], [], 0.0, 0.0, (0, 0))
+            return self._fallback(CycleReport(command, [*notes, f"shared control error: {error}"]))
 
     def _trim_idle_start(self) -> None:
         """Drop the rest before the operator's first move, so the first estimate sees motion only.
@@ -368,9 +384,7 @@ class SharedControl:
             target = safe
         velocity = (target - self.state) / self.config.dt if mode == DIRECT else np.zeros(2)
         self.state = target
-        return self._record(
-            mode, "", [], [], [], 0.0, 0.0, command, "; ".join([*notes, message]), (0, 0), velocity=velocity
-        )
+        return self._record(mode, CycleReport(command, notes), "; ".join([*notes, message]), velocity=velocity)
 
     def _shared(self, command, notes) -> SharedControlRecord:
         cfg = self.config
@@ -385,11 +399,13 @@ class SharedControl:
             self._cpu[0] += result.cpu_time
             estimation_iterations += max(result.iterations, 0)
             errors.append(result.cost if result.theta is not None and np.isfinite(result.cost) else math.inf)
+        report = CycleReport(command, notes, list(self.skills), errors, estimation_time=estimation_time)
+        report.iterations = (estimation_iterations, 0)
         best = int(np.argmin(errors))
         if not np.isfinite(errors[best]):
             self._forget()
             notes.append("skill estimation failed for every skill")
-            return self._fallback(command, notes, errors, [], estimation_time, 0.0, (estimation_iterations, 0))
+            return self._fallback(report)
         confidence = identification_confidence(errors)
         skill = self._identify(self.skills[best], confidence, errors)
         theta_hat = results[skill].theta
@@ -416,7 +432,8 @@ class SharedControl:
                 lam_g,
             )
         self._cpu[1] = result.cpu_time
-        iterations = (estimation_iterations, result.iterations)
+        report.skill, report.parameters, report.confidence = skill, result.theta.tolist(), confidence
+        report.optimisation_time, report.iterations = result.time, (estimation_iterations, result.iterations)
         plan = None
         if np.all(np.isfinite(result.theta)):
             plan, headings = optimisation.states(result.theta, self.state)
@@ -427,10 +444,7 @@ class SharedControl:
                 f"plan violates constraints by {worst:.3g} m"
             )
             self.skill = None
-            return self._fallback(
-                command, notes, errors, result.theta.tolist(), estimation_time, result.time, iterations, skill,
-                confidence,
-            )  # fmt: skip
+            return self._fallback(report)
         message = f"shared control: {skill}"
         if not result.success:
             message += f" (optimisation {result.status} after {result.iterations} iterations; plan feasible)"
@@ -445,22 +459,7 @@ class SharedControl:
         mode = SHARED if authority > 0.0 else UNKNOWN
         if authority < 1.0:
             message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
-        return self._record(
-            mode,
-            skill,
-            self.skills,
-            errors,
-            result.theta.tolist(),
-            estimation_time,
-            result.time,
-            command,
-            "; ".join([*notes, message]),
-            iterations,
-            plan,
-            velocity,
-            confidence,
-            authority,
-        )
+        return self._record(mode, report, "; ".join([*notes, message]), plan, velocity, authority)
 
     def _authority(self, error: float, confidence: float, commands: np.ndarray) -> float:
         """Weight of the plan: high when one skill explains the commands well and clearly better than the others."""
@@ -609,19 +608,10 @@ class SharedControl:
         self.theta_star = None
         self.lam = (None, None)
 
-    def _fallback(
-        self,
-        command,
-        notes,
-        errors,
-        parameters,
-        estimation_time,
-        optimisation_time,
-        iterations,
-        skill="",
-        confidence=0.0,
-    ) -> SharedControlRecord:
+    def _fallback(self, report: CycleReport) -> SharedControlRecord:
         """Safe output: the previous plan's next state, else hold, else the nearest free state."""
+        report.skills = list(self.skills)
+        notes = report.notes
         for name in self.skills:
             self.estimates[name] = None
         self.alpha_c = None
@@ -631,11 +621,8 @@ class SharedControl:
                 self.plan_index += 1
                 self.state = candidate.copy()
                 notes.append("fallback: following the previous plan")
-                return self._record(
-                    FALLBACK, skill, self.skills, errors, parameters, estimation_time, optimisation_time, command,
-                    "; ".join(notes), iterations, self.plan,
-                    plan_velocity(self.plan, self.config.dt, self.plan_index), confidence,
-                )  # fmt: skip
+                velocity = plan_velocity(self.plan, self.config.dt, self.plan_index)
+                return self._record(FALLBACK, report, "; ".join(notes), self.plan, velocity)
         self.plan = np.zeros((2, 0))
         if constraints.violation(self.state, self.box, self.obstacle) == 0.0:
             notes.append("fallback: holding the current state")
@@ -646,46 +633,30 @@ class SharedControl:
             else:
                 self.state = safe
                 notes.append("fallback: current state not free (obstacle covers it); moved to the nearest free state")
-        return self._record(
-            FALLBACK, skill, self.skills, errors, parameters, estimation_time, optimisation_time, command,
-            "; ".join(notes), iterations, confidence=confidence,
-        )  # fmt: skip
+        return self._record(FALLBACK, report, "; ".join(notes))
 
     def _safe_state(self, point) -> Optional[np.ndarray]:
         return constraints.nearest_free_point(point, self.box, self.obstacle, self.config.margin)
 
     def _record(
-        self,
-        mode,
-        skill,
-        skills,
-        errors,
-        parameters,
-        estimation_time,
-        optimisation_time,
-        command,
-        message,
-        iterations,
-        plan=None,
-        velocity=(0.0, 0.0),
-        confidence=0.0,
-        authority=0.0,
+        self, mode, report: CycleReport, message: str, plan=None, velocity=(0.0, 0.0), authority=0.0
     ) -> SharedControlRecord:
+        """The cycle's record: the report's facts, the executed state and what was planned and sent."""
         return SharedControlRecord(
             mode=mode,
-            skill=skill,
-            skills=list(skills),
-            fitting_errors=[float(e) for e in errors],
-            parameters=[float(p) for p in parameters],
-            estimation_time=float(estimation_time),
-            optimisation_time=float(optimisation_time),
-            command=(float(command[0]), float(command[1])),
+            skill=report.skill,
+            skills=list(report.skills),
+            fitting_errors=[float(e) for e in report.errors],
+            parameters=[float(p) for p in report.parameters],
+            estimation_time=float(report.estimation_time),
+            optimisation_time=float(report.optimisation_time),
+            command=(float(report.command[0]), float(report.command[1])),
             state=(float(self.state[0]), float(self.state[1])),
             message=message,
-            iterations=(int(iterations[0]), int(iterations[1])),
+            iterations=(int(report.iterations[0]), int(report.iterations[1])),
             cpu_times=(float(self._cpu[0]), float(self._cpu[1])),
             plan=np.zeros((2, 0)) if plan is None else np.array(plan),
             velocity=(float(velocity[0]), float(velocity[1])),
-            confidence=float(confidence),
+            confidence=float(report.confidence),
             authority=float(authority),
         )
