@@ -2,8 +2,9 @@
 ROS_HOSTNAME), a launched system listens on 127.0.0.1 only. roscpp's rosout and robot_state_publisher bind their
 TCPROS data port to every interface whatever ROS_IP says: they are reported, not hidden (README: several machines)."""
 
+import os
 import pathlib
-import re
+import socket
 import subprocess
 
 from ros_processes import Processes, start_roscore, wait_until
@@ -26,15 +27,38 @@ def descendants(pid):
 
 
 def listening(pids):
-    """(process name, local address, port) of every listening TCP socket of the processes."""
+    """(process name, local address, port) of every listening TCP socket of the processes (Linux /proc: no tools)."""
+    inodes = {}
+    for pid in pids:
+        name = (
+            pathlib.Path(f"/proc/{pid}/comm").read_text().strip() if pathlib.Path(f"/proc/{pid}/comm").exists() else ""
+        )
+        for fd in pathlib.Path(f"/proc/{pid}/fd").glob("*"):
+            try:
+                target = os.readlink(fd)
+            except OSError:
+                continue
+            if target.startswith("socket:["):
+                inodes[target[8:-1]] = name
     sockets = []
-    for line in subprocess.run(["ss", "-ltnpH"], capture_output=True, text=True, check=True).stdout.splitlines():
-        local = line.split()[3]
-        for name, pid in re.findall(r'\("([^"]+)",pid=(\d+)', line):
-            if int(pid) in pids:
-                address, port = local.rsplit(":", 1)
-                sockets.append((name, address, int(port)))
+    for table, width in (("/proc/net/tcp", 8), ("/proc/net/tcp6", 32)):
+        for line in pathlib.Path(table).read_text().splitlines()[1:]:
+            fields = line.split()
+            local, state, inode = fields[1], fields[3], fields[9]
+            if state != "0A" or inode not in inodes:  # 0A: LISTEN
+                continue
+            address, port = local.split(":")
+            sockets.append((inodes[inode], decode(address, width), int(port, 16)))
     return sockets
+
+
+def decode(address, width):
+    """The text form of a /proc/net/tcp address: 4 (IPv4) or 16 (IPv6) bytes, each 32-bit word little-endian."""
+    raw = b"".join(bytes.fromhex(address[i : i + 8])[::-1] for i in range(0, width, 8))
+    if len(raw) == 4:
+        return socket.inet_ntop(socket.AF_INET, raw)
+    text = socket.inet_ntop(socket.AF_INET6, raw)
+    return f"[{text}]"
 
 
 def nodes(env):
