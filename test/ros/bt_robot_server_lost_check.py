@@ -47,7 +47,7 @@ class SkillServerKilledOnTheRobot(unittest.TestCase):
         self.assertTrue(robot.goals_sent_as(["LookToShelf", "PickItem", *THESIS_SEQUENCE[1:]]), robot.sent_goals())
         view.wait_for(lambda: view.help.node_name == "", 5, "the help request closed")
         horizontal, vertical = robot.gap_distance("product_pick_1")
-        self.assertLessEqual(horizontal, robot.scene.gap.tolerance)
+        self.assertLessEqual(horizontal, robot.scene.gap("gap_1").tolerance)
         self.assertLess(vertical, 0.02)
 
 
