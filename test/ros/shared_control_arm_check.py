@@ -25,7 +25,7 @@ SPEED = 0.05  # [m/s] the paper's v0
 RHO = (0.03, 20.0, 0.0)  # the paper's amplitude/radius [m], spatial frequency [1/m], phase [m]
 RATE = 50.0  # [Hz] of the operator's commands
 BOUNDARY_TOLERANCE = 0.005  # [m] "never leaves the boundary by more than a few millimetres"
-EDGE_TOLERANCE = 0.002  # [m] the arm's tracking error at the edge (the plan keeps a 1 mm margin)
+EDGE_TOLERANCE = 0.0  # [m] the arm never crosses the edge: the plan keeps a 5 mm margin (config/shared_control.yaml)
 OBSTACLE = StraightEdge(0.0, -0.05, math.pi / 2)  # free side up: the arm must stay above y = -0.05 m
 REACH = 0.1  # [m] each push goes on until the arm has moved this far the operator's way
 
