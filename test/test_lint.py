@@ -4,7 +4,6 @@ pins, which must resolve for CPython 3.8 (Ubuntu 20.04's 3.8.10)."""
 import subprocess
 import sys
 
-import pytest
 from conftest import ROOT
 
 
@@ -40,14 +39,7 @@ def test_the_noetic_pins_resolve_for_python_3_8(tmp_path):
     command = [sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary=:all:", "--python-version"]
     command += ["3.8.10", "--disable-pip-version-check", "-d", str(tmp_path), "-r", "requirements-noetic.txt"]
     result = run(*command)
-    offline = (
-        "Could not fetch URL",
-        "NewConnectionError",
-        "Temporary failure in name resolution",
-        "Network is unreachable",
-    )
-    if result.returncode != 0 and any(sign in result.stdout + result.stderr for sign in offline):
-        pytest.skip(f"PyPI cannot be reached, so the Noetic pins cannot be checked: {result.stderr.strip()[-300:]}")
+    # scripts/setup needs PyPI too: a machine that cannot reach it has no teleteach to test, so this fails, not skips
     assert result.returncode == 0, result.stdout + result.stderr
     pins = [line.split("==")[0] for line in (ROOT / "requirements-noetic.txt").read_text().splitlines() if "==" in line]
     assert len(list(tmp_path.glob("*.whl"))) == len(pins)
