@@ -53,9 +53,7 @@ class HelpRequestOnTheRobot(unittest.TestCase):
         for name in EDITED:
             self.assertEqual(view.status(name), "SUCCESS", f"{name}: {view.summary()[name]}")
         self.assertTrue(robot.goals_sent_as(["LookToShelf", "PickItem", *EDITED[1:]]), robot.sent_goals())
-        horizontal, vertical = robot.gap_distance("product_pick_2")
-        self.assertLessEqual(horizontal, robot.scene.gap("gap_1").tolerance)
-        self.assertLess(vertical, 0.02)
+        self.assertTrue(*robot.in_gap("product_pick_2", "gap_1"))
 
 
 if __name__ == "__main__":

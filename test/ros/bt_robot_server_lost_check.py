@@ -3,15 +3,12 @@
 server within seconds (not a tree that waits forever); once sim.launch has respawned skill_server, the operator
 unpauses, PickItem runs again on the new server and the thesis sequence completes with the product in the gap."""
 
-import os
-import signal
 import unittest
 
 import rospy
 import rostest
 from bt_robot_support import RobotView
 from bt_ros_support import THESIS_SEQUENCE, TreeView
-from ros_processes import node_pid
 
 STARTUP_TIMEOUT = 180.0  # [s] wall: sim, skill servers and tree on a loaded machine
 HELP_TIMEOUT = 15.0  # [s] wall: lost_timeout (1 s) plus ticks, on a loaded machine
@@ -28,17 +25,12 @@ class SkillServerKilledOnTheRobot(unittest.TestCase):
             return node is not None and view.status("PickItem") == "RUNNING" and "%" in node.message
 
         view.wait_for(picking, STARTUP_TIMEOUT, "PickItem moving the arm (progress feedback)")
-        killed = node_pid("/skill_server")
-        os.kill(killed, signal.SIGKILL)
-        view.wait_for(lambda: view.help is not None and view.help.node_name == "PickItem", HELP_TIMEOUT, "help")
+        killed = view.kill_while_running("/skill_server", "PickItem", HELP_TIMEOUT)
         # Expect the true reason, with the progress the skill had made
         self.assertIn("lost the skill server /skill_server of /skills/PickItem", view.help.reason)
         self.assertIn("%", view.help.reason)
-        view.wait_for(lambda: view.status("PauseCondition") == "SUCCESS", 10, "the tree paused")
         self.assertNotIn("MoveBase", robot.sent_goals())
-        view.wait_for(
-            lambda: node_pid("/skill_server", missing=None) not in (None, killed), RESPAWN_TIMEOUT, "the respawn"
-        )
+        view.wait_respawned("/skill_server", killed, RESPAWN_TIMEOUT)
         view.pause(False)
         view.wait_completed(timeout=COMPLETION_TIMEOUT)
         # Expect every leaf done, PickItem sent twice (to the killed and to the new server), the help request closed
@@ -46,9 +38,7 @@ class SkillServerKilledOnTheRobot(unittest.TestCase):
             self.assertEqual(view.status(name), "SUCCESS", f"{name}: {view.summary()[name]}")
         self.assertTrue(robot.goals_sent_as(["LookToShelf", "PickItem", *THESIS_SEQUENCE[1:]]), robot.sent_goals())
         view.wait_for(lambda: view.help.node_name == "", 5, "the help request closed")
-        horizontal, vertical = robot.gap_distance("product_pick_1")
-        self.assertLessEqual(horizontal, robot.scene.gap("gap_1").tolerance)
-        self.assertLess(vertical, 0.02)
+        self.assertTrue(*robot.in_gap("product_pick_1", "gap_1"))
 
 
 if __name__ == "__main__":

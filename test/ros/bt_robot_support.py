@@ -62,3 +62,9 @@ class RobotView:
     def gap_distance(self, name, gap="gap_1"):
         """Horizontal and vertical distance [m] of the product's centre from a gap target of the scene file."""
         return self.scene.gap(gap).distance(self.product(name))
+
+    def in_gap(self, name, gap):
+        """(whether the product's centre is within the gap's tolerance and 2 cm of its height, what was seen)."""
+        horizontal, vertical = self.gap_distance(name, gap)
+        inside = horizontal <= self.scene.gap(gap).tolerance and vertical < 0.02
+        return inside, f"{name}: {1000 * horizontal:.1f} mm beside and {1000 * vertical:.1f} mm off {gap}'s target"

@@ -2,10 +2,13 @@
 call /change_tree, wait for conditions with a deadline (a failing check reports what it saw, never hangs)."""
 
 import json
+import os
+import signal
 import threading
 import time
 
 import rospy
+from ros_processes import node_pid
 from std_msgs.msg import Bool, String
 
 from teleteach.msg import Behaviour, BehaviourTree, HelpRequest, SkillLibrary
@@ -107,6 +110,26 @@ class TreeView:
 
     def summary(self):
         return {name: (STATUS.get(b.status), b.message) for name, b in self.nodes().items()}
+
+    def kill_while_running(self, node, leaf, help_timeout):
+        """SIGKILL the node that serves leaf; wait for the tree's help request about leaf and its pause.
+
+        Returns the killed process id (a respawned node has another).
+        """
+        killed = node_pid(node)
+        os.kill(killed, signal.SIGKILL)
+        self.wait_for(lambda: self.help is not None and self.help.node_name == leaf, help_timeout, "help")
+        self.wait_for(lambda: self.status("PauseCondition") == "SUCCESS", 10, "the tree paused")
+        return killed
+
+    @staticmethod
+    def wait_respawned(node, killed, timeout):
+        """Until a new process serves node."""
+        deadline = time.monotonic() + timeout
+        while node_pid(node, missing=None) in (None, killed):
+            if time.monotonic() > deadline:
+                raise AssertionError(f"{node} was not respawned within {timeout} s")
+            time.sleep(0.2)
 
     def wait_completed(self, timeout=60):
         self.wait_for(lambda: self.status("BehaviorExecution") == "SUCCESS", timeout, "BehaviorExecution SUCCESS")

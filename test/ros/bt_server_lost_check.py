@@ -2,14 +2,11 @@
 """rostest check: SIGKILL of the skill server while PickItem runs makes the tree ask for help (not wait forever) with
 the true reason; once the server is respawned and the operator unpauses, PickItem runs again and the tree completes."""
 
-import os
-import signal
 import unittest
 
 import rospy
 import rostest
 from bt_ros_support import THESIS_SEQUENCE, TreeView
-from ros_processes import node_pid
 
 HELP_TIMEOUT = 10.0  # [s] wall: the leaf notices the lost connection within lost_timeout (1 s) plus a few ticks
 
@@ -18,15 +15,12 @@ class SkillServerKilled(unittest.TestCase):
     def test_killed_server_asks_for_help_and_the_respawned_one_continues(self):
         view = TreeView()
         view.wait_for(lambda: "PickItem" in view.started(), 60, "PickItem started at the skill server")
-        killed = node_pid("/skill_test_server")
-        os.kill(killed, signal.SIGKILL)
-        view.wait_for(lambda: view.help is not None and view.help.node_name == "PickItem", HELP_TIMEOUT, "help")
+        killed = view.kill_while_running("/skill_test_server", "PickItem", HELP_TIMEOUT)
         # Expect the true reason (the lost server), the tree paused and the leaf shown as failed
         self.assertIn("lost the skill server /skill_test_server of /skills/PickItem", view.help.reason)
         self.assertIn("PickItem", view.help.reason)
-        view.wait_for(lambda: view.status("PauseCondition") == "SUCCESS", 10, "the tree paused")
         self.assertEqual(view.status("PickItem"), "FAILURE")
-        view.wait_for(lambda: node_pid("/skill_test_server", missing=None) not in (None, killed), 30, "the respawn")
+        view.wait_respawned("/skill_test_server", killed, 30)
         view.pause(False)
         view.wait_completed(timeout=60)
         # Expect PickItem retried once on the new server, the rest of the sequence run, the help request closed
