@@ -57,10 +57,7 @@ def read_bag(path: Union[str, pathlib.Path]) -> Tuple[np.ndarray, np.ndarray, Di
                 message = reader.deserialize(raw, connection.msgtype)
                 rows[connection.topic].append((_stamp(message, received), _values(connection.topic, message)))
     except SessionError as error:
-        reason = str(error)
-        raise LearningError(
-            reason if reason.startswith("cannot read bag") else f"cannot read bag {path}: {reason}"
-        ) from None
+        raise LearningError(str(error)) from None
     for topic in (EIGENVALUES, EIGENVECTORS, POSE_TOPICS["cartesian_pose"]):
         if not rows[topic]:
             raise LearningError(f"bag {path} has no {topic} messages")

@@ -192,7 +192,7 @@ def open_bag(path: Union[str, pathlib.Path]) -> Iterator:
     """A ``rosbags`` reader of a session bag: the one place where teleteach opens bags (report, run checks, learning).
 
     Raises:
-        SessionError: naming the file and what is wrong with it, also for errors while its messages are read.
+        SessionError: "cannot read bag <file>: <what is wrong>", also for errors while its messages are read.
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.rosbag1 import ReaderError
@@ -200,9 +200,11 @@ def open_bag(path: Union[str, pathlib.Path]) -> Iterator:
     try:
         path = check_bag(path)
     except BagError as error:
-        raise SessionError(str(error)) from None
+        raise SessionError(f"cannot read bag {path}: {error}") from None
     if path.suffix != ".bag":
-        raise SessionError(f"{path} does not end in .bag (an unfinished recording? run `rosbag reindex` first)")
+        raise SessionError(
+            f"cannot read bag {path}: it does not end in .bag (an unfinished recording? run `rosbag reindex` first)"
+        )
     try:
         with AnyReader([path]) as reader:
             yield reader
