@@ -128,10 +128,14 @@ def test_run_placements_say_who_set_each_product_down(scene):
         },
     ]
     expected = {"product_pick_1": ("gap_1", None), "product_pick_2": ("gap_2", "Taught_1")}
-    assert outcome.placement_problems(entries, expected) == []
-    assert outcome.placement_problems(entries, {"product_pick_2": ("gap_2", "Other")}) == [
+    assert outcome.check_placements(session, scene, expected) == ([], entries)
+    assert outcome.check_placements(session, scene, {"product_pick_2": ("gap_2", "Other")})[0] == [
         "product_pick_2 was set down by Taught_1, not by Other"
     ]
-    assert outcome.placement_problems(entries[:1], expected) == [
-        "product_pick_2 did not end on the shelf (expected in gap_2)"
+    assert outcome.check_placements(session, scene, {**expected, "product_low_1": ("gap_1", None)})[0] == [
+        "product_low_1 did not end on the shelf (expected in gap_1)"
+    ]
+    # in gap_1 while gap_2 was expected: the placement's own judgement says so
+    assert outcome.check_placements(session, scene, {"product_pick_1": ("gap_2", None)})[0] == [
+        "product_pick_1 ended 0.0 cm from gap_1 (0.0 cm in height), not in gap_2"
     ]

@@ -101,24 +101,31 @@ def placements(session: Session, scene: Scene) -> List[dict]:
     there (it stays put once let go), or LOW-LEVEL teaching when the operator's demonstration set it down (the tree
     paused).
     """
+    return [_entry(result, by_skill) for result, by_skill in _placed(session, scene)]
+
+
+def _placed(session: Session, scene: Scene) -> List[Tuple[placement.Placement, Optional[str]]]:
+    """The judged placements of the products that ended on a shelf, each with who set it down."""
     initial = {name: series.values[0, :3] for name, series in session.products.items()}
     final = {name: (series.values[-1, :3], series.values[-1, 3:]) for name, series in session.products.items()}
-    entries = []
+    found = []
     for result in placement.placed_products(scene, initial, final):
         series = session.products[result.product]
         away = np.flatnonzero(np.linalg.norm(series.values[:, :3] - series.values[-1, :3], axis=1) > REST)
         rest = series.times[away[-1] + 1] if away.size and away[-1] + 1 < len(series) else series.times[0]
-        entries.append(
-            {
-                "product": result.product,
-                "gap": result.gap,
-                "distance_m": round(result.distance_m, 4),
-                "upright": result.upright,
-                "by_skill": _set_down_by(session, rest),
-                "neighbours_max_move_m": round(result.neighbours_max_move_m, 4),
-            }
-        )
-    return entries
+        found.append((result, _set_down_by(session, rest)))
+    return found
+
+
+def _entry(result: placement.Placement, by_skill: Optional[str]) -> dict:
+    return {
+        "product": result.product,
+        "gap": result.gap,
+        "distance_m": round(result.distance_m, 4),
+        "upright": result.upright,
+        "by_skill": by_skill,
+        "neighbours_max_move_m": round(result.neighbours_max_move_m, 4),
+    }
 
 
 def _set_down_by(session: Session, time: float) -> Optional[str]:
@@ -130,26 +137,6 @@ def _set_down_by(session: Session, time: float) -> Optional[str]:
     if session.active_tab is not None and len(session.active_tab) and session.active_tab.at(time) == Tab.LOW_LEVEL:
         return LOW_LEVEL_TEACHING
     return None
-
-
-def placement_problems(entries: List[dict], expected: Dict[str, Tuple[str, Optional[str]]]) -> List[str]:
-    """What differs from the expected placements: product -> (gap, by_skill or None for anyone)."""
-    problems = []
-    by_product = {entry["product"]: entry for entry in entries}
-    for product, (gap, by_skill) in expected.items():
-        entry = by_product.get(product)
-        if entry is None:
-            problems.append(f"{product} did not end on the shelf (expected in {gap})")
-            continue
-        if entry["gap"] != gap:
-            problems.append(f"{product} ended {100 * entry['distance_m']:.1f} cm from a gap's centre, not in {gap}")
-        if not entry["upright"]:
-            problems.append(f"{product} is not upright")
-        if by_skill is not None and entry["by_skill"] != by_skill:
-            problems.append(f"{product} was set down by {entry['by_skill']}, not by {by_skill}")
-        if entry["neighbours_max_move_m"] > placement.NEIGHBOUR_LIMIT:
-            problems.append(f"{product}'s neighbours moved {100 * entry['neighbours_max_move_m']:.1f} cm")
-    return problems
 
 
 def sequence_changes(sequences: Sequence[Tuple[str, ...]]) -> List[Tuple[str, ...]]:
@@ -244,9 +231,21 @@ def check_iii_e(
 def check_placements(
     session: Session, scene: Scene, expected: Dict[str, Tuple[str, Optional[str]]]
 ) -> Tuple[List[str], List[dict]]:
-    """Where the products ended (judged from the bag), against product -> (gap, by_skill or None for anyone)."""
-    found = placements(session, scene)
-    return placement_problems(found, expected), found
+    """Where the products ended (judged from the bag), against product -> (gap, by_skill or None for anyone).
+
+    Returns the problems (the placement's own, teleteach.placement, and who set it down) and the summary's entries.
+    """
+    found = {result.product: (result, by_skill) for result, by_skill in _placed(session, scene)}
+    problems = []
+    for product, (gap, expected_by) in expected.items():
+        if product not in found:
+            problems.append(f"{product} did not end on the shelf (expected in {gap})")
+            continue
+        result, by_skill = found[product]
+        problems += result.problems(gap)
+        if expected_by is not None and by_skill != expected_by:
+            problems.append(f"{product} was set down by {by_skill}, not by {expected_by}")
+    return problems, [_entry(result, by_skill) for result, by_skill in found.values()]
 
 
 @dataclasses.dataclass
