@@ -62,6 +62,19 @@ class Processes:
         self.stop_all()
 
 
+def echo_once(processes, topic, timeout=30):
+    """One message of topic as `rostopic echo` prints it (arrays left out), or "" when none came in time."""
+    result = subprocess.run(
+        ["rostopic", "echo", "-n", "1", "--noarr", topic],
+        env=processes.env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+    return result.stdout if result.returncode == 0 else ""
+
+
 def wait_until(condition, timeout, what):
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:

@@ -8,7 +8,7 @@ import subprocess
 
 import numpy as np
 from conftest import ROOT
-from ros_processes import Processes, start_roscore, start_xvfb, wait_until
+from ros_processes import Processes, echo_once, start_roscore, start_xvfb, wait_until
 
 from teleteach.recording.bags import DEVICE_TOPICS
 from teleteach.recording.report import make_report, tree_edits
@@ -65,13 +65,6 @@ def the_bag(folder, prefix):
     return bags[0]
 
 
-def echo_once(processes, topic):
-    result = subprocess.run(
-        ["rostopic", "echo", "-n", "1", "--noarr", topic], env=processes.env, capture_output=True, timeout=90
-    )
-    return result.returncode == 0
-
-
 def start_teaching_system(processes, data_dir, prefix):
     """Xvfb, roscore, tree, GUI and a recorder; returns once the tree and the GUI are up and the bag is open."""
     start_xvfb(processes, "1024x768x24")
@@ -80,8 +73,8 @@ def start_teaching_system(processes, data_dir, prefix):
     processes.start("bt", ["roslaunch", "teleteach", "bt.launch"])
     processes.start("gui", ["roslaunch", "teleteach", "gui.launch", "repaint_rate:=10"])
     processes.start("record", ["roslaunch", "teleteach", "record.launch", f"data_dir:={data_dir}", f"prefix:={prefix}"])
-    wait_until(lambda: echo_once(processes, "/behaviour_tree/log/tree"), 120, "the tree")
-    wait_until(lambda: echo_once(processes, "/teleteach/active_tab"), 120, "the GUI")
+    wait_until(lambda: echo_once(processes, "/behaviour_tree/log/tree", 90), 120, "the tree")
+    wait_until(lambda: echo_once(processes, "/teleteach/active_tab", 90), 120, "the GUI")
     wait_until(lambda: list((data_dir / "bags").glob(f"{prefix}_*.bag.active")), 60, f"the {prefix} bag to open")
 
 

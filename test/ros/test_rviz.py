@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
-from ros_processes import Processes, start_roscore, start_xvfb, wait_until
+from ros_processes import Processes, echo_once, start_roscore, start_xvfb, wait_until
 
 CONFIG = ROOT / "rviz" / "teleteach.rviz"
 ERROR_LINE = re.compile(r"\[ *(ERROR|FATAL)\]|has died|Segmentation fault|Traceback")
@@ -78,14 +78,7 @@ def test_rviz_shows_robot_scene_and_ellipsoid_without_errors(tmp_path, artifacts
 
         def marker_diameter():
             """The largest diameter of the ellipsoid marker (a SPHERE) [m], 0 while there is none."""
-            result = subprocess.run(
-                ["rostopic", "echo", "-n", "1", "/visualization_marker"],
-                env=processes.env,
-                capture_output=True,
-                text=True,
-                timeout=30,
-            )
-            marker = yaml.safe_load(result.stdout.split("---")[0] or "{}") or {}
+            marker = yaml.safe_load(echo_once(processes, "/visualization_marker").split("---")[0] or "{}") or {}
             if marker.get("type") != 2:
                 return 0.0
             return max(marker["scale"].values())

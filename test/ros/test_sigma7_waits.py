@@ -6,7 +6,7 @@ import subprocess
 import time
 
 from conftest import ROOT
-from ros_processes import Processes, start_roscore, wait_until
+from ros_processes import Processes, echo_once, start_roscore, wait_until
 
 KEYFRAME = "rpy: [0.0, 0.0, 0.0], gripper: 0.25"
 
@@ -30,14 +30,9 @@ def start_device(processes, name, scenario):
 
 
 def device_x(processes):
-    result = subprocess.run(
-        ["rostopic", "echo", "-n", "1", "/sigma7/pose/pose/position/x"],
-        env=processes.env,
-        capture_output=True,
-        text=True,
-        timeout=30,
-    )
-    return float(result.stdout.split()[0]) if result.returncode == 0 and result.stdout.strip() else None
+    """The device's x on /sigma7/pose [m], None before it publishes."""
+    text = echo_once(processes, "/sigma7/pose/pose/position/x")
+    return float(text.split()[0]) if text.strip() else None
 
 
 def test_the_device_holds_until_the_help_request_then_goes_on(tmp_path):
