@@ -7,20 +7,15 @@ hosts the GUI and plays the operator (it publishes the /sigma7 topics the sigma7
 import os
 import pathlib
 import signal
-import socket
 import subprocess
 import threading
 import time
 
 import pytest
 
+from teleteach.run.processes import own_master
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
 
 
 def stop(process, timeout=10.0):
@@ -35,51 +30,27 @@ def stop(process, timeout=10.0):
 
 @pytest.fixture(scope="session")
 def ros_master(tmp_path_factory):
-    """A roscore on a free port; this process becomes the rospy node 'gui_test'.
-
-    The port is probed free, then bound by roscore: another run may take it in between, so a roscore that exits, or
-    a master on that port that is not this roscore's child, means: try another port.
-    """
+    """A roscore on a free port of its own (teleteach.run.processes.own_master); this process becomes the rospy node
+    'gui_test'."""
     import rospy
 
     if rospy.core.is_initialized():
         raise RuntimeError("rospy was initialised by another test in this process; GUI tests need their own master")
     os.environ["ROS_HOSTNAME"] = "127.0.0.1"
     os.environ["ROS_LOG_DIR"] = str(tmp_path_factory.mktemp("ros_logs"))
-    for _ in range(5):
-        uri = f"http://127.0.0.1:{free_port()}"
-        os.environ["ROS_MASTER_URI"] = uri
-        core = subprocess.Popen(
-            ["roscore", "-p", uri.rsplit(":", 1)[1]],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            start_new_session=True,
+
+    def start_roscore(port):
+        os.environ["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
+        return subprocess.Popen(
+            ["roscore", "-p", str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
         )
-        if _wait_for_own_master(uri, core):
-            break
-        stop(core)
-    else:
-        raise AssertionError("no roscore of our own after 5 ports")
+
+    _, core = own_master(start_roscore, stop, host="127.0.0.1")
+    uri = os.environ["ROS_MASTER_URI"]
     rospy.init_node("gui_test", disable_signals=True)
     yield uri
     rospy.signal_shutdown("GUI tests done")
     stop(core)
-
-
-def _wait_for_own_master(uri, core, timeout=30.0):
-    """Whether the master that answers at ``uri`` is ``core``'s (False: roscore ended, or another master is there)."""
-    import xmlrpc.client
-
-    deadline = time.monotonic() + timeout
-    while core.poll() is None and time.monotonic() < deadline:
-        try:
-            code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/gui_test")
-        except (OSError, xmlrpc.client.Error):
-            time.sleep(0.1)
-            continue
-        stat = pathlib.Path(f"/proc/{pid}/stat")
-        return code == 1 and stat.exists() and int(stat.read_text().rsplit(")", 1)[1].split()[1]) == core.pid
-    return False
 
 
 @pytest.fixture

@@ -3,15 +3,10 @@
 import os
 import pathlib
 import signal
-import socket
 import subprocess
 import time
 
-
-def free_port():
-    with socket.socket() as probe:
-        probe.bind(("localhost", 0))
-        return probe.getsockname()[1]
+from teleteach.run.processes import own_master
 
 
 class Processes:
@@ -84,82 +79,18 @@ def wait_until(condition, timeout, what):
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
-def start_roscore(processes, name="roscore", attempts=5):
-    """A roscore on a free port; sets ROS_MASTER_URI for every process started afterwards.
-
-    The port is probed free, then bound by roscore: another run may take it in between, so a roscore that exits, or
-    a master on that port that is not this roscore's child, means: try another port.
-    """
+def start_roscore(processes, name="roscore"):
+    """A roscore on a free port of its own (teleteach.run.processes.own_master); sets ROS_MASTER_URI for every
+    process started afterwards."""
     processes.env["ROS_LOG_DIR"] = str(processes.log_dir / "ros_log")
-    for attempt in range(attempts):
-        port = free_port()
-        uri = f"http://localhost:{port}"
-        processes.env["ROS_MASTER_URI"] = uri
-        core = processes.start(f"{name}_{attempt}" if attempt else name, ["roscore", "-p", str(port)])
-        deadline = time.monotonic() + 60
-        while core.poll() is None and time.monotonic() < deadline:
-            owner = master_pid(uri)
-            if owner is not None:
-                if parent_pid(owner) == core.pid:
-                    return uri
-                break  # somebody else's master took the port
-            time.sleep(0.2)
-        processes.stop(f"{name}_{attempt}" if attempt else name)
-    raise AssertionError(f"no roscore after {attempts} ports: {processes.log(name)}")
+    names = {}
 
+    def start(port):
+        processes.env["ROS_MASTER_URI"] = f"http://localhost:{port}"
+        core_name = f"{name}_{len(names)}" if names else name
+        core = processes.start(core_name, ["roscore", "-p", str(port)])
+        names[core.pid] = core_name
+        return core
 
-def master_pid(uri):
-    """The process id of the master at ``uri``, or None while none answers."""
-    import xmlrpc.client
-
-    try:
-        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/start_roscore")
-    except (OSError, xmlrpc.client.Error):
-        return None
-    return pid if code == 1 else None
-
-
-def parent_pid(pid):
-    """The parent process id of ``pid`` (Linux /proc), or None if it is gone."""
-    try:
-        stat = pathlib.Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return None
-    return int(stat.rsplit(")", 1)[1].split()[1])
-
-
-def start_xvfb(processes, size="1280x900x24"):
-    """An Xvfb of the given size on a free display (Xvfb -displayfd picks it); sets DISPLAY for what follows."""
-    read_end, write_end = os.pipe()
-    processes.start(
-        "xvfb", ["Xvfb", "-displayfd", str(write_end), "-screen", "0", size, "-nolisten", "tcp"], pass_fds=(write_end,)
-    )
-    os.close(write_end)
-    with os.fdopen(read_end) as stream:
-        display = ":" + stream.readline().strip()
-    assert display != ":", processes.log("xvfb")
-    processes.env["DISPLAY"] = display
-    return display
-
-
-_MISSING = object()
-
-
-def node_pid(name, missing=_MISSING):
-    """The process id of a ROS node, asked from the node itself (its getPid API); ``missing`` if it does not answer."""
-    import xmlrpc.client
-
-    import rosgraph
-    import rosnode
-
-    try:
-        api = rosnode.get_api_uri(rosgraph.Master("/node_pid"), name, skip_cache=True)
-        code, _, pid = xmlrpc.client.ServerProxy(api).getPid("/node_pid")
-        if code == 1:
-            return pid
-        error = f"{name} answered getPid with code {code}"
-    except (OSError, TypeError, rosnode.ROSNodeIOException, xmlrpc.client.Error) as exception:
-        error = f"{name} does not answer: {exception}"
-    if missing is _MISSING:
-        raise AssertionError(error)
-    return missing
+    port, _ = own_master(start, lambda core: processes.stop(names[core.pid]))
+    return f"http://localhost:{port}"

@@ -4,19 +4,17 @@ import json
 import os
 import pathlib
 import signal
-import socket
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
-import rosgraph
 
 from teleteach import skill_file
 from teleteach.learning import spd
 from teleteach.learning.command import main
 from teleteach.learning.synthetic import placement_demo
+from teleteach.run.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 COMMAND = ROOT / "nodes" / "learn_skill"
@@ -78,12 +76,6 @@ def test_add_without_a_running_system_says_so_and_keeps_the_saved_skill(data):
     assert skill_file.load(data / "skills" / "Added.npz").kind == "dmp"
 
 
-def free_port():
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 def stop(process):
     if process.poll() is None:
         os.killpg(process.pid, signal.SIGINT)
@@ -95,16 +87,16 @@ def stop(process):
 
 
 def test_add_puts_the_learned_skill_into_the_running_behaviour_tree_library(data):
-    uri = f"http://127.0.0.1:{free_port()}"
-    env = dict(os.environ, ROS_MASTER_URI=uri)
+    env = dict(os.environ)
     quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True, "env": env}
-    roscore = subprocess.Popen(["roscore", "-p", uri.rsplit(":", 1)[1]], **quiet)
+
+    def start_roscore(port):
+        env["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
+        return subprocess.Popen(["roscore", "-p", str(port)], **quiet)
+
+    _, roscore = own_master(start_roscore, stop, host="127.0.0.1")
     tree = None
     try:
-        deadline = time.monotonic() + 60
-        while not rosgraph.is_master_online(uri):
-            assert time.monotonic() < deadline, "roscore did not start"
-            time.sleep(0.2)
         early = run("Demo", "--data-dir", data, "--name", "Early", "--add", "--timeout", 1, env=env)
         # Expect a master without the behaviour tree to be reported as exactly that
         assert early.returncode == 2 and "Traceback" not in early.stderr

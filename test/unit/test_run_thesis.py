@@ -18,7 +18,15 @@ from teleteach.gui.selection import OPERATIONS
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.scenario import check_clicks, load_scenario
 from teleteach.run import outcome
-from teleteach.run.processes import ProcessError, Processes, free_display, free_port
+from teleteach.run.processes import (
+    ProcessError,
+    Processes,
+    free_display,
+    free_port,
+    master_pid,
+    own_master,
+    parent_pid,
+)
 from teleteach.run.thesis import options_for
 from teleteach.skill_file import Skill, save
 
@@ -199,6 +207,33 @@ def test_free_port_and_display():
     assert 1024 < port < 65536
     display = free_display()
     assert not os.path.exists(f"/tmp/.X11-unix/X{display}")
+
+
+def test_own_master_moves_to_another_port_when_someone_else_took_the_probed_one(tmp_path):
+    processes = Processes()
+    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path))
+    roscore = lambda port: processes.start(f"roscore_{port}", ["roscore", "-p", str(port)], env=env)  # noqa: E731
+    try:
+        taken, other = own_master(roscore, processes.stop)
+        ports = iter([taken])
+
+        def start_on_taken_port_first(port):
+            # The race: a port probed free is bound by somebody else before our roscore binds it
+            return roscore(next(ports, port))
+
+        port, ours = own_master(start_on_taken_port_first, processes.stop)
+        # Expect the second master on a port of its own, started by our roscore; the other master untouched
+        assert port != taken
+        assert parent_pid(master_pid(f"http://localhost:{port}")) == ours.pid
+        assert parent_pid(master_pid(f"http://localhost:{taken}")) == other.pid
+    finally:
+        processes.stop_all()
+
+
+def test_own_master_says_why_when_the_starter_keeps_failing():
+    processes = Processes()
+    with pytest.raises(ProcessError, match="the last time it exited with 3"):
+        own_master(lambda port: processes.start("fails", [sys.executable, "-c", "exit(3)"]), processes.stop, attempts=2)
 
 
 def test_processes_stop_politely_and_refuse_missing_programs(tmp_path):

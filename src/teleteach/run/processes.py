@@ -11,7 +11,8 @@ import signal
 import socket
 import subprocess
 import time
-from typing import IO, List, Optional, Sequence, Tuple
+import xmlrpc.client
+from typing import IO, Callable, List, Optional, Sequence, Tuple
 
 
 class ProcessError(RuntimeError):
@@ -19,10 +20,69 @@ class ProcessError(RuntimeError):
 
 
 def free_port() -> int:
-    """A TCP port nobody listens on now (for the run's own roscore)."""
+    """A TCP port nobody listens on now; another process may take it before ours binds it: see :func:`own_master`."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
         probe.bind(("127.0.0.1", 0))
         return probe.getsockname()[1]
+
+
+def master_pid(uri: str) -> Optional[int]:
+    """The process id of the ROS master answering at ``uri``, or None while none answers."""
+    try:
+        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/teleteach_port_check")
+    except (OSError, xmlrpc.client.Error):
+        return None
+    return pid if code == 1 else None
+
+
+def parent_pid(pid: int) -> Optional[int]:
+    """The parent process id of ``pid`` (Linux /proc), or None when it is gone."""
+    try:
+        stat = pathlib.Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    return int(stat.rsplit(")", 1)[1].split()[1])
+
+
+def wait_for_own_master(uri: str, starter: subprocess.Popen, timeout: float) -> bool:
+    """Whether the master answering at ``uri`` is the child of ``starter`` (roscore or roslaunch -p).
+
+    False when ``starter`` ended, when another process's master answers (it took the port between the probe and the
+    bind), or after ``timeout`` seconds without a master.
+    """
+    deadline = time.monotonic() + timeout
+    while starter.poll() is None and time.monotonic() < deadline:
+        pid = master_pid(uri)
+        if pid is not None:
+            return parent_pid(pid) == starter.pid
+        time.sleep(0.2)
+    return False
+
+
+def own_master(
+    start: Callable[[int], subprocess.Popen],
+    stop: Callable[[subprocess.Popen], object],
+    host: str = "localhost",
+    attempts: int = 5,
+    timeout: float = 60.0,
+) -> Tuple[int, subprocess.Popen]:
+    """Start something that brings up its own ROS master (``start(port)``) on a free port; returns (port, process).
+
+    A port is only probed free, so a master that another process started there in between, or a starter that
+    exits (the port was taken), means: ``stop`` it and try another port.
+    """
+    last = "it found another process's master on its port"
+    for _ in range(attempts):
+        port = free_port()
+        process = start(port)
+        if wait_for_own_master(f"http://{host}:{port}", process, timeout):
+            return port, process
+        if process.poll() is not None:
+            last = f"it exited with {process.returncode}"
+        elif master_pid(f"http://{host}:{port}") is None:
+            last = f"no master answered on port {port} within {timeout:.0f} s"
+        stop(process)
+    raise ProcessError(f"no ROS master of our own after {attempts} ports; the last time {last}")
 
 
 def free_display(first: int = 90, last: int = 200) -> int:

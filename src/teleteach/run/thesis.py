@@ -29,7 +29,7 @@ from teleteach.recording.report import make_report
 from teleteach.recording.session import SessionError, read_session
 from teleteach.run import outcome
 from teleteach.run.outcome import RunSummary
-from teleteach.run.processes import ProcessError, Processes, free_port, screenshot, start_xvfb
+from teleteach.run.processes import ProcessError, Processes, own_master, screenshot, start_xvfb
 from teleteach.sim.scene import SceneError, load_scene, product_positions
 
 DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")
@@ -239,22 +239,6 @@ def _ros_env(port: int, display: str, data_root: pathlib.Path) -> Dict[str, str]
     return env
 
 
-def _wait_for_master(port: int, launch, timeout: float) -> None:
-    import rosgraph
-
-    master = rosgraph.Master("/run_thesis", master_uri=f"http://localhost:{port}")
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if launch.poll() is not None:
-            raise ProcessError(f"roslaunch ended with {launch.returncode} before the master was up")
-        try:
-            master.getPid()
-            return
-        except Exception:
-            time.sleep(0.3)
-    raise ProcessError(f"no ROS master on port {port} after {timeout:.0f} s")
-
-
 def _run_folder(root: pathlib.Path) -> pathlib.Path:
     stamp = time.strftime("%Y-%m-%d-%H-%M-%S")
     folder = root / "runs" / stamp
@@ -319,31 +303,33 @@ class ThesisRun:
         if not display:
             display = start_xvfb(self.processes)
             self.say(f"run_thesis: started Xvfb on {display}")
-        port = free_port()
-        env = _ros_env(port, display, self.root)
-        launch = self.processes.start(
-            "roslaunch",
-            [
+
+        def start_launch(port: int):
+            return self.processes.start(
                 "roslaunch",
-                "-p",
-                str(port),
-                "teleteach",
-                "full.launch",
-                "headless:=true",
-                "device:=scenario",
-                f"scenario:={options.scenario}",
-                f"device_rate:={options.device_rate:g}",
-                f"tree:={options.tree}",
-                f"trajectory:={options.trajectory}",
-                "record:=true",
-                f"record_prefix:={self.prefix}",
-                f"data_dir:={self.root}",
-            ],
-            self.folder / "launch.log",
-            env,
-        )
+                [
+                    "roslaunch",
+                    "-p",
+                    str(port),
+                    "teleteach",
+                    "full.launch",
+                    "headless:=true",
+                    "device:=scenario",
+                    f"scenario:={options.scenario}",
+                    f"device_rate:={options.device_rate:g}",
+                    f"tree:={options.tree}",
+                    f"trajectory:={options.trajectory}",
+                    "record:=true",
+                    f"record_prefix:={self.prefix}",
+                    f"data_dir:={self.root}",
+                ],
+                self.folder / "launch.log",
+                _ros_env(port, display, self.root),
+            )
+
+        port, launch = own_master(start_launch, self.processes.stop)
+        env = _ros_env(port, display, self.root)
         self.say(f"run_thesis: launched full.launch (roscore on port {port}), log {self.folder / 'launch.log'}")
-        _wait_for_master(port, launch, 60.0)
         os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"], TELETEACH_DATA=env["TELETEACH_DATA"])
         import rospy
 
