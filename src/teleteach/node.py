@@ -1,4 +1,4 @@
-"""Starting a teleteach ROS node: rospy.init_node plus the one parameter that keeps rospy's logging cheap."""
+"""Starting a teleteach ROS node: rospy.init_node plus the parameter that keeps rospy's logging cheap; parameters."""
 
 import typing
 
@@ -18,3 +18,23 @@ def init_node(name: str, **kwargs: typing.Any) -> None:
     rospy.init_node(name, **kwargs)
     if not rospy.has_param(ROSOUT_TOPICS_PARAM):
         rospy.set_param(ROSOUT_TOPICS_PARAM, False)
+
+
+def node_parameters(
+    defaults_file: str, get_param: typing.Optional[typing.Callable[[str, typing.Any], typing.Any]] = None
+) -> typing.Dict[str, typing.Any]:
+    """The node's parameters: the keys of ``config/<defaults_file>``, each overridden by its private parameter.
+
+    The yaml is the one place of their defaults; a launch file's ``<param>`` or ``_name:=value`` overrides one.
+    ``get_param(name, default)`` is ``rospy.get_param`` unless given.
+    """
+    import yaml
+
+    from teleteach.paths import config_file
+
+    if get_param is None:
+        import rospy
+
+        get_param = rospy.get_param
+    defaults = yaml.safe_load(config_file(defaults_file).read_text()) or {}
+    return {name: get_param(f"~{name}", value) for name, value in defaults.items()}

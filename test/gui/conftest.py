@@ -74,7 +74,13 @@ def start_bt(data_root, server_timeout=60.0, resume=False):
 
     node = str(ROOT / "nodes" / "behaviour_tree")
     process = start(
-        [node, f"_data_dir:={data_root}", f"_server_timeout:={server_timeout}", f"_resume:={str(resume).lower()}"],
+        [
+            node,
+            f"_data_dir:={data_root}",
+            f"_server_timeout:={server_timeout}",
+            f"_resume:={str(resume).lower()}",
+            "_startup_timeout:=0",  # no robot here: tick at once, without waiting for skill servers
+        ],
         data_root.parent / "behaviour_tree.log",
     )
     rospy.wait_for_service("/change_tree", timeout=60)

@@ -24,7 +24,8 @@ from teleteach.srv import AddSkill, ChangeTree
 
 def start_node(data_dir):
     node = pathlib.Path(rospkg.RosPack().get_path("teleteach")) / "nodes" / "behaviour_tree"
-    command = [sys.executable, str(node), "_resume:=true", f"_data_dir:={data_dir}"]
+    # No robot here: tick at once instead of waiting startup_timeout for skill servers that never come
+    command = [sys.executable, str(node), "_resume:=true", f"_data_dir:={data_dir}", "_startup_timeout:=0"]
     return subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
 
 

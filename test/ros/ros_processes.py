@@ -94,3 +94,40 @@ def start_roscore(processes, name="roscore"):
 
     port, _ = own_master(start, lambda core: processes.stop(names[core.pid]))
     return f"http://localhost:{port}"
+
+
+def start_xvfb(processes, size="1280x900x24"):
+    """An Xvfb of the given size on a free display (Xvfb -displayfd picks it); sets DISPLAY for what follows."""
+    read_end, write_end = os.pipe()
+    processes.start(
+        "xvfb", ["Xvfb", "-displayfd", str(write_end), "-screen", "0", size, "-nolisten", "tcp"], pass_fds=(write_end,)
+    )
+    os.close(write_end)
+    with os.fdopen(read_end) as stream:
+        display = ":" + stream.readline().strip()
+    assert display != ":", processes.log("xvfb")
+    processes.env["DISPLAY"] = display
+    return display
+
+
+_MISSING = object()
+
+
+def node_pid(name, missing=_MISSING):
+    """The process id of a ROS node, asked from the node itself (its getPid API); ``missing`` if it does not answer."""
+    import xmlrpc.client
+
+    import rosgraph
+    import rosnode
+
+    try:
+        api = rosnode.get_api_uri(rosgraph.Master("/node_pid"), name, skip_cache=True)
+        code, _, pid = xmlrpc.client.ServerProxy(api).getPid("/node_pid")
+        if code == 1:
+            return pid
+        error = f"{name} answered getPid with code {code}"
+    except (OSError, TypeError, rosnode.ROSNodeIOException, xmlrpc.client.Error) as exception:
+        error = f"{name} does not answer: {exception}"
+    if missing is _MISSING:
+        raise AssertionError(error)
+    return missing

@@ -2,6 +2,7 @@
 the same one, so that reading the code never misleads about what runs; a missing value is named in one line."""
 
 import dataclasses
+import xml.etree.ElementTree as ElementTree
 
 import pytest
 import yaml
@@ -11,6 +12,7 @@ from teleteach.control.impedance import ImpedanceParams
 from teleteach.gui.config import GuiConfig
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.ros import Sigma7Config
+from teleteach.node import node_parameters
 from teleteach.sim.robot_sim import ControllerConfigError, impedance_params, load_controller_config
 
 
@@ -69,3 +71,27 @@ def test_the_impedance_gains_come_only_from_the_yaml_and_a_missing_one_is_named(
     assert str(error.value) == (
         "controller settings, cartesian_impedance_controller: missing nullspace_stiffness; unknown nullspace_damping"
     )
+
+
+def launch_arguments(name):
+    root = ElementTree.parse(ROOT / "launch" / name).getroot()
+    return {arg.get("name"): arg.get("default") for arg in root.iter("arg")}
+
+
+@pytest.mark.parametrize(
+    "launch_file, yaml_values",
+    [("bt.launch", config("behaviour_tree.yaml")), ("sim.launch", config("controllers.yaml", "simulation"))],
+)
+def test_launch_arguments_of_yaml_values_default_to_the_yaml(launch_file, yaml_values):
+    # Expect an argument that overrides a yaml value to be empty by default (= the yaml's), never a second default
+    arguments = launch_arguments(launch_file)
+    shadowing = {name: arguments[name] for name in yaml_values if arguments.get(name) not in (None, "")}
+    assert shadowing == {}
+    assert set(yaml_values) & set(arguments)  # the check looked at something
+
+
+def test_node_parameters_are_the_yaml_unless_a_private_parameter_overrides_them():
+    private = {"~server_timeout": 120.0}
+    values = node_parameters("behaviour_tree.yaml", lambda name, default: private.get(name, default))
+    expected = dict(config("behaviour_tree.yaml"), server_timeout=120.0)
+    assert values == expected

@@ -101,7 +101,10 @@ def test_add_puts_the_learned_skill_into_the_running_behaviour_tree_library(data
         # Expect a master without the behaviour tree to be reported as exactly that
         assert early.returncode == 2 and "Traceback" not in early.stderr
         assert "/behaviour_tree/add_skill is not available" in early.stderr
-        tree = subprocess.Popen([sys.executable, str(ROOT / "nodes" / "behaviour_tree"), f"_data_dir:={data}"], **quiet)
+        tree = subprocess.Popen(
+            [sys.executable, str(ROOT / "nodes" / "behaviour_tree"), f"_data_dir:={data}", "_startup_timeout:=0"],
+            **quiet,
+        )
         result = run("Demo", "--data-dir", data, "--add", "--timeout", 60, env=env)
         assert result.returncode == 0, result.stderr
         assert "added to the BT library" in result.stdout

@@ -8,7 +8,6 @@ something.
 """
 
 import io
-import pathlib
 import struct
 import time
 import typing
@@ -36,6 +35,8 @@ from teleteach.msg import (
 from teleteach.msg import (
     SkillLibrary as SkillLibraryMsg,
 )
+from teleteach.node import node_parameters
+from teleteach.paths import config_file
 from teleteach.srv import AddSkill, AddSkillResponse, ChangeTree, ChangeTreeResponse
 
 REPLAY_SKILL = "ReplaySkill"
@@ -294,9 +295,9 @@ class BehaviourTreeNode:
     @classmethod
     def from_params(cls) -> "BehaviourTreeNode":
         """Build from the private parameters (see launch/bt.launch)."""
-        config = pathlib.Path(_package_path()) / "config"
-        library = SkillLibrary.load(rospy.get_param("~skills", str(config / "skills.yaml")))
-        spec = load_tree(rospy.get_param("~tree", str(config / "tree.yaml")), library)
+        params = node_parameters("behaviour_tree.yaml")
+        library = SkillLibrary.load(rospy.get_param("~skills", "") or config_file("skills.yaml"))
+        spec = load_tree(rospy.get_param("~tree", "") or config_file("tree.yaml"), library)
         data_root = datadir.data_dir(rospy.get_param("~data_dir", "") or None)
         store = TreeStore(data_root / "trees")
         if rospy.get_param("~resume", False):
@@ -308,13 +309,13 @@ class BehaviourTreeNode:
             unavailable = [f"{entry.name} ({entry.problem})" for entry in library if not entry.available]
             if unavailable:
                 rospy.logwarn("behaviour_tree: unavailable skills (shown, not run): %s", "; ".join(unavailable))
-        clients = ActionClients(rospy.get_param("~skill_namespace", "/skills"))
+        clients = ActionClients(params["skill_namespace"])
         for server in [entry.name for entry in library if not entry.demonstrated] + [REPLAY_SKILL]:
             clients.get(server)  # connect early: the first goal of each skill leaves without waiting
         timeouts = {
-            "server_timeout": float(rospy.get_param("~server_timeout", 2.0)),
-            "lost_timeout": float(rospy.get_param("~lost_timeout", 1.0)),
-            "clock_timeout": float(rospy.get_param("~clock_timeout", 5.0)),
+            "server_timeout": float(params["server_timeout"]),
+            "lost_timeout": float(params["lost_timeout"]),
+            "clock_timeout": float(params["clock_timeout"]),
         }
 
         def make_leaf(name: str, entry: SkillEntry) -> ActionSkill:
@@ -323,9 +324,9 @@ class BehaviourTreeNode:
         tree = TeachingTree(spec, library, make_leaf, store=store, data_root=data_root)
         return cls(
             tree,
-            tick_rate=float(rospy.get_param("~tick_rate", 10.0)),
+            tick_rate=float(params["tick_rate"]),
             clients=clients,
-            startup_timeout=float(rospy.get_param("~startup_timeout", 0.0)),
+            startup_timeout=float(params["startup_timeout"]),
         )
 
     def spin(self) -> None:
@@ -463,9 +464,3 @@ def _behaviour(record: NodeRecord) -> Behaviour:
         message=record.message,
         is_active=record.is_active,
     )
-
-
-def _package_path() -> str:
-    import rospkg
-
-    return rospkg.RosPack().get_path("teleteach")

@@ -126,17 +126,18 @@ class RobotSimNode:
     def from_params(cls):
         """Build the node from its private parameters.
 
-        ~gui, ~real_time_factor, ~scene_file, ~controllers_file, ~clock_rate, ~initial_controller,
-        ~absent_products (list of product names of the scene file to leave out).
+        ~gui, ~scene_file, ~controllers_file, ~absent_products (list of product names of the scene file to leave
+        out); ~real_time_factor, ~clock_rate and ~initial_controller override the controller file's `simulation`.
         """
         scene = load_scene(rospy.get_param("~scene_file", "") or None)
         scene = scene.without_products(rospy.get_param("~absent_products", None) or [])
         config = load_controller_config(rospy.get_param("~controllers_file", "") or None)
-        initial = rospy.get_param("~initial_controller", "")
-        if initial:
-            config["simulation"]["initial_controller"] = initial
+        simulation = config["simulation"]
+        for name in ("initial_controller", "real_time_factor", "clock_rate"):
+            if rospy.has_param(f"~{name}"):
+                simulation[name] = rospy.get_param(f"~{name}")
         sim = RobotSim(scene, config, gui=bool(rospy.get_param("~gui", False)))
-        return cls(sim, rospy.get_param("~real_time_factor", 1.0), rospy.get_param("~clock_rate", 250.0))
+        return cls(sim, float(simulation["real_time_factor"]), float(simulation["clock_rate"]))
 
     # ---------------------------------------------------------------------------------------------- callbacks
     def _guard(self, topic, apply):
