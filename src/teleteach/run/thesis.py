@@ -8,6 +8,7 @@ before and after, the report with the thesis-style plots, the screenshots and ``
 """
 
 import dataclasses
+import functools
 import os
 import pathlib
 import shutil
@@ -276,8 +277,8 @@ def _tree_yaml(children: Tuple[str, ...], leaves: Dict[str, Tuple[Status, str, s
 class ThesisRun:
     """One run of the main job; :meth:`run` returns the summary (also written into the run folder)."""
 
-    def __init__(self, options: Options, say: Callable[[str], None] = print):
-        self.options = options
+    def __init__(self, options: Options, say: Callable[[str], None] = functools.partial(print, flush=True)):
+        self.options = options  # say flushes: progress reaches a pipe (tee, bench/stress.py) when it happens
         self.say = say
         self.scenario = load_scenario(options.scenario)  # a bad file is refused before anything is created
         self.root = data_dir(options.data_root)
