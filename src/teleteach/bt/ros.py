@@ -55,6 +55,9 @@ _TYPE = {
 }
 
 
+RUNNING_PARAM = "~running"  # set while the node runs: found at start, the previous process crashed
+
+
 class PreserializedTree(BehaviourTree):
     """A BehaviourTree message whose behaviours are already serialised (one cached bytes block per node).
 
@@ -294,13 +297,22 @@ class BehaviourTreeNode:
 
     @classmethod
     def from_params(cls) -> "BehaviourTreeNode":
-        """Build from the private parameters (see launch/bt.launch)."""
+        """Build from the private parameters (defaults: config/behaviour_tree.yaml; see launch/bt.launch).
+
+        A node that finds ``~running`` set on the master is a restart after a crash (roslaunch's respawn): it
+        resumes what was taught, whatever ``~resume`` says. A clean shutdown clears the flag.
+        """
         params = node_parameters("behaviour_tree.yaml")
         library = SkillLibrary.load(rospy.get_param("~skills", "") or config_file("skills.yaml"))
         spec = load_tree(rospy.get_param("~tree", "") or config_file("tree.yaml"), library)
         data_root = datadir.data_dir(rospy.get_param("~data_dir", "") or None)
         store = TreeStore(data_root / "trees")
-        if rospy.get_param("~resume", False):
+        restarted = rospy.get_param(RUNNING_PARAM, False)
+        if restarted:
+            rospy.logwarn("behaviour_tree: the previous behaviour_tree died without stopping: resuming what it saved")
+        rospy.set_param(RUNNING_PARAM, True)
+        rospy.on_shutdown(_clear_running_flag)
+        if restarted or rospy.get_param("~resume", False):
             spec, library, problems = store.restore(spec, library)
             if problems:
                 rospy.logwarn("behaviour_tree: could not resume everything saved in %s: %s", store.directory, problems)
@@ -464,3 +476,11 @@ def _behaviour(record: NodeRecord) -> Behaviour:
         message=record.message,
         is_active=record.is_active,
     )
+
+
+def _clear_running_flag() -> None:
+    """A clean stop: the next start is a new session, not a restart after a crash."""
+    try:
+        rospy.delete_param(RUNNING_PARAM)
+    except (KeyError, OSError, rospy.ROSException):
+        pass  # the master is gone already: nothing to clear
