@@ -21,11 +21,12 @@ from teleteach.run import outcome
 from teleteach.run.processes import (
     ProcessError,
     Processes,
-    free_display,
     free_port,
     master_pid,
     own_master,
     parent_pid,
+    screenshot,
+    start_xvfb,
 )
 from teleteach.run.thesis import options_for
 from teleteach.skill_file import Skill, save
@@ -202,11 +203,17 @@ def test_thesis_full_drives_the_gui_to_the_expected_buttons():
     assert scale_to_index(by_time[38.1].rpy[0], turn, 10) == 8
 
 
-def test_free_port_and_display():
+def test_free_port_and_xvfb_on_a_display_it_picked(tmp_path):
     port = free_port()
     assert 1024 < port < 65536
-    display = free_display()
-    assert not os.path.exists(f"/tmp/.X11-unix/X{display}")
+    processes = Processes()
+    try:
+        display = start_xvfb(processes)
+        # Expect an X server that answers on the display it reported: a screenshot of it works
+        assert screenshot(display, tmp_path / "screen.png") is None
+        assert (tmp_path / "screen.png").stat().st_size > 0
+    finally:
+        processes.stop_all()
 
 
 def test_own_master_moves_to_another_port_when_someone_else_took_the_probed_one(tmp_path):

@@ -6,6 +6,7 @@ first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), th
 
 import os
 import pathlib
+import select
 import shutil
 import signal
 import socket
@@ -85,23 +86,14 @@ def own_master(
     raise ProcessError(f"no ROS master of our own after {attempts} ports; the last time {last}")
 
 
-def free_display(first: int = 90, last: int = 200) -> int:
-    """An X display number without a lock file or socket."""
-    for number in range(first, last):
-        lock, unix_socket = pathlib.Path(f"/tmp/.X{number}-lock"), pathlib.Path(f"/tmp/.X11-unix/X{number}")
-        if not lock.exists() and not unix_socket.exists():
-            return number
-    raise ProcessError(f"no free X display between :{first} and :{last}")
-
-
 class Processes:
     """The run's child processes; :meth:`stop_all` ends them newest first."""
 
     def __init__(self):
         self._started: List[Tuple[str, subprocess.Popen, Optional[IO]]] = []
 
-    def start(self, name: str, command: Sequence[str], log: Optional[pathlib.Path] = None, env=None):
-        """Start a command in its own session, output to ``log`` (or discarded)."""
+    def start(self, name: str, command: Sequence[str], log: Optional[pathlib.Path] = None, env=None, pass_fds=()):
+        """Start a command in its own session, output to ``log`` (or discarded), with ``pass_fds`` left open."""
         if shutil.which(command[0]) is None and not pathlib.Path(command[0]).is_file():
             raise ProcessError(f"{command[0]} is not installed (needed for {name})")
         stream = open(log, "ab") if log is not None else None
@@ -112,6 +104,7 @@ class Processes:
             stdin=subprocess.DEVNULL,
             env=env,
             start_new_session=True,
+            pass_fds=pass_fds,
         )
         self._started.append((name, process, stream))
         return process
@@ -143,16 +136,27 @@ class Processes:
             self.stop(self._started[-1][1])
 
 
-def start_xvfb(processes: Processes, size: str = "1400x1000x24") -> str:
-    """Start Xvfb on a free display and wait for its socket; returns the DISPLAY value."""
-    number = free_display()
-    process = processes.start("Xvfb", ["Xvfb", f":{number}", "-screen", "0", size, "-nolisten", "tcp"])
-    deadline = time.monotonic() + 15.0
-    while not pathlib.Path(f"/tmp/.X11-unix/X{number}").exists():
-        if process.poll() is not None or time.monotonic() > deadline:
-            processes.stop(process)
-            raise ProcessError(f"Xvfb did not start on :{number}")
-        time.sleep(0.1)
+def start_xvfb(processes: Processes, size: str = "1400x1000x24", timeout: float = 15.0) -> str:
+    """Start Xvfb on a display it picks itself; returns the DISPLAY value.
+
+    ``-displayfd``: no probe of free displays that another X server could race (abstract sockets are shared even
+    across chroots).
+    """
+    read_end, write_end = os.pipe()
+    try:
+        process = processes.start(
+            "Xvfb",
+            ["Xvfb", "-displayfd", str(write_end), "-screen", "0", size, "-nolisten", "tcp"],
+            pass_fds=(write_end,),
+        )
+    finally:
+        os.close(write_end)
+    with os.fdopen(read_end) as stream:
+        ready, _, _ = select.select([stream], [], [], timeout)
+        number = stream.readline().strip() if ready else ""
+    if not number:
+        processes.stop(process)
+        raise ProcessError(f"Xvfb did not start within {timeout:.0f} s")
     return f":{number}"
 
 
