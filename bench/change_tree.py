@@ -14,7 +14,6 @@ import json
 import os
 import pathlib
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -22,14 +21,10 @@ import time
 
 import numpy as np
 
+from teleteach.run.processes import own_master
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SIZES = (10, 100, 1000)
-
-
-def free_port():
-    with socket.socket() as sock:
-        sock.bind(("localhost", 0))
-        return sock.getsockname()[1]
 
 
 def start(command, log):
@@ -151,24 +146,18 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--requests", type=int, default=1000, help="timed requests per tree size")
     args = parser.parse_args()
-    port = free_port()
-    os.environ["ROS_MASTER_URI"] = f"http://localhost:{port}"
     workdir = pathlib.Path(tempfile.mkdtemp(prefix="teleteach_bench_change_tree_"))
     log = open(workdir / "processes.log", "w")
-    roscore = start(["roscore", "-p", str(port)], log)
+
+    def start_roscore(port):
+        os.environ["ROS_MASTER_URI"] = f"http://localhost:{port}"
+        return start(["roscore", "-p", str(port)], log)
+
+    _, roscore = own_master(start_roscore, stop)
     server = None
     try:
         import rospy
 
-        deadline = time.monotonic() + 30
-        while True:
-            try:
-                with socket.create_connection(("localhost", port), timeout=1):
-                    break
-            except OSError:
-                if time.monotonic() > deadline:
-                    raise RuntimeError("roscore did not start") from None
-                time.sleep(0.2)
         server = start(
             [sys.executable, str(ROOT / "test" / "ros" / "skill_test_server.py"), "_duration:=1000000.0"], log
         )

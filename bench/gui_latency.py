@@ -17,7 +17,6 @@ import json
 import os
 import pathlib
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -25,14 +24,10 @@ import time
 
 import numpy as np
 
+from teleteach.run.processes import own_master
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "bench" / "results" / "gui_latency.json"
-
-
-def free_port():
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
 
 
 def start(command, **kwargs):
@@ -69,16 +64,17 @@ def stiffness_x(x):
 
 
 def measure_latency(steps, processes):
-    import rosgraph
     import rospy
     from geometry_msgs.msg import PoseStamped, Vector3Stamped
 
-    uri = f"http://127.0.0.1:{free_port()}"
-    os.environ["ROS_MASTER_URI"] = uri
     os.environ["ROS_HOSTNAME"] = "127.0.0.1"
-    processes.append(start(["roscore", "-p", uri.rsplit(":", 1)[1]]))
-    while not rosgraph.is_master_online(uri):
-        time.sleep(0.1)
+
+    def start_roscore(port):
+        os.environ["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
+        return start(["roscore", "-p", str(port)])
+
+    _, core = own_master(start_roscore, stop, host="127.0.0.1")
+    processes.append(core)
     gui = start([str(ROOT / "nodes" / "teaching_gui"), "_initial_tab:=2", "_deadband_position:=0.0"])
     processes.append(gui)
     rospy.init_node("gui_latency_bench", disable_signals=True)

@@ -13,7 +13,6 @@ import json
 import os
 import pathlib
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -25,6 +24,7 @@ from teleteach.haptics.click import ClickDetector
 from teleteach.haptics.loop import DeviceLoop, WallRate
 from teleteach.haptics.scenario import ScenarioBackend, load_scenario
 from teleteach.haptics.twist import TwistEstimator
+from teleteach.run.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "config" / "scenarios" / "example.yaml"
@@ -73,21 +73,16 @@ print(" ".join(repr(stamp) for stamp in stamps))
 
 
 def over_ros(seconds=8.0):
-    with socket.socket() as probe:
-        probe.bind(("localhost", 0))
-        port = probe.getsockname()[1]
-    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
-    core = subprocess.Popen(
-        ["roscore", "-p", str(port)],
-        env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        start_new_session=True,
-    )
+    env = dict(os.environ)
+
+    def start_roscore(port):
+        env["ROS_MASTER_URI"] = f"http://localhost:{port}"
+        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True}
+        return subprocess.Popen(["roscore", "-p", str(port)], env=env, **quiet)
+
+    _, core = own_master(start_roscore, _stop)
     node = None
     try:
-        while subprocess.run(["rosparam", "get", "/rosversion"], env=env, capture_output=True).returncode:
-            time.sleep(0.5)
         executable = roslib.packages.find_node("teleteach", "sigma7_node")[0]
         node = subprocess.Popen(
             [executable, "_backend:=scenario", f"_scenario:={SCENARIO}"],
@@ -105,8 +100,7 @@ def over_ros(seconds=8.0):
     finally:
         for process in (node, core):
             if process is not None:
-                os.killpg(process.pid, signal.SIGINT)
-                process.wait(timeout=30)
+                _stop(process)
     stamps = np.array([float(value) for value in result.stdout.split()])
     stamps = stamps[stamps > stamps[0] + 1.0]  # skip the connection's first second
     intervals = np.diff(stamps) * 1e3
@@ -116,6 +110,11 @@ def over_ros(seconds=8.0):
         "stamp_interval_max_ms": float(intervals.max()),
         "node_cpu_percent_of_one_core": float(100.0 * cpu),
     }
+
+
+def _stop(process):
+    os.killpg(process.pid, signal.SIGINT)
+    process.wait(timeout=30)
 
 
 def _cpu_seconds(pid):

@@ -7,15 +7,14 @@ problem (file:line, keyframe index and field; or the library), before it publish
 import os
 import pathlib
 import signal
-import socket
 import subprocess
 import textwrap
-import time
 
 import pytest
 import roslib.packages
 
 from teleteach.haptics.ros import Sigma7Config
+from teleteach.run.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -54,32 +53,28 @@ def test_config_refuses_bad_params(values, expected):
 
 @pytest.fixture(scope="module")
 def roscore(tmp_path_factory):
-    """A roscore of our own on a free port, stopped by its PID afterwards."""
-    with socket.socket() as probe:
-        probe.bind(("localhost", 0))
-        port = probe.getsockname()[1]
-    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}", ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
-    core = subprocess.Popen(
-        ["roscore", "-p", str(port)],
-        env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        start_new_session=True,
-    )
+    """A roscore of our own on a free port (own_master), stopped by its PID afterwards."""
+    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
+
+    def start_roscore(port):
+        env["ROS_MASTER_URI"] = f"http://localhost:{port}"
+        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True}
+        return subprocess.Popen(["roscore", "-p", str(port)], env=env, **quiet)
+
+    _, core = own_master(start_roscore, stop)
     try:
-        deadline = time.monotonic() + 60.0
-        while subprocess.run(["rosparam", "get", "/rosversion"], env=env, capture_output=True).returncode != 0:
-            assert core.poll() is None, "roscore exited"
-            assert time.monotonic() < deadline, "roscore did not come up"
-            time.sleep(0.5)
         yield env
     finally:
-        os.killpg(core.pid, signal.SIGINT)
-        try:
-            core.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            os.killpg(core.pid, signal.SIGKILL)
-            core.wait()
+        stop(core)
+
+
+def stop(core):
+    os.killpg(core.pid, signal.SIGINT)
+    try:
+        core.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        os.killpg(core.pid, signal.SIGKILL)
+        core.wait()
 
 
 def run_node(env, *args):
