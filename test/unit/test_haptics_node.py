@@ -4,6 +4,7 @@ Bad scenario files and a missing Force Dimension SDK must make the node exit non
 problem (file:line, keyframe index and field; or the library), before it publishes anything.
 """
 
+import itertools
 import os
 import pathlib
 import signal
@@ -77,9 +78,15 @@ def stop(core):
         core.wait()
 
 
+RUNS = itertools.count()
+
+
 def run_node(env, *args):
+    """The node once, under a name of its own: private parameters set on the command line stay on the master, and
+    another test's (e.g. ~dhd/library) must not reach this run."""
     node = roslib.packages.find_node("teleteach", "sigma7_node")[0]  # what roslaunch and rosrun run
-    return subprocess.run([node, "__name:=sigma7_refusal", *args], env=env, capture_output=True, text=True, timeout=60)
+    name = f"sigma7_refusal_{next(RUNS)}"
+    return subprocess.run([node, f"__name:={name}", *args], env=env, capture_output=True, text=True, timeout=60)
 
 
 def fatal_line(result):
