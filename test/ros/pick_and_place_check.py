@@ -32,6 +32,7 @@ class PickAndPlaceTest(unittest.TestCase):
         cls.scene = load_scene()
         cls.lock = threading.Lock()
         cls.products = {}
+        cls.clients = {}
         rospy.Subscriber("/teleteach/scene", MarkerArray, cls.on_scene, queue_size=1)
 
     @classmethod
@@ -49,11 +50,19 @@ class PickAndPlaceTest(unittest.TestCase):
     def gap_distance(self, name):
         return self.scene.gap("gap_1").distance(self.product(name))
 
+    def client(self, name):
+        """One action client per skill for the whole test: a new client's result subscription may still be connecting
+        when a goal that is refused at once (a few ms) ends, and that result would be lost."""
+        if name not in self.clients:
+            client = actionlib.SimpleActionClient(f"/skills/{name}", ExecuteSkillAction)
+            self.assertTrue(client.wait_for_server(rospy.Duration(60.0)), f"/skills/{name} is not served")
+            self.clients[name] = client
+        return self.clients[name]
+
     def run_skill(self, name, skill=None, parameters="", cancel_after=None):
         """Send a goal and wait for its result; the feedback is read from the action's feedback topic itself, since
         actionlib's client drops feedback that it processes after the result."""
-        client = actionlib.SimpleActionClient(f"/skills/{name}", ExecuteSkillAction)
-        self.assertTrue(client.wait_for_server(rospy.Duration(60.0)), f"/skills/{name} is not served")
+        client = self.client(name)
         feedback = []
         topic = rospy.Subscriber(
             f"/skills/{name}/feedback",
