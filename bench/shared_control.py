@@ -254,19 +254,19 @@ def main():
     load = os.getloadavg()
 
     start = time.perf_counter()
-    ours = SharedControl(SharedControlConfig(solver="compiled"), START)
+    ours = SharedControl(SharedControlConfig.paper(solver="compiled"), START)
     build_s = time.perf_counter() - start
     start = time.perf_counter()
-    ours_again = SharedControl(SharedControlConfig(solver="compiled"), START)
+    ours_again = SharedControl(SharedControlConfig.paper(solver="compiled"), START)
     cached_build_s = time.perf_counter() - start
     del ours_again
     # The plain formulation solves both problems every cycle, as a straightforward implementation would.
-    plain = SharedControl(SharedControlConfig(solver="ipopt", skip_feasible_optimisation=False), START)
+    plain = SharedControl(SharedControlConfig.paper(solver="ipopt", skip_feasible_optimisation=False), START)
 
     switch, switch_records, switch_times, _ = switch_experiment(ours, switch_time, duration, seed=1)
     boundary, boundary_records, boundary_times, direct = boundary_experiment(ours, boundary_duration, seed=2)
     obstacle, obstacle_records, obstacle_times = obstacle_experiment(ours, boundary_duration, seed=3)
-    always = SharedControl(SharedControlConfig(solver="compiled", skip_feasible_optimisation=False), START)
+    always = SharedControl(SharedControlConfig.paper(solver="compiled", skip_feasible_optimisation=False), START)
     _, always_switch_records, always_switch_times, _ = switch_experiment(always, switch_time, duration, seed=1)
     _, always_records, always_times, _ = boundary_experiment(always, boundary_duration, seed=2)
     always_timing = timing(always_switch_records + always_records, np.concatenate([always_switch_times, always_times]))

@@ -60,9 +60,7 @@ def patterns(times):
 def config_from_yaml(**changes):
     with open(ROOT / "config" / "shared_control.yaml") as stream:
         params = yaml.safe_load(stream)
-    fields = {f.name for f in dataclasses.fields(SharedControlConfig)}
-    values = {k: tuple(v) if isinstance(v, list) else v for k, v in params.items() if k in fields and k != "solver"}
-    return dataclasses.replace(SharedControlConfig(**values, solver="fast"), dt=1.0 / params["rate"], **changes)
+    return dataclasses.replace(SharedControlConfig.from_parameters(params), solver="fast", **changes)
 
 
 def intended_path(clean):

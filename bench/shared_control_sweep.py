@@ -168,10 +168,7 @@ def main():
     parser.add_argument("--switch-hold", type=float, help="override config/shared_control.yaml [s]")
     args = parser.parse_args()
     params = node_parameters()
-    fields = {f.name for f in dataclasses.fields(SharedControlConfig)}
-    values = {k: v for k, v in params.items() if k in fields and k not in ("dt", "solver", "cache_dir")}
-    values = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}
-    config = SharedControlConfig(**values, dt=1.0 / params["rate"], solver=args.solver)
+    config = dataclasses.replace(SharedControlConfig.from_parameters(params), solver=args.solver)
     for name in ("switch_confidence", "switch_hold"):
         if getattr(args, name) is not None:
             config = dataclasses.replace(config, **{name: getattr(args, name)})

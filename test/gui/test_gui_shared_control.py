@@ -97,6 +97,11 @@ def test_shared_control_tab_shows_the_plan_and_records_a_skill(
         corners = sorted(map(tuple, np.round(tab.view.boundary, 6)))
         assert corners == sorted([(-0.25, -0.15), (0.25, -0.15), (0.25, 0.15), (-0.25, 0.15)])
         assert inside(tab.view.plan) and inside(list(tab.view.trail))
+        # the arm's own trail (/cartesian_pose on the plane) follows the executed state inside the boundary
+        pump_until(qapp, lambda: len(tab.view.arm_trail) > 50, 10, "the arm's trail in the tab")
+        arm = np.array(tab.view.arm_trail)
+        assert inside(arm[-10:], margin=0.005)
+        assert np.linalg.norm(arm[-1] - np.array(tab.view.trail[-1])) < 0.03
         # the plan starts where the robot is and goes somewhere
         assert np.linalg.norm(tab.view.plan[0] - np.array(tab.view.trail[-1])) < 0.05
         assert np.linalg.norm(tab.view.plan[-1] - tab.view.plan[0]) > 0.005

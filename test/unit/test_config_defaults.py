@@ -13,6 +13,7 @@ from teleteach.gui.config import GuiConfig
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.ros import Sigma7Config
 from teleteach.node import node_parameters
+from teleteach.shared_control.loop import SharedControlConfig
 from teleteach.sim.robot_sim import ControllerConfigError, impedance_params, load_controller_config
 
 
@@ -42,8 +43,9 @@ def comparable(value):
         (GuiConfig, config("gui.yaml")),
         (Sigma7Config, config("device.yaml")),
         (ClickParameters, config("device.yaml", "click")),
+        (SharedControlConfig, config("shared_control.yaml")),
     ],
-    ids=["impedance", "gui", "sigma7", "click"],
+    ids=["impedance", "gui", "sigma7", "click", "shared_control"],
 )
 def test_no_code_default_disagrees_with_its_yaml(parameters, yaml_values):
     disagreeing = {}
@@ -95,3 +97,12 @@ def test_node_parameters_are_the_yaml_unless_a_private_parameter_overrides_them(
     values = node_parameters("behaviour_tree.yaml", lambda name, default: private.get(name, default))
     expected = dict(config("behaviour_tree.yaml"), server_timeout=120.0)
     assert values == expected
+
+
+def test_shared_control_config_comes_from_its_yaml_and_names_what_is_missing():
+    values = config("shared_control.yaml")
+    # Expect the yaml to give the node's configuration, the rate as the cycle period
+    assert SharedControlConfig.from_parameters(values) == dataclasses.replace(SharedControlConfig(), dt=0.02)
+    del values["switch_hold"], values["rate"]
+    with pytest.raises(ValueError, match=r"^missing parameter ~rate, ~switch_hold \(see config/shared_control.yaml\)$"):
+        SharedControlConfig.from_parameters(values)

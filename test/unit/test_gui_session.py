@@ -17,8 +17,8 @@ def session():
 def test_a_teaching_tab_pauses_the_tree_and_hands_the_arm_to_impedance_control(session):
     # Expect: entering LOW-LEVEL starts a session; SHARED CONTROL keeps it; START ends it, arm first, then the tree
     assert session.tab_changed(Tab.LOW_LEVEL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL]
-    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.LEAVE_LOW_LEVEL]
-    assert session.tab_changed(Tab.START) == [A.POSITION_CONTROL, A.RESUME_TREE]
+    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.LEAVE_LOW_LEVEL, A.SHARED_CONTROL_ON]
+    assert session.tab_changed(Tab.START) == [A.SHARED_CONTROL_OFF, A.POSITION_CONTROL, A.RESUME_TREE]
     assert not session.session
     assert session.tab_changed(Tab.START) == []  # the same tab again: nothing
 
@@ -43,17 +43,17 @@ def test_leaving_mid_recording_keeps_what_was_recorded(session):
 
 
 def test_a_shared_control_recording_goes_on_in_the_tab_and_stops_when_it_is_left(session):
-    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL]
+    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL, A.SHARED_CONTROL_ON]
     assert session.toggle_shared_recording() == [A.START_SHARED_RECORDING]
     assert session.toggle_shared_recording() == [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL]
     assert session.session  # the operator goes on in the tab
     session.toggle_shared_recording()
     # Expect: to LOW-LEVEL, the recording is saved and the session goes on; to START, the session ends too
-    assert session.tab_changed(Tab.LOW_LEVEL) == [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL]
-    session.tab_changed(Tab.SHARED_CONTROL)
+    stop = [A.SHARED_CONTROL_OFF, A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL]
+    assert session.tab_changed(Tab.LOW_LEVEL) == stop
+    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.LEAVE_LOW_LEVEL, A.SHARED_CONTROL_ON]
     session.toggle_shared_recording()
-    stop = [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL, A.POSITION_CONTROL, A.RESUME_TREE]
-    assert session.tab_changed(Tab.START) == stop
+    assert session.tab_changed(Tab.START) == [*stop, A.POSITION_CONTROL, A.RESUME_TREE]
 
 
 def test_recording_from_outside_a_session_starts_one(session):
@@ -86,7 +86,7 @@ def test_leaving_high_level_answers_the_help_request(session):
         ),
         (
             [Tab.SHARED_CONTROL, "record"],
-            [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL, A.POSITION_CONTROL, A.RESUME_TREE],
+            [A.SHARED_CONTROL_OFF, A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL, A.POSITION_CONTROL, A.RESUME_TREE],
         ),
     ],
 )
@@ -117,6 +117,16 @@ def test_every_path_through_the_tabs_gives_the_arm_back():
                 actions += machine.tab_changed(event)
         actions += machine.shutdown()
         assert actions.count(A.IMPEDANCE_CONTROL) == actions.count(A.POSITION_CONTROL), path
+        # Expect the MPC to drive only inside SHARED CONTROL's session: on and off alternate, off before the arm
+        # goes back to the position controller
+        switches = [a for a in actions if a in (A.SHARED_CONTROL_ON, A.SHARED_CONTROL_OFF, A.POSITION_CONTROL)]
+        driving = False
+        for action in switches:
+            assert not (action == A.POSITION_CONTROL and driving), path
+            if action != A.POSITION_CONTROL:
+                assert driving == (action == A.SHARED_CONTROL_OFF), path
+                driving = action == A.SHARED_CONTROL_ON
+        assert not driving, path
         starts = actions.count(A.START_STIFFNESS_RECORDING) + actions.count(A.START_SHARED_RECORDING)
         saves = actions.count(A.SAVE_STIFFNESS_SKILL) + actions.count(A.SAVE_SHARED_SKILL)
         assert starts == saves, path

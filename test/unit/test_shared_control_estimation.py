@@ -64,7 +64,7 @@ def test_heading_constraint_and_regularisation_are_applied():
 
 @pytest.mark.parametrize("skill", sorted(SKILLS))
 def test_loop_identifies_the_skill_of_noisy_input(skill):
-    controller = SharedControl(SharedControlConfig(solver="fast"), (0.0, 0.0))
+    controller = SharedControl(SharedControlConfig.paper(solver="fast"), (0.0, 0.0))
     times = np.arange(0, 3.0, DT)
     commands = synthetic_commands(skill, (0.03, 20.0, 0.0), 2.0, 0.05, times, 0.02, np.random.default_rng(4))
     records = [controller.step(c) for c in commands]
@@ -93,7 +93,7 @@ def test_fitting_metrics_are_zero_for_the_model_and_larger_for_the_other_skill(s
 
 
 def test_compiled_problems_are_cached_and_reused(tmp_path):
-    config = SharedControlConfig(
+    config = SharedControlConfig.paper(
         skills=("wave",), window_time=0.3, horizon_time=0.3, solver="compiled", cache_dir=str(tmp_path)
     )
     first = SharedControl(config, (0.0, 0.0))
@@ -105,7 +105,7 @@ def test_compiled_problems_are_cached_and_reused(tmp_path):
     assert {path: os.stat(path).st_mtime_ns for path in libraries} == stamps
     # The compiled code gives what the casadi virtual machine gives.
     reference = SharedControl(
-        SharedControlConfig(skills=("wave",), window_time=0.3, horizon_time=0.3, solver="fast"), (0.0, 0.0)
+        SharedControlConfig.paper(skills=("wave",), window_time=0.3, horizon_time=0.3, solver="fast"), (0.0, 0.0)
     )
     commands = synthetic_commands("wave", (0.03, 20.0, 0.0), 0.0, 0.05, np.arange(0, 1.0, DT))
     for command in commands:

@@ -15,7 +15,7 @@ TOLERANCE = 1e-6
 
 @pytest.fixture(scope="module")
 def controller():
-    return SharedControl(SharedControlConfig(solver="fast"), (0.5, 0.0))
+    return SharedControl(SharedControlConfig.paper(solver="fast"), (0.5, 0.0))
 
 
 def wave(duration, heading=math.pi, seed=0):
@@ -166,7 +166,7 @@ def test_bad_configuration_is_rejected_and_changes_nothing(controller):
     with pytest.raises(ValueError):
         controller.reset((math.nan, 0.0))
     with pytest.raises(ValueError):
-        SharedControl(SharedControlConfig(skills=("spiral",), solver="fast"))
+        SharedControl(SharedControlConfig.paper(skills=("spiral",), solver="fast"))
 
 
 def test_idle_operator_restarts_the_estimation(controller):
@@ -227,7 +227,7 @@ def test_ros_message_conversions_and_task_plane():
 
 def test_two_clothoid_segments_run_and_keep_the_boundary():
     box = Box(-1.0, -0.06, 1.0, 0.2)
-    controller = SharedControl(SharedControlConfig(solver="fast", n_segments=2), (0.5, 0.0), box)
+    controller = SharedControl(SharedControlConfig.paper(solver="fast", n_segments=2), (0.5, 0.0), box)
     records = [controller.step(c) for c in wave(2.5, heading=math.pi + 0.2)]
     assert records[-1].mode == SHARED and records[-1].skill == "wave"
     assert len(records[-1].parameters) == 9  # two (phi0, phi1) pairs
@@ -283,8 +283,8 @@ def zigzag(duration, heading=0.25):
 
 def test_authority_follows_confidence_and_the_paper_switch_restores_the_plan_always():
     box = Box(-0.25, -0.15, 0.25, 0.06)
-    blended = SharedControl(SharedControlConfig(solver="fast", blend_authority=True))
-    paper = SharedControl(SharedControlConfig(solver="fast", blend_authority=False))
+    blended = SharedControl(SharedControlConfig.paper(solver="fast", blend_authority=True))
+    paper = SharedControl(SharedControlConfig.paper(solver="fast", blend_authority=False))
     authorities = {}
     for name, controller in (("blended", blended), ("paper", paper)):
         controller.reset((-0.2, 0.0))
@@ -302,7 +302,7 @@ def test_authority_follows_confidence_and_the_paper_switch_restores_the_plan_alw
 def test_unknown_pattern_executes_the_operators_step_inside_the_constraints():
     box = Box(-0.25, -0.15, 0.25, 0.06)
     # Residual bounds so strict that nothing counts as known: every estimation cycle is UNKNOWN.
-    config = SharedControlConfig(solver="fast", blend_authority=True, authority_residual=(1e-9, 2e-9))
+    config = SharedControlConfig.paper(solver="fast", blend_authority=True, authority_residual=(1e-9, 2e-9))
     controller = SharedControl(config, (-0.2, 0.0), box)
     commands = zigzag(5.0)
     records = [controller.step(c) for c in commands]

@@ -81,7 +81,7 @@ def test_confidence_is_the_normalised_margin_of_the_two_best_errors():
 
 
 def test_switch_from_wave_to_cycloid_without_flicker_and_within_the_bound():
-    config = SharedControlConfig(solver="fast", window_time=0.8)
+    config = SharedControlConfig.paper(solver="fast", window_time=0.8)
     controller = SharedControl(config, (0.0, 0.0))
     rng = np.random.default_rng(4)
     times = np.arange(0.0, 4.0, DT)

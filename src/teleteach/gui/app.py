@@ -59,6 +59,8 @@ class MainWindow(QMainWindow):
         self._pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
         self._recording_publisher = rospy.Publisher("/teleteach/recording", Bool, queue_size=1, latch=True)
         self._recording_publisher.publish(Bool(False))
+        self._shared_control_publisher = rospy.Publisher("/shared_control/enable", Bool, queue_size=1, latch=True)
+        self._shared_control_publisher.publish(Bool(False))
         equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
 
@@ -116,6 +118,7 @@ class MainWindow(QMainWindow):
         self.worker.shared_plan.connect(self.shared_control.on_plan, queued)
         self.worker.shared_boundary.connect(self.shared_control.on_boundary, queued)
         self.worker.shared_obstacle.connect(self.shared_control.on_obstacle, queued)
+        self.worker.shared_arm.connect(self.shared_control.on_arm, queued)
         self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
         self.high_level.request_ready.connect(self._send_change)
         self.low_level.recording_toggled.connect(self._toggle_recording)
@@ -134,6 +137,8 @@ class MainWindow(QMainWindow):
             Action.START_STIFFNESS_RECORDING: self._start_recording,
             Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
             Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,
+            Action.SHARED_CONTROL_ON: lambda: self._shared_control_publisher.publish(Bool(True)),
+            Action.SHARED_CONTROL_OFF: lambda: self._shared_control_publisher.publish(Bool(False)),
             Action.START_SHARED_RECORDING: self._start_shared_recording,
             Action.STOP_SHARED_RECORDING: self._stop_shared_recording,
             Action.SAVE_SHARED_SKILL: self._save_shared_skill,

@@ -9,6 +9,8 @@ recorders and the ROS calls, so every rule below is tested without a display (te
 - A recording runs in one teaching tab; leaving that tab, or shutting down, stops it and saves what was recorded.
   A stiffness demonstration (LOW-LEVEL) ends the session when it stops; a shared-control recording does not
   (the operator goes on in the tab) unless the tab is left for a tab that is not a teaching tab.
+- The MPC drives the arm only while SHARED CONTROL is open: on when the tab opens (after the session began), off
+  first thing when it is left or the window closes.
 - The operator answers a help request with tree edits in HIGH-LEVEL: leaving HIGH-LEVEL (except for LOW-LEVEL,
   where teaching continues the answer) resumes the tree.
 """
@@ -54,6 +56,8 @@ class Action(enum.Enum):
     START_STIFFNESS_RECORDING = enum.auto()  # recorder on, /teleteach/recording true, trajectory player on
     STOP_STIFFNESS_RECORDING = enum.auto()  # recorder off, /teleteach/recording false, trajectory player off
     SAVE_STIFFNESS_SKILL = enum.auto()  # the demonstration becomes a skill of the library
+    SHARED_CONTROL_ON = enum.auto()  # the MPC drives the arm from the device (/shared_control/enable true)
+    SHARED_CONTROL_OFF = enum.auto()  # it stops publishing the arm's reference
     START_SHARED_RECORDING = enum.auto()
     STOP_SHARED_RECORDING = enum.auto()
     SAVE_SHARED_SKILL = enum.auto()
@@ -85,6 +89,7 @@ class TeachingSession:
             elif self.session and tab != Tab.SHARED_CONTROL:
                 actions += self._end_session()
         if previous == Tab.SHARED_CONTROL:
+            actions.append(Action.SHARED_CONTROL_OFF)
             if self.recording == Recording.SHARED_CONTROL:
                 actions += self._stop_shared_recording(end_session=tab != Tab.LOW_LEVEL)
             elif self.session and tab != Tab.LOW_LEVEL:
@@ -95,6 +100,8 @@ class TeachingSession:
             actions.append(Action.RESET_HIGH_LEVEL)
         elif tab in TEACHING_TABS and not self.session:
             actions += self._begin_session()
+        if tab == Tab.SHARED_CONTROL:
+            actions.append(Action.SHARED_CONTROL_ON)
         return actions
 
     def toggle_stiffness_recording(self) -> List[Action]:
@@ -120,11 +127,12 @@ class TeachingSession:
 
     def shutdown(self) -> List[Action]:
         """The window closes: save a running recording and give the arm back to the position controller."""
+        actions = [Action.SHARED_CONTROL_OFF] if self.tab == Tab.SHARED_CONTROL else []
         if self.recording == Recording.STIFFNESS:
-            return self._stop_stiffness_recording()
+            return actions + self._stop_stiffness_recording()
         if self.recording == Recording.SHARED_CONTROL:
-            return self._stop_shared_recording(end_session=True)
-        return self._end_session() if self.session else []
+            return actions + self._stop_shared_recording(end_session=True)
+        return actions + (self._end_session() if self.session else [])
 
     def _begin_session(self) -> List[Action]:
         """The tree pauses and the impedance controller takes the arm (thesis III-A)."""

@@ -1,9 +1,10 @@
 """The SHARED CONTROL tab (issue 9, Mower et al. RSS 2021): what the MPC plans, shown to the operator.
 
-A 2D view of the task plane (QPainter) draws the boundary, the obstacle's straight edge, the executed trail and the
-planned horizon; text gives the identified skill, the mode, the fitting error of each skill and the solve times. A
-double click starts/stops recording the MPC's output as a ``shared_control`` skill (like LOW-LEVEL's recording).
-All data arrive as task-plane values through the worker's signals; this module has no ROS in it.
+A 2D view of the task plane (QPainter) draws the boundary, the obstacle's straight edge, the executed trail, the arm's
+own trail (/cartesian_pose on the plane: where the robot really is) and the planned horizon; text gives the identified
+skill, the mode, the fitting error of each skill and the solve times. A double click starts/stops recording the MPC's
+output as a ``shared_control`` skill (like LOW-LEVEL's recording). All data arrive as task-plane values through the
+worker's signals; this module has no ROS in it.
 """
 
 import collections
@@ -61,6 +62,7 @@ class PlaneView(QWidget):
         self.boundary = np.zeros((0, 2))
         self.obstacle: Optional[Tuple[float, float, float]] = None
         self.trail = collections.deque(maxlen=trail_length)
+        self.arm_trail = collections.deque(maxlen=trail_length)
         self.plan = np.zeros((0, 2))
 
     def extent(self) -> Tuple[np.ndarray, np.ndarray]:
@@ -98,6 +100,7 @@ class PlaneView(QWidget):
             self._polyline(painter, np.vstack([self.boundary, self.boundary[:1]]), "#424242", 2.5)
         if self.obstacle is not None:
             self._draw_obstacle(painter)
+        self._polyline(painter, list(self.arm_trail), "#2e7d32", 4.0)
         self._polyline(painter, list(self.trail), "#1565c0", 2.0)
         self._polyline(painter, self.plan, "#ef6c00", 3.0, Qt.DashLine)
         if self.trail:
@@ -106,7 +109,13 @@ class PlaneView(QWidget):
             painter.drawEllipse(self.to_pixels(self.trail[-1]), 6, 6)
         painter.setBrush(Qt.NoBrush)
         for row, (text, colour) in enumerate(
-            (("boundary", "#424242"), ("obstacle edge", "#d22828"), ("executed", "#1565c0"), ("plan", "#ef6c00"))
+            (
+                ("boundary", "#424242"),
+                ("obstacle edge", "#d22828"),
+                ("executed", "#1565c0"),
+                ("arm", "#2e7d32"),
+                ("plan", "#ef6c00"),
+            )
         ):
             painter.setPen(QPen(QColor(colour), 3))
             y = 14 + 16 * row
@@ -183,6 +192,11 @@ class SharedControlTab(QWidget):
         """A /shared_control/state message: text and the executed trail."""
         self.view.trail.append(status.state)
         self.show_status(status)
+        self.view.update()
+
+    def on_arm(self, point: Sequence[float]) -> None:
+        """Where the arm is (/cartesian_pose on the task plane) [m]: its trail, beside the plan it follows."""
+        self.view.arm_trail.append(tuple(float(value) for value in point))
         self.view.update()
 
     def on_plan(self, points: np.ndarray) -> None:

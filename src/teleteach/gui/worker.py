@@ -168,6 +168,7 @@ class RosWorker(QObject):
     shared_plan = pyqtSignal(object)  # n x 2 task-plane points [m]
     shared_boundary = pyqtSignal(object)  # n x 2 task-plane points [m]
     shared_obstacle = pyqtSignal(object)  # (x, y, yaw) in the task plane
+    shared_arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
 
     def __init__(
         self,
@@ -184,6 +185,7 @@ class RosWorker(QObject):
         self._plane: Optional[TaskPlane] = None
         self._plane_checked = -1e9
         self._plane_lock = threading.Lock()
+        self._arm_stamp = -math.inf
         self.active_tab = 0
         self.equilibrium: Callable[[], Optional[np.ndarray]] = lambda: None
         self._filter = DeviceFilter(config)
@@ -282,10 +284,19 @@ class RosWorker(QObject):
         if self._gripper.update(message.data):
             self.gripper_opened.emit()
 
+    ARM_TRAIL_PERIOD = 0.02  # [s] the arm's trail keeps a point per 20 ms of /cartesian_pose (it comes at 200 Hz)
+
     def _on_cartesian(self, message: PoseStamped) -> None:
         pose = pose_to_array(message.pose)
-        if np.all(np.isfinite(pose)):
-            self._cartesian = pose
+        if not np.all(np.isfinite(pose)):
+            return
+        self._cartesian = pose
+        stamp = message.header.stamp.to_sec()
+        if self.active_tab == Tab.SHARED_CONTROL and abs(stamp - self._arm_stamp) >= self.ARM_TRAIL_PERIOD:
+            planar = self._to_plane([pose[:3]])
+            if planar is not None:
+                self._arm_stamp = stamp
+                self.shared_arm.emit(planar[0])
 
     def _on_tree(self, message: BehaviourTree) -> None:
         nodes = [

@@ -70,7 +70,7 @@ class SharedControlConfig:
             (hysteresis: noise around a crossing of the fitting errors does not flick the skill back and forth) [s].
         blend_authority: True: the executed step blends the plan and the operator's direct step by ``authority``
             (a pattern no skill explains stays the operator's, kept inside the constraints); False: the paper's
-            behaviour, the plan always (the library's default; the node's yaml turns the blend on).
+            behaviour, the plan always (``SharedControlConfig.paper()``).
         authority_confidence: confidence at and above which the margin between skills gives the plan full
             authority (below, authority falls in proportion) [-].
         authority_residual: (full, none): relative fitting error e_1 / mean |h|^2 of the identified skill below
@@ -81,7 +81,7 @@ class SharedControlConfig:
     """
 
     dt: float = 0.02
-    window_time: float = 1.0
+    window_time: float = 0.8
     horizon_time: float = 1.0
     skills: Tuple[str, ...] = ("wave", "cycloid")
     n_segments: int = 1
@@ -97,7 +97,7 @@ class SharedControlConfig:
     regularisation_weights: Tuple[float, float, float, float] = (1e-3, 0.0, 1e-3, 1e-3)
     curvature_weight: float = 1e-3
     optimisation_weights: Tuple[float, float, float, float] = (1e-2, 0.0, 1.0, 10.0)
-    margin: float = 1e-3
+    margin: float = 0.005
     solver: str = "compiled"
     skip_feasible_optimisation: bool = True
     max_iterations_estimation: int = 10
@@ -106,9 +106,31 @@ class SharedControlConfig:
     switch_confidence: float = 0.08
     switch_hold: float = 0.04
     reseed_period: float = 0.2
-    blend_authority: bool = False
+    blend_authority: bool = True
     authority_confidence: float = 0.9
     authority_residual: Tuple[float, float] = (0.05, 0.2)
+
+    @classmethod
+    def paper(cls, **changes) -> "SharedControlConfig":
+        """The RSS paper's controller: a 1 s window and the plan always in control (no blend, no UNKNOWN)."""
+        return dataclasses.replace(cls(), **{"window_time": 1.0, "blend_authority": False, **changes})
+
+    @classmethod
+    def from_parameters(cls, parameters: Dict[str, object]) -> "SharedControlConfig":
+        """From the node's parameters (config/shared_control.yaml, with ``rate`` [Hz] instead of ``dt``).
+
+        Each field must be there, so the yaml is the one place of the values; a missing one is a ValueError naming it.
+        """
+        names = [field.name for field in dataclasses.fields(cls) if field.name not in ("dt", "cache_dir")]
+        missing = [f"~{name}" for name in ["rate", *names] if name not in parameters]
+        if missing:
+            raise ValueError(f"missing parameter {', '.join(missing)} (see config/shared_control.yaml)")
+        values: Dict[str, object] = {"dt": 1.0 / float(parameters["rate"])}
+        reference = cls()
+        for name in names:
+            value, kind = parameters[name], type(getattr(reference, name))
+            values[name] = tuple(value) if kind is tuple else kind(value)
+        return cls(**values)
 
     @property
     def n_window(self) -> int:

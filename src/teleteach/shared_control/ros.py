@@ -91,10 +91,16 @@ def command_from_vector(message) -> np.ndarray:
     return np.array(_finite((message.vector.x, message.vector.y), "operator command"))
 
 
-def command_from_twist(message, projection: np.ndarray, scale: float) -> np.ndarray:
-    """h^r = scale * P v from a device geometry_msgs/TwistStamped (P: 2 x 3 projection on the task plane)."""
+def command_from_twist(message, projection: np.ndarray, scale: float, deadband: float = 0.0) -> np.ndarray:
+    """h^r = scale * P v from a device geometry_msgs/TwistStamped (P: 2 x 3 projection on the task plane).
+
+    A projected device speed below ``deadband`` [m/s] is the hand at rest (tremor, drift) and gives zero.
+    """
     linear = _finite((message.twist.linear.x, message.twist.linear.y, message.twist.linear.z), "twist")
-    return scale * (projection @ np.array(linear))
+    projected = projection @ np.array(linear)
+    if float(np.linalg.norm(projected)) < deadband:
+        return np.zeros(2)
+    return scale * projected
 
 
 def command_from_joy(message, axes: Sequence[int], scale: Sequence[float]) -> np.ndarray:
@@ -127,6 +133,7 @@ class SharedControlNode:
         source: one of ``INPUTS``.
         twist_projection: 2 x 3 matrix from device linear velocity to the task plane (``twist``).
         twist_scale: task-plane speed per device speed [-] (``twist``).
+        twist_deadband: projected device speeds below this are zero [m/s] (``twist``).
         joy_axes: indices of the joystick axes for x and y (``joy``).
         joy_scale: task-plane speed at full deflection per axis [m/s] (``joy``).
         command_timeout: a command older than this counts as zero [s].
@@ -134,10 +141,13 @@ class SharedControlNode:
             header stamps (messages up to this late, bunched or out of order give the same window) [s].
         obstacle_timeout: the obstacle is dropped when not refreshed for this long [s] (0: never).
         frame_id: frame of /equilibrium_pose.
+        enabled: drive the arm from the start; False waits for /shared_control/enable (the GUI's SHARED CONTROL tab).
 
     ROS Subscribers:
         /shared_control/operator_command (geometry_msgs/Vector3Stamped), or /sigma7/twist
-        (geometry_msgs/TwistStamped), or /joy (sensor_msgs/Joy); /shared_control/obstacle (geometry_msgs/PoseStamped)
+        (geometry_msgs/TwistStamped), or /joy (sensor_msgs/Joy); /shared_control/obstacle (geometry_msgs/PoseStamped);
+        /shared_control/enable (std_msgs/Bool: while false nothing is published; each enable starts afresh at
+        ``initial_state``, in direct control for a window)
 
     ROS Publishers:
         /equilibrium_pose (geometry_msgs/PoseStamped), /equilibrium_twist (geometry_msgs/TwistStamped: the plan's
@@ -164,11 +174,14 @@ class SharedControlNode:
         command_delay: float = 0.02,
         obstacle_timeout: float = 1.0,
         frame_id: str = "base_link",
+        twist_deadband: float = 0.0,
+        enabled: bool = True,
     ):
         import rospy
         from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped, Vector3Stamped
         from nav_msgs.msg import Path
         from sensor_msgs.msg import Joy
+        from std_msgs.msg import Bool
 
         from teleteach.msg import SharedControlState
 
@@ -193,6 +206,9 @@ class SharedControlNode:
         self._commands = CommandTimeline(command_timeout)
         self._obstacle: Optional[StraightEdge] = None
         self._obstacle_stamp = -math.inf
+        self.initial_state = tuple(initial_state)
+        self.enabled = enabled
+        self._pending_compile: Optional[tuple] = None  # compiled solvers still to build, once enabled
         self.controller = self._build(config, box, initial_state)
         self.pose_publisher = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=1)
         self.twist_publisher = rospy.Publisher("/equilibrium_twist", TwistStamped, queue_size=1)
@@ -213,7 +229,7 @@ class SharedControlNode:
             topic, message_type = "/sigma7/twist", TwistStamped
 
             def convert(message):
-                return command_from_twist(message, projection, twist_scale)
+                return command_from_twist(message, projection, twist_scale, twist_deadband)
 
         else:
             topic, message_type = "/joy", Joy
@@ -221,14 +237,15 @@ class SharedControlNode:
             def convert(message):
                 return command_from_joy(message, joy_axes, joy_scale)
 
+        # Every command is kept (by its stamp), so the queue holds a second of them rather than only the last. Only
+        # subscribed while enabled: the device publishes at 1 kHz, which costs CPU even when nothing uses it.
+        self._input = (topic, message_type, self._guarded(self._set_command, convert, stamped=True))
+        self._input_subscriber = rospy.Subscriber(*self._input, queue_size=1000) if enabled else None
         self._subscribers = [
-            # Every command is kept (by its stamp), so the queue holds a second of them rather than only the last.
-            rospy.Subscriber(
-                topic, message_type, self._guarded(self._set_command, convert, stamped=True), queue_size=1000
-            ),
             rospy.Subscriber(
                 "/shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
             ),
+            rospy.Subscriber("/shared_control/enable", Bool, lambda message: self.set_enabled(message.data)),
         ]
         self._timer = rospy.Timer(rospy.Duration(config.dt), self._cycle)
 
@@ -241,12 +258,37 @@ class SharedControlNode:
                 return SharedControl(config, initial_state, box)
         except cache.NotCachedError:
             fast = SharedControl(dataclasses.replace(config, solver="fast"), initial_state, box)
-            self._rospy.logwarn("shared_control: compiled code not cached yet; building it in the background")
-            threading.Thread(target=self._compile_in_background, args=(config, box), daemon=True).start()
+            self._pending_compile = (config, box)
+            if self.enabled:
+                self._start_compiling()
             return fast
         except (OSError, RuntimeError) as error:
             self._rospy.logwarn(f"shared_control: compiled code unavailable ({error}); using the 'fast' solver")
             return SharedControl(dataclasses.replace(config, solver="fast"), initial_state, box)
+
+    def _start_compiling(self) -> None:
+        """Build the compiled solvers in the background (minutes of CPU on a first start: not while disabled)."""
+        if self._pending_compile is None:
+            return
+        arguments, self._pending_compile = self._pending_compile, None
+        self._rospy.logwarn("shared_control: compiled code not cached yet; building it in the background")
+        threading.Thread(target=self._compile_in_background, args=arguments, daemon=True).start()
+
+    def set_enabled(self, enabled: bool) -> None:
+        """Drive the arm (from ``initial_state``, with a fresh window) or stop publishing."""
+        with self._lock:
+            if enabled and not self.enabled:
+                self.controller.reset(self.initial_state)
+                self._commands = CommandTimeline(self.command_timeout)
+            self.enabled = bool(enabled)
+        if enabled and self._input_subscriber is None:
+            self._input_subscriber = self._rospy.Subscriber(*self._input, queue_size=1000)
+        elif not enabled and self._input_subscriber is not None:
+            self._input_subscriber.unregister()
+            self._input_subscriber = None
+        if enabled:
+            self._start_compiling()
+        self._rospy.loginfo(f"shared_control: {'enabled' if enabled else 'disabled'}")
 
     def _compile_in_background(self, config, box) -> None:
         try:
@@ -293,6 +335,8 @@ class SharedControlNode:
         # The nominal time of this cycle, so that the timer's own jitter does not shift the samples either.
         cycle_time = event.current_expected.to_sec() if event.current_expected else now
         with self._lock:
+            if not self.enabled:
+                return
             command = self._commands.sample(cycle_time - self.command_delay)
             obstacle = self._obstacle
             if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
@@ -349,6 +393,7 @@ class SharedControlNode:
     def shutdown(self) -> None:
         """Stop the timer and unregister the topics."""
         self._timer.shutdown()
+        self.set_enabled(False)
         for subscriber in self._subscribers:
             subscriber.unregister()
         self.pose_publisher.unregister()
