@@ -7,14 +7,15 @@ device/joystick messages into the operator command h^r, validates every message,
 import dataclasses
 import math
 import threading
-from typing import Optional, Sequence
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
 from teleteach.rotations import quaternion_to_rpy
 from teleteach.shared_control import cache
+from teleteach.shared_control.approach import Approach, start_in_plane
 from teleteach.shared_control.constraints import Box, StraightEdge
-from teleteach.shared_control.loop import SharedControl, SharedControlConfig, SharedControlRecord
+from teleteach.shared_control.loop import UNBOUNDED, SharedControl, SharedControlConfig, SharedControlRecord
 from teleteach.shared_control.timeline import CommandTimeline
 
 INPUTS = ("operator_command", "twist", "joy")
@@ -142,12 +143,17 @@ class SharedControlNode:
         obstacle_timeout: the obstacle is dropped when not refreshed for this long [s] (0: never).
         frame_id: frame of /equilibrium_pose.
         enabled: drive the arm from the start; False waits for /shared_control/enable (the GUI's SHARED CONTROL tab).
+        approach_speed: when enabled, the reference goes from the arm's pose to the task plane at most this fast
+            [m/s] (then the MPC starts there, inside the boundary); commands wait until it has arrived.
+        approach_turn_rate: ... and turns at most this fast [rad/s].
 
     ROS Subscribers:
         /shared_control/operator_command (geometry_msgs/Vector3Stamped), or /sigma7/twist
         (geometry_msgs/TwistStamped), or /joy (sensor_msgs/Joy); /shared_control/obstacle (geometry_msgs/PoseStamped);
-        /shared_control/enable (std_msgs/Bool: while false nothing is published; each enable starts afresh at
-        ``initial_state``, in direct control for a window)
+        /shared_control/enable (std_msgs/Bool: while false nothing is published; each enable takes the reference
+        smoothly from the arm's pose to its projection on the plane, inside the boundary, and starts the MPC there
+        afresh, in direct control for a window; ``initial_state`` when no /cartesian_pose came),
+        /cartesian_pose (geometry_msgs/PoseStamped, base_link: where the arm is)
 
     ROS Publishers:
         /equilibrium_pose (geometry_msgs/PoseStamped), /equilibrium_twist (geometry_msgs/TwistStamped: the plan's
@@ -176,6 +182,8 @@ class SharedControlNode:
         frame_id: str = "base_link",
         twist_deadband: float = 0.0,
         enabled: bool = True,
+        approach_speed: float = 0.1,
+        approach_turn_rate: float = 0.5,
     ):
         import rospy
         from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped, Vector3Stamped
@@ -207,7 +215,12 @@ class SharedControlNode:
         self._obstacle: Optional[StraightEdge] = None
         self._obstacle_stamp = -math.inf
         self.initial_state = tuple(initial_state)
+        self.box = box
+        self.margin = config.margin
         self.enabled = enabled
+        self.approach_limits = (approach_speed, approach_turn_rate)
+        self._arm: Optional[Tuple[np.ndarray, np.ndarray]] = None  # the arm's position and orientation, base_link
+        self._approach: Optional[Tuple[Approach, float]] = None  # (the move, its start time) while it runs
         self._pending_compile: Optional[tuple] = None  # compiled solvers still to build, once enabled
         self.controller = self._build(config, box, initial_state)
         self.pose_publisher = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=1)
@@ -246,6 +259,7 @@ class SharedControlNode:
                 "/shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
             ),
             rospy.Subscriber("/shared_control/enable", Bool, lambda message: self.set_enabled(message.data)),
+            rospy.Subscriber("/cartesian_pose", PoseStamped, self._on_arm, queue_size=1),
         ]
         self._timer = rospy.Timer(rospy.Duration(config.dt), self._cycle)
 
@@ -275,10 +289,20 @@ class SharedControlNode:
         threading.Thread(target=self._compile_in_background, args=arguments, daemon=True).start()
 
     def set_enabled(self, enabled: bool) -> None:
-        """Drive the arm (from ``initial_state``, with a fresh window) or stop publishing."""
+        """Drive the arm (from where it is, with a fresh window) or stop publishing."""
         with self._lock:
             if enabled and not self.enabled:
-                self.controller.reset(self.initial_state)
+                start = self.initial_state
+                if self._arm is not None:
+                    position, orientation = self._arm
+                    box = self.box if self.box is not None else UNBOUNDED
+                    start = start_in_plane(self.plane.to_plane(position), box, self.margin)
+                    goal = self.plane.to_base(start)
+                    approach = Approach.at_most(
+                        position, orientation, goal, self.plane.orientation, *self.approach_limits
+                    )
+                    self._approach = (approach, self._rospy.get_time())
+                self.controller.reset(start)
                 self._commands = CommandTimeline(self.command_timeout)
             self.enabled = bool(enabled)
         if enabled and self._input_subscriber is None:
@@ -289,6 +313,12 @@ class SharedControlNode:
         if enabled:
             self._start_compiling()
         self._rospy.loginfo(f"shared_control: {'enabled' if enabled else 'disabled'}")
+
+    def _on_arm(self, message) -> None:
+        p, q = message.pose.position, message.pose.orientation
+        pose = (np.array([p.x, p.y, p.z]), np.array([q.x, q.y, q.z, q.w]))
+        if np.all(np.isfinite(pose[0])) and np.all(np.isfinite(pose[1])) and np.linalg.norm(pose[1]) > 0.5:
+            self._arm = pose
 
     def _compile_in_background(self, config, box) -> None:
         try:
@@ -337,6 +367,12 @@ class SharedControlNode:
         with self._lock:
             if not self.enabled:
                 return
+            if self._approach is not None:
+                approach, started = self._approach
+                self._publish_reference(self._rospy.Time.now(), *approach.at(now - started))
+                if approach.done(now - started):
+                    self._approach = None
+                return
             command = self._commands.sample(cycle_time - self.command_delay)
             obstacle = self._obstacle
             if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
@@ -357,17 +393,31 @@ class SharedControlNode:
         pose.pose.orientation.z, pose.pose.orientation.w = float(q[2]), float(q[3])
         return pose
 
-    def publish(self, record: SharedControlRecord) -> None:
-        """Send the executed state and its velocity as the equilibrium, the plan as a path, the record as the state."""
-        stamp = self._rospy.Time.now()
+    def _publish_reference(self, stamp, position, orientation, velocity) -> None:
+        """The arm's reference: /equilibrium_pose and its velocity on /equilibrium_twist (same stamp, base_link)."""
         twist = self._twist_type()
         twist.header.stamp = stamp
         twist.header.frame_id = self.frame_id
-        twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = (
-            float(v) for v in self.plane.vector_to_base(record.velocity)
-        )
+        twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = (float(v) for v in velocity)
         self.twist_publisher.publish(twist)
-        self.pose_publisher.publish(self._pose(stamp, record.state))
+        pose = self._pose_type()
+        pose.header.stamp = stamp
+        pose.header.frame_id = self.frame_id
+        pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = (float(v) for v in position)
+        q = orientation
+        pose.pose.orientation.x, pose.pose.orientation.y = float(q[0]), float(q[1])
+        pose.pose.orientation.z, pose.pose.orientation.w = float(q[2]), float(q[3])
+        self.pose_publisher.publish(pose)
+
+    def publish(self, record: SharedControlRecord) -> None:
+        """Send the executed state and its velocity as the equilibrium, the plan as a path, the record as the state."""
+        stamp = self._rospy.Time.now()
+        self._publish_reference(
+            stamp,
+            self.plane.to_base(record.state),
+            self.plane.orientation,
+            self.plane.vector_to_base(record.velocity),
+        )
         path = self._path_type()
         path.header.stamp = stamp
         path.header.frame_id = self.frame_id
