@@ -20,9 +20,9 @@ from PyQt5.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import ClickClassifier
+from teleteach.shared_control.loop import DIRECT, FALLBACK, MODE_NAMES, SHARED, UNKNOWN
 
-MODE_NAMES = {0: "DIRECT", 1: "SHARED", 2: "FALLBACK"}
-MODE_COLOURS = {0: "#1565c0", 1: "#2e7d32", 2: "#d22828"}
+MODE_COLOURS = {DIRECT: "#1565c0", SHARED: "#2e7d32", FALLBACK: "#d22828", UNKNOWN: "#6a1b9a"}
 
 
 @dataclasses.dataclass
@@ -30,7 +30,7 @@ class SharedStatus:
     """One /shared_control/state message, in the values the tab shows.
 
     Attributes:
-        mode: 0 DIRECT, 1 SHARED, 2 FALLBACK.
+        mode: 0 DIRECT, 1 SHARED, 2 FALLBACK, 3 UNKNOWN (teleteach.shared_control.loop.MODE_NAMES).
         skill: identified skill ("" in direct control).
         skills: skill names, in the order of ``fitting_errors``.
         fitting_errors: epsilon_i per skill.
