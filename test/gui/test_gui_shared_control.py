@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT, pump, pump_until, start, stop
-from geometry_msgs.msg import PoseStamped, Vector3Stamped
+from geometry_msgs.msg import PolygonStamped, PoseStamped, Vector3Stamped
 from test_gui_recording import robot_sim  # noqa: F401 - the fixture
 
 from teleteach import skill_file
@@ -56,7 +56,8 @@ def shared_control_node(robot_sim, data_root):  # noqa: F811 - the imported fixt
     process = start(
         ["roslaunch", "teleteach", "shared_control.launch", "solver:=fast"], data_root.parent / "shared_control.log"
     )
-    rospy.wait_for_message("/shared_control/state", SharedControlState, timeout=60)
+    # up once its boundary is out (latched, at start); it drives only while a window's SHARED CONTROL enables it
+    rospy.wait_for_message("/shared_control/boundary", PolygonStamped, timeout=60)
     yield process
     stop(process)
 

@@ -285,8 +285,9 @@ def launch_nodes(*args):
 
 def test_full_launch_includes_the_parts_by_its_args():
     everything = {"/robot_sim", "/robot_state_publisher", "/skill_server", "/behaviour_tree", "/teaching_gui"}
-    everything |= {"/sigma7_node", "/ellipsoid_marker", "/rviz"}
+    everything |= {"/sigma7_node", "/ellipsoid_marker", "/rviz", "/shared_control"}
     assert launch_nodes() == everything
+    assert launch_nodes("shared_control:=false") == everything - {"/shared_control"}
     # headless: no RViz (the ellipsoid marker stays for bags and a later RViz); record: the session recorder
     assert launch_nodes("headless:=true", "record:=true") == everything - {"/rviz"} | {"/session_recorder"}
     # a real robot: no simulation, the skill servers and robot_state_publisher still run
@@ -309,3 +310,5 @@ def test_full_launch_passes_its_args_to_the_parts():
     assert params["/teaching_gui/repaint_rate"] == 5
     assert params["/sigma7_node/backend"] == "virtual"
     assert params["/behaviour_tree/resume"] is False
+    # shared control reads the device and waits for the GUI's SHARED CONTROL tab to switch it on
+    assert params["/shared_control/input"] == "twist" and params["/shared_control/enabled"] is False
