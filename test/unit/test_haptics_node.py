@@ -15,7 +15,7 @@ import pytest
 import roslib.packages
 
 from teleteach.haptics.ros import Sigma7Config
-from teleteach.run.processes import own_master
+from teleteach.run.processes import Processes, own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -56,26 +56,17 @@ def test_config_refuses_bad_params(values, expected):
 def roscore(tmp_path_factory):
     """A roscore of our own on a free port (own_master), stopped by its PID afterwards."""
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
+    processes = Processes()
 
     def start_roscore(port):
         env["ROS_MASTER_URI"] = f"http://localhost:{port}"
-        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True}
-        return subprocess.Popen(["roscore", "-p", str(port)], env=env, **quiet)
+        return processes.start("roscore", ["roscore", "-p", str(port)], env=env)
 
-    _, core = own_master(start_roscore, stop)
+    own_master(start_roscore, processes.stop)
     try:
         yield env
     finally:
-        stop(core)
-
-
-def stop(core):
-    os.killpg(core.pid, signal.SIGINT)
-    try:
-        core.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        os.killpg(core.pid, signal.SIGKILL)
-        core.wait()
+        processes.stop_all()
 
 
 RUNS = itertools.count()
