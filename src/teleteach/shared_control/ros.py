@@ -123,7 +123,7 @@ def obstacle_from_pose(message) -> StraightEdge:
 
 
 class SharedControlNode:
-    """50 Hz shared control over ROS.
+    """50 Hz shared control over ROS. Every argument is required: their values live in config/shared_control.yaml.
 
     Args:
         config: MPC parameters (``solver="compiled"`` starts on the casadi virtual machine if the compiled code is
@@ -171,19 +171,20 @@ class SharedControlNode:
         plane: TaskPlane,
         box: Optional[Box],
         initial_state: Sequence[float],
-        source: str = "operator_command",
-        twist_projection: Sequence[Sequence[float]] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
-        twist_scale: float = 1.0,
-        joy_axes: Sequence[int] = (0, 1),
-        joy_scale: Sequence[float] = (0.2, 0.2),
-        command_timeout: float = 0.2,
-        command_delay: float = 0.02,
-        obstacle_timeout: float = 1.0,
-        frame_id: str = "base_link",
-        twist_deadband: float = 0.0,
-        enabled: bool = True,
-        approach_speed: float = 0.1,
-        approach_turn_rate: float = 0.5,
+        *,
+        source: str,
+        twist_projection: Sequence[Sequence[float]],
+        twist_scale: float,
+        joy_axes: Sequence[int],
+        joy_scale: Sequence[float],
+        command_timeout: float,
+        command_delay: float,
+        obstacle_timeout: float,
+        frame_id: str,
+        twist_deadband: float,
+        enabled: bool,
+        approach_speed: float,
+        approach_turn_rate: float,
     ):
         import rospy
         from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped, Vector3Stamped
