@@ -213,7 +213,9 @@ def test_replay_with_nothing_in_the_hand_fails_before_moving(sim, kinematics, tm
     before = np.array(sim.world.joint_states()[0][:7])
     outcome = runner.execute("ReplaySkill", f"{{data_file: {path}, kind: stiffness}}")
     assert not outcome.success
-    assert outcome.message == "place_45 places a product, but there is none in the hand: pick one first"
+    # Expect the refusal to say what it saw: no product in the hold, the gripper open
+    assert outcome.message.startswith("place_45 places a product, but there is none in the hand: pick one first (")
+    assert "cm from the hand's hold" in outcome.message and "mm open)" in outcome.message
     assert robot.stamps == []
     np.testing.assert_allclose(sim.world.joint_states()[0][:7], before, atol=1e-3)
     assert sim.manager.running == TRAJECTORY

@@ -81,11 +81,8 @@ class WorldView:
         position, rotation = self.motion.tcp_world()
         return position + rotation.apply([0.0, 0.0, self.config.grasp.height_above_center])
 
-    def held_product(self) -> Tuple[Optional[str], float]:
-        """The product the fingers hold (name or None) and its distance from the expected place in the hand [m]."""
-        width = self.motion.robot.gripper_width()
-        if not 0.005 < width < self.config.gripper.open_width - 0.005:
-            return None, math.inf
+    def nearest_to_hold(self) -> Tuple[Optional[str], float]:
+        """The product nearest the place a held one would be, and its distance from there [m] (None, inf: none)."""
         expected = self.expected_in_hand()
         distances = {
             name: float(np.linalg.norm(np.asarray(position) - expected))
@@ -94,9 +91,17 @@ class WorldView:
         if not distances:
             return None, math.inf
         name = min(distances, key=distances.get)
-        if distances[name] > self.config.grasp.hold_tolerance:
-            return None, distances[name]
         return name, distances[name]
+
+    def held_product(self) -> Tuple[Optional[str], float]:
+        """The product the fingers hold (name or None) and its distance from the expected place in the hand [m]."""
+        width = self.motion.robot.gripper_width()
+        if not 0.005 < width < self.config.gripper.open_width - 0.005:
+            return None, math.inf
+        name, distance = self.nearest_to_hold()
+        if distance > self.config.grasp.hold_tolerance:
+            return None, distance
+        return name, distance
 
     def placement(self, product, before: Dict[str, np.ndarray], gap: Optional[str] = None) -> Placement:
         """Where product ended relative to gap (default: the nearest gap), its neighbours compared with ``before``.

@@ -126,7 +126,15 @@ class StiffnessReplay:
             raise SkillError(f"skill file {path} holds a '{skill.kind}' skill, the goal asked for '{kind}'")
         product, _ = world.held_product()
         if product is None:
-            raise SkillError(f"{skill.name} places a product, but there is none in the hand: pick one first")
+            width = world.motion.robot.gripper_width()
+            nearest, distance = world.nearest_to_hold()
+            seen = "no product in the scene"
+            if nearest is not None:
+                seen = f"{nearest} {100 * distance:.1f} cm from the hand's hold"
+            raise SkillError(
+                f"{skill.name} places a product, but there is none in the hand: pick one first "
+                f"({seen}, the gripper {1000 * width:.0f} mm open)"
+            )
         motion = world.motion
         config = motion.config
         plan = plan_replay(skill, config.replay.rate)
