@@ -33,6 +33,8 @@ BASE_FRAME = "base_link"
 SERVICE_TIMEOUT = 5.0  # [s] wall time to wait for the controller manager
 SCENE_FRESHNESS = 0.15  # [s] sim time: a scene older than this when asked is waited for
 SCENE_WAIT = 2.0  # [s] wall time to wait for a fresh scene before using the last one
+TF_FRESHNESS = 0.05  # [s] sim time: a base transform older than this when asked is waited for
+TF_WAIT = 2.0  # [s] wall time to wait for a fresh base transform before using the last one
 CONNECTION_WAIT = 3.0  # [s] wall time to wait for a command topic's subscriber (robot_sim) to connect
 STATE_WAIT = 10.0  # [s] wall time to wait for the first /joint_states (robot_sim may still be starting)
 
@@ -128,11 +130,24 @@ class RosRobot(Robot):
             raise SkillError(f"no /joint_states received in {STATE_WAIT:.0f} s: is robot_sim running?")
 
     def base_pose(self) -> Tuple[float, float, float]:
-        """TF world->base_link as (x [m], y [m], yaw [rad])."""
-        try:
-            transform = self._tf_buffer.lookup_transform(WORLD_FRAME, BASE_FRAME, rospy.Time(0), rospy.Duration(1.0))
-        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as error:
-            raise SkillError(f"no transform {WORLD_FRAME} -> {BASE_FRAME}: {error}") from None
+        """TF world->base_link as (x [m], y [m], yaw [rad]), no older than TF_FRESHNESS when it can be had.
+
+        A loaded process receives TF late: the newest transform it holds can be from before the base stopped, while
+        the scene it compares with is fresh (a carried product then looks out of the hand). So it waits, bounded in
+        wall time (a dead simulator's clock must not hang the skill), for a transform as new as the scene.
+        """
+        deadline = time.monotonic() + TF_WAIT
+        while True:
+            try:
+                transform = self._tf_buffer.lookup_transform(
+                    WORLD_FRAME, BASE_FRAME, rospy.Time(0), rospy.Duration(1.0)
+                )
+            except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as error:
+                raise SkillError(f"no transform {WORLD_FRAME} -> {BASE_FRAME}: {error}") from None
+            fresh = transform.header.stamp.to_sec() >= self.now() - TF_FRESHNESS
+            if fresh or time.monotonic() > deadline or rospy.is_shutdown():
+                break
+            time.sleep(0.005)
         translation, rotation = transform.transform.translation, transform.transform.rotation
         yaw = 2.0 * np.arctan2(rotation.z, rotation.w)
         return float(translation.x), float(translation.y), float(np.arctan2(np.sin(yaw), np.cos(yaw)))
