@@ -26,7 +26,8 @@ RUN_TIMEOUT = 300.0  # [s] wall: several skills on the simulated robot
 
 class TaughtSkillsDoTheJob(unittest.TestCase):
     def test_placing_skills_are_judged_by_where_the_product_ends(self):
-        view, robot = TreeView(), RobotView()
+        view = TreeView()
+        robot = RobotView(view)
         data = pathlib.Path(rospy.get_param("~data_dir")) / "demonstrations"
         data.mkdir(parents=True, exist_ok=True)
         before = {name: robot.product(name) for name in robot.product_names()}

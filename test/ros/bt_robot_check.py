@@ -17,7 +17,8 @@ COMPLETION_TIMEOUT = 480.0  # [s] wall: the whole sequence
 
 class ThesisTreeOnTheRobot(unittest.TestCase):
     def test_thesis_experiment_then_the_whole_sequence_places_the_product(self):
-        view, robot = TreeView(), RobotView()
+        view = TreeView()
+        robot = RobotView(view)
         view.wait_for(lambda: view.status("PickItem") == "RUNNING", STARTUP_TIMEOUT, "PickItem running")
         response = view.change("PlaceItem", "remove")
         self.assertTrue(response.success, response.message)

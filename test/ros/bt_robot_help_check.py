@@ -26,7 +26,8 @@ EDITED = [
 
 class HelpRequestOnTheRobot(unittest.TestCase):
     def test_absent_product_asks_for_help_and_the_replacement_completes_the_task(self):
-        view, robot = TreeView(), RobotView()
+        view = TreeView()
+        robot = RobotView(view)
         names = robot.product_names()
         self.assertNotIn("product_pick_1", names)
         self.assertIn("product_pick_2", names)

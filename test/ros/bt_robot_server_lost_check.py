@@ -18,7 +18,8 @@ COMPLETION_TIMEOUT = 480.0  # [s] wall: the rest of the sequence
 
 class SkillServerKilledOnTheRobot(unittest.TestCase):
     def test_killed_server_asks_for_help_and_the_respawned_one_completes_the_task(self):
-        view, robot = TreeView(), RobotView()
+        view = TreeView()
+        robot = RobotView(view)
 
         def picking():
             node = view.nodes().get("PickItem")
