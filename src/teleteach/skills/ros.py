@@ -36,7 +36,7 @@ SCENE_WAIT = 2.0  # [s] wall time to wait for a fresh scene before using the las
 TF_FRESHNESS = 0.05  # [s] sim time: a base transform older than this when asked is waited for
 TF_WAIT = 2.0  # [s] wall time to wait for a fresh base transform before using the last one
 CONNECTION_WAIT = 3.0  # [s] wall time to wait for a command topic's subscriber (robot_sim) to connect
-STATE_WAIT = 10.0  # [s] wall time to wait for the first /joint_states (robot_sim may still be starting)
+STATE_WAIT = 10.0  # [s] wall time to wait for the first /joint_states or base transform (robot_sim may be starting)
 
 
 class RosRobot(Robot):
@@ -134,20 +134,25 @@ class RosRobot(Robot):
 
         A loaded process receives TF late: the newest transform it holds can be from before the base stopped, while
         the scene it compares with is fresh (a carried product then looks out of the hand). So it waits, bounded in
-        wall time (a dead simulator's clock must not hang the skill), for a transform as new as the scene.
+        wall time (a dead simulator's clock must not hang the skill), for a transform as new as the scene. A skill asked
+        while the TF listener still connects (the first goal after start-up) waits for the first transform likewise.
         """
-        deadline = time.monotonic() + TF_WAIT
-        while True:
+        started = time.monotonic()
+        transform = None
+        while not rospy.is_shutdown():
             try:
-                transform = self._tf_buffer.lookup_transform(
-                    WORLD_FRAME, BASE_FRAME, rospy.Time(0), rospy.Duration(1.0)
-                )
+                transform = self._tf_buffer.lookup_transform(WORLD_FRAME, BASE_FRAME, rospy.Time(0))
             except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as error:
-                raise SkillError(f"no transform {WORLD_FRAME} -> {BASE_FRAME}: {error}") from None
-            fresh = transform.header.stamp.to_sec() >= self.now() - TF_FRESHNESS
-            if fresh or time.monotonic() > deadline or rospy.is_shutdown():
-                break
+                if time.monotonic() - started > STATE_WAIT:
+                    message = f"no transform {WORLD_FRAME} -> {BASE_FRAME} in {STATE_WAIT:.0f} s: {error}"
+                    raise SkillError(message) from None
+            else:
+                fresh = transform.header.stamp.to_sec() >= self.now() - TF_FRESHNESS
+                if fresh or time.monotonic() - started > TF_WAIT:
+                    break
             time.sleep(0.005)
+        if transform is None:
+            raise SkillError(f"no transform {WORLD_FRAME} -> {BASE_FRAME}: shutting down")
         translation, rotation = transform.transform.translation, transform.transform.rotation
         yaw = 2.0 * np.arctan2(rotation.z, rotation.w)
         return float(translation.x), float(translation.y), float(np.arctan2(np.sin(yaw), np.cos(yaw)))
