@@ -70,8 +70,15 @@ class TreeView:
         with self.lock:
             return [event for events in self.histories.values() for event in events]
 
-    def change(self, node_name, operation, index=0, parent=""):
-        return self.change_tree(node_name=node_name, operation=operation, index=index, parent=parent)
+    def change(self, node_name, operation, index=0, parent="", node_type="", parameter=0.0):
+        return self.change_tree(
+            node_name=node_name,
+            operation=operation,
+            index=index,
+            parent=parent,
+            node_type=node_type,
+            parameter=parameter,
+        )
 
     def pause(self, paused):
         self.pause_publisher.publish(Bool(data=paused))
@@ -85,7 +92,10 @@ class TreeView:
         return STATUS.get(node.status) if node is not None else None
 
     def children(self, name):
+        """The children's names of the node called name; None while the tree has no such node."""
         nodes = self.nodes()
+        if name not in nodes:
+            return None
         by_id = {b.own_id: b.name for b in nodes.values()}
         return [by_id[i] for i in nodes[name].child_ids]
 

@@ -185,12 +185,15 @@ def test_removing_the_running_leaf_or_its_composite_is_refused():
 
 
 def test_every_operation_is_known():
-    assert OPERATIONS == ("remove", "add", "prepend", "insert")
+    assert OPERATIONS == ("remove", "add", "prepend", "insert", "convert", "wrap", "unwrap", "undo", "redo")
 
 
 BAD_REQUESTS = [
-    (("PickItem", "swap"), "unknown operation 'swap'; expected one of remove, add, prepend, insert"),
-    (("PickItem", ""), "unknown operation ''; expected one of remove, add, prepend, insert"),
+    (
+        ("PickItem", "swap"),
+        "unknown operation 'swap'; expected one of remove, add, prepend, insert, convert, wrap, unwrap, undo, redo",
+    ),
+    (("PickItem", ""), "unknown operation ''; expected one of remove, add, prepend, insert, convert"),
     (("PickItem", "Remove"), "unknown operation 'Remove'"),
     (("", "remove"), "empty node name"),
     (("", "add"), "empty node name"),

@@ -57,5 +57,12 @@ def test_all_contract_types_are_generated():
     )
     from teleteach.srv import AddSkill, ChangeTree  # noqa: F401
 
-    assert ChangeTree._request_class.__slots__ == ["node_name", "operation", "index", "parent"]
+    assert ChangeTree._request_class.__slots__ == [
+        "node_name",
+        "operation",
+        "index",
+        "parent",
+        "node_type",
+        "parameter",
+    ]
     assert Behaviour.RUNNING == 2 and Behaviour.SEQUENCE == 2

@@ -48,7 +48,8 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
 
     Subclasses say how to :meth:`start`, :meth:`poll` and :meth:`cancel` the skill. When the skill fails and
     ``on_failure`` is set, the leaf stays RUNNING and ``awaiting_help``: ``on_failure(leaf, reason)`` pauses the
-    tree; the next tick after the pause retries the skill (unless the operator removed the leaf meanwhile).
+    tree; the next tick after the pause retries the skill (unless the operator removed the leaf meanwhile). A
+    failure that the tree above handles (:func:`failure_handled_above`) is returned as FAILURE instead.
 
     Args:
         name: unique name of the leaf in the tree
@@ -97,7 +98,7 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
         if status == Status.RUNNING:
             return status
         self.goal_active = False
-        if status == Status.FAILURE and self.on_failure is not None:
+        if status == Status.FAILURE and self.on_failure is not None and not failure_handled_above(self):
             self.awaiting_help = True
             self.feedback_message = f"failed: {message} (waiting for the operator)"
             self.on_failure(self, message)
@@ -112,6 +113,24 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
         self.goal_active = False
         if new_status == Status.INVALID:
             self.awaiting_help = False
+
+
+def failure_handled_above(node: py_trees.behaviour.Behaviour) -> bool:
+    """Whether an ancestor turns this node's failure into something other than a failed tree.
+
+    A retry with attempts left runs it again, an inverter makes it a success, a selector tries its next child: the
+    operator is asked only when none of them is there (or a retry's last attempt failed).
+    """
+    child, parent = node, node.parent
+    while parent is not None:
+        if isinstance(parent, py_trees.decorators.Retry) and parent.failures + 1 < parent.num_failures:
+            return True
+        if isinstance(parent, py_trees.decorators.Inverter):
+            return True
+        if isinstance(parent, py_trees.composites.Selector) and parent.children[-1] is not child:
+            return True
+        child, parent = parent, parent.parent
+    return False
 
 
 class EditableSequence(py_trees.composites.Sequence):

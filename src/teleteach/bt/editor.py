@@ -3,16 +3,24 @@
 Operations (``teleteach/ChangeTree``): ``remove`` a node; ``add`` (append), ``prepend`` or ``insert`` (at ``index``)
 a copy of a tree node or a new leaf of a library skill into ``parent`` (empty: the execution composite,
 BehaviorExecution in the thesis tree). Copies get unique names (``PlaceItem_2``) that the result returns.
+``convert`` turns a composite into another ``node_type`` (sequence, selector, parallel) keeping its children;
+``wrap`` puts a decorator (``retry`` with ``parameter`` attempts, ``timeout`` after ``parameter`` seconds, or
+``inverter``) around a node; ``unwrap`` replaces a decorator by its child. ``undo`` and ``redo`` revert and re-apply
+the last edits of any kind: each edit is kept as plain data (what was inserted or removed where, which types a
+composite had, which decorator was put around what), saved with the tree, so an undo restores the same names,
+types and order even after a restart.
 
 Edits keep execution going: py_trees' sequence memory is the identity of the running child, so inserting or removing
-siblings before or after it leaves it running and remembered. Removing a running node (or a composite holding one)
-is refused. A leaf that failed and waits for the operator (``awaiting_help``) is not running: removing it makes its
+siblings before or after it leaves it running and remembered; a wrapped or unwrapped node keeps running inside or
+outside its decorator. Removing a running node (or a composite holding one) and converting a running composite are
+refused. A leaf that failed and waits for the operator (``awaiting_help``) is not running: removing it makes its
 parent continue with the node that takes its place; inserting a node right in front of it runs that node first,
 then retries the failed one.
 
 A bad request changes nothing and says exactly what was wrong. The caller serialises edits with ticks.
 """
 
+import json
 import re
 import typing
 
@@ -21,10 +29,27 @@ from py_trees.common import Status
 
 from teleteach.bt.behaviours import PauseCondition, SkillLeaf
 from teleteach.bt.library import SkillLibrary
-from teleteach.bt.tree import LeafFactory, Spec, create_root, describe
+from teleteach.bt.tree import (
+    COMPOSITE_DEFAULTS,
+    COMPOSITES,
+    DECORATORS,
+    LeafFactory,
+    Spec,
+    TreeSpecError,
+    create_decorator,
+    create_root,
+    decorator_parameters,
+    describe,
+    describe_shallow,
+    node_type,
+)
 
-OPERATIONS = ("remove", "add", "prepend", "insert")
+OPERATIONS = ("remove", "add", "prepend", "insert", "convert", "wrap", "unwrap", "undo", "redo")
+HISTORY_LIMIT = 100  # edits kept for undo, and undone edits kept for redo
 _COPY_SUFFIX = re.compile(r"_\d+$")
+_INVERSE = {"insert": "remove", "remove": "insert", "wrap": "unwrap", "unwrap": "wrap", "convert": "convert"}
+
+History = typing.Dict[str, typing.List[Spec]]
 
 
 class ChangeResult(typing.NamedTuple):
@@ -36,17 +61,23 @@ class ChangeResult(typing.NamedTuple):
 
 
 class TreeEditor:
-    """Edits a tree in place, keeping a name index so that every lookup is O(1).
+    """Edits a tree in place, keeping a name index so that every lookup is O(1), and the history undo replays.
 
     Args:
         root: the root of the tree
         execution: name of the composite edited when a request names no parent
         library: skills that add/prepend/insert may name
         make_leaf: builds the leaf of a skill (the same factory the tree was built with)
+        history: saved ``{"undo": [edit, ...], "redo": [...]}`` (oldest first), e.g. from the saved tree
     """
 
     def __init__(
-        self, root: py_trees.behaviour.Behaviour, execution: str, library: SkillLibrary, make_leaf: LeafFactory
+        self,
+        root: py_trees.behaviour.Behaviour,
+        execution: str,
+        library: SkillLibrary,
+        make_leaf: LeafFactory,
+        history: typing.Optional[History] = None,
     ):
         self.root = root
         self.library = library
@@ -56,9 +87,17 @@ class TreeEditor:
             self.nodes[node.name] = node
         self.execution = self.nodes[execution]
         self._next_suffix: typing.Dict[str, int] = {}
+        history = history or {}
+        self.undo_edits: typing.List[Spec] = list(history.get("undo", []))[-HISTORY_LIMIT:]
+        self.redo_edits: typing.List[Spec] = list(history.get("redo", []))[-HISTORY_LIMIT:]
+
+    @property
+    def history(self) -> History:
+        """The edits undo and redo would replay (oldest first), as saved with the tree."""
+        return {"undo": list(self.undo_edits), "redo": list(self.redo_edits)}
 
     def protected_reason(self, node: py_trees.behaviour.Behaviour) -> str:
-        """Why ``node`` may not be removed or copied, or "" if it may."""
+        """Why ``node`` may not be removed, copied or wrapped, or "" if it may."""
         if node is self.root:
             return f"'{node.name}' is the root of the tree"
         if node is self.execution:
@@ -67,17 +106,122 @@ class TreeEditor:
             return f"'{node.name}' is the condition that pauses the tree"
         return ""
 
-    def change(self, node_name: str, operation: str, index: int = 0, parent: str = "") -> ChangeResult:
+    def change(
+        self,
+        node_name: str,
+        operation: str,
+        index: int = 0,
+        parent: str = "",
+        node_type: str = "",
+        parameter: float = 0.0,
+    ) -> ChangeResult:
         """Apply one /change_tree request; on any error nothing changes."""
         if operation not in OPERATIONS:
             return ChangeResult(False, f"unknown operation '{operation}'; expected one of {', '.join(OPERATIONS)}")
+        if operation in ("undo", "redo"):
+            return self._replay(operation)
         if not node_name:
             return ChangeResult(False, "empty node name")
         if operation == "remove":
-            return self._remove(node_name, parent)
-        return self._add(node_name, operation, index, parent)
+            edit: typing.Union[Spec, ChangeResult] = {"edit": "remove", "node": {"name": node_name}, "parent": parent}
+        elif operation == "convert":
+            edit = self._conversion(node_name, node_type)
+        elif operation == "wrap":
+            edit = self._wrapping(node_name, node_type, parameter)
+        elif operation == "unwrap":
+            edit = {"edit": "unwrap", "decorator": {"name": node_name}}
+        else:
+            edit = self._addition(node_name, operation, index, parent)
+        if isinstance(edit, ChangeResult):
+            return edit
+        origin = f"a copy of '{node_name}'" if node_name in self.nodes else f"library skill '{node_name}'"
+        result = self._apply(edit)
+        if not result.success:
+            return result
+        self.undo_edits = [*self.undo_edits, edit][-HISTORY_LIMIT:]
+        self.redo_edits = []
+        if edit["edit"] == "insert":
+            where = f"'{edit['parent']}' at index {edit['index']}"
+            return result._replace(message=f"{operation}: {origin} as '{result.new_node_name}' in {where}")
+        return result
 
-    def _remove(self, node_name: str, parent_name: str) -> ChangeResult:
+    def _replay(self, operation: str) -> ChangeResult:
+        """Undo (apply the inverse of) the last edit, or redo the last undone one."""
+        edits, other = (self.undo_edits, self.redo_edits) if operation == "undo" else (self.redo_edits, self.undo_edits)
+        if not edits:
+            return ChangeResult(False, f"nothing to {operation}")
+        edit = edits[-1]
+        replayed = inverse(edit) if operation == "undo" else json.loads(json.dumps(edit))
+        result = self._apply(replayed)
+        if not result.success:
+            return ChangeResult(False, f"cannot {operation} the last edit: {result.message}")
+        edits.pop()
+        other.append(edit)
+        del other[:-HISTORY_LIMIT]
+        return ChangeResult(True, f"{operation}: {result.message}", result.new_node_name)
+
+    def _apply(self, edit: Spec) -> ChangeResult:
+        """Carry out one edit (completing its record with what it found), or say why not and change nothing."""
+        apply = {
+            "insert": self._insert,
+            "remove": self._remove,
+            "convert": self._convert,
+            "wrap": self._wrap,
+            "unwrap": self._unwrap,
+        }.get(edit.get("edit"))
+        if apply is None:
+            return ChangeResult(False, f"unknown edit {json.dumps(edit)}")
+        try:
+            return apply(edit)
+        except (KeyError, TypeError, ValueError, TreeSpecError) as error:  # a hand-edited or damaged saved history
+            return ChangeResult(False, f"the edit {json.dumps(edit)} cannot be applied: {error!r}")
+
+    # --------------------------------------------------------------------------------------------- requests
+    def _addition(self, node_name: str, operation: str, index: int, parent: str) -> typing.Union[Spec, ChangeResult]:
+        source = self.nodes.get(node_name)
+        if source is not None:
+            reason = self.protected_reason(source)
+            if reason:
+                return ChangeResult(False, f"cannot copy {reason}")
+            spec = self._renamed(describe(source))
+        elif node_name in self.library:
+            spec = self._renamed({"type": "skill", "name": node_name, "skill": node_name})
+        else:
+            return ChangeResult(False, f"'{node_name}' is neither a node of the tree nor a skill in the library")
+        unavailable = self._unavailable_skill(spec)
+        if unavailable:
+            return ChangeResult(False, f"cannot {operation} '{node_name}': {unavailable}")
+        position = {"add": None, "prepend": 0, "insert": index}[operation]  # None: the end, once known
+        return {"edit": "insert", "parent": parent, "index": position, "node": spec}
+
+    def _conversion(self, node_name: str, kind: str) -> typing.Union[Spec, ChangeResult]:
+        if kind not in COMPOSITES:
+            return ChangeResult(False, f"cannot convert to '{kind}'; expected node_type {' | '.join(COMPOSITES)}")
+        node = self.nodes.get(node_name)
+        if node is None:
+            return ChangeResult(False, f"no node named '{node_name}' in the tree")
+        if not isinstance(node, py_trees.composites.Composite):
+            return ChangeResult(False, f"cannot convert '{node_name}': it is a {node_type(node)}, not a composite")
+        after = {"type": kind, "name": node_name, **COMPOSITE_DEFAULTS[kind]}
+        return {"edit": "convert", "before": describe_shallow(node), "after": after}
+
+    def _wrapping(self, node_name: str, kind: str, parameter: float) -> typing.Union[Spec, ChangeResult]:
+        if kind not in DECORATORS:
+            return ChangeResult(False, f"cannot wrap in '{kind}'; expected node_type {' | '.join(DECORATORS)}")
+        node = self.nodes.get(node_name)
+        if node is None:
+            return ChangeResult(False, f"no node named '{node_name}' in the tree")
+        value = {"retry": {"attempts": parameter}, "timeout": {"seconds": parameter}}.get(kind, {})
+        try:
+            checked = decorator_parameters(kind, value, f"wrap '{node_name}'")
+        except TreeSpecError as error:
+            return ChangeResult(False, f"{error} (the request's parameter)")
+        name = self._unique_name(f"{kind.capitalize()}{node_name}", set())
+        return {"edit": "wrap", "node": node_name, "decorator": {"type": kind, "name": name, **checked}}
+
+    # ------------------------------------------------------------------------------------------------ edits
+    def _remove(self, edit: Spec) -> ChangeResult:
+        node_name = edit["node"]["name"]
         node = self.nodes.get(node_name)
         if node is None:
             return ChangeResult(False, f"no node named '{node_name}' in the tree")
@@ -85,8 +229,8 @@ class TreeEditor:
         if reason:
             return ChangeResult(False, f"cannot remove {reason}")
         parent = node.parent
-        if parent_name and parent.name != parent_name:
-            return ChangeResult(False, f"'{node_name}' is a child of '{parent.name}', not of '{parent_name}'")
+        if edit.get("parent") and parent.name != edit["parent"]:
+            return ChangeResult(False, f"'{node_name}' is a child of '{parent.name}', not of '{edit['parent']}'")
         for descendant in node.iterate():
             if self.protected_reason(descendant):
                 return ChangeResult(
@@ -96,6 +240,7 @@ class TreeEditor:
                 what = "it is running" if descendant is node else f"it holds the running leaf '{descendant.name}'"
                 return ChangeResult(False, f"cannot remove '{node_name}': {what}; removing it would abort its skill")
         index = parent.children.index(node)
+        edit.update(parent=parent.name, index=index, node=describe(node))
         was_current = parent.current_child is node
         parent.remove_child(node)  # stops the node if needed: only a leaf awaiting help here, no goal is out
         if was_current and parent.status == Status.RUNNING:
@@ -112,7 +257,8 @@ class TreeEditor:
         elif isinstance(parent, py_trees.composites.Selector):
             parent.stop(Status.INVALID)  # re-decide from the highest priority on the next tick
 
-    def _add(self, node_name: str, operation: str, index: int, parent_name: str) -> ChangeResult:
+    def _insert(self, edit: Spec) -> ChangeResult:
+        parent_name, spec = edit["parent"], edit["node"]
         if parent_name:
             parent = self.nodes.get(parent_name)
             if parent is None:
@@ -122,42 +268,111 @@ class TreeEditor:
         else:
             parent = self.execution
         size = len(parent.children)
-        if operation == "insert" and not 0 <= index <= size:
-            return ChangeResult(False, f"index {index} is out of range for '{parent.name}' (0..{size})")
-        position = {"add": size, "prepend": 0, "insert": index}[operation]
-        source = self.nodes.get(node_name)
-        if source is not None:
-            reason = self.protected_reason(source)
-            if reason:
-                return ChangeResult(False, f"cannot copy {reason}")
-            spec = self._renamed(describe(source))
-            origin = f"a copy of '{node_name}'"
-        elif node_name in self.library:
-            spec = self._renamed({"type": "skill", "name": node_name, "skill": node_name})
-            origin = f"library skill '{node_name}'"
-        else:
-            return ChangeResult(False, f"'{node_name}' is neither a node of the tree nor a skill in the library")
+        position = size if edit["index"] is None else edit["index"]
+        if not isinstance(position, int) or not 0 <= position <= size:
+            return ChangeResult(False, f"index {position} is out of range for '{parent.name}' (0..{size})")
+        taken = [name for name in _names(spec) if name in self.nodes]
+        if taken:
+            return ChangeResult(False, f"cannot insert '{spec['name']}': the name '{taken[0]}' is in the tree")
         unavailable = self._unavailable_skill(spec)
         if unavailable:
-            return ChangeResult(False, f"cannot {operation} '{node_name}': {unavailable}")
+            return ChangeResult(False, f"cannot insert '{spec['name']}': {unavailable}")
         new_node = create_root(spec, self.library, self.make_leaf)
         parent.insert_child(new_node, position)
+        edit.update(parent=parent.name, index=position)
         for descendant in new_node.iterate():
             self.nodes[descendant.name] = descendant
         self._run_first_if_in_front_of_failed(parent, new_node, position)
+        return ChangeResult(True, f"inserted '{new_node.name}' in '{parent.name}' at index {position}", new_node.name)
+
+    def _convert(self, edit: Spec) -> ChangeResult:
+        before, after = edit["before"], edit["after"]
+        node = self.nodes.get(before["name"])
+        if node is None or not isinstance(node, py_trees.composites.Composite):
+            return ChangeResult(False, f"no composite named '{before['name']}' in the tree")
+        if node is self.root:
+            return ChangeResult(False, f"cannot convert '{node.name}': it is the root of the tree, the pause needs it")
+        if describe_shallow(node) != before:
+            return ChangeResult(False, f"'{node.name}' is a {node_type(node)}, not the {before['type']} it was")
+        if after["type"] == before["type"]:
+            return ChangeResult(False, f"'{node.name}' is a {before['type']} already")
+        if node.status == Status.RUNNING:
+            return ChangeResult(
+                False, f"cannot convert '{node.name}' while it runs (its children would start again); pause first"
+            )
+        converted = create_root({**after, "children": []}, self.library, self.make_leaf)
+        children = list(node.children)
+        node.children.clear()
+        for child in children:
+            child.parent = None
+            converted.add_child(child)
+        self._replace(node, converted)
+        if node is self.execution:
+            self.execution = converted
+        return ChangeResult(True, f"converted '{node.name}' from a {before['type']} to a {after['type']}")
+
+    def _wrap(self, edit: Spec) -> ChangeResult:
+        decorator_spec, node = edit["decorator"], self.nodes.get(edit["node"])
+        if node is None:
+            return ChangeResult(False, f"no node named '{edit['node']}' in the tree")
+        reason = self.protected_reason(node)
+        if reason:
+            return ChangeResult(False, f"cannot wrap {reason}")
+        if decorator_spec["name"] in self.nodes:
+            return ChangeResult(False, f"cannot wrap '{node.name}': the name '{decorator_spec['name']}' is in the tree")
+        checked = decorator_parameters(decorator_spec["type"], decorator_spec, f"wrap '{node.name}'")
+        parent = node.parent
+        decorator = create_decorator({**decorator_spec, **checked}, _detached(node))
+        self._replace(node, decorator, parent)
+        what = "".join(f", {key} {value}" for key, value in checked.items())
         return ChangeResult(
-            True, f"{operation}: {origin} as '{new_node.name}' in '{parent.name}' at index {position}", new_node.name
+            True, f"wrapped '{node.name}' in the {decorator_spec['type']} '{decorator.name}'{what}", decorator.name
         )
+
+    def _unwrap(self, edit: Spec) -> ChangeResult:
+        name = edit["decorator"]["name"]
+        decorator = self.nodes.get(name)
+        if decorator is None:
+            return ChangeResult(False, f"no node named '{name}' in the tree")
+        if not isinstance(decorator, py_trees.decorators.Decorator):
+            return ChangeResult(False, f"cannot unwrap '{name}': it is a {node_type(decorator)}, not a decorator")
+        child = decorator.decorated
+        edit.update(decorator=describe_shallow(decorator), node=child.name)
+        parent = decorator.parent
+        decorator.children.clear()
+        self._replace(decorator, _detached(child), parent)
+        del self.nodes[name]
+        return ChangeResult(True, f"unwrapped '{child.name}' from the {edit['decorator']['type']} '{name}'")
+
+    def _replace(
+        self,
+        old: py_trees.behaviour.Behaviour,
+        new: py_trees.behaviour.Behaviour,
+        parent: typing.Optional[py_trees.behaviour.Behaviour] = None,
+    ) -> None:
+        """Put ``new`` where ``old`` was (same index, and what its parent remembered), under ``old``'s name."""
+        parent = parent or old.parent
+        parent.children[parent.children.index(old)] = new
+        new.parent = parent
+        if getattr(parent, "current_child", None) is old:
+            parent.current_child = new
+        if isinstance(parent, py_trees.decorators.Decorator):
+            parent.decorated = new
+        if old.parent is parent:
+            old.parent = None
+        self.nodes[new.name] = new
 
     @staticmethod
     def _run_first_if_in_front_of_failed(
         parent: py_trees.composites.Composite, new_node: py_trees.behaviour.Behaviour, position: int
     ) -> None:
-        """A node inserted right in front of a leaf awaiting help runs first; the failed leaf is retried after it."""
+        """A node inserted in front of a leaf awaiting help (or a decorator around one) runs first, then the leaf."""
         if not (isinstance(parent, py_trees.composites.Sequence) and parent.memory):
             return
         following = parent.children[position + 1] if position + 1 < len(parent.children) else None
-        if following is not None and following is parent.current_child and getattr(following, "awaiting_help", False):
+        if following is None or following is not parent.current_child:
+            return
+        if any(getattr(node, "awaiting_help", False) for node in following.iterate()):
             following.stop(Status.INVALID)
             parent.current_child = new_node
 
@@ -165,7 +380,9 @@ class TreeEditor:
         """Why a skill the description runs is unavailable (its file is missing or bad), or "" if all can run."""
         if spec["type"] == "skill":
             entry = self.library.get(spec["skill"])
-            return f"skill '{entry.name}' is unavailable: {entry.problem}" if entry and not entry.available else ""
+            if entry is None:
+                return f"skill '{spec['skill']}' is not in the library"
+            return f"skill '{entry.name}' is unavailable: {entry.problem}" if not entry.available else ""
         for child in spec.get("children", []):
             reason = self._unavailable_skill(child)
             if reason:
@@ -195,6 +412,26 @@ class TreeEditor:
             suffix += 1
         self._next_suffix[base] = suffix + 1
         return f"{base}_{suffix}"
+
+
+def inverse(edit: Spec) -> Spec:
+    """The edit that undoes ``edit`` (a copy: the history keeps the original)."""
+    undone = json.loads(json.dumps(edit))
+    undone["edit"] = _INVERSE[edit["edit"]]
+    if edit["edit"] == "convert":
+        undone["before"], undone["after"] = undone["after"], undone["before"]
+    return undone
+
+
+def _names(spec: Spec) -> typing.List[str]:
+    """Every node name of a description."""
+    return [spec["name"], *(name for child in spec.get("children", []) for name in _names(child))]
+
+
+def _detached(node: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
+    """``node`` without its parent link, ready to be given a new parent."""
+    node.parent = None
+    return node
 
 
 def _busy(node: py_trees.behaviour.Behaviour) -> bool:

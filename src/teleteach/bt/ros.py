@@ -50,6 +50,9 @@ _TYPE = {
     "selector": Behaviour.SELECTOR,
     "sequence": Behaviour.SEQUENCE,
     "parallel": Behaviour.PARALLEL,
+    "retry": Behaviour.DECORATOR,
+    "timeout": Behaviour.DECORATOR,
+    "inverter": Behaviour.DECORATOR,
     "pause": Behaviour.BEHAVIOUR,
     "skill": Behaviour.BEHAVIOUR,
 }
@@ -452,7 +455,9 @@ class BehaviourTreeNode:
         self.tree.set_pause(bool(message.data))
 
     def _on_change_tree(self, request: ChangeTree._request_class) -> ChangeTreeResponse:
-        result = self.tree.change(request.node_name, request.operation, request.index, request.parent)
+        result = self.tree.change(
+            request.node_name, request.operation, request.index, request.parent, request.node_type, request.parameter
+        )
         log = rospy.loginfo if result.success else rospy.logwarn
         log("behaviour_tree: /change_tree %s %s: %s", request.operation, request.node_name, result.message)
         return ChangeTreeResponse(success=result.success, message=result.message, new_node_name=result.new_node_name)

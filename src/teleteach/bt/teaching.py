@@ -297,7 +297,7 @@ class TeachingTree:
         self.tree = TickedNodesTree(create_root(spec.root, library, self._leaf))
         self.snapshot_visitor = VisitedNodes()
         self.tree.visitors.append(self.snapshot_visitor)
-        self.editor = TreeEditor(self.tree.root, spec.execution, library, self._leaf)
+        self.editor = TreeEditor(self.tree.root, spec.execution, library, self._leaf, spec.history)
         self.blackboard = py_trees.blackboard.Client(name="TeachingTree")
         self.blackboard.register_key(PAUSE_KEY, access=py_trees.common.Access.WRITE)
         self.blackboard.set(PAUSE_KEY, False)
@@ -335,6 +335,21 @@ class TeachingTree:
         self.help_request = HelpRequest(leaf.name, reason)
         self.revision += 1
 
+    def _request_help_for_failed_execution(self) -> None:
+        """A failure no leaf asked about reached the execution composite (e.g. a timeout decorator fired): ask."""
+        failed = self.execution
+        while True:
+            failed_children = [child for child in failed.children if child.status == Status.FAILURE]
+            if not failed_children:
+                break
+            failed = failed_children[-1]
+        self.blackboard.set(PAUSE_KEY, True)
+        reason = failed.feedback_message or "failed"
+        self.help_request = HelpRequest(
+            failed.name, f"{reason}; '{self.execution.name}' failed and starts again from its first node on resume"
+        )
+        self.revision += 1
+
     def set_pause(self, paused: bool) -> None:
         """Pause or resume; resuming also closes an open help request (the operator has answered it)."""
         with self.lock:
@@ -351,6 +366,8 @@ class TeachingTree:
             if not self.completed:
                 self.tree.tick()
                 self.completed = self.execution.status == Status.SUCCESS
+                if self.execution.status == Status.FAILURE and self.help_request is None:
+                    self._request_help_for_failed_execution()
             touched = {**self.snapshot_visitor.previous_nodes, **self.snapshot_visitor.nodes}
             states = tuple((key, node.status, node.feedback_message) for key, node in touched.items())
             signature = (self.revision, self.completed, states)
@@ -358,10 +375,18 @@ class TeachingTree:
             self._signature = signature
             return changed
 
-    def change(self, node_name: str, operation: str, index: int = 0, parent: str = "") -> ChangeResult:
-        """Apply a /change_tree request between two ticks; save the tree if it changed."""
+    def change(
+        self,
+        node_name: str,
+        operation: str,
+        index: int = 0,
+        parent: str = "",
+        node_type: str = "",
+        parameter: float = 0.0,
+    ) -> ChangeResult:
+        """Apply a /change_tree request between two ticks; save the tree (and its edit history) if it changed."""
         with self.lock:
-            result = self.editor.change(node_name, operation, index, parent)
+            result = self.editor.change(node_name, operation, index, parent, node_type, parameter)
             if not result.success:
                 return result
             self.revision += 1
@@ -385,7 +410,12 @@ class TeachingTree:
     def tree_yaml(self) -> str:
         """The live tree in the yaml format of config/tree.yaml."""
         with self.lock:
-            return dump_live_yaml(self.root, self.execution.name, "saved by teleteach behaviour_tree after an edit")
+            return dump_live_yaml(
+                self.root,
+                self.execution.name,
+                "saved by teleteach behaviour_tree after an edit",
+                history=self.editor.history,
+            )
 
     def _save(self, revision: int, text: str) -> None:
         if self.store is None:

@@ -17,10 +17,13 @@ The format (``config/tree.yaml`` holds the thesis tree)::
             - {name: PlaceItem_2, skill: PlaceItem}  # a leaf named apart from its skill
             - {name: MoveBase45, skill: MoveBase2, parameters: {base_pose: place_45deg}}  # the goal's parameters
 
-A parallel has ``policy: success_on_all | success_on_one`` and ``synchronise: true | false``. A predefined skill
+A parallel has ``policy: success_on_all | success_on_one`` and ``synchronise: true | false``. A decorator has exactly
+one child: ``retry`` (``attempts``: how many times its child may fail before it fails, >= 1), ``timeout``
+(``seconds`` > 0 of wall time before it stops its child and fails) or ``inverter``. A predefined skill
 leaf may carry ``parameters``, a mapping of names sent as its goal's parameters (what the skill acts on: product,
 base_pose, gap; see config/skills_motion.yaml). Names are unique in the tree. Saved trees are written by
-:func:`dump_yaml` in the same format, fast enough for 1000-leaf trees.
+:func:`dump_yaml` in the same format, fast enough for 1000-leaf trees; they may end with ``history``, the edits that
+/change_tree's undo and redo replay (see teleteach.bt.editor).
 """
 
 import json
@@ -34,7 +37,14 @@ from teleteach.bt.behaviours import EditableSequence, PausableSelector, PauseCon
 from teleteach.bt.library import SkillEntry, SkillLibrary
 
 COMPOSITES = ("selector", "sequence", "parallel")
-TYPES = (*COMPOSITES, "pause", "skill")
+DECORATORS = ("retry", "timeout", "inverter")
+TYPES = (*COMPOSITES, *DECORATORS, "pause", "skill")
+EDIT_KINDS = ("insert", "remove", "convert", "wrap", "unwrap")
+COMPOSITE_DEFAULTS = {  # what a composite written without these fields (or converted to this type) gets
+    "selector": {"memory": False},
+    "sequence": {"memory": True},
+    "parallel": {"policy": "success_on_all", "synchronise": False},
+}
 PARALLEL_POLICIES = ("success_on_all", "success_on_one")
 
 Spec = typing.Dict[str, typing.Any]
@@ -52,13 +62,14 @@ class TreeSpec(typing.NamedTuple):
 
     root: Spec
     execution: str
+    history: typing.Optional[typing.Dict[str, typing.List[Spec]]] = None  # {"undo": [edit, ...], "redo": [...]}
 
 
 def parse_tree(data: typing.Any, library: SkillLibrary, source: str = "tree") -> TreeSpec:
     """Validate plain data (from yaml) into a :class:`TreeSpec`; raise :class:`TreeSpecError` naming the problem."""
     if not isinstance(data, dict) or "root" not in data:
         raise TreeSpecError(f"{source}: expected a mapping with 'root' (and 'execution')")
-    unknown = set(data) - {"root", "execution"}
+    unknown = set(data) - {"root", "execution", "history"}
     if unknown:
         raise TreeSpecError(f"{source}: unknown top-level fields {sorted(unknown)}")
     names: typing.Dict[str, str] = {}
@@ -68,7 +79,24 @@ def parse_tree(data: typing.Any, library: SkillLibrary, source: str = "tree") ->
     execution = data.get("execution", "")
     if not isinstance(execution, str) or names.get(execution) not in COMPOSITES:
         raise TreeSpecError(f"{source}: execution {execution!r} must name a composite of the tree")
-    return TreeSpec(root=root, execution=execution)
+    return TreeSpec(root=root, execution=execution, history=_parse_history(data.get("history"), source))
+
+
+def _parse_history(data: typing.Any, source: str) -> typing.Optional[typing.Dict[str, typing.List[Spec]]]:
+    """The saved undo/redo edits: checked for shape here, for meaning when an undo or redo applies one."""
+    if data is None:
+        return None
+    if not isinstance(data, dict) or set(data) - {"undo", "redo"}:
+        raise TreeSpecError(f"{source}: history must be a mapping with 'undo' and 'redo' lists of edits")
+    history: typing.Dict[str, typing.List[Spec]] = {}
+    for key in ("undo", "redo"):
+        edits = data.get(key) or []
+        if not isinstance(edits, list) or not all(
+            isinstance(edit, dict) and edit.get("edit") in EDIT_KINDS for edit in edits
+        ):
+            raise TreeSpecError(f"{source}: history/{key} must be a list of edits of kind {', '.join(EDIT_KINDS)}")
+        history[key] = edits
+    return history
 
 
 def _parse_node(data: typing.Any, library: SkillLibrary, names: typing.Dict[str, str], where: str) -> Spec:
@@ -91,6 +119,9 @@ def _parse_node(data: typing.Any, library: SkillLibrary, names: typing.Dict[str,
         "selector": {"memory", "children"},
         "sequence": {"memory", "children"},
         "parallel": {"policy", "synchronise", "children"},
+        "retry": {"attempts", "children"},
+        "timeout": {"seconds", "children"},
+        "inverter": {"children"},
         "pause": set(),
         "skill": {"skill", "parameters"},
     }[node_type]
@@ -116,18 +147,39 @@ def _parse_node(data: typing.Any, library: SkillLibrary, names: typing.Dict[str,
     if node_type == "pause":
         return spec
     if node_type == "parallel":
-        policy = data.get("policy", "success_on_all")
+        policy = data.get("policy", COMPOSITE_DEFAULTS["parallel"]["policy"])
         if policy not in PARALLEL_POLICIES:
             raise TreeSpecError(f"{where}: unknown policy {policy!r}; expected one of {', '.join(PARALLEL_POLICIES)}")
         spec["policy"] = policy
-        spec["synchronise"] = _flag(data, "synchronise", False, where)
+        spec["synchronise"] = _flag(data, "synchronise", COMPOSITE_DEFAULTS["parallel"]["synchronise"], where)
+    elif node_type in DECORATORS:
+        spec.update(decorator_parameters(node_type, data, where))
     else:
-        spec["memory"] = _flag(data, "memory", node_type == "sequence", where)
+        spec["memory"] = _flag(data, "memory", COMPOSITE_DEFAULTS[node_type]["memory"], where)
     children = data.get("children", [])
     if not isinstance(children, list):
         raise TreeSpecError(f"{where}: children must be a list")
+    if node_type in DECORATORS and len(children) != 1:
+        raise TreeSpecError(f"{where}: a {node_type} decorates exactly one child, got {len(children)}")
     spec["children"] = [_parse_node(child, library, names, where) for child in children]
     return spec
+
+
+def decorator_parameters(node_type: str, data: Spec, where: str) -> Spec:
+    """The checked parameter of a decorator (``attempts`` of a retry, ``seconds`` of a timeout)."""
+    if node_type == "retry":
+        attempts = data.get("attempts")
+        if isinstance(attempts, float) and attempts.is_integer():
+            attempts = int(attempts)
+        if isinstance(attempts, bool) or not isinstance(attempts, int) or attempts < 1:
+            raise TreeSpecError(f"{where}: a retry needs attempts, a whole number >= 1, got {attempts!r}")
+        return {"attempts": attempts}
+    if node_type == "timeout":
+        seconds = data.get("seconds")
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds < float("inf"):
+            raise TreeSpecError(f"{where}: a timeout needs seconds, a finite number > 0, got {seconds!r}")
+        return {"seconds": float(seconds)}
+    return {}
 
 
 def _flag(data: Spec, key: str, default: bool, where: str) -> bool:
@@ -160,6 +212,8 @@ def create_root(spec: Spec, library: SkillLibrary, make_leaf: LeafFactory) -> py
     if node_type == "pause":
         return PauseCondition(spec["name"])
     children = [create_root(child, library, make_leaf) for child in spec["children"]]
+    if node_type in DECORATORS:
+        return create_decorator(spec, children[0])
     if node_type == "selector":
         return PausableSelector(spec["name"], memory=spec["memory"], children=children)
     if node_type == "sequence":
@@ -172,8 +226,23 @@ def create_root(spec: Spec, library: SkillLibrary, make_leaf: LeafFactory) -> py
     return py_trees.composites.Parallel(spec["name"], policy=policy, children=children)
 
 
+def create_decorator(spec: Spec, child: py_trees.behaviour.Behaviour) -> py_trees.decorators.Decorator:
+    """The py_trees decorator of a (shallow) decorator description, around ``child``."""
+    if spec["type"] == "retry":
+        return py_trees.decorators.Retry(spec["name"], child, num_failures=spec["attempts"])
+    if spec["type"] == "timeout":
+        return py_trees.decorators.Timeout(spec["name"], child, duration=spec["seconds"])
+    return py_trees.decorators.Inverter(spec["name"], child)
+
+
 def node_type(node: py_trees.behaviour.Behaviour) -> str:
     """The yaml type of a live node."""
+    if isinstance(node, py_trees.decorators.Retry):
+        return "retry"
+    if isinstance(node, py_trees.decorators.Timeout):
+        return "timeout"
+    if isinstance(node, py_trees.decorators.Inverter):
+        return "inverter"
     if isinstance(node, py_trees.composites.Selector):
         return "selector"
     if isinstance(node, py_trees.composites.Sequence):
@@ -201,7 +270,11 @@ def describe_shallow(node: py_trees.behaviour.Behaviour) -> Spec:
             "success_on_one" if isinstance(policy, py_trees.common.ParallelPolicy.SuccessOnOne) else "success_on_all"
         )
         spec["synchronise"] = bool(policy.synchronise)
-    elif kind != "pause":
+    elif kind == "retry":
+        spec["attempts"] = node.num_failures
+    elif kind == "timeout":
+        spec["seconds"] = node.duration
+    elif kind in COMPOSITES:
         spec["memory"] = bool(node.memory)
     return spec
 
@@ -209,7 +282,7 @@ def describe_shallow(node: py_trees.behaviour.Behaviour) -> Spec:
 def describe(node: py_trees.behaviour.Behaviour) -> Spec:
     """The yaml description of a live (sub)tree: what :func:`create_root` would build it from."""
     spec = describe_shallow(node)
-    if spec["type"] in COMPOSITES:
+    if spec["type"] in COMPOSITES or spec["type"] in DECORATORS:
         spec["children"] = [describe(child) for child in node.children]
     return spec
 
@@ -222,10 +295,15 @@ def dump_yaml(tree: TreeSpec, header: str = "") -> str:
         spec, indent, item = stack.pop()
         children = _dump_node(spec, indent, lines, item)
         stack.extend((child, children, True) for child in reversed(spec.get("children", [])))
-    return "\n".join(lines) + "\n"
+    return _with_history(lines, tree.history)
 
 
-def dump_live_yaml(root: py_trees.behaviour.Behaviour, execution: str, header: str = "") -> str:
+def dump_live_yaml(
+    root: py_trees.behaviour.Behaviour,
+    execution: str,
+    header: str = "",
+    history: typing.Optional[typing.Dict[str, typing.List[Spec]]] = None,
+) -> str:
     """:func:`dump_yaml` of a live tree in linear time, without building its description (leaf lines are cached)."""
     lines = _header(execution, header)
     stack: typing.List[typing.Tuple[py_trees.behaviour.Behaviour, str, bool]] = [(root, "  ", False)]
@@ -238,10 +316,21 @@ def dump_live_yaml(root: py_trees.behaviour.Behaviour, execution: str, header: s
             lines.append(f"{indent}- {text}" if item else f"{indent}{text}")
             continue
         spec = describe_shallow(node)
-        if spec["type"] in COMPOSITES:
+        if spec["type"] in COMPOSITES or spec["type"] in DECORATORS:
             spec["children"] = node.children
         children = _dump_node(spec, indent, lines, item)
         stack.extend((child, children, True) for child in reversed(node.children))
+    return _with_history(lines, history)
+
+
+def _with_history(lines: typing.List[str], history: typing.Optional[typing.Dict[str, typing.List[Spec]]]) -> str:
+    """The tree's lines, then its edit history (one JSON edit per line, which yaml reads)."""
+    if history and (history.get("undo") or history.get("redo")):
+        lines.append("history:")
+        for key in ("undo", "redo"):
+            edits = history.get(key, [])
+            lines.append(f"  {key}:" if edits else f"  {key}: []")
+            lines.extend(f"    - {json.dumps(edit)}" for edit in edits)
     return "\n".join(lines) + "\n"
 
 
@@ -275,7 +364,11 @@ def _dump_node(spec: Spec, indent: str, lines: typing.List[str], item: bool) -> 
     if spec["type"] == "parallel":
         lines.append(f"{rest}policy: {spec['policy']}")
         lines.append(f"{rest}synchronise: {str(spec['synchronise']).lower()}")
-    else:
+    elif spec["type"] == "retry":
+        lines.append(f"{rest}attempts: {spec['attempts']}")
+    elif spec["type"] == "timeout":
+        lines.append(f"{rest}seconds: {json.dumps(spec['seconds'])}")
+    elif spec["type"] in COMPOSITES:
         lines.append(f"{rest}memory: {str(spec['memory']).lower()}")
     lines.append(f"{rest}children:" if spec["children"] else f"{rest}children: []")
     return rest + "  "

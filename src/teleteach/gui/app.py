@@ -216,7 +216,9 @@ class MainWindow(QMainWindow):
             "change_tree",
             "/change_tree",
             ChangeTree,
-            ChangeTreeRequest(request.node_name, request.operation, request.index, request.parent),
+            ChangeTreeRequest(
+                node_name=request.node_name, operation=request.operation, index=request.index, parent=request.parent
+            ),
         )
 
     # LOW-LEVEL ------------------------------------------------------------------------------------

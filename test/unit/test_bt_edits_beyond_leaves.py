@@ -1,0 +1,315 @@
+"""convert, wrap, unwrap, undo and redo on the thesis tree, without ROS: each edit, its undo, the running leaf kept
+running, decorators changing who is asked for help, the history saved with the tree, and every bad request."""
+
+import json
+import math
+
+import py_trees
+import pytest
+from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, status_of, thesis_tree
+from py_trees.common import Status
+
+from teleteach.bt.editor import HISTORY_LIMIT, snapshot
+from teleteach.bt.library import SkillLibrary
+from teleteach.bt.teaching import TeachingTree
+from teleteach.bt.tree import describe, load_tree, parse_tree
+
+GROCERIES = {
+    "execution": "BehaviorExecution",
+    "root": {
+        "type": "selector",
+        "name": "Root",
+        "children": [
+            {"type": "pause", "name": "PauseCondition"},
+            {
+                "type": "sequence",
+                "name": "BehaviorExecution",
+                "children": [
+                    {"type": "sequence", "name": "Fetch", "children": ["LookToShelf", "PickItem"]},
+                    "MoveBase",
+                    "PlaceItem",
+                ],
+            },
+        ],
+    },
+}
+
+
+def groceries_tree(world):
+    py_trees.blackboard.Blackboard.clear()
+    library = SkillLibrary.load(CONFIG / "skills.yaml")
+    return TeachingTree(parse_tree(GROCERIES, library), library, world.make_leaf)
+
+
+def run(tree, ticks=300):
+    for _ in range(ticks):
+        if tree.completed or tree.help_request is not None:
+            return
+        tree.tick()
+
+
+def structure(tree):
+    return describe(tree.root)
+
+
+def test_convert_keeps_children_and_order_and_undo_restores_the_type():
+    tree = groceries_tree(SkillWorld())
+    before = structure(tree)
+    result = tree.change("Fetch", "convert", node_type="selector")
+    # Expect Fetch a selector (its default memory) with the same children in the same order, the index updated
+    assert result.success, result.message
+    assert result.message == "converted 'Fetch' from a sequence to a selector"
+    fetch = tree.editor.nodes["Fetch"]
+    assert isinstance(fetch, py_trees.composites.Selector) and leaf_names(fetch) == ["LookToShelf", "PickItem"]
+    assert all(child.parent is fetch for child in fetch.children) and fetch.parent is tree.execution
+    assert tree.change("Fetch", "convert", node_type="parallel").success
+    assert isinstance(tree.editor.nodes["Fetch"], py_trees.composites.Parallel)
+    # Expect two undos to give back exactly the tree before, and a redo to re-apply the first conversion
+    assert tree.change("", "undo").success and tree.change("", "undo").success
+    assert structure(tree) == before
+    redone = tree.change("", "redo")
+    assert redone.success and redone.message == "redo: converted 'Fetch' from a sequence to a selector"
+    assert isinstance(tree.editor.nodes["Fetch"], py_trees.composites.Selector)
+
+
+def test_a_selector_with_a_first_choice_runs_only_what_is_needed():
+    # an operator turning Fetch into "look, else pick": LookToShelf succeeds, so PickItem never starts
+    world = SkillWorld()
+    tree = groceries_tree(world)
+    assert tree.change("Fetch", "convert", node_type="selector").success
+    run(tree)
+    assert tree.completed
+    assert world.names("start") == ["LookToShelf", "MoveBase", "PlaceItem"]
+
+
+def test_converting_the_execution_composite_keeps_it_the_default_parent():
+    tree = groceries_tree(SkillWorld())
+    assert tree.change("BehaviorExecution", "convert", node_type="parallel").success
+    # Expect the default parent of add to be the converted node, still found by name
+    assert isinstance(tree.execution, py_trees.composites.Parallel)
+    added = tree.change("Idle", "add")
+    assert added.success and leaf_names(tree.execution)[-1] == "Idle"
+
+
+def test_wrap_in_retry_retries_the_failing_skill_before_asking_the_operator():
+    world = SkillWorld(failures={"PickItem": ["no product", "no product", "no product", "no product"]})
+    tree = groceries_tree(world)
+    wrapped = tree.change("PickItem", "wrap", node_type="retry", parameter=3)
+    assert wrapped.success, wrapped.message
+    assert wrapped.new_node_name == "RetryPickItem"
+    assert wrapped.message == "wrapped 'PickItem' in the retry 'RetryPickItem', attempts 3"
+    retry = tree.editor.nodes["RetryPickItem"]
+    assert retry.parent is tree.editor.nodes["Fetch"] and leaf_names(retry) == ["PickItem"]
+    run(tree)
+    # Expect three attempts, then (the last one failing) a help request naming the leaf and its reason
+    assert world.names("start").count("PickItem") == 3
+    assert tree.help_request is not None and tree.help_request.node_name == "PickItem"
+    assert tree.help_request.reason == "no product"
+    # Expect the operator's resume to try once more: this time it succeeds and the tree completes
+    tree.set_pause(False)
+    world.failures["PickItem"] = []
+    run(tree)
+    assert tree.completed and world.names("start").count("PickItem") == 4
+
+
+def test_retry_with_attempts_to_spare_needs_no_operator():
+    world = SkillWorld(failures={"PickItem": ["slipped"]})
+    tree = groceries_tree(world)
+    assert tree.change("PickItem", "wrap", node_type="retry", parameter=2).success
+    run(tree)
+    # Expect one failure absorbed by the retry and the whole tree done without a help request
+    assert tree.completed and tree.help_request is None
+    assert world.names("fail") == ["PickItem"] and world.names("start").count("PickItem") == 2
+
+
+def test_inverter_turns_a_failure_into_success_without_help():
+    world = SkillWorld(failures={"LookToShelf": ["shelf empty"]})
+    tree = groceries_tree(world)
+    assert tree.change("LookToShelf", "wrap", node_type="inverter").success
+    run(tree)
+    assert tree.completed and tree.help_request is None
+
+
+def test_a_timeout_that_fires_asks_the_operator_about_the_decorator():
+    world = SkillWorld(durations={"MoveBase": 10**6})
+    tree = groceries_tree(world)
+    wrapped = tree.change("MoveBase", "wrap", node_type="timeout", parameter=0.05)
+    assert wrapped.success and wrapped.message.endswith("seconds 0.05")
+    for _ in range(10**5):
+        tree.tick()
+        if tree.help_request is not None:
+            break
+    # Expect the skill cancelled by the timeout and a help request saying what failed and what resuming does
+    assert world.names("cancel") == ["MoveBase"]
+    assert tree.help_request.node_name == "TimeoutMoveBase" and tree.paused
+    assert tree.help_request.reason == (
+        "timed out; 'BehaviorExecution' failed and starts again from its first node on resume"
+    )
+
+
+def test_wrap_and_unwrap_a_running_leaf_keep_its_skill_running():
+    world = SkillWorld(ticks=2, durations={"MoveBase": 30})
+    tree = thesis_tree(world)
+    for _ in range(100):
+        if status_of(tree, "MoveBase") == Status.RUNNING:
+            break
+        tree.tick()
+    leaf = tree.editor.nodes["MoveBase"]
+    assert tree.change("MoveBase", "wrap", node_type="retry", parameter=2).success
+    # Expect the sequence to remember the decorator in the leaf's place, and the leaf to go on
+    assert tree.execution.current_child is tree.editor.nodes["RetryMoveBase"]
+    for _ in range(3):
+        tree.tick()
+    assert leaf.status == Status.RUNNING and leaf.parent.name == "RetryMoveBase"
+    unwrapped = tree.change("RetryMoveBase", "unwrap")
+    assert unwrapped.message == "unwrapped 'MoveBase' from the retry 'RetryMoveBase'"
+    assert tree.execution.current_child is leaf and leaf.parent is tree.execution
+    run(tree, 1000)
+    # Expect MoveBase started once, never cancelled, and the tree done in the thesis order
+    assert tree.completed and world.names("cancel") == []
+    assert world.names("start") == THESIS_SEQUENCE
+
+
+def test_undo_and_redo_every_kind_of_edit_restore_the_exact_tree():
+    tree = thesis_tree(SkillWorld())
+    states = [structure(tree)]
+    for request in [
+        ("PlaceItem", "remove"),
+        ("PlaceItem", "add"),
+        ("Idle", "prepend"),
+        ("PickItem", "insert", 3),
+        ("PickItem", "wrap", 0, "", "retry", 3),
+        ("PickItem_2", "wrap", 0, "", "timeout", 12.5),
+        ("TimeoutPickItem_2", "wrap", 0, "", "inverter"),
+        ("RetryPickItem", "unwrap"),
+        ("BehaviorExecution", "convert", 0, "", "selector"),
+    ]:
+        result = tree.change(*request)
+        assert result.success, (request, result.message)
+        states.append(structure(tree))
+    # Expect each undo to give back the tree before that edit (names, types, parameters and order)
+    for expected in reversed(states[:-1]):
+        assert tree.change("", "undo").success
+        assert structure(tree) == expected
+        assert {node.name: node for node in tree.root.iterate()} == tree.editor.nodes
+    nothing = tree.change("", "undo")
+    assert (nothing.success, nothing.message) == (False, "nothing to undo")
+    # Expect the redos to walk forward through the same trees
+    for expected in states[1:]:
+        assert tree.change("", "redo").success
+        assert structure(tree) == expected
+    assert tree.change("", "redo").message == "nothing to redo"
+
+
+def test_a_new_edit_clears_redo_and_the_history_is_bounded():
+    tree = thesis_tree(SkillWorld())
+    assert tree.change("Idle", "add").success
+    assert tree.change("", "undo").success
+    assert tree.change("Idle", "prepend").success
+    assert tree.change("", "redo").message == "nothing to redo"
+    for _ in range(HISTORY_LIMIT + 5):
+        assert tree.change("Idle", "add").success
+    assert len(tree.editor.undo_edits) == HISTORY_LIMIT >= 50
+
+
+def test_history_is_saved_with_the_tree_and_undo_works_after_a_restart(tmp_path):
+    tree = thesis_tree(SkillWorld())
+    original = structure(tree)
+    assert tree.change("PickItem", "wrap", node_type="retry", parameter=4).success
+    assert tree.change("MoveBase", "remove").success
+    saved = tmp_path / "tree.yaml"
+    saved.write_text(tree.tree_yaml())
+    library = SkillLibrary.load(CONFIG / "skills.yaml")
+    spec = load_tree(saved, library)
+    # Expect the saved file to hold the decorator and both edits
+    assert [edit["edit"] for edit in spec.history["undo"]] == ["wrap", "remove"]
+    py_trees.blackboard.Blackboard.clear()
+    restarted = TeachingTree(spec, library, SkillWorld().make_leaf)
+    assert isinstance(restarted.editor.nodes["RetryPickItem"], py_trees.decorators.Retry)
+    assert restarted.editor.nodes["RetryPickItem"].num_failures == 4
+    assert restarted.change("", "undo").success and restarted.change("", "undo").success
+    assert structure(restarted) == original
+
+
+def test_undo_of_an_addition_that_now_runs_is_refused():
+    world = SkillWorld(durations={"Idle": 50})
+    tree = thesis_tree(world)
+    assert tree.change("Idle", "prepend").success
+    for _ in range(5):
+        tree.tick()
+    assert status_of(tree, "Idle_2") == Status.RUNNING
+    before = snapshot(tree.root)
+    result = tree.change("", "undo")
+    assert not result.success
+    assert result.message == (
+        "cannot undo the last edit: cannot remove 'Idle_2': it is running; removing it would abort its skill"
+    )
+    assert snapshot(tree.root) == before and len(tree.editor.undo_edits) == 1
+
+
+def test_a_damaged_saved_edit_is_refused_with_what_is_wrong():
+    tree = thesis_tree(SkillWorld())
+    tree.editor.undo_edits.append({"edit": "wrap", "node": "PickItem"})
+    before = snapshot(tree.root)
+    result = tree.change("", "undo")
+    assert not result.success and "cannot be applied: KeyError('decorator')" in result.message
+    assert snapshot(tree.root) == before
+
+
+BAD_REQUESTS = [
+    (("PickItem", "convert", 0, "", "selector"), "cannot convert 'PickItem': it is a skill, not a composite"),
+    (("PauseCondition", "convert", 0, "", "sequence"), "cannot convert 'PauseCondition': it is a pause"),
+    (("Root", "convert", 0, "", "sequence"), "cannot convert 'Root': it is the root of the tree"),
+    (("BehaviorExecution", "convert", 0, "", "selector"), "cannot convert 'BehaviorExecution' while it runs"),
+    (("BehaviorExecution", "convert", 0, "", "sequence"), "'BehaviorExecution' is a sequence already"),
+    (("BehaviorExecution", "convert", 0, "", "fallback"), "cannot convert to 'fallback'; expected node_type"),
+    (("BehaviorExecution", "convert", 0, "", ""), "cannot convert to ''; expected node_type"),
+    (("Shelf", "convert", 0, "", "selector"), "no node named 'Shelf' in the tree"),
+    (("Root", "wrap", 0, "", "inverter"), "cannot wrap 'Root' is the root of the tree"),
+    (("PauseCondition", "wrap", 0, "", "retry", 2), "cannot wrap 'PauseCondition' is the condition that pauses"),
+    (("BehaviorExecution", "wrap", 0, "", "inverter"), "cannot wrap 'BehaviorExecution' is the composite"),
+    (("PickItem", "wrap", 0, "", "repeat", 2), "cannot wrap in 'repeat'; expected node_type retry | timeout"),
+    (("PickItem", "wrap", 0, "", "retry", 0), "a retry needs attempts, a whole number >= 1, got 0"),
+    (("PickItem", "wrap", 0, "", "retry", 2.5), "a retry needs attempts, a whole number >= 1, got 2.5"),
+    (("PickItem", "wrap", 0, "", "retry", math.nan), "a retry needs attempts, a whole number >= 1, got nan"),
+    (("PickItem", "wrap", 0, "", "timeout", -1), "a timeout needs seconds, a finite number > 0, got -1"),
+    (("PickItem", "wrap", 0, "", "timeout", 0), "a timeout needs seconds, a finite number > 0, got 0"),
+    (("PickItem", "wrap", 0, "", "timeout", math.inf), "a timeout needs seconds, a finite number > 0, got inf"),
+    (("Teleport", "wrap", 0, "", "inverter"), "no node named 'Teleport' in the tree"),
+    (("PickItem", "unwrap"), "cannot unwrap 'PickItem': it is a skill, not a decorator"),
+    (("BehaviorExecution", "unwrap"), "cannot unwrap 'BehaviorExecution': it is a sequence, not a decorator"),
+    (("Teleport", "unwrap"), "no node named 'Teleport' in the tree"),
+    (("", "undo"), "nothing to undo"),
+    (("", "redo"), "nothing to redo"),
+    (("", "wrap", 0, "", "inverter"), "empty node name"),
+]
+
+
+@pytest.mark.parametrize("request_, message", BAD_REQUESTS, ids=[f"{r[1]}-{r[0] or 'empty'}" for r, _ in BAD_REQUESTS])
+def test_bad_request_changes_nothing_and_says_what_was_wrong(request_, message):
+    world = SkillWorld(durations={"MoveBase": 50})
+    tree = thesis_tree(world)
+    for _ in range(100):
+        if status_of(tree, "MoveBase") == Status.RUNNING:
+            break
+        tree.tick()
+    before, names, revision = snapshot(tree.root), dict(tree.editor.nodes), tree.revision
+    text = tree.tree_yaml()
+    result = tree.change(*request_)
+    # Expect failure, the precise reason, and the tree, its index, its history and its saved text as before
+    assert not result.success
+    assert message in result.message
+    assert result.new_node_name == ""
+    assert snapshot(tree.root) == before and tree.editor.nodes == names and tree.revision == revision
+    assert tree.tree_yaml() == text
+    assert world.names("cancel") == []
+
+
+def test_decorators_are_visible_in_the_ascii_tree_and_the_saved_yaml():
+    tree = thesis_tree(SkillWorld())
+    assert tree.change("PickItem", "wrap", node_type="retry", parameter=3).success
+    text = py_trees.display.ascii_tree(tree.root)
+    assert "RetryPickItem" in text and text.index("RetryPickItem") < text.index("PickItem\n")
+    saved = tree.tree_yaml()
+    assert "type: retry" in saved and "attempts: 3" in saved
+    assert json.loads(saved.split("undo:\n    - ")[1].splitlines()[0])["decorator"]["attempts"] == 3
