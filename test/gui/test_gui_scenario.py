@@ -17,7 +17,7 @@ def test_sigma7_scenario_removes_place_item(qapp, bt_node, make_window, topic_lo
     tab_log = topic_log("/teleteach/active_tab", Int8)
     window = make_window()
     flow = window.high_level.flow
-    pump_until(qapp, lambda: len(flow.choices) == 21, 20, "the 21 buttons the scenario was written for")
+    pump_until(qapp, lambda: len(flow.choices) == 23, 20, "the 23 buttons the scenario was written for")
     assert flow.choices.index("PlaceItem") == 4, flow.choices
 
     device = start(

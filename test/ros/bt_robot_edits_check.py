@@ -57,7 +57,7 @@ class EditsOnTheRobot(unittest.TestCase):
             (("BehaviorExecution", "convert"), {"node_type": "selector"}, "while it runs"),
             (("Root", "wrap"), {"node_type": "inverter"}, "root of the tree"),
             (("PickItem", "wrap"), {"node_type": "retry", "parameter": 0}, "whole number >= 1, got 0"),
-            (("PickItem", "unwrap"), {}, "not a decorator"),
+            (("PickItem", "unwrap"), {}, "not a decorator or a composite of one child"),
             (("", "redo"), {}, "nothing to redo"),
         ]:
             response = view.change(*arguments, **keywords)

@@ -9,7 +9,7 @@ from visualization_msgs.msg import MarkerArray
 
 from teleteach.msg import Behaviour, ExecuteSkillActionGoal
 from teleteach.sim.scene import load_scene, product_positions
-from teleteach.skills.predefined import PREDEFINED_SKILLS
+from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS
 
 
 class RobotView:
@@ -25,7 +25,7 @@ class RobotView:
         rospy.Subscriber("/teleteach/scene", MarkerArray, self._on_scene, queue_size=1)
         goal_topics = [
             rospy.Subscriber(f"/skills/{name}/goal", ExecuteSkillActionGoal, self._on_goal, queue_size=10)
-            for name in PREDEFINED_SKILLS
+            for name in (*PREDEFINED_SKILLS, *CONDITIONS)
         ]
         deadline = time.monotonic() + timeout
         while any(topic.get_num_connections() == 0 for topic in goal_topics) or tree_view.tree is None:

@@ -201,6 +201,60 @@ def test_undo_and_redo_every_kind_of_edit_restore_the_exact_tree():
     assert tree.change("", "redo").message == "nothing to redo"
 
 
+def test_a_condition_in_front_of_a_pick_keeps_a_second_round_from_picking_twice():
+    # the operator's selector(ProductInHand, PickItem), built with wrap and prepend, then copied for a second round
+    world = SkillWorld(failures={"ProductInHand": ["no product is in the hand"]})
+    tree = groceries_tree(world)
+    wrapped = tree.change("PickItem", "wrap", node_type="selector")
+    assert wrapped.message == "wrapped 'PickItem' in the selector 'SelectorPickItem'"
+    assert tree.change("ProductInHand", "prepend", parent="SelectorPickItem").success
+    assert leaf_names(tree.editor.nodes["SelectorPickItem"]) == ["ProductInHand", "PickItem"]
+    copy = tree.change("SelectorPickItem", "insert", 2, "Fetch")
+    assert copy.new_node_name == "SelectorPickItem_2"
+    run(tree)
+    # Expect the failed condition to be an answer (no help request): the first round picks, the second does not
+    assert tree.completed and tree.help_request is None
+    assert world.names("start") == [
+        "LookToShelf",
+        "ProductInHand",
+        "PickItem",
+        "ProductInHand_2",
+        "MoveBase",
+        "PlaceItem",
+    ]
+    assert world.names("fail") == ["ProductInHand"]
+
+
+def test_a_condition_that_fails_with_nothing_to_handle_it_asks_the_operator():
+    world = SkillWorld(failures={"ProductInGap": ["no product in gap_1 (nearest: ...)"]})
+    tree = groceries_tree(world)
+    assert tree.change("ProductInGap", "add").success
+    run(tree)
+    # Expect BehaviorExecution failed by the condition, the help request naming it, the tree paused
+    assert tree.help_request.node_name == "ProductInGap" and tree.paused and not tree.completed
+    assert tree.help_request.reason.startswith("no product in gap_1 (nearest: ...); 'BehaviorExecution' failed")
+
+
+def test_wrap_a_running_leaf_in_a_new_sequence_and_unwrap_it_again():
+    world = SkillWorld(durations={"PickItem": 20})
+    tree = groceries_tree(world)
+    for _ in range(100):
+        if status_of(tree, "PickItem") == Status.RUNNING:
+            break
+        tree.tick()
+    assert tree.change("PickItem", "wrap", node_type="sequence").success
+    assert tree.change("Idle", "add", parent="SequencePickItem").success
+    refused = tree.change("SequencePickItem", "unwrap")
+    assert refused.message == (
+        "cannot unwrap 'SequencePickItem': it is a sequence of 2 children, not a decorator or a composite of one child"
+    )
+    assert tree.change("", "undo").success and tree.change("", "undo").success
+    run(tree)
+    # Expect the running pick neither restarted nor cancelled by the new composite around it, and Idle undone
+    assert tree.completed and world.names("cancel") == []
+    assert world.names("start") == ["LookToShelf", "PickItem", "MoveBase", "PlaceItem"]
+
+
 def test_a_new_edit_clears_redo_and_the_history_is_bounded():
     tree = thesis_tree(SkillWorld())
     assert tree.change("Idle", "add").success
@@ -249,10 +303,10 @@ def test_undo_of_an_addition_that_now_runs_is_refused():
 
 def test_a_damaged_saved_edit_is_refused_with_what_is_wrong():
     tree = thesis_tree(SkillWorld())
-    tree.editor.undo_edits.append({"edit": "wrap", "node": "PickItem"})
+    tree.editor.undo_edits.append({"edit": "wrap", "node": "PickItem"})  # no wrapper: a damaged file
     before = snapshot(tree.root)
     result = tree.change("", "undo")
-    assert not result.success and "cannot be applied: KeyError('decorator')" in result.message
+    assert not result.success and "cannot be applied: KeyError('wrapper')" in result.message
     assert snapshot(tree.root) == before
 
 
@@ -268,7 +322,10 @@ BAD_REQUESTS = [
     (("Root", "wrap", 0, "", "inverter"), "cannot wrap 'Root' is the root of the tree"),
     (("PauseCondition", "wrap", 0, "", "retry", 2), "cannot wrap 'PauseCondition' is the condition that pauses"),
     (("BehaviorExecution", "wrap", 0, "", "inverter"), "cannot wrap 'BehaviorExecution' is the composite"),
-    (("PickItem", "wrap", 0, "", "repeat", 2), "cannot wrap in 'repeat'; expected node_type retry | timeout"),
+    (
+        ("PickItem", "wrap", 0, "", "repeat", 2),
+        "cannot wrap in 'repeat'; expected node_type retry | timeout | inverter | selector",
+    ),
     (("PickItem", "wrap", 0, "", "retry", 0), "a retry needs attempts, a whole number >= 1, got 0"),
     (("PickItem", "wrap", 0, "", "retry", 2.5), "a retry needs attempts, a whole number >= 1, got 2.5"),
     (("PickItem", "wrap", 0, "", "retry", math.nan), "a retry needs attempts, a whole number >= 1, got nan"),
@@ -276,8 +333,8 @@ BAD_REQUESTS = [
     (("PickItem", "wrap", 0, "", "timeout", 0), "a timeout needs seconds, a finite number > 0, got 0"),
     (("PickItem", "wrap", 0, "", "timeout", math.inf), "a timeout needs seconds, a finite number > 0, got inf"),
     (("Teleport", "wrap", 0, "", "inverter"), "no node named 'Teleport' in the tree"),
-    (("PickItem", "unwrap"), "cannot unwrap 'PickItem': it is a skill, not a decorator"),
-    (("BehaviorExecution", "unwrap"), "cannot unwrap 'BehaviorExecution': it is a sequence, not a decorator"),
+    (("PickItem", "unwrap"), "cannot unwrap 'PickItem': it is a skill, not a decorator or a composite of one child"),
+    (("BehaviorExecution", "unwrap"), "cannot unwrap 'BehaviorExecution' is the composite that /change_tree edits"),
     (("Teleport", "unwrap"), "no node named 'Teleport' in the tree"),
     (("", "undo"), "nothing to undo"),
     (("", "redo"), "nothing to redo"),
@@ -312,4 +369,4 @@ def test_decorators_are_visible_in_the_ascii_tree_and_the_saved_yaml():
     assert "RetryPickItem" in text and text.index("RetryPickItem") < text.index("PickItem\n")
     saved = tree.tree_yaml()
     assert "type: retry" in saved and "attempts: 3" in saved
-    assert json.loads(saved.split("undo:\n    - ")[1].splitlines()[0])["decorator"]["attempts"] == 3
+    assert json.loads(saved.split("undo:\n    - ")[1].splitlines()[0])["wrapper"]["attempts"] == 3

@@ -10,7 +10,7 @@ import yaml
 from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, thesis_tree
 
 from teleteach import skill_file
-from teleteach.bt.library import PREDEFINED, LibraryError, SkillEntry, SkillLibrary
+from teleteach.bt.library import CONDITION, PREDEFINED, LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.ros import ActionClients, ActionSkill
 from teleteach.bt.teaching import TreeStore
 from teleteach.bt.tree import create_root, describe, load_tree
@@ -42,10 +42,10 @@ def library():
 
 
 def test_predefined_library_from_config(library):
-    # Expect the ten thesis skills, predefined, no data files
-    assert [entry.name for entry in library] == THESIS_SEQUENCE
-    assert {entry.kind for entry in library} == {PREDEFINED}
-    assert all(entry.description and not entry.data_file for entry in library)
+    # Expect the ten thesis skills, predefined, then the conditions; no data files, none run through ReplaySkill
+    assert [entry.name for entry in library] == [*THESIS_SEQUENCE, "ProductInHand", "ProductInGap"]
+    assert [entry.kind for entry in library] == [PREDEFINED] * 10 + [CONDITION] * 2
+    assert all(entry.description and not entry.data_file and not entry.demonstrated for entry in library)
 
 
 def test_demonstrated_skill_is_validated_and_added(library, tmp_path):

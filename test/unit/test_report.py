@@ -155,6 +155,14 @@ def test_tree_edits_name_removed_added_and_moved_nodes():
     assert edits[0].describe() == "removed B"
 
 
+def test_tree_edits_name_a_converted_composite():
+    names, children = ("Root", "Work", "A"), {"Root": ("Work",), "Work": ("A",)}
+    sequence = TreeSnapshot(0, names, children, types={"Root": 3, "Work": 2, "A": 1})
+    selector = TreeSnapshot(1, names, children, types={"Root": 3, "Work": 3, "A": 1})
+    edits = tree_edits([sequence, sequence, selector])
+    assert [(edit.time, edit.describe()) for edit in edits] == [(1, "converted Work")]
+
+
 def test_stiffness_matrix_matches_a_hand_derivation():
     # diag(100, 400, 900) turned 90 degrees about Z swaps the X and Y stiffnesses.
     quaternion = Rotation.from_euler("z", 90, degrees=True).as_quat()

@@ -193,12 +193,13 @@ def test_thesis_full_drives_the_gui_to_the_expected_buttons():
     gui = yaml.safe_load((ROOT / "config" / "gui.yaml").read_text())
     by_time = {frame.time: frame for frame in scenario.keyframes}
     reach, turn = gui["device_range"], gui["device_angle_range"]
-    # III-B: PlaceItem is button 4 of 21, "remove" the lowest of 4 operations (the GUI's own slider mapping)
-    assert scale_to_index(by_time[3.5].position[0], reach, 21) == 4
+    # III-B: PlaceItem is button 4 of 23 (PauseCondition, 10 leaves, 10 skills and 2 conditions of the library),
+    # "remove" the lowest of 4 operations (the GUI's own slider mapping)
+    assert scale_to_index(by_time[3.5].position[0], reach, 23) == 4
     assert OPERATIONS[scale_to_index(by_time[6.0].position[1], reach, len(OPERATIONS))] == "remove"
-    # III-E: the new skill is the last of 21 buttons, "insert" the operation, index 8 of 10 slots (after MoveBase2,
-    # which drives to gap_2)
-    assert scale_to_index(by_time[34.1].position[0], reach, 21) == 20
+    # III-E: the new skill is the last of 23 buttons (PlaceItem gone, the new skill added), "insert" the operation,
+    # index 8 of 10 slots (after MoveBase2, which drives to gap_2)
+    assert scale_to_index(by_time[34.1].position[0], reach, 23) == 22
     assert OPERATIONS[scale_to_index(by_time[36.1].position[1], reach, len(OPERATIONS))] == "insert"
     assert scale_to_index(by_time[38.1].rpy[0], turn, 10) == 8
 

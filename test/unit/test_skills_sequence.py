@@ -86,6 +86,35 @@ def test_pick_fails_saying_the_product_is_not_on_the_table(sim, runner):
     np.testing.assert_allclose(sim.world.joint_states()[0][:7], before, atol=1e-3)
 
 
+def test_conditions_read_the_world_and_move_nothing(sim, runner):
+    assert sim.switch_controllers([IMPEDANCE], [TRAJECTORY], 2)[0]
+    before = np.array(sim.world.joint_states()[0][:7])
+    empty = runner.execute("ProductInHand")
+    # Expect an empty hand reported with what the hand saw, nothing moved, no controller switched
+    assert not empty.success
+    assert re.fullmatch(
+        r"no product is in the hand \(product_\w+ is [\d.]+ cm from the hand's hold, the gripper \d+ mm open\)",
+        empty.message,
+    ), empty.message
+    gap = runner.execute("ProductInGap")
+    assert not gap.success and gap.message.startswith("no product in gap_1 (nearest: product_"), gap.message
+    np.testing.assert_allclose(sim.world.joint_states()[0][:7], before, atol=1e-3)
+    assert sim.manager.running == IMPEDANCE
+    for name in ("LookToShelf", "PickItem"):
+        assert runner.execute(name).success
+    held = runner.execute("ProductInHand")
+    assert held.success and held.message.startswith("product_pick_1 is in the hand"), held.message
+    assert runner.execute("ProductInHand", "{product: product_pick_2}").message.startswith("product_pick_2 is not in")
+    for name in ("MoveBase", "PlaceItem", "DropItem"):
+        assert runner.execute(name).success
+    # Expect the placed product seen in gap_1 (the configured gap), and not in gap_2 (a leaf's parameter)
+    placed = runner.execute("ProductInGap")
+    assert placed.success and placed.message == "product_pick_1 stands in gap_1"
+    elsewhere = runner.execute("ProductInGap", "{gap: gap_2}")
+    assert not elsewhere.success and elsewhere.message.startswith("no product in gap_2"), elsewhere.message
+    assert runner.execute("ProductInGap", "{gap: gap_9}").message.startswith("ProductInGap: ")
+
+
 def test_place_and_drop_without_a_product_fail(runner):
     assert runner.execute("PlaceItem").message == "no product in the gripper to place"
     assert runner.execute("DropItem").message == "no product in the gripper to drop"

@@ -19,6 +19,8 @@ import typing
 import py_trees
 from py_trees.common import Status
 
+from teleteach.bt.library import CONDITION
+
 PAUSE_KEY = "pause"
 
 
@@ -49,7 +51,7 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
     Subclasses say how to :meth:`start`, :meth:`poll` and :meth:`cancel` the skill. When the skill fails and
     ``on_failure`` is set, the leaf stays RUNNING and ``awaiting_help``: ``on_failure(leaf, reason)`` pauses the
     tree; the next tick after the pause retries the skill (unless the operator removed the leaf meanwhile). A
-    failure that the tree above handles (:func:`failure_handled_above`) is returned as FAILURE instead.
+    failure that the tree above handles (:func:`failure_handled_above`), or of a condition, is returned as FAILURE.
 
     Args:
         name: unique name of the leaf in the tree
@@ -98,12 +100,16 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
         if status == Status.RUNNING:
             return status
         self.goal_active = False
-        if status == Status.FAILURE and self.on_failure is not None and not failure_handled_above(self):
+        if status == Status.FAILURE and self.asks_for_help():
             self.awaiting_help = True
             self.feedback_message = f"failed: {message} (waiting for the operator)"
             self.on_failure(self, message)
             return Status.RUNNING
         return status
+
+    def asks_for_help(self) -> bool:
+        """Whether a failure pauses the tree for the operator: not a condition's (an answer), nor one handled above."""
+        return self.on_failure is not None and self.kind != CONDITION and not failure_handled_above(self)
 
     def terminate(self, new_status: Status) -> None:
         """Cancel the skill when the leaf is interrupted while its goal is out."""

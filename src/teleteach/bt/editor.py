@@ -5,10 +5,12 @@ a copy of a tree node or a new leaf of a library skill into ``parent`` (empty: t
 BehaviorExecution in the thesis tree). Copies get unique names (``PlaceItem_2``) that the result returns.
 ``convert`` turns a composite into another ``node_type`` (sequence, selector, parallel) keeping its children;
 ``wrap`` puts a decorator (``retry`` with ``parameter`` attempts, ``timeout`` after ``parameter`` seconds, or
-``inverter``) around a node; ``unwrap`` replaces a decorator by its child. ``undo`` and ``redo`` revert and re-apply
+``inverter``) or a new composite (``sequence | selector | parallel``, e.g. to build ``selector(ProductInHand,
+PickItem)`` by wrapping PickItem, then prepending the condition into the selector) around a node; ``unwrap``
+replaces a decorator, or a composite of one child, by its child. ``undo`` and ``redo`` revert and re-apply
 the last edits of any kind: each edit is kept as plain data (what was inserted or removed where, which types a
-composite had, which decorator was put around what), saved with the tree, so an undo restores the same names,
-types and order even after a restart.
+composite had, what was put around what), saved with the tree, so an undo restores the same names, types and order
+even after a restart.
 
 Edits keep execution going: py_trees' sequence memory is the identity of the running child, so inserting or removing
 siblings before or after it leaves it running and remembered; a wrapped or unwrapped node keeps running inside or
@@ -45,6 +47,10 @@ from teleteach.bt.tree import (
 )
 
 OPERATIONS = ("remove", "add", "prepend", "insert", "convert", "wrap", "unwrap", "undo", "redo")
+WRAPPERS = (*DECORATORS, *COMPOSITES)  # what wrap can put around a node
+# Composites made by convert and wrap keep the child they run: a condition or skill is a goal that takes ticks, so a
+# selector re-asking its first child on every tick (py_trees' memory false) would cancel the skill it had chosen.
+EDITED_COMPOSITE = {**COMPOSITE_DEFAULTS, "selector": {"memory": True}}
 HISTORY_LIMIT = 100  # edits kept for undo, and undone edits kept for redo
 _COPY_SUFFIX = re.compile(r"_\d+$")
 _INVERSE = {"insert": "remove", "remove": "insert", "wrap": "unwrap", "unwrap": "wrap", "convert": "convert"}
@@ -129,7 +135,7 @@ class TreeEditor:
         elif operation == "wrap":
             edit = self._wrapping(node_name, node_type, parameter)
         elif operation == "unwrap":
-            edit = {"edit": "unwrap", "decorator": {"name": node_name}}
+            edit = {"edit": "unwrap", "wrapper": {"name": node_name}}
         else:
             edit = self._addition(node_name, operation, index, parent)
         if isinstance(edit, ChangeResult):
@@ -202,22 +208,25 @@ class TreeEditor:
             return ChangeResult(False, f"no node named '{node_name}' in the tree")
         if not isinstance(node, py_trees.composites.Composite):
             return ChangeResult(False, f"cannot convert '{node_name}': it is a {node_type(node)}, not a composite")
-        after = {"type": kind, "name": node_name, **COMPOSITE_DEFAULTS[kind]}
+        after = {"type": kind, "name": node_name, **EDITED_COMPOSITE[kind]}
         return {"edit": "convert", "before": describe_shallow(node), "after": after}
 
     def _wrapping(self, node_name: str, kind: str, parameter: float) -> typing.Union[Spec, ChangeResult]:
-        if kind not in DECORATORS:
-            return ChangeResult(False, f"cannot wrap in '{kind}'; expected node_type {' | '.join(DECORATORS)}")
+        if kind not in WRAPPERS:
+            return ChangeResult(False, f"cannot wrap in '{kind}'; expected node_type {' | '.join(WRAPPERS)}")
         node = self.nodes.get(node_name)
         if node is None:
             return ChangeResult(False, f"no node named '{node_name}' in the tree")
-        value = {"retry": {"attempts": parameter}, "timeout": {"seconds": parameter}}.get(kind, {})
-        try:
-            checked = decorator_parameters(kind, value, f"wrap '{node_name}'")
-        except TreeSpecError as error:
-            return ChangeResult(False, f"{error} (the request's parameter)")
+        if kind in COMPOSITES:
+            settings = EDITED_COMPOSITE[kind]
+        else:
+            value = {"retry": {"attempts": parameter}, "timeout": {"seconds": parameter}}.get(kind, {})
+            try:
+                settings = decorator_parameters(kind, value, f"wrap '{node_name}'")
+            except TreeSpecError as error:
+                return ChangeResult(False, f"{error} (the request's parameter)")
         name = self._unique_name(f"{kind.capitalize()}{node_name}", set())
-        return {"edit": "wrap", "node": node_name, "decorator": {"type": kind, "name": name, **checked}}
+        return {"edit": "wrap", "node": node_name, "wrapper": {"type": kind, "name": name, **settings}}
 
     # ------------------------------------------------------------------------------------------------ edits
     def _remove(self, edit: Spec) -> ChangeResult:
@@ -312,37 +321,51 @@ class TreeEditor:
         return ChangeResult(True, f"converted '{node.name}' from a {before['type']} to a {after['type']}")
 
     def _wrap(self, edit: Spec) -> ChangeResult:
-        decorator_spec, node = edit["decorator"], self.nodes.get(edit["node"])
+        wrapper_spec, node = edit["wrapper"], self.nodes.get(edit["node"])
         if node is None:
             return ChangeResult(False, f"no node named '{edit['node']}' in the tree")
         reason = self.protected_reason(node)
         if reason:
             return ChangeResult(False, f"cannot wrap {reason}")
-        if decorator_spec["name"] in self.nodes:
-            return ChangeResult(False, f"cannot wrap '{node.name}': the name '{decorator_spec['name']}' is in the tree")
-        checked = decorator_parameters(decorator_spec["type"], decorator_spec, f"wrap '{node.name}'")
+        kind, name = wrapper_spec["type"], wrapper_spec["name"]
+        if name in self.nodes:
+            return ChangeResult(False, f"cannot wrap '{node.name}': the name '{name}' is in the tree")
         parent = node.parent
-        decorator = create_decorator({**decorator_spec, **checked}, _detached(node))
-        self._replace(node, decorator, parent)
-        what = "".join(f", {key} {value}" for key, value in checked.items())
-        return ChangeResult(
-            True, f"wrapped '{node.name}' in the {decorator_spec['type']} '{decorator.name}'{what}", decorator.name
-        )
+        if kind in DECORATORS:
+            settings = decorator_parameters(kind, wrapper_spec, f"wrap '{node.name}'")
+            wrapper = create_decorator({**wrapper_spec, **settings}, _detached(node))
+        else:
+            settings = {}
+            wrapper = create_root({**wrapper_spec, "children": []}, self.library, self.make_leaf)
+            running = node.status == Status.RUNNING
+            wrapper.add_child(_detached(node))
+            if running:  # a new composite would start by stopping its children: it continues the running one
+                wrapper.status, wrapper.current_child = Status.RUNNING, node
+        self._replace(node, wrapper, parent)
+        what = "".join(f", {key} {value}" for key, value in settings.items())
+        return ChangeResult(True, f"wrapped '{node.name}' in the {kind} '{name}'{what}", name)
 
     def _unwrap(self, edit: Spec) -> ChangeResult:
-        name = edit["decorator"]["name"]
-        decorator = self.nodes.get(name)
-        if decorator is None:
+        name = edit["wrapper"]["name"]
+        wrapper = self.nodes.get(name)
+        if wrapper is None:
             return ChangeResult(False, f"no node named '{name}' in the tree")
-        if not isinstance(decorator, py_trees.decorators.Decorator):
-            return ChangeResult(False, f"cannot unwrap '{name}': it is a {node_type(decorator)}, not a decorator")
-        child = decorator.decorated
-        edit.update(decorator=describe_shallow(decorator), node=child.name)
-        parent = decorator.parent
-        decorator.children.clear()
-        self._replace(decorator, _detached(child), parent)
+        reason = self.protected_reason(wrapper)
+        if reason:
+            return ChangeResult(False, f"cannot unwrap {reason}")
+        one_child = isinstance(wrapper, py_trees.composites.Composite) and len(wrapper.children) == 1
+        if not (isinstance(wrapper, py_trees.decorators.Decorator) or one_child):
+            what = f"a {node_type(wrapper)}" + (f" of {len(wrapper.children)} children" if wrapper.children else "")
+            return ChangeResult(
+                False, f"cannot unwrap '{name}': it is {what}, not a decorator or a composite of one child"
+            )
+        child = wrapper.children[0]
+        edit.update(wrapper=describe_shallow(wrapper), node=child.name)
+        parent = wrapper.parent
+        wrapper.children.clear()
+        self._replace(wrapper, _detached(child), parent)
         del self.nodes[name]
-        return ChangeResult(True, f"unwrapped '{child.name}' from the {edit['decorator']['type']} '{name}'")
+        return ChangeResult(True, f"unwrapped '{child.name}' from the {edit['wrapper']['type']} '{name}'")
 
     def _replace(
         self,

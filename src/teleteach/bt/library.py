@@ -1,6 +1,7 @@
 """The skill library: the predefined skills (from config) and the demonstrated ones the operator taught.
 
-A tree leaf runs one library skill. Predefined skills are served by ``/skills/<name>``; demonstrated (or learned)
+A tree leaf runs one library skill. Predefined skills and conditions (kind ``condition``: a check of the world
+that moves nothing, e.g. ProductInHand) are served by ``/skills/<name>``; demonstrated (or learned)
 skills are replayed by ``/skills/ReplaySkill`` from their recorded file, which :meth:`SkillLibrary.add_demonstrated`
 validates with :func:`teleteach.skill_file.load` before accepting it. A saved entry whose file went missing or bad
 since stays in the library as *unavailable* (:meth:`SkillLibrary.with_checked_files`): shown, never run or inserted.
@@ -15,6 +16,7 @@ import yaml
 from teleteach import skill_file
 
 PREDEFINED = "predefined"
+CONDITION = "condition"  # served like a predefined skill; its failure is an answer, not a reason to ask for help
 
 
 class LibraryError(ValueError):
@@ -34,7 +36,7 @@ class SkillEntry:
     @property
     def demonstrated(self) -> bool:
         """True for taught skills, which run through ReplaySkill."""
-        return self.kind != PREDEFINED
+        return self.kind not in (PREDEFINED, CONDITION)
 
     @property
     def available(self) -> bool:
@@ -52,7 +54,7 @@ class SkillLibrary:
                 raise LibraryError(f"skill name {entry.name!r} must be a non-empty identifier")
             if entry.name in self._entries:
                 raise LibraryError(f"skill {entry.name!r} is listed twice")
-            if entry.kind != PREDEFINED and entry.kind not in skill_file.KINDS:
+            if entry.kind not in (PREDEFINED, CONDITION) and entry.kind not in skill_file.KINDS:
                 raise LibraryError(f"skill {entry.name!r} has unknown kind {entry.kind!r}")
             self._entries[entry.name] = entry
 

@@ -46,12 +46,18 @@ class TreeEdit:
     added: Tuple[str, ...]
     moved: Tuple[str, ...]
     after: TreeSnapshot
+    converted: Tuple[str, ...] = ()
 
     def describe(self) -> str:
         """A short text such as 'removed PlaceItem; added PlaceItem_2'."""
         parts = [
             f"{verb} {', '.join(names)}"
-            for verb, names in (("removed", self.removed), ("added", self.added), ("moved", self.moved))
+            for verb, names in (
+                ("removed", self.removed),
+                ("added", self.added),
+                ("moved", self.moved),
+                ("converted", self.converted),
+            )
             if names
         ]
         return "; ".join(parts)
@@ -61,14 +67,17 @@ def tree_edits(trees: List[TreeSnapshot]) -> List[TreeEdit]:
     """The structural changes along the tree log (status-only updates are not edits)."""
     edits = []
     for before, after in zip(trees, trees[1:]):
-        if before.names == after.names and before.children == after.children:
+        converted = tuple(
+            name for name in after.names if name in before.types and before.types[name] != after.types.get(name)
+        )
+        if before.names == after.names and before.children == after.children and not converted:
             continue
         removed = tuple(name for name in before.names if name not in after.names)
         added = tuple(name for name in after.names if name not in before.names)
         kept_before = [name for name in before.names if name in after.names]
         kept_after = [name for name in after.names if name in before.names]
         moved = tuple(name for name, other in zip(kept_before, kept_after) if name != other)
-        edits.append(TreeEdit(after.time, removed, added, moved, after))
+        edits.append(TreeEdit(after.time, removed, added, moved, after, converted))
     return edits
 
 

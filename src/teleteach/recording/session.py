@@ -44,12 +44,16 @@ class Series:
 
 @dataclasses.dataclass
 class TreeSnapshot:
-    """The tree at one time: behaviour names depth-first, each composite's children in order, the running leaves."""
+    """The tree at one time: behaviour names depth-first, each composite's children in order, the running leaves.
+
+    ``types`` holds each behaviour's teleteach/Behaviour type (SEQUENCE, SELECTOR, ...): a conversion changes it.
+    """
 
     time: float
     names: Tuple[str, ...]
     children: Dict[str, Tuple[str, ...]]
     running: Tuple[str, ...] = ()
+    types: Dict[str, int] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass
@@ -246,7 +250,8 @@ def _read(reader, path: pathlib.Path) -> Session:
         time = (timestamp - start) / 1e9
         if connection.topic == "/behaviour_tree/log/tree":
             names, children = tree_structure(message.behaviours)
-            trees.append(TreeSnapshot(time, names, children, running_leaves(message.behaviours)))
+            types = {behaviour.name: behaviour.type for behaviour in message.behaviours}
+            trees.append(TreeSnapshot(time, names, children, running_leaves(message.behaviours), types))
         elif connection.topic == "/teleteach/scene":
             for name, (position, quaternion) in product_poses(message.markers).items():
                 poses.setdefault(name, ([], []))

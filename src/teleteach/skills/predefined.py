@@ -33,6 +33,9 @@ PREDEFINED_SKILLS = (
     "Idle",
 )
 
+# Conditions: checks of the world that move nothing (library kind "condition").
+CONDITIONS = ("ProductInHand", "ProductInGap")
+
 POSTURE_TOLERANCE = 0.05  # [rad] closer than this to a posture = already there
 
 
@@ -136,10 +139,14 @@ class WorldView:
 class PredefinedSkill:
     """A predefined skill: run() does the motions and returns the success message, or raises SkillError.
 
+    ``moves`` is False for conditions: they only read the world, so the runner leaves the controllers as they are.
+
     Args:
         name: the skill's name (its action server is /skills/<name>).
         settings: the skill's entry in config/skills_motion.yaml `skills` (product, base_pose).
     """
+
+    moves = True
 
     def __init__(self, name: str, settings: Dict[str, str]):
         self.name = name
@@ -317,6 +324,47 @@ class Idle(PredefinedSkill):
         return "idle: holding the arm"
 
 
+class ProductInHand(PredefinedSkill):
+    """Condition: the gripper holds a product (``product`` setting: that one), judged like the placing skills do."""
+
+    moves = False
+
+    def run(self, world: WorldView) -> str:
+        """Succeed when a product is held; the failure says what the hand has."""
+        held, distance = world.held_product()
+        wanted = self.settings.get("product")
+        if held is not None and (not wanted or held == wanted):
+            return f"{held} is in the hand ({1000.0 * distance:.1f} mm from its place between the fingers)"
+        nearest, distance = world.nearest_to_hold()
+        seen = f"{nearest} is {100.0 * distance:.1f} cm from the hand's hold" if nearest else "no product in the scene"
+        opening = 1000.0 * world.motion.robot.gripper_width()
+        what = f"{wanted} is not" if wanted else "no product is"
+        raise SkillError(f"{what} in the hand ({seen}, the gripper {opening:.0f} mm open)")
+
+
+class ProductInGap(PredefinedSkill):
+    """Condition: a product stands upright in the ``gap`` setting's gap of the shelf (the placement judge's view)."""
+
+    moves = False
+
+    def run(self, world: WorldView) -> str:
+        """Succeed when some product is in the gap; the failure names the nearest one."""
+        gap = self.settings.get("gap", "")
+        try:
+            world.scene.gap(gap)
+        except SceneError as error:
+            raise SkillError(f"{self.name}: {error}") from None
+        now = world.motion.robot.product_positions()
+        placements = [world.placement(product, now, gap) for product in now]
+        inside = [result for result in placements if not result.problems(gap)]
+        if inside:
+            return f"{inside[0].product} stands in {gap}"
+        if not placements:
+            raise SkillError(f"no product in {gap}: the scene reports no products")
+        nearest = min(placements, key=lambda result: result.distance_m)  # distances from this gap's target
+        raise SkillError(f"no product in {gap} (nearest: {nearest.problems(gap)[0]})")
+
+
 SKILL_CLASSES = {
     "LookToShelf": LookToShelf,
     "PickItem": PickItem,
@@ -328,9 +376,11 @@ SKILL_CLASSES = {
     "PickItem2": PickItem,
     "MoveBase2": MoveBase,
     "Idle": Idle,
+    "ProductInHand": ProductInHand,
+    "ProductInGap": ProductInGap,
 }
 
 
 def create_skills(config: MotionConfig) -> Dict[str, PredefinedSkill]:
     """The predefined skills by name, each with its settings from the motion configuration."""
-    return {name: SKILL_CLASSES[name](name, config.skills.get(name, {})) for name in PREDEFINED_SKILLS}
+    return {name: SKILL_CLASSES[name](name, config.skills.get(name, {})) for name in (*PREDEFINED_SKILLS, *CONDITIONS)}

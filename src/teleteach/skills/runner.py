@@ -9,12 +9,12 @@ import yaml
 from teleteach.sim.scene import Scene
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import InverseKinematics, Motion
-from teleteach.skills.predefined import PREDEFINED_SKILLS, WorldView, create_skills
+from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS, WorldView, create_skills
 from teleteach.skills.replay import StiffnessReplay
 from teleteach.skills.robot import Execution, PreemptedError, Robot, SkillError
 
 REPLAY_SKILL = "ReplaySkill"
-SKILL_NAMES = (*PREDEFINED_SKILLS, REPLAY_SKILL)
+SKILL_NAMES = (*PREDEFINED_SKILLS, *CONDITIONS, REPLAY_SKILL)
 
 
 @dataclass
@@ -78,7 +78,8 @@ class SkillRunner:
                 settings = parse_settings(parameters)
                 if settings:
                     skill = type(skill)(name, {**skill.settings, **settings})
-                motion.ensure_position_control()
+                if skill.moves:
+                    motion.ensure_position_control()
                 message = skill.run(WorldView(motion, self.scene))
             execution.complete("done")
             return Outcome(True, message)
