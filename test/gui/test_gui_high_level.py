@@ -3,7 +3,7 @@
 import pytest
 from conftest import pump_until, start_bt, stop
 
-from teleteach.gui.selection import OPERATIONS, Step
+from teleteach.gui.selection import MORE_OPERATIONS, OPERATIONS, Step
 from teleteach.gui.session import Tab
 from teleteach.msg import BehaviourTree
 
@@ -108,6 +108,45 @@ def test_insert_at_an_index_via_the_dial(qapp, bt_node, device, make_window, top
     children = execution_children(tree_log.last())
     assert children[0].name == "LookToShelf" and children[2].name == "PickItem"
     pump_until(qapp, lambda: high.flow.answer.startswith("done"), 10, "the answer on screen")
+
+
+def test_wrap_from_the_second_page_and_undo_with_the_handle(
+    qapp, bt_node, device, make_window, topic_log, artifacts_dir
+):
+    tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
+    window = make_window()
+    high = window.high_level
+    pump_until(qapp, lambda: "PickItem" in high.flow.choices, 20, "buttons from the tree")
+    open_high_level(qapp, window, device)
+    select_node(qapp, window, device, high.flow.choices.index("PickItem"))
+    # Step 2, second page: roll the handle, Y to "wrap retry"; step 3: the dial to 3 attempts
+    device.move(y=centre(MORE_OPERATIONS.index("wrap retry"), len(MORE_OPERATIONS)), roll=0.8)
+    pump_until(qapp, lambda: high.flow.selected_operation == "wrap retry", 5, "the second page at wrap retry")
+    assert high.page_label.text() == "page 2 of 2" and high.operation_labels[0].text() == "convert parallel"
+    window.screenshot().save(str(artifacts_dir / "gui_high_level_second_page.png"))
+    device.click()
+    pump_until(qapp, lambda: high.flow.step is Step.PARAMETER, 5, "step 3 (the dial for the attempts)")
+    attempts = high.flow.parameter_values
+    device.move(roll=centre(attempts.index(3), len(attempts), half_range=1.0))
+    pump_until(qapp, lambda: high.flow.parameter == 3, 5, "the dial at 3 attempts")
+    assert high.index_label.text() == "wrap retry: 3"
+    device.click()
+
+    def execution_names():
+        tree = tree_log.last()
+        return [child.name for child in execution_children(tree)] if tree is not None else []
+
+    pump_until(qapp, lambda: "RetryPickItem" in execution_names(), 15, "RetryPickItem in BehaviorExecution")
+    pump_until(qapp, lambda: "RetryPickItem" in high.flow.choices, 10, "a button for the decorator")
+    assert high.flow.choices.index("PickItem") == high.flow.choices.index("RetryPickItem") + 9  # in its own group
+    # Undo in one gesture: the handle pushed down, a click
+    device.move(z=-0.07)
+    pump_until(qapp, lambda: high.flow.edit_gesture == "undo", 5, "the handle pushed down")
+    assert high.selected_label.text() == "click to undo the last edit (handle down)"
+    device.click()
+    pump_until(qapp, lambda: execution_names()[1] == "PickItem", 15, "PickItem unwrapped by the undo")
+    pump_until(qapp, lambda: high.flow.answer.startswith("done: undo: unwrapped 'PickItem'"), 10, "the answer")
+    window.screenshot().save(str(artifacts_dir / "gui_high_level_undo.png"))
 
 
 @pytest.fixture

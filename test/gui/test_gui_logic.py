@@ -19,7 +19,15 @@ from teleteach.gui.device import (
 )
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, TrajectoryError, unique_skill_name
-from teleteach.gui.selection import OPERATIONS, SelectionFlow, Step, TreeNode, TreeSnapshot
+from teleteach.gui.selection import (
+    MORE_OPERATIONS,
+    OPERATIONS,
+    ChangeRequest,
+    SelectionFlow,
+    Step,
+    TreeNode,
+    TreeSnapshot,
+)
 from teleteach.rotations import quaternion_to_rpy, rpy_to_matrix, rpy_to_quaternion
 from teleteach.sim.scene import load_scene
 from teleteach.skills.config import load_motion_config
@@ -49,6 +57,10 @@ def test_config_file_loads_with_the_thesis_values():
         ({"initial_tab": 4}, "initial_tab"),
         ({"shared_control_stiffness": [500.0, -1.0, 500.0]}, "shared_control_stiffness"),
         ({"publish_rate": float("nan")}, "publish_rate"),
+        ({"edit_push": 0.2}, "edit_push"),
+        ({"page_turn": 1.5}, "page_turn"),
+        ({"retry_attempts": [2, 0]}, "retry_attempts"),
+        ({"timeout_seconds": []}, "timeout_seconds"),
     ],
 )
 def test_bad_config_is_rejected_with_its_name(overrides, words):
@@ -187,6 +199,55 @@ def test_three_step_flow_inserts_at_the_dial_index():
     flow.device(sample(roll=x_for(1, 4, half_range=1.0)))
     request = flow.click()
     assert (request.node_name, request.operation, request.index) == ("Skill_1", "insert", 1)
+
+
+def test_second_page_wraps_in_a_retry_with_the_dial_value():
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices(["LookToShelf", "PickItem"], 3)
+    flow.device(sample(x=x_for(1, 2)))
+    flow.click()
+    flow.device(sample(y=x_for(MORE_OPERATIONS.index("wrap retry"), len(MORE_OPERATIONS))))
+    # Expect: without rolling the handle, the thesis' page (the same Y there is "remove")
+    assert flow.page == 0 and flow.selected_operation == "remove"
+    flow.device(sample(y=x_for(MORE_OPERATIONS.index("wrap retry"), len(MORE_OPERATIONS)), roll=0.7))
+    assert flow.page == 1 and flow.selected_operation == "wrap retry"
+    assert flow.click() is None and flow.step is Step.PARAMETER
+    attempts = CONFIG.retry_attempts
+    flow.device(sample(roll=x_for(attempts.index(3), len(attempts), half_range=1.0)))
+    request = flow.click()
+    assert request == ChangeRequest("PickItem", "wrap", node_type="retry", parameter=3.0)
+
+
+@pytest.mark.parametrize("operation", ["unwrap", "wrap inverter", "wrap selector", "convert parallel"])
+def test_second_page_operations_without_a_value_send_at_once(operation):
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices(["Fetch"], 1)
+    flow.click()
+    flow.device(sample(y=x_for(MORE_OPERATIONS.index(operation), len(MORE_OPERATIONS)), roll=0.9))
+    name, _, node_type = operation.partition(" ")
+    assert flow.click() == ChangeRequest("Fetch", name, node_type=node_type)
+    assert flow.step is Step.WAITING
+
+
+@pytest.mark.parametrize("step_clicks", [0, 1, 2])
+def test_handle_pushed_down_undoes_and_pulled_up_redoes_from_any_step(step_clicks):
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices(["A", "B"], 3)
+    for _ in range(step_clicks):
+        flow.device(sample(y=x_for(OPERATIONS.index("insert"), 4)))
+        flow.click()
+    step = flow.step
+    flow.device(sample(y=x_for(OPERATIONS.index("insert"), 4), z=-0.06))
+    # Expect the pushed handle to send undo (whatever the step) and a light push (within edit_push) to do nothing
+    assert flow.edit_gesture == "undo"
+    assert flow.click() == ChangeRequest("", "undo") and flow.step is Step.WAITING
+    flow.answered(True, "undo: removed 'A'")
+    flow.device(sample(z=0.06))
+    assert flow.click() == ChangeRequest("", "redo")
+    flow.answered(True, "redo")
+    flow.device(sample(z=-0.04))
+    assert flow.edit_gesture == "" and flow.click() is None and flow.step is Step.OPERATION
+    assert step in (Step.NODE, Step.OPERATION, Step.INDEX)
 
 
 def test_flow_restarts_when_the_selected_node_disappears():

@@ -217,7 +217,12 @@ class MainWindow(QMainWindow):
             "/change_tree",
             ChangeTree,
             ChangeTreeRequest(
-                node_name=request.node_name, operation=request.operation, index=request.index, parent=request.parent
+                node_name=request.node_name,
+                operation=request.operation,
+                index=request.index,
+                parent=request.parent,
+                node_type=request.node_type,
+                parameter=request.parameter,
             ),
         )
 

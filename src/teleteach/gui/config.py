@@ -54,6 +54,10 @@ class GuiConfig:
     shared_control_stiffness: Tuple[float, float, float] = (500.0, 500.0, 500.0)
     shared_skill_prefix: str = "SharedControl"
     shared_trail_length: int = 500
+    edit_push: float = 0.05
+    page_turn: float = 0.5
+    retry_attempts: Tuple[int, ...] = (1, 2, 3, 4, 5)
+    timeout_seconds: Tuple[float, ...] = (5.0, 10.0, 20.0, 30.0, 60.0, 120.0)
 
     def __post_init__(self):
         positive = (
@@ -74,6 +78,8 @@ class GuiConfig:
             "device_timeout",
             "health_rate",
             "rotation_gain",
+            "edit_push",
+            "page_turn",
         )
         for name in positive:
             value = getattr(self, name)
@@ -107,6 +113,20 @@ class GuiConfig:
             isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in stiffness
         ):
             raise GuiConfigError(f"shared_control_stiffness must be 3 positive numbers [N/m], got {stiffness!r}")
+        if not self.edit_push < self.device_range:
+            raise GuiConfigError(f"edit_push {self.edit_push} must be below device_range {self.device_range}")
+        if not self.page_turn < self.device_angle_range:
+            raise GuiConfigError(
+                f"page_turn {self.page_turn} must be below device_angle_range ({self.device_angle_range})"
+            )
+        if not self.retry_attempts or not all(
+            isinstance(value, int) and not isinstance(value, bool) and value >= 1 for value in self.retry_attempts
+        ):
+            raise GuiConfigError(f"retry_attempts must be whole numbers >= 1, got {self.retry_attempts!r}")
+        if not self.timeout_seconds or not all(
+            isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in self.timeout_seconds
+        ):
+            raise GuiConfigError(f"timeout_seconds must be positive numbers [s], got {self.timeout_seconds!r}")
         if not (isinstance(self.shared_trail_length, int) and self.shared_trail_length >= 2):
             raise GuiConfigError(f"shared_trail_length must be an integer >= 2, got {self.shared_trail_length!r}")
 
@@ -125,8 +145,9 @@ class GuiConfig:
         values = dict(values)
         if "locked_axes" in values:
             values["locked_axes"] = tuple(values["locked_axes"] or ())
-        if "shared_control_stiffness" in values:
-            values["shared_control_stiffness"] = tuple(values["shared_control_stiffness"] or ())
+        for name in ("shared_control_stiffness", "retry_attempts", "timeout_seconds"):
+            if name in values:
+                values[name] = tuple(values[name] or ())
         try:
             return cls(**values)
         except TypeError as error:

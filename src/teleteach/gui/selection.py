@@ -2,6 +2,11 @@
 
 Step 1 selects a node (horizontal slider, device X), step 2 an operation (vertical slider, device Y), step 3 for
 insert an index (dial, device rotation about X); each click confirms one step, the last one yields a request.
+
+Beyond the thesis, without changing its gestures: in step 2, rolling the handle beyond ``page_turn`` shows a second
+page of operations (unwrap, wrap in a decorator or composite, convert a composite), whose retry and timeout take
+their value from the step-3 dial; and a click with the handle pushed down (device Z below ``-edit_push``) undoes
+the last edit, pulled up redoes it, from any step.
 """
 
 import dataclasses
@@ -13,6 +18,19 @@ from teleteach.gui.device import DeviceSample, scale_to_index
 
 # Bottom to top on the vertical slider: moving the device towards -Y goes towards "remove" (thesis Fig. 5, phase C).
 OPERATIONS = ("remove", "insert", "prepend", "add")
+# The second page, bottom to top: "operation node_type" as /change_tree takes them.
+MORE_OPERATIONS = (
+    "unwrap",
+    "wrap retry",
+    "wrap timeout",
+    "wrap inverter",
+    "wrap selector",
+    "wrap sequence",
+    "convert sequence",
+    "convert selector",
+    "convert parallel",
+)
+PAGES = (OPERATIONS, MORE_OPERATIONS)
 DEFAULT_PARENT = "BehaviorExecution"
 
 STATUS_NAMES = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
@@ -95,6 +113,7 @@ class Step(enum.Enum):
     OPERATION = 2
     INDEX = 3
     WAITING = 4
+    PARAMETER = 5  # step 3 for a retry's attempts or a timeout's seconds
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,6 +124,8 @@ class ChangeRequest:
     operation: str
     index: int = 0
     parent: str = ""
+    node_type: str = ""
+    parameter: float = 0.0
 
 
 class SelectionFlow:
@@ -119,8 +140,11 @@ class SelectionFlow:
         self.insert_slots = 1
         self.step = Step.NODE
         self.node_index = 0
+        self.page = 0
         self.operation_index = 0
         self.index = 0
+        self.parameter_index = 0
+        self.height = 0.0  # device Z of the latest sample: a click with the handle pushed or pulled undoes / redoes
         self.answer = ""
 
     def set_choices(self, choices: Sequence[str], insert_slots: int) -> None:
@@ -132,7 +156,7 @@ class SelectionFlow:
             self.node_index = self.choices.index(selected)
         else:
             self.node_index = min(self.node_index, max(0, len(self.choices) - 1))
-            if self.step in (Step.OPERATION, Step.INDEX):
+            if self.step in (Step.OPERATION, Step.INDEX, Step.PARAMETER):
                 self.step = Step.NODE
         self.index = min(self.index, self.insert_slots - 1)
 
@@ -142,41 +166,85 @@ class SelectionFlow:
         return self.choices[self.node_index] if self.choices else None
 
     @property
+    def operations(self) -> Tuple[str, ...]:
+        """The operations of the page the vertical slider walks over."""
+        return PAGES[self.page]
+
+    @property
     def selected_operation(self) -> str:
-        """The operation under the vertical slider."""
-        return OPERATIONS[self.operation_index]
+        """The operation under the vertical slider ("remove", ..., "wrap retry")."""
+        return self.operations[min(self.operation_index, len(self.operations) - 1)]
+
+    @property
+    def parameter_values(self) -> Tuple[float, ...]:
+        """What the step-3 dial offers for the selected wrap: attempts of a retry, seconds of a timeout."""
+        wrapper = self.selected_operation.partition(" ")[2]
+        return tuple(self.config.retry_attempts if wrapper == "retry" else self.config.timeout_seconds)
+
+    @property
+    def parameter(self) -> float:
+        """The value under the dial in the parameter step."""
+        values = self.parameter_values
+        return values[min(self.parameter_index, len(values) - 1)]
 
     def reset(self) -> None:
         """Back to step 1 (entering the tab, returning to START)."""
         self.step = Step.NODE
+        self.page = 0
 
     def device(self, sample: DeviceSample) -> None:
         """Move the control of the current step only; the others stay where they are (greyed out)."""
+        self.height = sample.z
         if self.step is Step.NODE and self.choices:
             self.node_index = scale_to_index(sample.x, self.config.device_range, len(self.choices))
         elif self.step is Step.OPERATION:
-            self.operation_index = scale_to_index(sample.y, self.config.device_range, len(OPERATIONS))
+            self.page = 1 if sample.roll > self.config.page_turn else 0
+            self.operation_index = scale_to_index(sample.y, self.config.device_range, len(self.operations))
         elif self.step is Step.INDEX:
             self.index = scale_to_index(sample.roll, self.config.device_angle_range, self.insert_slots)
+        elif self.step is Step.PARAMETER:
+            values = self.parameter_values
+            self.parameter_index = scale_to_index(sample.roll, self.config.device_angle_range, len(values))
+
+    @property
+    def edit_gesture(self) -> str:
+        """The edit a click would send now: undo (handle pushed down), redo (pulled up), or "" (neither)."""
+        if self.height < -self.config.edit_push:
+            return "undo"
+        if self.height > self.config.edit_push:
+            return "redo"
+        return ""
 
     def click(self) -> Optional[ChangeRequest]:
         """Confirm the current step; returns the request once the flow is complete."""
+        if self.step is not Step.WAITING and self.edit_gesture:
+            self.step = Step.WAITING
+            return ChangeRequest("", self.edit_gesture)
         if self.step is Step.NODE:
             if self.choices:
                 self.step = Step.OPERATION
             return None
         if self.step is Step.OPERATION:
-            if self.selected_operation == "insert":
+            operation, _, node_type = self.selected_operation.partition(" ")
+            if operation == "insert":
                 self.step = Step.INDEX
                 return None
+            if node_type in ("retry", "timeout"):
+                self.step = Step.PARAMETER
+                return None
             self.step = Step.WAITING
-            return ChangeRequest(self.selected_node, self.selected_operation)
+            return ChangeRequest(self.selected_node, operation, node_type=node_type)
         if self.step is Step.INDEX:
             self.step = Step.WAITING
             return ChangeRequest(self.selected_node, "insert", self.index)
+        if self.step is Step.PARAMETER:
+            self.step = Step.WAITING
+            node_type = self.selected_operation.partition(" ")[2]
+            return ChangeRequest(self.selected_node, "wrap", node_type=node_type, parameter=float(self.parameter))
         return None
 
     def answered(self, success: bool, message: str) -> None:
         """The service answered (or failed): show it and start over."""
         self.answer = ("done: " if success else "refused: ") + message
         self.step = Step.NODE
+        self.page = 0

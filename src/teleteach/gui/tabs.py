@@ -31,7 +31,7 @@ from teleteach.gui.ellipsoid import MODES, EllipsoidCommand
 from teleteach.gui.gl_view import ANGLE_NAMES, AXIS_NAMES, EllipsoidView
 from teleteach.gui.selection import (
     DEFAULT_PARENT,
-    OPERATIONS,
+    PAGES,
     STATUS_NAMES,
     ChangeRequest,
     LibrarySkill,
@@ -200,22 +200,21 @@ class HighLevelTab(QWidget):
         column.addWidget(self.step1)
 
         row = QHBoxLayout()
-        self.step2 = QGroupBox("Step 2: operation  (device Y, click)")
+        self.step2 = QGroupBox("Step 2: operation  (device Y, click; roll: page 2)")
         step2 = QHBoxLayout(self.step2)
         self.operation_slider = QSlider(Qt.Vertical)
-        self.operation_slider.setRange(0, len(OPERATIONS) - 1)
         self.operation_slider.setTickPosition(QSlider.TicksRight)
         self.operation_slider.setMinimumHeight(150)
         step2.addWidget(self.operation_slider)
         labels = QVBoxLayout()
-        self.operation_labels = {}
-        for operation in reversed(OPERATIONS):
-            label = QLabel(operation)
+        self.page_label = QLabel()
+        labels.addWidget(self.page_label)
+        self.operation_labels = [QLabel() for _ in range(max(len(page) for page in PAGES))]
+        for label in self.operation_labels:  # top to bottom: the page's last operation first
             labels.addWidget(label)
-            self.operation_labels[operation] = label
         step2.addLayout(labels)
         row.addWidget(self.step2)
-        self.step3 = QGroupBox("Step 3: index for insert  (rotate the device about X, click)")
+        self.step3 = QGroupBox("Step 3: insert index / wrap value  (roll, click)")
         step3 = QVBoxLayout(self.step3)
         self.dial = QDial()
         self.dial.setNotchesVisible(True)
@@ -230,7 +229,11 @@ class HighLevelTab(QWidget):
         self.answer_label = _big(QLabel(""), 12)
         self.answer_label.setWordWrap(True)
         column.addWidget(self.answer_label)
-        gesture = QLabel("Open the gripper fully to return to START.")
+        gesture = QLabel(
+            "Open the gripper fully to return to START.  Click with the handle pushed down: undo the last edit;"
+            " pulled up: redo."
+        )
+        gesture.setWordWrap(True)
         column.addWidget(gesture)
         column.addStretch(1)
         splitter.addWidget(left)
@@ -252,13 +255,17 @@ class HighLevelTab(QWidget):
 
     # data ---------------------------------------------------------------------------------------
     def choices(self) -> Tuple[List[Tuple[str, List[str]]], List[str]]:
-        """Button groups: (composite name, leaf names) in tick order, then the library's skills."""
+        """Button groups: (composite name, its children) in tick order, then the library's skills.
+
+        Every node is a button (a decorator or a composite an operator made can be wrapped, unwrapped, converted)
+        except the root and the execution composite, whose children are the thesis' buttons.
+        """
         groups: List[Tuple[str, List[str]]] = []
         if self.tree is not None:
             for _, node in self.tree.depth_first():
-                leaves = [child.name for child in self.tree.children(node) if not child.child_ids]
-                if leaves:
-                    groups.append((node.name, leaves))
+                children = [child.name for child in self.tree.children(node) if child.name != DEFAULT_PARENT]
+                if children:
+                    groups.append((node.name, children))
         return groups, [skill.name for skill in self.library]
 
     def on_tree(self, tree: TreeSnapshot) -> None:
@@ -321,7 +328,8 @@ class HighLevelTab(QWidget):
             return
         request: Optional[ChangeRequest] = self.flow.click()
         if request is not None:
-            self.answer_label.setText(f"sending: {request.operation} {request.node_name} ...")
+            what = " ".join(part for part in (request.operation, request.node_type, request.node_name) if part)
+            self.answer_label.setText(f"sending: {what} ...")
             self.request_ready.emit(request)
         self.refresh()
 
@@ -338,27 +346,50 @@ class HighLevelTab(QWidget):
     def refresh(self) -> None:
         """Show the flow's state; controls of other steps are greyed out."""
         flow = self.flow
-        for box, step in ((self.step1, Step.NODE), (self.step2, Step.OPERATION), (self.step3, Step.INDEX)):
+        for box, steps in (
+            (self.step1, (Step.NODE,)),
+            (self.step2, (Step.OPERATION,)),
+            (self.step3, (Step.INDEX, Step.PARAMETER)),
+        ):
             box.setObjectName("step")  # the style applies to the step boxes, not to the button groups inside
-            box.setEnabled(flow.step is step)
-            box.setStyleSheet(ACTIVE_STEP_STYLE if flow.step is step else STEP_STYLE)
+            box.setEnabled(flow.step in steps)
+            box.setStyleSheet(ACTIVE_STEP_STYLE if flow.step in steps else STEP_STYLE)
         for index, button in enumerate(self.buttons):
             style = UNAVAILABLE_STYLE if index in self.unavailable else BUTTON_STYLE
             button.setStyleSheet(SELECTED_STYLE if index == flow.node_index else style)
         self.node_slider.setValue(flow.node_index)
+        operations = flow.operations
+        self.operation_slider.setRange(0, len(operations) - 1)
         self.operation_slider.setValue(flow.operation_index)
-        for operation, label in self.operation_labels.items():
-            chosen = operation == flow.selected_operation
-            label.setStyleSheet("font-weight: bold; color: #e65100;" if chosen else "color: #555;")
-        self.dial.setValue(flow.index)
-        self.index_label.setText(f"insert at index {flow.index} of {DEFAULT_PARENT}")
+        self.page_label.setText(f"page {flow.page + 1} of {len(PAGES)}")
+        shown = list(reversed(operations))
+        for position, label in enumerate(self.operation_labels):
+            label.setVisible(position < len(shown))
+            if position < len(shown):
+                label.setText(shown[position])
+                chosen = shown[position] == flow.selected_operation
+                label.setStyleSheet("font-weight: bold; color: #e65100;" if chosen else "color: #555;")
+        if flow.step is Step.PARAMETER:
+            values = flow.parameter_values
+            self.dial.setRange(0, len(values) - 1)
+            self.dial.setValue(flow.parameter_index)
+            self.index_label.setText(f"{flow.selected_operation}: {flow.parameter:g}")
+        else:
+            self.dial.setRange(0, self.flow.insert_slots - 1)
+            self.dial.setValue(flow.index)
+            self.index_label.setText(f"insert at index {flow.index} of {DEFAULT_PARENT}")
         node = flow.selected_node or "-"
         step_text = {
             Step.NODE: f"selected: {node}",
             Step.OPERATION: f"{node}: choose the operation ({flow.selected_operation})",
             Step.INDEX: f"{node}: insert at index {flow.index}",
-            Step.WAITING: f"{flow.selected_operation} {node}: waiting for /change_tree...",
+            Step.PARAMETER: f"{node}: {flow.selected_operation} {flow.parameter:g}",
+            Step.WAITING: "waiting for /change_tree...",
         }[flow.step]
+        if flow.edit_gesture and flow.step is not Step.WAITING:
+            step_text = (
+                f"click to {flow.edit_gesture} the last edit (handle {'down' if flow.edit_gesture == 'undo' else 'up'})"
+            )
         self.selected_label.setText(step_text if flow.choices else "waiting for the behaviour tree...")
         if flow.answer and flow.step is not Step.WAITING:
             colour = "#1e9632" if flow.answer.startswith("done") else "#d22828"
