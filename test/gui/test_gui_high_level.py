@@ -3,7 +3,7 @@
 import pytest
 from conftest import pump_until, start_bt, stop
 
-from teleteach.gui.selection import MORE_OPERATIONS, OPERATIONS, Step
+from teleteach.gui.selection import MORE_OPERATIONS, OPERATIONS, REPAIR_CHOICE, Step
 from teleteach.gui.session import Tab
 from teleteach.msg import BehaviourTree
 
@@ -176,6 +176,45 @@ def test_help_request_is_shown_and_answered_from_the_gui(qapp, impatient_bt_node
 
 
 @pytest.fixture
+def bt_node_remembering_a_repair(ros_master, data_root):
+    """The impatient node, with a repair of LookToShelf's failure remembered from an earlier session."""
+    trees = data_root / "trees"
+    trees.mkdir()
+    (trees / "repairs.yaml").write_text(
+        "repairs:\n"
+        "  - node: LookToShelf\n"
+        "    reason: no action server /skills/LookToShelf (waited 1.3 s)\n"
+        "    edits: [{node_name: LookToShelf, operation: wrap, node_type: inverter}]\n"
+    )
+    process = start_bt(data_root, server_timeout=1.0)
+    yield process
+    stop(process)
+
+
+def test_a_remembered_repair_is_suggested_and_applied_with_one_click(
+    qapp, bt_node_remembering_a_repair, device, make_window, topic_log, artifacts_dir
+):
+    tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
+    window = make_window()
+    pump_until(qapp, lambda: window.help_banner.isVisible(), 20, "the help banner")
+    # Expect the banner to say what was done last time (the wait differs, the failure is the same)
+    assert "Last time: wrap LookToShelf in an inverter." in window.help_banner.text()
+    pump_until(qapp, lambda: window.high_level.flow.choices[:1] == [REPAIR_CHOICE], 10, "the repair button first")
+    open_high_level(qapp, window, device)
+    window.screenshot().save(str(artifacts_dir / "gui_remembered_repair.png"))
+    device.move(x=centre(0, len(window.high_level.flow.choices)))
+    pump_until(qapp, lambda: window.high_level.flow.node_index == 0, 5, "the slider on the repair button")
+    device.click()
+
+    def wrapped():
+        tree = tree_log.last()
+        return tree is not None and execution_children(tree)[0].name == "InverterLookToShelf"
+
+    pump_until(qapp, wrapped, 15, "LookToShelf wrapped in the inverter by the repair")
+    pump_until(qapp, lambda: window.high_level.flow.answer.startswith("done: wrapped"), 10, "the answer")
+
+
+@pytest.fixture
 def bt_node_with_a_lost_skill(ros_master, data_root):
     """The behaviour tree node resuming a saved library whose taught skill Gone has no file any more."""
     trees = data_root / "trees"
@@ -200,7 +239,7 @@ def test_a_skill_whose_file_is_gone_is_greyed_and_refused(
     # Expect the button greyed, saying why; the other library buttons usable
     missing = str(data_root / "skills" / "gone.npz")
     assert not button.isEnabled() and missing in button.toolTip()
-    assert neighbour.isEnabled() and neighbour.text() == "Idle"
+    assert neighbour.isEnabled() and neighbour.text() == "ProductInGap"
     # Expect the operator who selects it anyway to be refused with the file named, and the tree unchanged
     open_high_level(qapp, window, device)
     select_node(qapp, window, device, index)

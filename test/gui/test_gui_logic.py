@@ -22,6 +22,7 @@ from teleteach.gui.recording import StiffnessRecorder, Trajectory, TrajectoryErr
 from teleteach.gui.selection import (
     MORE_OPERATIONS,
     OPERATIONS,
+    REPAIR_CHOICE,
     ChangeRequest,
     SelectionFlow,
     Step,
@@ -248,6 +249,14 @@ def test_handle_pushed_down_undoes_and_pulled_up_redoes_from_any_step(step_click
     flow.device(sample(z=-0.04))
     assert flow.edit_gesture == "" and flow.click() is None and flow.step is Step.OPERATION
     assert step in (Step.NODE, Step.OPERATION, Step.INDEX)
+
+
+def test_the_remembered_repair_is_one_click_on_the_first_button():
+    flow = SelectionFlow(CONFIG)
+    flow.repair_node = "PickItem"
+    flow.set_choices([REPAIR_CHOICE, "LookToShelf", "PickItem"], 3)
+    flow.device(sample(x=x_for(0, 3)))
+    assert flow.click() == ChangeRequest("PickItem", "repair") and flow.step is Step.WAITING
 
 
 def test_flow_restarts_when_the_selected_node_disappears():

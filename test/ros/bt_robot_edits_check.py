@@ -2,7 +2,8 @@
 """rostest check: convert, wrap, unwrap, undo and redo over /change_tree while the tree runs on the simulated robot
 (product_pick_1 absent): a retry around PickItem makes two attempts before the help request; undo and redo move the
 decorator out and back without touching the waiting leaf; PickItem2 inserted in front runs first, an inverter
-around the retry lets the tree go on; the product ends in the gap; the saved tree holds the decorators and history."""
+around the retry lets the tree go on; the product ends in the gap; the saved tree holds the decorators and history,
+and the repair memory the edits that answered the help request."""
 
 import pathlib
 import unittest
@@ -103,6 +104,16 @@ class EditsOnTheRobot(unittest.TestCase):
             [edit["edit"] for edit in saved["history"]["undo"]], ["wrap", "remove", "remove", "insert", "wrap"]
         )
         self.assertEqual([edit["edit"] for edit in saved["history"]["redo"]], ["convert"])
+        # Expect the answer to the help request remembered as the repair of that failure (the undone wrap and its
+        # redo came before it: not part of it)
+        repairs = yaml.safe_load((saved_file.parent / "repairs.yaml").read_text())["repairs"]
+        self.assertEqual(
+            [(r["node"], r["reason"]) for r in repairs], [("PickItem", "product_pick_1 is not on the table")]
+        )
+        self.assertEqual(
+            [(edit["operation"], edit["node_name"]) for edit in repairs[0]["edits"]],
+            [("remove", "PickItem2"), ("remove", "MoveBase2"), ("insert", "PickItem2"), ("wrap", "RetryPickItem")],
+        )
 
 
 def saved_history(path):

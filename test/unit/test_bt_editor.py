@@ -185,7 +185,7 @@ def test_removing_the_running_leaf_or_its_composite_is_refused():
 
 
 def test_every_operation_is_known():
-    assert OPERATIONS == ("remove", "add", "prepend", "insert", "convert", "wrap", "unwrap", "undo", "redo")
+    assert OPERATIONS == ("remove", "add", "prepend", "insert", "convert", "wrap", "unwrap", "undo", "redo", "repair")
 
 
 BAD_REQUESTS = [

@@ -9,9 +9,10 @@ import pytest
 from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, status_of, thesis_tree
 from py_trees.common import Status
 
-from teleteach.bt.editor import HISTORY_LIMIT, snapshot
+from teleteach.bt.editor import HISTORY_LIMIT, EditRequest, snapshot
 from teleteach.bt.library import SkillLibrary
-from teleteach.bt.teaching import TeachingTree
+from teleteach.bt.repairs import RepairMemory
+from teleteach.bt.teaching import TeachingTree, TreeStore
 from teleteach.bt.tree import describe, load_tree, parse_tree
 
 GROCERIES = {
@@ -370,3 +371,79 @@ def test_decorators_are_visible_in_the_ascii_tree_and_the_saved_yaml():
     saved = tree.tree_yaml()
     assert "type: retry" in saved and "attempts: 3" in saved
     assert json.loads(saved.split("undo:\n    - ")[1].splitlines()[0])["wrapper"]["attempts"] == 3
+
+
+def test_a_repair_is_remembered_and_suggested_when_the_same_failure_comes_again(tmp_path):
+    # session 1: PickItem fails; the operator wraps it in a retry, tries something, undoes it, and resumes
+    store = TreeStore(tmp_path / "trees")
+    world = SkillWorld(failures={"PickItem": ["product_pick_1 is not on the table"] * 2})
+    tree = thesis_tree(world, store=store)
+    run(tree)
+    assert tree.help_request[:2] == ("PickItem", "product_pick_1 is not on the table")
+    assert tree.help_request.suggestion == ()
+    assert tree.change("PickItem", "wrap", node_type="retry", parameter=3).success
+    assert tree.change("Idle", "prepend").success
+    assert tree.change("", "undo").success
+    tree.set_pause(False)
+    run(tree)
+    assert tree.completed and world.names("start").count("PickItem") == 3
+    remembered = (EditRequest("PickItem", "wrap", node_type="retry", parameter=3.0),)
+    assert tree.repairs.suggestion("PickItem", "product_pick_1 is not on the table") == remembered
+
+    # session 2 (a new tree from the same data directory): the same failure suggests the repair
+    repairs, problems = TreeStore(tmp_path / "trees").restore_repairs()
+    assert problems == "" and len(repairs) == 1
+    world = SkillWorld(failures={"PickItem": ["product_pick_1 is not on the table"] * 2})
+    tree = thesis_tree(world, repairs=repairs)
+    original = describe(tree.root)
+    run(tree)
+    assert tree.help_request.suggestion == remembered
+    assert remembered[0].describe() == "wrap PickItem in a retry (3)"
+    applied = tree.change("PickItem", "repair")
+    # Expect the repair applied as one edit that one undo reverts (and a redo re-applies)
+    assert applied.success and applied.message == "wrapped 'PickItem' in the retry 'RetryPickItem', attempts 3"
+    assert tree.change("", "undo").success and describe(tree.root) == original
+    assert tree.change("", "redo").success and "RetryPickItem" in tree.editor.nodes
+    tree.set_pause(False)
+    run(tree)
+    assert tree.completed and world.names("start").count("PickItem") == 3
+
+
+def test_repair_without_a_suggestion_and_a_repair_that_no_longer_fits_change_nothing():
+    world = SkillWorld(failures={"PickItem": ["gone"]})
+    repairs = RepairMemory({("PickItem", "gone"): (EditRequest("Idle", "prepend"), EditRequest("Teleport", "remove"))})
+    tree = groceries_tree(world)
+    assert tree.change("", "repair").message == (
+        "there is no remembered repair to apply: the open help request suggests none"
+    )
+    tree = thesis_tree(world, repairs=repairs)
+    run(tree)
+    before = snapshot(tree.root)
+    result = tree.change("PickItem", "repair")
+    assert not result.success
+    assert result.message == (
+        "the remembered repair cannot be applied: edit 2 of 2 (remove Teleport) failed: "
+        "no node named 'Teleport' in the tree"
+    )
+    assert snapshot(tree.root) == before and tree.editor.undo_edits == []
+
+
+def test_a_damaged_repair_memory_is_set_aside_and_an_empty_one_used(tmp_path):
+    store = TreeStore(tmp_path / "trees")
+    store.repairs_path.write_text("repairs: [{node: PickItem, reason: gone, edits: [{operation: fly}]}]\n")
+    repairs, problems = store.restore_repairs()
+    assert len(repairs) == 0
+    assert "repair 1: an edit is a mapping of" in problems and "moved to repairs.corrupt-" in problems
+
+
+def test_failures_are_the_same_without_their_measured_values():
+    memory = RepairMemory()
+    assert memory.remember("PlaceItem", "product_pick_1 ended 15.0 cm from gap_2", [EditRequest("Idle", "prepend")])
+    assert memory.suggestion("PlaceItem", "product_pick_1 ended 14.2 cm from gap_2") == (
+        EditRequest("Idle", "prepend"),
+    )
+    assert memory.suggestion("PlaceItem", "product_pick_2 ended 15.0 cm from gap_2") == ()
+    assert memory.suggestion("PickItem", "product_pick_1 ended 15.0 cm from gap_2") == ()
+    saved = RepairMemory.from_dict(memory.to_dict())
+    assert saved.to_dict() == memory.to_dict()
+    assert saved.to_dict()["repairs"][0]["reason"] == "product_pick_1 ended 15.0 cm from gap_2"

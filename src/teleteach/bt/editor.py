@@ -46,7 +46,7 @@ from teleteach.bt.tree import (
     node_type,
 )
 
-OPERATIONS = ("remove", "add", "prepend", "insert", "convert", "wrap", "unwrap", "undo", "redo")
+OPERATIONS = ("remove", "add", "prepend", "insert", "convert", "wrap", "unwrap", "undo", "redo", "repair")
 WRAPPERS = (*DECORATORS, *COMPOSITES)  # what wrap can put around a node
 # Composites made by convert and wrap keep the child they run: a condition or skill is a goal that takes ticks, so a
 # selector re-asking its first child on every tick (py_trees' memory false) would cancel the skill it had chosen.
@@ -126,30 +126,66 @@ class TreeEditor:
             return ChangeResult(False, f"unknown operation '{operation}'; expected one of {', '.join(OPERATIONS)}")
         if operation in ("undo", "redo"):
             return self._replay(operation)
+        if operation == "repair":
+            return ChangeResult(False, "there is no remembered repair to apply: the open help request suggests none")
+        request = EditRequest(node_name, operation, index, parent, node_type, parameter)
+        result, edit = self._request(request)
+        if result.success:
+            self._remember(edit)
+        return result
+
+    def apply_requests(self, requests: typing.Sequence["EditRequest"]) -> ChangeResult:
+        """Apply several requests as one edit (one undo reverts them all); if one fails, none stays applied."""
+        applied: typing.List[Spec] = []
+        messages: typing.List[str] = []
+        for number, request in enumerate(requests, start=1):
+            result, edit = self._request(request)
+            if not result.success:
+                for done in reversed(applied):
+                    self._apply(inverse(done))
+                return ChangeResult(
+                    False, f"edit {number} of {len(requests)} ({request.describe()}) failed: {result.message}"
+                )
+            applied.append(edit)
+            messages.append(result.message)
+        if not applied:
+            return ChangeResult(False, "no edits to apply")
+        self._remember({"edit": "group", "edits": applied})
+        return ChangeResult(True, "; ".join(messages))
+
+    def _remember(self, edit: Spec) -> None:
+        self.undo_edits = [*self.undo_edits, edit][-HISTORY_LIMIT:]
+        self.redo_edits = []
+
+    def _request(self, request: "EditRequest") -> typing.Tuple[ChangeResult, Spec]:
+        """Carry out one request that is not undo, redo or repair: the result, and the edit that undo replays."""
+        node_name, operation = request.node_name, request.operation
+        if operation not in OPERATIONS or operation in ("undo", "redo", "repair"):
+            return ChangeResult(False, f"'{operation}' cannot be part of a repair"), {}
         if not node_name:
-            return ChangeResult(False, "empty node name")
+            return ChangeResult(False, "empty node name"), {}
         if operation == "remove":
-            edit: typing.Union[Spec, ChangeResult] = {"edit": "remove", "node": {"name": node_name}, "parent": parent}
+            edit: typing.Union[Spec, ChangeResult] = {
+                "edit": "remove",
+                "node": {"name": node_name},
+                "parent": request.parent,
+            }
         elif operation == "convert":
-            edit = self._conversion(node_name, node_type)
+            edit = self._conversion(node_name, request.node_type)
         elif operation == "wrap":
-            edit = self._wrapping(node_name, node_type, parameter)
+            edit = self._wrapping(node_name, request.node_type, request.parameter)
         elif operation == "unwrap":
             edit = {"edit": "unwrap", "wrapper": {"name": node_name}}
         else:
-            edit = self._addition(node_name, operation, index, parent)
+            edit = self._addition(node_name, operation, request.index, request.parent)
         if isinstance(edit, ChangeResult):
-            return edit
+            return edit, {}
         origin = f"a copy of '{node_name}'" if node_name in self.nodes else f"library skill '{node_name}'"
         result = self._apply(edit)
-        if not result.success:
-            return result
-        self.undo_edits = [*self.undo_edits, edit][-HISTORY_LIMIT:]
-        self.redo_edits = []
-        if edit["edit"] == "insert":
+        if result.success and edit["edit"] == "insert":
             where = f"'{edit['parent']}' at index {edit['index']}"
-            return result._replace(message=f"{operation}: {origin} as '{result.new_node_name}' in {where}")
-        return result
+            result = result._replace(message=f"{operation}: {origin} as '{result.new_node_name}' in {where}")
+        return result, edit
 
     def _replay(self, operation: str) -> ChangeResult:
         """Undo (apply the inverse of) the last edit, or redo the last undone one."""
@@ -169,6 +205,7 @@ class TreeEditor:
     def _apply(self, edit: Spec) -> ChangeResult:
         """Carry out one edit (completing its record with what it found), or say why not and change nothing."""
         apply = {
+            "group": self._group,
             "insert": self._insert,
             "remove": self._remove,
             "convert": self._convert,
@@ -229,6 +266,19 @@ class TreeEditor:
         return {"edit": "wrap", "node": node_name, "wrapper": {"type": kind, "name": name, **settings}}
 
     # ------------------------------------------------------------------------------------------------ edits
+    def _group(self, edit: Spec) -> ChangeResult:
+        """Several edits as one (an applied repair): all of them, or none."""
+        applied, messages = [], []
+        for part in edit["edits"]:
+            result = self._apply(part)
+            if not result.success:
+                for done in reversed(applied):
+                    self._apply(inverse(done))
+                return result
+            applied.append(part)
+            messages.append(result.message)
+        return ChangeResult(True, "; ".join(messages))
+
     def _remove(self, edit: Spec) -> ChangeResult:
         node_name = edit["node"]["name"]
         node = self.nodes.get(node_name)
@@ -437,8 +487,35 @@ class TreeEditor:
         return f"{base}_{suffix}"
 
 
+class EditRequest(typing.NamedTuple):
+    """One /change_tree request (what an operator asked for, as a repair remembers it)."""
+
+    node_name: str
+    operation: str
+    index: int = 0
+    parent: str = ""
+    node_type: str = ""
+    parameter: float = 0.0
+
+    def describe(self) -> str:
+        """One line for the operator, e.g. "wrap PickItem in a retry (3)" or "insert PickItem2 at index 1"."""
+        text = f"{self.operation} {self.node_name}"
+        if self.operation in ("wrap", "convert"):
+            article = "an" if self.node_type[:1] in "aeiou" else "a"
+            text += f" {'in' if self.operation == 'wrap' else 'to'} {article} {self.node_type}"
+            if self.node_type in ("retry", "timeout"):
+                text += f" ({self.parameter:g})"
+        if self.operation == "insert":
+            text += f" at index {self.index}"
+        if self.parent and self.operation != "remove":
+            text += f" in {self.parent}"
+        return text
+
+
 def inverse(edit: Spec) -> Spec:
     """The edit that undoes ``edit`` (a copy: the history keeps the original)."""
+    if edit["edit"] == "group":
+        return {"edit": "group", "edits": [inverse(part) for part in reversed(edit["edits"])]}
     undone = json.loads(json.dumps(edit))
     undone["edit"] = _INVERSE[edit["edit"]]
     if edit["edit"] == "convert":

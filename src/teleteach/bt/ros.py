@@ -260,7 +260,8 @@ class BehaviourTreeNode:
         * **/behaviour_tree/ascii/tree**, **/behaviour_tree/ascii/snapshot**, **/behaviour_tree/dot/tree**
           (std_msgs/String): py_trees.display renderings (made only while somebody subscribes)
         * **/behaviour_tree/skill_library** (teleteach/SkillLibrary)
-        * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered
+        * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered; a remembered
+          repair of the same failure in ``suggestion``
 
     ROS Subscribers:
         * **/behaviour_tree/pause** (std_msgs/Bool): writes the blackboard's pause flag
@@ -336,7 +337,10 @@ class BehaviourTreeNode:
         def make_leaf(name: str, entry: SkillEntry) -> ActionSkill:
             return ActionSkill(name, entry, clients, **timeouts)
 
-        tree = TeachingTree(spec, library, make_leaf, store=store, data_root=data_root)
+        repairs, problems = store.restore_repairs()
+        if problems:
+            rospy.logwarn("behaviour_tree: the remembered repairs could not all be loaded: %s", problems)
+        tree = TeachingTree(spec, library, make_leaf, store=store, data_root=data_root, repairs=repairs)
         return cls(
             tree,
             tick_rate=float(params["tick_rate"]),
@@ -427,8 +431,15 @@ class BehaviourTreeNode:
             message = HelpRequest()
             message.header.stamp = rospy.Time.now()
             if help_request is not None:
-                message.node_name, message.reason = help_request
-                rospy.logwarn("behaviour_tree: '%s' failed (%s); paused, asking the operator", *help_request)
+                message.node_name, message.reason = help_request.node_name, help_request.reason
+                message.suggestion = [request.describe() for request in help_request.suggestion]
+                remembered = f"; it suggests the remembered repair: {', '.join(message.suggestion)}"
+                rospy.logwarn(
+                    "behaviour_tree: '%s' failed (%s); paused, asking the operator%s",
+                    message.node_name,
+                    message.reason,
+                    remembered if message.suggestion else "",
+                )
             self.help_publisher.publish(message)
 
     def _bytes_of(self, record: NodeRecord) -> bytes:

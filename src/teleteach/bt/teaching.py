@@ -11,6 +11,9 @@ operator unpauses. What happens then depends on the operator's edits while pause
 - the failed leaf was removed: its parent continues with the node now at its place (a replacement inserted at
   that index, the next sibling, or - if it was the last child - the parent is done);
 - a node was inserted right in front of the failed leaf: that node runs first, then the failed skill is retried.
+
+The edits that answered a help request are remembered (:mod:`teleteach.bt.repairs`): the next help request for the
+same node and reason suggests them, and ``repair`` applies them as one edit.
 """
 
 import datetime
@@ -26,12 +29,14 @@ import yaml
 from py_trees.common import Status
 
 from teleteach.bt.behaviours import PAUSE_KEY, SkillLeaf
-from teleteach.bt.editor import ChangeResult, TreeEditor
+from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
+from teleteach.bt.repairs import RepairError, RepairMemory
 from teleteach.bt.tree import LeafFactory, TreeSpec, TreeSpecError, create_root, dump_live_yaml, load_tree, node_type
 
 TREE_FILE = "current_tree.yaml"
 LIBRARY_FILE = "skill_library.yaml"
+REPAIRS_FILE = "repairs.yaml"
 PREVIOUS = "previous"  # current_tree.yaml -> current_tree.previous.yaml: the version before the last save
 CORRUPT = "corrupt"  # current_tree.yaml -> current_tree.corrupt-<time>.yaml: a file that could not be loaded
 
@@ -41,6 +46,7 @@ class HelpRequest(typing.NamedTuple):
 
     node_name: str
     reason: str
+    suggestion: typing.Tuple[EditRequest, ...] = ()  # how the operator repaired the same failure before
 
 
 class NodeRecord(typing.NamedTuple):
@@ -142,6 +148,7 @@ class TreeStore:
         self.directory.mkdir(parents=True, exist_ok=True)
         self.tree_path = self.directory / TREE_FILE
         self.library_path = self.directory / LIBRARY_FILE
+        self.repairs_path = self.directory / REPAIRS_FILE
         self._unflushed: typing.Set[pathlib.Path] = set()
         self._flush_lock = threading.Lock()
         self._flush_wanted = threading.Event()
@@ -154,6 +161,16 @@ class TreeStore:
     def save_library(self, library: SkillLibrary) -> None:
         """Replace the saved library."""
         self._replace(self.library_path, yaml.safe_dump(library.to_dict(), sort_keys=False))
+
+    def save_repairs(self, repairs: RepairMemory) -> None:
+        """Replace the saved repair memory."""
+        self._replace(self.repairs_path, yaml.safe_dump(repairs.to_dict(), sort_keys=False))
+
+    def restore_repairs(self) -> typing.Tuple[RepairMemory, str]:
+        """The saved repair memory (empty if none), and what had to be set aside ("" when it loaded)."""
+        problems: typing.List[str] = []
+        repairs = self._load_or_set_aside(self.repairs_path, _load_repairs, problems)
+        return repairs or RepairMemory(), "; ".join(problems)
 
     def flush(self) -> None:
         """Make what was saved durable (fsync); the background thread calls it after each save."""
@@ -226,14 +243,14 @@ class TreeStore:
         self, path: pathlib.Path, load: typing.Callable[[pathlib.Path], typing.Any], problems: typing.List[str]
     ) -> typing.Any:
         """``load(path)``, else ``load`` of its previous version, else None; each file that fails is set aside."""
-        what = "tree" if path == self.tree_path else "library"
+        what = {self.tree_path: "tree", self.library_path: "library"}.get(path, "repairs")
         failures = []
         for candidate in (path, previous_path(path)):
             if not candidate.is_file():
                 continue
             try:
                 value = load(candidate)
-            except (LibraryError, TreeSpecError, OSError, UnicodeDecodeError) as error:
+            except (LibraryError, TreeSpecError, RepairError, OSError, UnicodeDecodeError, yaml.YAMLError) as error:
                 reason = " ".join(str(error).split())  # yaml errors span lines: the log says it in one
                 reason = reason if str(candidate) in reason else f"{candidate}: {reason}"
                 failures.append(f"{reason} (moved to {set_aside(candidate).name})")
@@ -244,6 +261,10 @@ class TreeStore:
         if failures:
             problems.append(f"{what}: {'; '.join(failures)}")
         return None
+
+
+def _load_repairs(path: pathlib.Path) -> RepairMemory:
+    return RepairMemory.from_dict(yaml.safe_load(path.read_text()), source=str(path))
 
 
 def previous_path(path: pathlib.Path) -> pathlib.Path:
@@ -276,6 +297,7 @@ class TeachingTree:
         make_leaf: builds the leaf of a skill (ROS action clients in the node, scripted leaves in tests)
         store: where to save the tree and library after each change (None: nowhere)
         data_root: the data directory, for relative skill file paths
+        repairs: the repairs remembered so far (saved in ``store`` when one is added)
 
     Blackboard Variables:
         * **pause** (:obj:`bool`)[w]: written by :meth:`set_pause` and by help requests
@@ -288,8 +310,12 @@ class TeachingTree:
         make_leaf: LeafFactory,
         store: typing.Optional[TreeStore] = None,
         data_root: typing.Optional[pathlib.Path] = None,
+        repairs: typing.Optional[RepairMemory] = None,
     ):
         self.lock = threading.RLock()
+        self.repairs = repairs or RepairMemory()
+        self._answer: typing.List[typing.Tuple[EditRequest, ...]] = []  # the open help request's edits, by change
+        self._undone_answer: typing.List[typing.Tuple[EditRequest, ...]] = []
         self.library = library
         self.store = store
         self.data_root = data_root or pathlib.Path.cwd()
@@ -331,8 +357,13 @@ class TeachingTree:
         return leaf
 
     def _request_help(self, leaf: SkillLeaf, reason: str) -> None:
+        self._ask(leaf.name, reason)
+
+    def _ask(self, node_name: str, reason: str) -> None:
+        """Pause and ask the operator, with the remembered repair of this failure if there is one."""
         self.blackboard.set(PAUSE_KEY, True)
-        self.help_request = HelpRequest(leaf.name, reason)
+        self.help_request = HelpRequest(node_name, reason, self.repairs.suggestion(node_name, reason))
+        self._answer, self._undone_answer = [], []
         self.revision += 1
 
     def _request_help_for_failed_execution(self) -> None:
@@ -343,22 +374,40 @@ class TeachingTree:
             if not failed_children:
                 break
             failed = failed_children[-1]
-        self.blackboard.set(PAUSE_KEY, True)
         reason = failed.feedback_message or "failed"
-        self.help_request = HelpRequest(
+        self._ask(
             failed.name, f"{reason}; '{self.execution.name}' failed and starts again from its first node on resume"
         )
-        self.revision += 1
 
     def set_pause(self, paused: bool) -> None:
-        """Pause or resume; resuming also closes an open help request (the operator has answered it)."""
+        """Pause or resume; resuming closes an open help request, remembering its answer's edits as the repair."""
         with self.lock:
             if paused == self.paused:
                 return
             self.blackboard.set(PAUSE_KEY, paused)
             if not paused:
+                self._remember_answer()
                 self.help_request = None
             self.revision += 1
+
+    def _remember_answer(self) -> None:
+        help_request, edits = self.help_request, [request for change in self._answer for request in change]
+        if help_request is None or not self.repairs.remember(help_request.node_name, help_request.reason, edits):
+            return
+        if self.store is not None:
+            self.store.save_repairs(self.repairs)
+
+    def _note_answer(self, request: EditRequest) -> None:
+        """Follow the open help request's answer: its edits, less the undone ones."""
+        if request.operation == "undo":
+            if self._answer:
+                self._undone_answer.append(self._answer.pop())
+        elif request.operation == "redo":
+            if self._undone_answer:
+                self._answer.append(self._undone_answer.pop())
+        else:
+            self._answer.append(self.help_request.suggestion if request.operation == "repair" else (request,))
+            self._undone_answer = []
 
     def tick(self) -> bool:
         """Tick once (unless the execution is complete); return True if anything visible changed."""
@@ -386,9 +435,17 @@ class TeachingTree:
     ) -> ChangeResult:
         """Apply a /change_tree request between two ticks; save the tree (and its edit history) if it changed."""
         with self.lock:
-            result = self.editor.change(node_name, operation, index, parent, node_type, parameter)
+            request = EditRequest(node_name, operation, index, parent, node_type, parameter)
+            if operation == "repair" and self.help_request is not None and self.help_request.suggestion:
+                result = self.editor.apply_requests(self.help_request.suggestion)
+                if not result.success:
+                    result = result._replace(message=f"the remembered repair cannot be applied: {result.message}")
+            else:
+                result = self.editor.change(*request)
             if not result.success:
                 return result
+            if self.help_request is not None:
+                self._note_answer(request)
             self.revision += 1
             revision, text = self.revision, self.tree_yaml()
         self._save(revision, text)

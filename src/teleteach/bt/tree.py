@@ -39,7 +39,7 @@ from teleteach.bt.library import SkillEntry, SkillLibrary
 COMPOSITES = ("selector", "sequence", "parallel")
 DECORATORS = ("retry", "timeout", "inverter")
 TYPES = (*COMPOSITES, *DECORATORS, "pause", "skill")
-EDIT_KINDS = ("insert", "remove", "convert", "wrap", "unwrap")
+EDIT_KINDS = ("insert", "remove", "convert", "wrap", "unwrap", "group")
 COMPOSITE_DEFAULTS = {  # what a composite written without these fields (or converted to this type) gets
     "selector": {"memory": False},
     "sequence": {"memory": True},

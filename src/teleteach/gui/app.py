@@ -21,7 +21,7 @@ from teleteach.datadir import data_dir
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_name
-from teleteach.gui.selection import ChangeRequest
+from teleteach.gui.selection import REPAIR_CHOICE, ChangeRequest
 from teleteach.gui.session import Action, Tab, TeachingSession
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
@@ -65,7 +65,7 @@ class MainWindow(QMainWindow):
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
 
         self.setWindowTitle("teleteach: teleoperated teaching")
-        self.resize(1180, 760)
+        self.resize(1180, 880)
         central = QWidget()
         column = QVBoxLayout(central)
         self.help_banner = QLabel()
@@ -179,12 +179,16 @@ class MainWindow(QMainWindow):
         self.library_names = [skill.name for skill in library]
         self.high_level.on_library(library)
 
-    def _on_help(self, node_name: str, reason: str) -> None:
+    def _on_help(self, node_name: str, reason: str, suggestion: Sequence[str] = ()) -> None:
         self._carry_out(self.session.help_requested(node_name))
+        self.high_level.set_repair(node_name, suggestion)
         if not node_name:  # the tree clears its request with an empty node name once answered
             self.help_banner.hide()
             return
-        self.help_banner.setText(f"The robot asks for help: {node_name} failed ({reason}). Change the tree.")
+        text = f"The robot asks for help: {node_name} failed ({reason}). Change the tree."
+        if suggestion:
+            text += f" Last time: {'; '.join(suggestion)}. HIGH-LEVEL: select \u201c{REPAIR_CHOICE}\u201d and click."
+        self.help_banner.setText(text)
         self.help_banner.show()
         self.statusBar().showMessage(f"help requested by {node_name}: {reason}", 30000)
 

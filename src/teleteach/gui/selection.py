@@ -31,6 +31,8 @@ MORE_OPERATIONS = (
     "convert parallel",
 )
 PAGES = (OPERATIONS, MORE_OPERATIONS)
+# The first button while a help request suggests a remembered repair: selecting it and clicking applies the repair.
+REPAIR_CHOICE = "Repair as last time"
 DEFAULT_PARENT = "BehaviorExecution"
 
 STATUS_NAMES = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
@@ -145,6 +147,7 @@ class SelectionFlow:
         self.index = 0
         self.parameter_index = 0
         self.height = 0.0  # device Z of the latest sample: a click with the handle pushed or pulled undoes / redoes
+        self.repair_node = ""  # the failed node whose help request suggests a remembered repair ("" if none)
         self.answer = ""
 
     def set_choices(self, choices: Sequence[str], insert_slots: int) -> None:
@@ -221,6 +224,9 @@ class SelectionFlow:
             self.step = Step.WAITING
             return ChangeRequest("", self.edit_gesture)
         if self.step is Step.NODE:
+            if self.repair_node and self.selected_node == REPAIR_CHOICE:
+                self.step = Step.WAITING
+                return ChangeRequest(self.repair_node, "repair")
             if self.choices:
                 self.step = Step.OPERATION
             return None

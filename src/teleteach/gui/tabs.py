@@ -12,11 +12,14 @@ from PyQt5.QtCore import Qt, QTimer, pyqtSignal
 from PyQt5.QtGui import QBrush, QColor, QFont
 from PyQt5.QtWidgets import (
     QDial,
+    QFrame,
     QGridLayout,
     QGroupBox,
     QHBoxLayout,
     QLabel,
     QPushButton,
+    QScrollArea,
+    QSizePolicy,
     QSlider,
     QSplitter,
     QTreeWidget,
@@ -32,6 +35,7 @@ from teleteach.gui.gl_view import ANGLE_NAMES, AXIS_NAMES, EllipsoidView
 from teleteach.gui.selection import (
     DEFAULT_PARENT,
     PAGES,
+    REPAIR_CHOICE,
     STATUS_NAMES,
     ChangeRequest,
     LibrarySkill,
@@ -45,6 +49,7 @@ NOT_VISITED = QColor(150, 150, 150)
 SELECTED_STYLE = "QPushButton { background: #ffd54f; border: 3px solid #e65100; font-weight: bold; padding: 6px; }"
 BUTTON_STYLE = "QPushButton { padding: 6px; }"
 UNAVAILABLE_STYLE = "QPushButton { padding: 6px; color: #9e9e9e; background: #eeeeee; }"
+REPAIR_STYLE = "QPushButton { padding: 6px; color: white; background: #d22828; font-weight: bold; }"
 _GROUP = "QGroupBox#step {{ border: {}; border-radius: 4px; margin-top: 1.3em; }} "
 _TITLE = "QGroupBox#step::title {{ subcontrol-origin: margin; left: 8px; {} }}"
 ACTIVE_STEP_STYLE = _GROUP.format("3px solid #2e7d32") + _TITLE.format("color: #1b5e20; font-weight: bold;")
@@ -181,6 +186,7 @@ class HighLevelTab(QWidget):
         self.flow = SelectionFlow(config)
         self.tree: Optional[TreeSnapshot] = None
         self.library: List[LibrarySkill] = []
+        self.repair_tooltip = ""
         self._layout_signature: Optional[tuple] = None
         self.buttons: List[QPushButton] = []
 
@@ -189,22 +195,28 @@ class HighLevelTab(QWidget):
         column = QVBoxLayout(left)
         self.step1 = QGroupBox("Step 1: select a node  (device X, click to confirm)")
         step1 = QVBoxLayout(self.step1)
-        self.button_area = QVBoxLayout()
-        step1.addLayout(self.button_area)
+        buttons = QWidget()
+        self.button_area = QVBoxLayout(buttons)
+        self.button_area.setContentsMargins(0, 0, 0, 0)
+        self.button_scroll = QScrollArea()  # a long banner or a big tree: scroll, never squeeze the buttons
+        self.button_scroll.setWidgetResizable(True)
+        self.button_scroll.setFrameShape(QFrame.NoFrame)
+        self.button_scroll.setWidget(buttons)
+        step1.addWidget(self.button_scroll)
         self.node_slider = QSlider(Qt.Horizontal)
         self.node_slider.setEnabled(False)
         step1.addWidget(self.node_slider)
         self.selected_label = _big(QLabel("waiting for the behaviour tree..."), 13)
         self.selected_label.setStyleSheet("color: #1b5e20;")
         column.addWidget(self.selected_label)
-        column.addWidget(self.step1)
+        column.addWidget(self.step1, 1)  # the buttons get the room; the steps below keep their size
 
         row = QHBoxLayout()
         self.step2 = QGroupBox("Step 2: operation  (device Y, click; roll: page 2)")
         step2 = QHBoxLayout(self.step2)
         self.operation_slider = QSlider(Qt.Vertical)
         self.operation_slider.setTickPosition(QSlider.TicksRight)
-        self.operation_slider.setMinimumHeight(150)
+        self.operation_slider.setMinimumHeight(120)
         step2.addWidget(self.operation_slider)
         labels = QVBoxLayout()
         self.page_label = QLabel()
@@ -225,6 +237,8 @@ class HighLevelTab(QWidget):
         step3.addWidget(self.index_label)
         row.addWidget(self.step3)
         column.addLayout(row)
+        for box in (self.step2, self.step3):
+            box.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Maximum)
 
         self.answer_label = _big(QLabel(""), 12)
         self.answer_label.setWordWrap(True)
@@ -235,7 +249,6 @@ class HighLevelTab(QWidget):
         )
         gesture.setWordWrap(True)
         column.addWidget(gesture)
-        column.addStretch(1)
         splitter.addWidget(left)
 
         right = QWidget()
@@ -261,6 +274,8 @@ class HighLevelTab(QWidget):
         except the root and the execution composite, whose children are the thesis' buttons.
         """
         groups: List[Tuple[str, List[str]]] = []
+        if self.flow.repair_node:
+            groups.append(("Remembered repair", [REPAIR_CHOICE]))
         if self.tree is not None:
             for _, node in self.tree.depth_first():
                 children = [child.name for child in self.tree.children(node) if child.name != DEFAULT_PARENT]
@@ -272,6 +287,12 @@ class HighLevelTab(QWidget):
         """A new tree snapshot (always accepted; the view stays current even when the tab is hidden)."""
         self.tree = tree
         self.tree_view.show_tree(tree)
+        self._rebuild()
+
+    def set_repair(self, node_name: str, suggestion: Sequence[str]) -> None:
+        """A help request suggests a remembered repair (a first button applies it), or no longer does."""
+        self.flow.repair_node = node_name if suggestion else ""
+        self.repair_tooltip = "; ".join(suggestion)
         self._rebuild()
 
     def on_library(self, library: Sequence[LibrarySkill]) -> None:
@@ -302,6 +323,9 @@ class HighLevelTab(QWidget):
             for position, name in enumerate(entries):
                 button = QPushButton(name)
                 button.setFocusPolicy(Qt.NoFocus)
+                button.setMinimumHeight(26)  # readable however long the help banner above grows
+                if name == REPAIR_CHOICE:
+                    button.setToolTip(self.repair_tooltip)
                 if title == "Skill library" and name in problems:
                     button.setEnabled(False)  # greyed: /change_tree refuses it (its file is missing or bad)
                     button.setToolTip(f"unavailable: {problems[name]}")
@@ -354,8 +378,12 @@ class HighLevelTab(QWidget):
             box.setObjectName("step")  # the style applies to the step boxes, not to the button groups inside
             box.setEnabled(flow.step in steps)
             box.setStyleSheet(ACTIVE_STEP_STYLE if flow.step in steps else STEP_STYLE)
+        if 0 <= flow.node_index < len(self.buttons):
+            self.button_scroll.ensureWidgetVisible(self.buttons[flow.node_index])
         for index, button in enumerate(self.buttons):
             style = UNAVAILABLE_STYLE if index in self.unavailable else BUTTON_STYLE
+            if button.text() == REPAIR_CHOICE:
+                style = REPAIR_STYLE
             button.setStyleSheet(SELECTED_STYLE if index == flow.node_index else style)
         self.node_slider.setValue(flow.node_index)
         operations = flow.operations

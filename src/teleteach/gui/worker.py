@@ -162,7 +162,7 @@ class RosWorker(QObject):
     gripper_opened = pyqtSignal()
     tree_received = pyqtSignal(object)  # TreeSnapshot
     library_received = pyqtSignal(object)  # list of LibrarySkill
-    help_requested = pyqtSignal(str, str)
+    help_requested = pyqtSignal(str, str, object)  # node, reason, the remembered repair (lines, may be empty)
     health = pyqtSignal(str)  # "" when all inputs are alive, else what is missing
     shared_state = pyqtSignal(object)  # SharedStatus
     shared_plan = pyqtSignal(object)  # n x 2 task-plane points [m]
@@ -313,7 +313,7 @@ class RosWorker(QObject):
         self.library_received.emit([LibrarySkill(*skill) for skill in zip(message.names, kinds, files, problems)])
 
     def _on_help(self, message: HelpRequest) -> None:
-        self.help_requested.emit(message.node_name, message.reason)
+        self.help_requested.emit(message.node_name, message.reason, list(message.suggestion))
 
     def plane(self) -> Optional[TaskPlane]:
         """The shared_control node's task plane (its ``~plane`` param), looked up until found (at most 1/s)."""
