@@ -31,7 +31,7 @@ from teleteach.run.processes import (
 from teleteach.run.thesis import options_for
 from teleteach.skill_file import Skill, save
 
-SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full"]
+SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full", "remembered_repair"]
 
 
 def recorded_skill(kx_insertion=2100.0, ky_alignment=2200.0):

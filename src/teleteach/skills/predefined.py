@@ -36,6 +36,8 @@ PREDEFINED_SKILLS = (
 # Conditions: checks of the world that move nothing (library kind "condition").
 CONDITIONS = ("ProductInHand", "ProductInGap")
 
+HOLD_LOOKS = 3  # product_in_hand: how many times to look before saying the hand is empty
+HOLD_LOOK_INTERVAL = 0.2  # [s] robot time between two looks
 POSTURE_TOLERANCE = 0.05  # [rad] closer than this to a posture = already there
 
 
@@ -105,6 +107,20 @@ class WorldView:
         if distance > self.config.grasp.hold_tolerance:
             return None, distance
         return name, distance
+
+    def product_in_hand(self) -> Tuple[Optional[str], float]:
+        """:meth:`held_product`, looked at again (HOLD_LOOKS times, HOLD_LOOK_INTERVAL apart) while it sees none.
+
+        The scene, the base's transform and the joint states come on different topics: right after a motion they can
+        disagree for a moment (a loaded machine), and a carried product then looks centimetres away from the hold.
+        Use it where an empty hand is a failure.
+        """
+        for _ in range(HOLD_LOOKS - 1):
+            held = self.held_product()
+            if held[0] is not None:
+                return held
+            self.motion.robot.sleep(HOLD_LOOK_INTERVAL)
+        return self.held_product()
 
     def placement(self, product, before: Dict[str, np.ndarray], gap: Optional[str] = None) -> Placement:
         """Where product ended relative to gap (default: the nearest gap), its neighbours compared with ``before``.
@@ -199,7 +215,7 @@ class PickItem(PredefinedSkill):
         motion.move_linear(grasp_point + up(grasp.lift_height), orientation)
         motion.execution.phase("carry posture", 0.25)
         motion.move_joints(world.config.postures["carry"])
-        held, distance = world.held_product()
+        held, distance = world.product_in_hand()
         if held != product:
             raise SkillError(
                 f"{product} is not in the gripper after grasping (finger opening {width:.3f} m, "
@@ -237,7 +253,7 @@ class PlaceItem(PredefinedSkill):
             gap = world.scene.gap(self.settings.get("gap", ""))
         except SceneError as error:
             raise SkillError(f"{self.name}: {error}") from None
-        product, _ = world.held_product()
+        product, _ = world.product_in_hand()
         if product is None:
             raise SkillError("no product in the gripper to place")
         before = motion.robot.product_positions()
@@ -266,7 +282,7 @@ class DropItem(PredefinedSkill):
 
     def run(self, world: WorldView) -> str:
         """Release; succeed when the product stays upright in the gap and the hand is away from it."""
-        product, _ = world.held_product()
+        product, _ = world.product_in_hand()
         if product is None:
             raise SkillError("no product in the gripper to drop")
         before = world.motion.robot.product_positions()
@@ -331,7 +347,7 @@ class ProductInHand(PredefinedSkill):
 
     def run(self, world: WorldView) -> str:
         """Succeed when a product is held; the failure says what the hand has."""
-        held, distance = world.held_product()
+        held, distance = world.product_in_hand()
         wanted = self.settings.get("product")
         if held is not None and (not wanted or held == wanted):
             return f"{held} is in the hand ({1000.0 * distance:.1f} mm from its place between the fingers)"

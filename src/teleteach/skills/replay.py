@@ -124,7 +124,7 @@ class StiffnessReplay:
             raise SkillError(str(error)) from None
         if kind is not None and kind != skill.kind:
             raise SkillError(f"skill file {path} holds a '{skill.kind}' skill, the goal asked for '{kind}'")
-        product, _ = world.held_product()
+        product, _ = world.product_in_hand()
         if product is None:
             width = world.motion.robot.gripper_width()
             nearest, distance = world.nearest_to_hold()
