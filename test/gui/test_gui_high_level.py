@@ -122,7 +122,7 @@ def test_wrap_from_the_second_page_and_undo_with_the_handle(
     # Step 2, second page: roll the handle, Y to "wrap retry"; step 3: the dial to 3 attempts
     device.move(y=centre(MORE_OPERATIONS.index("wrap retry"), len(MORE_OPERATIONS)), roll=0.8)
     pump_until(qapp, lambda: high.flow.selected_operation == "wrap retry", 5, "the second page at wrap retry")
-    assert high.page_label.text() == "page 2 of 2" and high.operation_labels[0].text() == "convert parallel"
+    assert high.page_label.text() == "page 2 of 2" and high.operation_labels[0].text() == "target"
     window.screenshot().save(str(artifacts_dir / "gui_high_level_second_page.png"))
     device.click()
     pump_until(qapp, lambda: high.flow.step is Step.PARAMETER, 5, "step 3 (the dial for the attempts)")
@@ -147,6 +147,47 @@ def test_wrap_from_the_second_page_and_undo_with_the_handle(
     pump_until(qapp, lambda: execution_names()[1] == "PickItem", 15, "PickItem unwrapped by the undo")
     pump_until(qapp, lambda: high.flow.answer.startswith("done: undo: unwrapped 'PickItem'"), 10, "the answer")
     window.screenshot().save(str(artifacts_dir / "gui_high_level_undo.png"))
+
+
+def select_on_second_page(qapp, window, device, operation):
+    flow = window.high_level.flow
+    device.move(y=centre(MORE_OPERATIONS.index(operation), len(MORE_OPERATIONS)), roll=0.8)
+    pump_until(qapp, lambda: flow.selected_operation == operation, 5, f"the second page at {operation}")
+    device.click()
+
+
+def test_a_condition_before_a_pick_built_with_the_device(qapp, bt_node, device, make_window, topic_log):
+    tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
+    window = make_window()
+    flow = window.high_level.flow
+    pump_until(qapp, lambda: "PickItem" in flow.choices, 20, "buttons from the tree")
+    open_high_level(qapp, window, device)
+    # wrap PickItem in a selector; make the selector the target; prepend the library's ProductInHand into it
+    select_node(qapp, window, device, flow.choices.index("PickItem"))
+    select_on_second_page(qapp, window, device, "wrap selector")
+    pump_until(qapp, lambda: "SelectorPickItem" in flow.choices, 15, "a button for the new selector")
+    select_node(qapp, window, device, flow.choices.index("SelectorPickItem"))
+    select_on_second_page(qapp, window, device, "target")
+    pump_until(qapp, lambda: flow.parent == "SelectorPickItem", 5, "the selector as the target")
+    assert "(adding into SelectorPickItem)" in window.high_level.selected_label.text()
+    library_product_in_hand = len(flow.choices) - 2  # the library ends with ProductInHand, ProductInGap
+    assert flow.choices[library_product_in_hand] == "ProductInHand"
+    select_node(qapp, window, device, library_product_in_hand)
+    select_operation(qapp, window, device, "prepend")
+    device.click()
+
+    def selector_children():
+        tree = tree_log.last()
+        if tree is None:
+            return None
+        by_id = {b.own_id: b for b in tree.behaviours}
+        selector = next((b for b in tree.behaviours if b.name == "SelectorPickItem"), None)
+        return [by_id[child].name for child in selector.child_ids] if selector else None
+
+    pump_until(
+        qapp, lambda: selector_children() == ["ProductInHand", "PickItem"], 15, "selector(ProductInHand, PickItem)"
+    )
+    assert [child.name for child in execution_children(tree_log.last())][1] == "SelectorPickItem"
 
 
 @pytest.fixture

@@ -8,6 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
+from teleteach.bt.editor import EditRequest
 from teleteach.gui.config import GuiConfig, GuiConfigError
 from teleteach.gui.device import (
     ClickClassifier,
@@ -23,7 +24,6 @@ from teleteach.gui.selection import (
     MORE_OPERATIONS,
     OPERATIONS,
     REPAIR_CHOICE,
-    ChangeRequest,
     SelectionFlow,
     Step,
     TreeNode,
@@ -216,7 +216,7 @@ def test_second_page_wraps_in_a_retry_with_the_dial_value():
     attempts = CONFIG.retry_attempts
     flow.device(sample(roll=x_for(attempts.index(3), len(attempts), half_range=1.0)))
     request = flow.click()
-    assert request == ChangeRequest("PickItem", "wrap", node_type="retry", parameter=3.0)
+    assert request == EditRequest("PickItem", "wrap", node_type="retry", parameter=3.0)
 
 
 @pytest.mark.parametrize("operation", ["unwrap", "wrap inverter", "wrap selector", "convert parallel"])
@@ -226,7 +226,7 @@ def test_second_page_operations_without_a_value_send_at_once(operation):
     flow.click()
     flow.device(sample(y=x_for(MORE_OPERATIONS.index(operation), len(MORE_OPERATIONS)), roll=0.9))
     name, _, node_type = operation.partition(" ")
-    assert flow.click() == ChangeRequest("Fetch", name, node_type=node_type)
+    assert flow.click() == EditRequest("Fetch", name, node_type=node_type)
     assert flow.step is Step.WAITING
 
 
@@ -241,10 +241,10 @@ def test_handle_pushed_down_undoes_and_pulled_up_redoes_from_any_step(step_click
     flow.device(sample(y=x_for(OPERATIONS.index("insert"), 4), z=-0.06))
     # Expect the pushed handle to send undo (whatever the step) and a light push (within edit_push) to do nothing
     assert flow.edit_gesture == "undo"
-    assert flow.click() == ChangeRequest("", "undo") and flow.step is Step.WAITING
+    assert flow.click() == EditRequest("", "undo") and flow.step is Step.WAITING
     flow.answered(True, "undo: removed 'A'")
     flow.device(sample(z=0.06))
-    assert flow.click() == ChangeRequest("", "redo")
+    assert flow.click() == EditRequest("", "redo")
     flow.answered(True, "redo")
     flow.device(sample(z=-0.04))
     assert flow.edit_gesture == "" and flow.click() is None and flow.step is Step.OPERATION
@@ -256,7 +256,33 @@ def test_the_remembered_repair_is_one_click_on_the_first_button():
     flow.repair_node = "PickItem"
     flow.set_choices([REPAIR_CHOICE, "LookToShelf", "PickItem"], 3)
     flow.device(sample(x=x_for(0, 3)))
-    assert flow.click() == ChangeRequest("PickItem", "repair") and flow.step is Step.WAITING
+    assert flow.click() == EditRequest("PickItem", "repair") and flow.step is Step.WAITING
+
+
+def test_target_makes_add_prepend_and_insert_fill_another_composite():
+    flow = SelectionFlow(CONFIG)
+    choices = ["PauseCondition", "LookToShelf", "SelectorPickItem", "PickItem", "ProductInHand"]
+    flow.set_choices(choices, 4, {"SelectorPickItem": 1})
+    target = x_for(MORE_OPERATIONS.index("target"), len(MORE_OPERATIONS))
+    flow.device(sample(x=x_for(2, 5)))
+    flow.click()
+    flow.device(sample(x=x_for(2, 5), y=target, roll=0.8))
+    # Expect "target" to change no tree (no request) and make SelectorPickItem the parent, with its own slots
+    assert flow.click() is None and flow.step is Step.NODE
+    assert flow.parent == "SelectorPickItem" and flow.insert_slots == 2
+    assert flow.answer == "done: add, prepend and insert now put nodes into SelectorPickItem"
+    flow.device(sample(x=x_for(4, 5)))
+    flow.click()
+    flow.device(sample(x=x_for(4, 5), y=x_for(OPERATIONS.index("prepend"), 4)))
+    assert flow.click() == EditRequest("ProductInHand", "prepend", parent="SelectorPickItem")
+    flow.answered(True, "prepend")
+    # Expect a leaf refused as a target, and the target gone with its composite
+    flow.device(sample(x=x_for(1, 5)))
+    flow.click()
+    flow.device(sample(x=x_for(1, 5), y=target, roll=0.8))
+    assert flow.click() is None and flow.answer.startswith("refused: LookToShelf is not a composite")
+    flow.set_choices(choices[:2], 4, {})
+    assert flow.parent == "" and flow.insert_slots == 4
 
 
 def test_flow_restarts_when_the_selected_node_disappears():

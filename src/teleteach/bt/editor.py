@@ -279,14 +279,21 @@ class TreeEditor:
             messages.append(result.message)
         return ChangeResult(True, "; ".join(messages))
 
-    def _remove(self, edit: Spec) -> ChangeResult:
-        node_name = edit["node"]["name"]
-        node = self.nodes.get(node_name)
+    def _editable(self, name: str, verb: str) -> typing.Union[py_trees.behaviour.Behaviour, ChangeResult]:
+        """The node called ``name`` if ``verb`` may act on it, else the refusal saying why not."""
+        node = self.nodes.get(name)
         if node is None:
-            return ChangeResult(False, f"no node named '{node_name}' in the tree")
+            return ChangeResult(False, f"no node named '{name}' in the tree")
         reason = self.protected_reason(node)
         if reason:
-            return ChangeResult(False, f"cannot remove {reason}")
+            return ChangeResult(False, f"cannot {verb} {reason}")
+        return node
+
+    def _remove(self, edit: Spec) -> ChangeResult:
+        node_name = edit["node"]["name"]
+        node = self._editable(node_name, "remove")
+        if isinstance(node, ChangeResult):
+            return node
         parent = node.parent
         if edit.get("parent") and parent.name != edit["parent"]:
             return ChangeResult(False, f"'{node_name}' is a child of '{parent.name}', not of '{edit['parent']}'")
@@ -371,12 +378,9 @@ class TreeEditor:
         return ChangeResult(True, f"converted '{node.name}' from a {before['type']} to a {after['type']}")
 
     def _wrap(self, edit: Spec) -> ChangeResult:
-        wrapper_spec, node = edit["wrapper"], self.nodes.get(edit["node"])
-        if node is None:
-            return ChangeResult(False, f"no node named '{edit['node']}' in the tree")
-        reason = self.protected_reason(node)
-        if reason:
-            return ChangeResult(False, f"cannot wrap {reason}")
+        wrapper_spec, node = edit["wrapper"], self._editable(edit["node"], "wrap")
+        if isinstance(node, ChangeResult):
+            return node
         kind, name = wrapper_spec["type"], wrapper_spec["name"]
         if name in self.nodes:
             return ChangeResult(False, f"cannot wrap '{node.name}': the name '{name}' is in the tree")
@@ -397,12 +401,9 @@ class TreeEditor:
 
     def _unwrap(self, edit: Spec) -> ChangeResult:
         name = edit["wrapper"]["name"]
-        wrapper = self.nodes.get(name)
-        if wrapper is None:
-            return ChangeResult(False, f"no node named '{name}' in the tree")
-        reason = self.protected_reason(wrapper)
-        if reason:
-            return ChangeResult(False, f"cannot unwrap {reason}")
+        wrapper = self._editable(name, "unwrap")
+        if isinstance(wrapper, ChangeResult):
+            return wrapper
         one_child = isinstance(wrapper, py_trees.composites.Composite) and len(wrapper.children) == 1
         if not (isinstance(wrapper, py_trees.decorators.Decorator) or one_child):
             what = f"a {node_type(wrapper)}" + (f" of {len(wrapper.children)} children" if wrapper.children else "")

@@ -17,11 +17,12 @@ from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QTabWidget, QVBox
 from std_msgs.msg import Bool, Int8
 
 from teleteach import skill_file
+from teleteach.bt.editor import EditRequest
 from teleteach.datadir import data_dir
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_name
-from teleteach.gui.selection import REPAIR_CHOICE, ChangeRequest
+from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, Tab, TeachingSession
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
@@ -215,19 +216,12 @@ class MainWindow(QMainWindow):
             self._actions[action]()
 
     # HIGH-LEVEL -----------------------------------------------------------------------------------
-    def _send_change(self, request: ChangeRequest) -> None:
+    def _send_change(self, request: EditRequest) -> None:
         self.services.call(
             "change_tree",
             "/change_tree",
             ChangeTree,
-            ChangeTreeRequest(
-                node_name=request.node_name,
-                operation=request.operation,
-                index=request.index,
-                parent=request.parent,
-                node_type=request.node_type,
-                parameter=request.parameter,
-            ),
+            ChangeTreeRequest(**request._asdict()),
         )
 
     # LOW-LEVEL ------------------------------------------------------------------------------------

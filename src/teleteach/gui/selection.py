@@ -13,6 +13,7 @@ import dataclasses
 import enum
 from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple
 
+from teleteach.bt.editor import EditRequest
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceSample, scale_to_index
 
@@ -29,11 +30,13 @@ MORE_OPERATIONS = (
     "convert sequence",
     "convert selector",
     "convert parallel",
+    "target",  # add, prepend and insert put nodes into the selected composite (again on it: back to the default)
 )
 PAGES = (OPERATIONS, MORE_OPERATIONS)
 # The first button while a help request suggests a remembered repair: selecting it and clicking applies the repair.
 REPAIR_CHOICE = "Repair as last time"
 DEFAULT_PARENT = "BehaviorExecution"
+COMPOSITE_TYPES = (2, 3, 4)  # teleteach/Behaviour SEQUENCE, SELECTOR, PARALLEL: what add, prepend and insert can fill
 
 STATUS_NAMES = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
 
@@ -118,18 +121,6 @@ class Step(enum.Enum):
     PARAMETER = 5  # step 3 for a retry's attempts or a timeout's seconds
 
 
-@dataclasses.dataclass(frozen=True)
-class ChangeRequest:
-    """What to send on /change_tree."""
-
-    node_name: str
-    operation: str
-    index: int = 0
-    parent: str = ""
-    node_type: str = ""
-    parameter: float = 0.0
-
-
 class SelectionFlow:
     """The three-step state machine of the HIGH-LEVEL tab; knows nothing about widgets or ROS.
 
@@ -139,7 +130,9 @@ class SelectionFlow:
     def __init__(self, config: GuiConfig):
         self.config = config
         self.choices: List[str] = []
-        self.insert_slots = 1
+        self.default_slots = 1
+        self.composite_sizes: Dict[str, int] = {}  # composite (or decorator) name -> number of children
+        self.target = ""  # the composite add, prepend and insert put nodes into ("": DEFAULT_PARENT)
         self.step = Step.NODE
         self.node_index = 0
         self.page = 0
@@ -150,11 +143,20 @@ class SelectionFlow:
         self.repair_node = ""  # the failed node whose help request suggests a remembered repair ("" if none)
         self.answer = ""
 
-    def set_choices(self, choices: Sequence[str], insert_slots: int) -> None:
-        """New buttons (tree or library changed); keeps the selected name when it still exists."""
+    def set_choices(
+        self, choices: Sequence[str], insert_slots: int, composite_sizes: Optional[Dict[str, int]] = None
+    ) -> None:
+        """New buttons (tree or library changed); keeps the selected name when it still exists.
+
+        ``insert_slots`` is the dial's range for DEFAULT_PARENT; ``composite_sizes`` the other composites' child
+        counts (a composite that is gone stops being the target).
+        """
         selected = self.selected_node
         self.choices = list(choices)
-        self.insert_slots = max(1, insert_slots)
+        self.default_slots = max(1, insert_slots)
+        self.composite_sizes = dict(composite_sizes or {})
+        if self.target not in self.composite_sizes:
+            self.target = ""
         if selected in self.choices:
             self.node_index = self.choices.index(selected)
         else:
@@ -162,6 +164,16 @@ class SelectionFlow:
             if self.step in (Step.OPERATION, Step.INDEX, Step.PARAMETER):
                 self.step = Step.NODE
         self.index = min(self.index, self.insert_slots - 1)
+
+    @property
+    def insert_slots(self) -> int:
+        """Positions the index dial offers: the target's children + 1."""
+        return self.composite_sizes[self.target] + 1 if self.target else self.default_slots
+
+    @property
+    def parent(self) -> str:
+        """The composite add, prepend and insert put nodes into, as the request names it."""
+        return self.target
 
     @property
     def selected_node(self) -> Optional[str]:
@@ -191,9 +203,10 @@ class SelectionFlow:
         return values[min(self.parameter_index, len(values) - 1)]
 
     def reset(self) -> None:
-        """Back to step 1 (entering the tab, returning to START)."""
+        """Back to step 1, adding into DEFAULT_PARENT again (entering the tab, returning to START)."""
         self.step = Step.NODE
         self.page = 0
+        self.target = ""
 
     def device(self, sample: DeviceSample) -> None:
         """Move the control of the current step only; the others stay where they are (greyed out)."""
@@ -218,15 +231,15 @@ class SelectionFlow:
             return "redo"
         return ""
 
-    def click(self) -> Optional[ChangeRequest]:
+    def click(self) -> Optional[EditRequest]:
         """Confirm the current step; returns the request once the flow is complete."""
         if self.step is not Step.WAITING and self.edit_gesture:
             self.step = Step.WAITING
-            return ChangeRequest("", self.edit_gesture)
+            return EditRequest("", self.edit_gesture)
         if self.step is Step.NODE:
             if self.repair_node and self.selected_node == REPAIR_CHOICE:
                 self.step = Step.WAITING
-                return ChangeRequest(self.repair_node, "repair")
+                return EditRequest(self.repair_node, "repair")
             if self.choices:
                 self.step = Step.OPERATION
             return None
@@ -238,16 +251,30 @@ class SelectionFlow:
             if node_type in ("retry", "timeout"):
                 self.step = Step.PARAMETER
                 return None
+            if operation == "target":
+                self._retarget(self.selected_node)
+                return None
             self.step = Step.WAITING
-            return ChangeRequest(self.selected_node, operation, node_type=node_type)
+            parent = self.target if operation in ("add", "prepend") else ""
+            return EditRequest(self.selected_node, operation, parent=parent, node_type=node_type)
         if self.step is Step.INDEX:
             self.step = Step.WAITING
-            return ChangeRequest(self.selected_node, "insert", self.index)
+            return EditRequest(self.selected_node, "insert", self.index, parent=self.target)
         if self.step is Step.PARAMETER:
             self.step = Step.WAITING
             node_type = self.selected_operation.partition(" ")[2]
-            return ChangeRequest(self.selected_node, "wrap", node_type=node_type, parameter=float(self.parameter))
+            return EditRequest(self.selected_node, "wrap", node_type=node_type, parameter=float(self.parameter))
         return None
+
+    def _retarget(self, name: Optional[str]) -> None:
+        """Make ``name`` the composite that add, prepend and insert fill (the current target again: the default)."""
+        self.step, self.page = Step.NODE, 0
+        if name not in self.composite_sizes:
+            self.answer = f"refused: {name} is not a composite: add, prepend and insert cannot put nodes into it"
+            return
+        self.target = "" if name == self.target else name
+        self.index = 0
+        self.answer = f"done: add, prepend and insert now put nodes into {self.target or DEFAULT_PARENT}"
 
     def answered(self, success: bool, message: str) -> None:
         """The service answered (or failed): show it and start over."""

@@ -28,16 +28,17 @@ from PyQt5.QtWidgets import (
     QWidget,
 )
 
+from teleteach.bt.editor import EditRequest
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import ClickClassifier, DeviceSample, scale_to_index
 from teleteach.gui.ellipsoid import MODES, EllipsoidCommand
 from teleteach.gui.gl_view import ANGLE_NAMES, AXIS_NAMES, EllipsoidView
 from teleteach.gui.selection import (
+    COMPOSITE_TYPES,
     DEFAULT_PARENT,
     PAGES,
     REPAIR_CHOICE,
     STATUS_NAMES,
-    ChangeRequest,
     LibrarySkill,
     SelectionFlow,
     Step,
@@ -177,7 +178,7 @@ class TreeView(QTreeWidget):
 class HighLevelTab(QWidget):
     """Buttons for the tree's nodes and the library's skills, and the three steps (thesis II-B, Fig. 5)."""
 
-    request_ready = pyqtSignal(object)  # ChangeRequest
+    request_ready = pyqtSignal(object)  # EditRequest
 
     def __init__(self, config: GuiConfig):
         super().__init__()
@@ -334,7 +335,15 @@ class HighLevelTab(QWidget):
                 self.buttons.append(button)
                 names.append(name)
             self.button_area.addWidget(box)
-        self.flow.set_choices(names, self.tree.child_count(DEFAULT_PARENT) + 1 if self.tree else 1)
+        sizes = {}
+        if self.tree is not None:
+            root = self.tree.root
+            sizes = {
+                node.name: len(node.child_ids)
+                for node in self.tree.nodes
+                if node.type in COMPOSITE_TYPES and node is not root and node.name != DEFAULT_PARENT
+            }
+        self.flow.set_choices(names, self.tree.child_count(DEFAULT_PARENT) + 1 if self.tree else 1, sizes)
         self.node_slider.setRange(0, max(0, len(names) - 1))
         self.dial.setRange(0, self.flow.insert_slots - 1)
         self.refresh()
@@ -350,7 +359,7 @@ class HighLevelTab(QWidget):
         """Confirm the current step; the last one sends the request."""
         if not self.active:
             return
-        request: Optional[ChangeRequest] = self.flow.click()
+        request: Optional[EditRequest] = self.flow.click()
         if request is not None:
             what = " ".join(part for part in (request.operation, request.node_type, request.node_name) if part)
             self.answer_label.setText(f"sending: {what} ...")
@@ -405,7 +414,7 @@ class HighLevelTab(QWidget):
         else:
             self.dial.setRange(0, self.flow.insert_slots - 1)
             self.dial.setValue(flow.index)
-            self.index_label.setText(f"insert at index {flow.index} of {DEFAULT_PARENT}")
+            self.index_label.setText(f"insert at index {flow.index} of {flow.target or DEFAULT_PARENT}")
         node = flow.selected_node or "-"
         step_text = {
             Step.NODE: f"selected: {node}",
@@ -414,6 +423,8 @@ class HighLevelTab(QWidget):
             Step.PARAMETER: f"{node}: {flow.selected_operation} {flow.parameter:g}",
             Step.WAITING: "waiting for /change_tree...",
         }[flow.step]
+        if flow.target and flow.step in (Step.NODE, Step.OPERATION):
+            step_text += f"  (adding into {flow.target})"
         if flow.edit_gesture and flow.step is not Step.WAITING:
             step_text = (
                 f"click to {flow.edit_gesture} the last edit (handle {'down' if flow.edit_gesture == 'undo' else 'up'})"
