@@ -25,8 +25,8 @@ class ThesisSequence(unittest.TestCase):
         view.wait_for(lambda: view.help is not None, 5, "the latched help_request")
         self.assertEqual(view.help.node_name, "")
         view.wait_for(lambda: view.library is not None, 5, "the latched skill library")
-        self.assertEqual(list(view.library.names), THESIS_SEQUENCE)
-        self.assertEqual(set(view.library.kinds), {"predefined"})
+        self.assertEqual(list(view.library.names), [*THESIS_SEQUENCE, "ProductInHand", "ProductInGap"])
+        self.assertEqual(list(view.library.kinds), ["predefined"] * len(THESIS_SEQUENCE) + ["condition"] * 2)
         # Expect the py_trees renderings (made once somebody subscribes) and the tip
         ascii_tree = rospy.wait_for_message("/behaviour_tree/ascii/tree", String, timeout=10).data
         self.assertEqual(ascii_tree.splitlines()[0].split()[-1], "Root")

@@ -56,7 +56,7 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
     Args:
         name: unique name of the leaf in the tree
         skill: the skill it runs (the library name, e.g. "PlaceItem" for the leaf "PlaceItem_2")
-        kind: "predefined" or the kind of a demonstrated skill (stiffness, shared_control, dmp)
+        kind: "predefined", "condition" or the kind of a demonstrated skill (stiffness, shared_control, dmp)
         data_file: the recorded skill file of a demonstrated skill, empty for predefined ones
     """
 

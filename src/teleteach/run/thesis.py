@@ -20,7 +20,7 @@ import numpy as np
 import yaml
 from py_trees.common import Status
 
-from teleteach.bt.library import SkillLibrary
+from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.tree import TreeSpec, load_tree
 from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.gui.session import Tab
@@ -165,7 +165,8 @@ class Monitor:
             library = self.library
         if library is None:
             return []
-        return [(n, f) for n, k, f in zip(library.names, library.kinds, library.data_files) if k != "predefined"]
+        entries = zip(library.names, library.kinds, library.data_files)
+        return [(name, data_file) for name, kind, data_file in entries if SkillEntry(name, kind).demonstrated]
 
     def close(self) -> None:
         """Unsubscribe."""
