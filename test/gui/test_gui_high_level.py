@@ -1,5 +1,7 @@
 """HIGH-LEVEL teaching with the real GUI and the real behaviour tree node (thesis III-B, III-E), checked over ROS."""
 
+import time
+
 import pytest
 from conftest import pump_until, start_bt, stop
 
@@ -289,3 +291,48 @@ def test_a_skill_whose_file_is_gone_is_greyed_and_refused(
     pump_until(qapp, lambda: high.flow.answer.startswith("refused"), 10, "the refusal on screen")
     assert missing in high.flow.answer
     assert "Gone" not in [name for _, names in high.choices()[0] for name in names]
+
+
+def test_the_guidance_follows_the_steps(qapp, bt_node, device, make_window, topic_log):
+    from teleteach.msg import HapticGuidance
+
+    guidance_log = topic_log("/sigma7/guidance", HapticGuidance)
+    window = make_window()
+    flow = window.high_level.flow
+    pump_until(qapp, lambda: "PickItem" in flow.choices, 20, "buttons from the tree")
+    # START: detents at the left and right choices along X
+    pump_until(qapp, lambda: guidance_log.last() is not None, 5, "the first guidance")
+    assert list(guidance_log.last().detents_x) == pytest.approx([-0.05, 0.05])
+    open_high_level(qapp, window, device)
+    count = len(flow.choices)
+    pump_until(qapp, lambda: len(guidance_log.last().detents_x) == count, 5, "a detent per button")
+    start = guidance_log.last()
+    # Step 1: a well at each button's centre along X, Y and Z held at 0
+    assert list(start.modes) == ["detents", "hold", "hold", "free", "free", "free"]
+    assert list(start.detents_x) == pytest.approx([centre(index, count) for index in range(count)])
+    assert start.detent_widths[0] == pytest.approx(0.2 / count)
+    select_node(qapp, window, device, flow.choices.index("PickItem"))
+    pump_until(qapp, lambda: list(guidance_log.last().modes[:2]) == ["hold", "detents"], 5, "step 2's guidance")
+    step2 = guidance_log.last()
+    # Step 2: X held where PickItem was confirmed, a well at each operation along Y
+    assert step2.centres[0] == pytest.approx(centre(flow.choices.index("PickItem"), count))
+    assert list(step2.detents_y) == pytest.approx([centre(index, 4) for index in range(4)])
+    # and refreshed while nothing changes (the device drops guidance that is not)
+    stamp = step2.header.stamp
+    pump_until(qapp, lambda: guidance_log.last().header.stamp > stamp, 2, "a refresh of the same guidance")
+
+
+def test_guidance_switched_off_renders_nothing(qapp, bt_node, device, make_window, topic_log):
+    from teleteach.msg import HapticGuidance
+
+    guidance_log = topic_log("/sigma7/guidance", HapticGuidance)
+    window = make_window(guidance=False)
+    pump_until(qapp, lambda: "PickItem" in window.high_level.flow.choices, 20, "buttons from the tree")
+    open_high_level(qapp, window, device)
+    # Expect (in HIGH-LEVEL, where guidance would hold and detent) a free guidance from this window
+    pump_until(
+        qapp, lambda: window.high_level.flow.step is Step.NODE and window.tabs.currentIndex() == 1, 5, "HIGH-LEVEL"
+    )
+    since = time.monotonic()
+    pump_until(qapp, lambda: guidance_log.since(since), 2, "a guidance from this window")
+    assert all(list(message.modes) == ["free"] * 6 for message in guidance_log.since(since))

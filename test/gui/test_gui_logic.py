@@ -19,6 +19,7 @@ from teleteach.gui.device import (
     scale_to_index,
 )
 from teleteach.gui.ellipsoid import EllipsoidCommand
+from teleteach.gui.guidance import GuidanceDesigner, HeldPose
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, TrajectoryError, unique_skill_name
 from teleteach.gui.selection import (
     MORE_OPERATIONS,
@@ -384,3 +385,36 @@ def test_recorder_without_samples_cannot_become_a_skill():
 def test_unique_skill_name_skips_library_and_files(tmp_path):
     (tmp_path / "Demo_2.npz").write_bytes(b"")
     assert unique_skill_name("Demo", ["Demo_1"], tmp_path) == "Demo_3"
+
+
+def test_low_level_guidance_holds_every_axis_but_the_mode_s_where_the_mode_began():
+    designer = GuidanceDesigner(CONFIG)
+    held = HeldPose()
+    first = sample(0.01, 0.02, 0.03, 0.1, 0.2, 0.3)
+    pose = held.at(("LOW", "Y"), first)
+    assert held.at(("LOW", "Y"), sample(0.05, 0.05, 0.05, 0.5, 0.5, 0.5)) == pose  # latched while the mode lasts
+    guidance = designer.low_level("Y", pose)
+    assert [axis.mode for axis in guidance.axes] == ["hold", "free", "hold", "hold", "free", "hold"]
+    assert [axis.centre for axis in guidance.axes] == [0.01, 0.0, 0.03, 0.1, 0.0, 0.3]
+    assert guidance.axes[3].stiffness == CONFIG.guidance_angle_hold_stiffness
+    assert all(axis.mode == "free" for axis in designer.low_level("ALL", pose).axes)
+    assert held.at(("LOW", "Z"), sample(0.05, 0.0, 0.0, 0.0, 0.0, 0.0))[0] == 0.05  # a new mode latches anew
+
+
+def test_the_dial_step_puts_a_detent_at_each_index_in_roll():
+    designer = GuidanceDesigner(CONFIG)
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices(["A", "B", "Skill_1"], 4)
+    flow.device(sample(x=x_for(2, 3)))
+    flow.click()
+    flow.device(sample(y=x_for(OPERATIONS.index("insert"), 4)))
+    flow.click()
+    guidance = designer.high_level(flow)
+    x, y, z, roll = guidance.axes[:4]
+    assert (x.mode, x.centre) == ("hold", pytest.approx(x_for(2, 3)))
+    assert (y.mode, y.centre) == ("hold", pytest.approx(x_for(OPERATIONS.index("insert"), 4)))
+    assert z.mode == "hold" and roll.mode == "detents"
+    assert roll.detents == pytest.approx([x_for(index, 4, half_range=1.0) for index in range(4)])
+    assert roll.stiffness == CONFIG.guidance_angle_detent_stiffness and roll.width == pytest.approx(0.5)
+    off = GuidanceDesigner(GuiConfig.load(guidance=False))
+    assert all(axis.mode == "free" for axis in off.high_level(flow).axes)

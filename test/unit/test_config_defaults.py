@@ -11,6 +11,7 @@ from conftest import ROOT
 from teleteach.control.impedance import ImpedanceParams
 from teleteach.gui.config import GuiConfig
 from teleteach.haptics.click import ClickParameters
+from teleteach.haptics.guidance import GuidanceLimits
 from teleteach.haptics.ros import Sigma7Config
 from teleteach.node import node_parameters
 from teleteach.shared_control.loop import SharedControlConfig
@@ -43,9 +44,10 @@ def comparable(value):
         (GuiConfig, config("gui.yaml")),
         (Sigma7Config, config("device.yaml")),
         (ClickParameters, config("device.yaml", "click")),
+        (GuidanceLimits, config("device.yaml", "guidance")),
         (SharedControlConfig, config("shared_control.yaml")),
     ],
-    ids=["impedance", "gui", "sigma7", "click", "shared_control"],
+    ids=["impedance", "gui", "sigma7", "click", "guidance", "shared_control"],
 )
 def test_no_code_default_disagrees_with_its_yaml(parameters, yaml_values):
     disagreeing = {}

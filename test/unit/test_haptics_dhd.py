@@ -1,6 +1,8 @@
 """The dhd backend: refusals (no Force Dimension SDK on this machine, a library that is not libdhd, no device), and
-its ctypes bindings run against test/data/fake_dhd.c, a C stand-in with the SDK's function signatures."""
+its ctypes bindings run against test/data/fake_dhd.c, a C stand-in with the SDK's function signatures that records
+the forces it receives."""
 
+import ctypes
 import ctypes.util
 import pathlib
 import subprocess
@@ -11,6 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from teleteach.haptics.device import DeviceReadError, DeviceUnavailableError
 from teleteach.haptics.dhd import DhdBackend, load_dhd_library
+from teleteach.haptics.guidance import AxisGuidance, Guidance, GuidanceLimits, GuidanceRenderer, Wrench
 
 
 def test_missing_sdk_is_one_clear_line_naming_the_library():
@@ -79,4 +82,41 @@ def test_read_failure_carries_the_sdk_error(fake_dhd, monkeypatch):
         backend.read(0.0)
     monkeypatch.setenv("FAKE_DHD_FAIL_READS", "0")
     np.testing.assert_allclose(backend.read(0.0).position, [0.01, 0.02, 0.03])
+    backend.close()
+
+
+def received(library_path):
+    """What the stand-in library received: the 7 force values, whether forces are on, and how many commands came."""
+    library = ctypes.CDLL(str(library_path))  # the same loaded library as the backend's: its state is shared
+    values, enabled = (ctypes.c_double * 7)(), ctypes.c_int()
+    count = library.fakeDhdReceived(values, ctypes.byref(enabled))
+    return list(values), bool(enabled.value), count
+
+
+def test_guidance_forces_reach_the_sdk_bounded_and_end_at_zero(fake_dhd, monkeypatch):
+    monkeypatch.setenv("FAKE_DHD_DEVICES", "1")
+    backend = DhdBackend(fake_dhd)
+    assert received(fake_dhd)[1] is True  # dhdEnableForce(DHD_ON) when opened
+    renderer = GuidanceRenderer(GuidanceLimits())
+    hold = AxisGuidance("hold", centre=0.0, stiffness=1e4)
+    renderer.set(Guidance(axes=(hold, hold, hold, AxisGuidance(), AxisGuidance(), AxisGuidance()), max_force=50.0), 0.0)
+    sample = backend.read(0.0)  # the stand-in sits at (0.01, 0.02, 0.03) m: the springs ask for far more than 4 N
+    wrench = renderer.wrench(0.3, sample.position, sample.orientation, np.zeros(3), np.zeros(3), sample.gripper)
+    backend.render(wrench)
+    values, _, count = received(fake_dhd)
+    # Expect the node's 4 N cap along the direction back to the centre, as the SDK received it
+    np.testing.assert_allclose(values[:3], -4.0 * np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0))
+    assert values[3:] == [0.0, 0.0, 0.0, 0.0] and count >= 1
+    backend.close()
+    values, enabled, _ = received(fake_dhd)
+    assert values == [0.0] * 7 and enabled is False  # closing leaves no force and disables forces
+
+
+def test_a_force_the_device_refuses_is_a_read_error(fake_dhd, monkeypatch):
+    monkeypatch.setenv("FAKE_DHD_DEVICES", "1")
+    backend = DhdBackend(fake_dhd)
+    monkeypatch.setenv("FAKE_DHD_FAIL_READS", "1")
+    with pytest.raises(DeviceReadError, match="^dhdSetForceAndTorqueAndGripperForce: communication error"):
+        backend.render(Wrench.zero())
+    monkeypatch.setenv("FAKE_DHD_FAIL_READS", "0")
     backend.close()

@@ -1,10 +1,12 @@
-"""The device loop without ROS: publishing, read errors (no stale data, throttled logs, recovery), rate keeping."""
+"""The device loop without ROS: publishing, read errors (no stale data, throttled logs, recovery), rate keeping, and
+the guidance's wrench rendered every cycle (zero once the device is lost)."""
 
 import numpy as np
 import pytest
 
 from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.device import DeviceBackend, DeviceReadError, DeviceSample
+from teleteach.haptics.guidance import AxisGuidance, Guidance, GuidanceLimits, GuidanceRenderer
 from teleteach.haptics.loop import DeviceLoop, ThrottledLog, WallRate
 from teleteach.haptics.scenario import ScenarioBackend, parse_scenario
 from teleteach.haptics.twist import TwistEstimator
@@ -188,3 +190,48 @@ def test_throttled_log_counts_what_it_suppressed():
 def test_bad_rate_is_refused():
     with pytest.raises(ValueError):
         WallRate(0.0)
+
+
+class ForceRecordingDevice(FlakyDevice):
+    """A flaky device that also keeps every wrench the loop asks it to render."""
+
+    def __init__(self):
+        super().__init__()
+        self.rendered = []
+
+    def render(self, wrench):
+        self.rendered.append(wrench)
+
+
+def test_the_loop_renders_guidance_and_zero_once_the_device_is_lost():
+    clock = Clock(0.0)
+    device = ForceRecordingDevice()
+    renderer = GuidanceRenderer(GuidanceLimits())
+    published_wrenches = []
+    loop = DeviceLoop(
+        device,
+        lambda state: None,
+        clock,
+        ClickDetector(ClickParameters()),
+        TwistEstimator(20.0),
+        lambda message: None,
+        wall_clock=clock,
+        guidance=renderer,
+        publish_wrench=published_wrenches.append,
+    )
+    hold_x = AxisGuidance("hold", centre=0.0, stiffness=100.0)
+    renderer.set(Guidance(axes=(hold_x, *[AxisGuidance()] * 5), max_force=4.0, max_torque=0.1), now=0.0)
+    device.x = 0.01
+    for step in range(400):
+        clock.now = step * 0.001
+        loop.step()
+    # Expect the spring's 1 N back toward x = 0 once the 0.2 s ramp is over, every cycle rendered and reported
+    assert device.rendered[-1].force[0] == pytest.approx(-1.0) and len(published_wrenches) == 400
+    assert device.rendered[100].force[0] == pytest.approx(-0.5, abs=0.01)
+    device.failing = True
+    loop.step()
+    # Expect a lost device to be sent zero and the guidance dropped: nothing comes back with the device
+    assert np.all(device.rendered[-1].force == 0.0) and renderer.guidance is None
+    device.failing = False
+    loop.step()
+    assert np.all(device.rendered[-1].force == 0.0)

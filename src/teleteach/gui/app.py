@@ -5,6 +5,7 @@ controller manager off the GUI thread (failures go to the status bar), pauses th
 runs, plays the kinematic trajectory while recording and turns a recording into a new skill.
 """
 
+import math
 import sys
 import time
 from typing import List, Optional, Sequence
@@ -21,12 +22,15 @@ from teleteach.bt.editor import EditRequest
 from teleteach.datadir import data_dir
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.ellipsoid import EllipsoidCommand
+from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_name
 from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, Tab, TeachingSession
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
+from teleteach.haptics.guidance import Guidance
+from teleteach.msg import HapticGuidance
 from teleteach.node import init_node
 from teleteach.srv import (
     AddSkill,
@@ -61,6 +65,12 @@ class MainWindow(QMainWindow):
         self._recording_publisher = rospy.Publisher("/teleteach/recording", Bool, queue_size=1, latch=True)
         self._recording_publisher.publish(Bool(False))
         self._shared_control_publisher = rospy.Publisher("/shared_control/enable", Bool, queue_size=1, latch=True)
+        self._guidance_publisher = rospy.Publisher("/sigma7/guidance", HapticGuidance, queue_size=1, latch=True)
+        self._guidance = GuidanceDesigner(config)
+        self._held_pose = HeldPose()
+        self._device_sample = None
+        self._sent_guidance: Optional[Guidance] = None
+        self._guidance_sent_at = -math.inf
         self._shared_control_publisher.publish(Bool(False))
         equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
@@ -147,6 +157,9 @@ class MainWindow(QMainWindow):
         self.thread.start()
         self.tabs.setCurrentIndex(config.initial_tab)
         self._on_tab_changed(config.initial_tab)
+        self._guidance_timer = QTimer(self)  # 20 Hz: a new step or mode is felt at once, the same one is refreshed
+        self._guidance_timer.timeout.connect(self._send_guidance)
+        self._guidance_timer.start(50)
 
     def add_tab(self, tab: QWidget, title: str) -> int:
         """Append a tab; returns its index.
@@ -163,6 +176,7 @@ class MainWindow(QMainWindow):
         return self._tab_widgets[self._tab] if 0 <= self._tab < len(self._tab_widgets) else None
 
     def _on_device(self, sample) -> None:
+        self._device_sample = sample
         tab = self._active_tab_widget()
         if tab is not None and hasattr(tab, "on_device"):
             tab.on_device(sample)
@@ -197,6 +211,29 @@ class MainWindow(QMainWindow):
         self.health_label.setText(problems)
         self.health_label.setStyleSheet("color: #d22828;" if problems else "")
         self.low_level.show_device_lost(DEVICE_LOST in problems)
+
+    # haptic guidance ----------------------------------------------------------------------------------
+    def current_guidance(self) -> Guidance:
+        """What the device should render for the current tab, step and mode (teleteach.gui.guidance)."""
+        if self._tab == Tab.START:
+            return self._guidance.start()
+        if self._tab == Tab.HIGH_LEVEL:
+            return self._guidance.high_level(self.high_level.flow)
+        if self._tab == Tab.LOW_LEVEL:
+            mode = self.command.mode
+            return self._guidance.low_level(mode, self._held_pose.at((Tab.LOW_LEVEL, mode), self._device_sample))
+        return self._guidance.free()
+
+    def _send_guidance(self) -> None:
+        """Publish the guidance when it changed, and again every ``guidance_refresh`` (the device drops stale ones)."""
+        guidance = self.current_guidance()
+        now = time.monotonic()
+        if guidance == self._sent_guidance and now - self._guidance_sent_at < self.config.guidance_refresh:
+            return
+        message = HapticGuidance(**guidance_fields(guidance))
+        message.header.stamp = rospy.Time.now()
+        self._guidance_publisher.publish(message)
+        self._sent_guidance, self._guidance_sent_at = guidance, now
 
     # tabs -----------------------------------------------------------------------------------------
     def _on_tab_changed(self, index: int) -> None:
@@ -342,8 +379,10 @@ class MainWindow(QMainWindow):
         super().closeEvent(event)
 
     def shutdown(self) -> None:
-        """Idempotent: what closing the window does."""
+        """Idempotent: what closing the window does (the device is left without guidance: no force)."""
         if self.thread.isRunning():
+            self._guidance_timer.stop()
+            self._guidance_publisher.publish(HapticGuidance(**guidance_fields(self._guidance.free())))
             self._carry_out(self.session.shutdown())
             self.player.stop()
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)

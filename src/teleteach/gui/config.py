@@ -58,6 +58,16 @@ class GuiConfig:
     page_turn: float = 0.5
     retry_attempts: Tuple[int, ...] = (1, 2, 3, 4, 5)
     timeout_seconds: Tuple[float, ...] = (5.0, 10.0, 20.0, 30.0, 60.0, 120.0)
+    guidance: bool = True
+    guidance_detent_stiffness: float = 400.0
+    guidance_hold_stiffness: float = 100.0
+    guidance_angle_detent_stiffness: float = 2.0
+    guidance_angle_hold_stiffness: float = 0.5
+    guidance_damping: float = 2.0
+    guidance_angular_damping: float = 0.01
+    guidance_max_force: float = 3.0
+    guidance_max_torque: float = 0.08
+    guidance_refresh: float = 0.2
 
     def __post_init__(self):
         positive = (
@@ -80,12 +90,27 @@ class GuiConfig:
             "rotation_gain",
             "edit_push",
             "page_turn",
+            "guidance_max_force",
+            "guidance_max_torque",
+            "guidance_refresh",
         )
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise GuiConfigError(f"GUI parameter {name} must be a positive number, got {value!r}")
-        for name in ("deadband_position", "deadband_angle", "rotational_stiffness", "gripper_rearm_below"):
+        non_negative = (
+            "deadband_position",
+            "deadband_angle",
+            "rotational_stiffness",
+            "gripper_rearm_below",
+            "guidance_detent_stiffness",
+            "guidance_hold_stiffness",
+            "guidance_angle_detent_stiffness",
+            "guidance_angle_hold_stiffness",
+            "guidance_damping",
+            "guidance_angular_damping",
+        )
+        for name in non_negative:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise GuiConfigError(f"GUI parameter {name} must be a number >= 0, got {value!r}")

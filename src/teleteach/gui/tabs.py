@@ -205,6 +205,8 @@ class HighLevelTab(QWidget):
         self.button_scroll.setWidget(buttons)
         step1.addWidget(self.button_scroll)
         self.node_slider = QSlider(Qt.Horizontal)
+        self.node_slider.setTickPosition(QSlider.TicksBelow)  # one tick per button: where the device's detents are
+        self.node_slider.setTickInterval(1)
         self.node_slider.setEnabled(False)
         step1.addWidget(self.node_slider)
         self.selected_label = _big(QLabel("waiting for the behaviour tree..."), 13)

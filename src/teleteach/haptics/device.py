@@ -1,8 +1,9 @@
 """The one small interface every device backend implements, and the errors it may raise.
 
-A backend only reads the device: ``read(time)`` returns the current pose, orientation and gripper angle (a
-:class:`DeviceSample`) or raises :class:`DeviceReadError`. Click emulation, twist estimation, rate keeping and
-publishing live elsewhere (:mod:`teleteach.haptics.loop`), so every backend gets them the same way.
+A backend reads the device: ``read(time)`` returns the current pose, orientation and gripper angle (a
+:class:`DeviceSample`) or raises :class:`DeviceReadError`; a force-feedback device also renders the guidance's
+wrench (``render``). Click emulation, twist estimation, guidance, rate keeping and publishing live elsewhere
+(:mod:`teleteach.haptics.loop`), so every backend gets them the same way.
 """
 
 import abc
@@ -10,6 +11,8 @@ import dataclasses
 from typing import Optional
 
 import numpy as np
+
+from teleteach.haptics.guidance import Wrench
 
 
 class DeviceError(Exception):
@@ -53,6 +56,13 @@ class DeviceBackend(abc.ABC):
 
         Raises:
             DeviceReadError: this read failed (the next one may succeed).
+        """
+
+    def render(self, wrench: Wrench) -> None:  # noqa: B027 (optional hook: only force-feedback devices render)
+        """Renders a force on the operator's hand; backends without force feedback ignore it.
+
+        Raises:
+            DeviceReadError: the device did not take it (the next cycle tries again).
         """
 
     @property

@@ -1,7 +1,8 @@
 """The real Sigma.7 through the Force Dimension SDK (``libdhd``), loaded with ctypes (the ``dhd`` backend).
 
 Only the SDK's C API is used (``dhdc.h``): dhdOpen, dhdGetPositionAndOrientationFrame, dhdGetGripperAngleRad,
-dhdEmulateButton, dhdGetButton, dhdErrorGetLastStr, dhdClose. Every function takes the device ID last.
+dhdEmulateButton, dhdGetButton, dhdEnableForce, dhdSetForceAndTorqueAndGripperForce, dhdErrorGetLastStr, dhdClose.
+Every function takes the device ID last.
 """
 
 import ctypes
@@ -12,10 +13,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from teleteach.haptics.device import DeviceBackend, DeviceReadError, DeviceSample, DeviceUnavailableError
+from teleteach.haptics.guidance import Wrench
 
 # Names the SDK's library goes by: the development link and the sonames of SDK 3.x releases.
 DHD_LIBRARY_NAMES = ("libdhd.so", "libdhd.so.3")
 DHD_ON = 1
+DHD_OFF = 0
 
 
 def load_dhd_library(path: str = "", names: Sequence[str] = DHD_LIBRARY_NAMES) -> ctypes.CDLL:
@@ -55,6 +58,8 @@ def _declare_signatures(library: ctypes.CDLL) -> None:
         "dhdGetGripperAngleRad": ([double_pointer, device_id], ctypes.c_int),
         "dhdEmulateButton": ([ctypes.c_ubyte, device_id], ctypes.c_int),
         "dhdGetButton": ([ctypes.c_int, device_id], ctypes.c_int),
+        "dhdEnableForce": ([ctypes.c_ubyte, device_id], ctypes.c_int),
+        "dhdSetForceAndTorqueAndGripperForce": ([ctypes.c_double] * 7 + [device_id], ctypes.c_int),
         "dhdErrorGetLastStr": ([], ctypes.c_char_p),
     }
     for name, (arguments, result) in signatures.items():
@@ -90,6 +95,10 @@ class DhdBackend(DeviceBackend):
             error = self._last_error()
             self.close()
             raise DeviceUnavailableError(f"the device does not support button emulation: {error}")
+        if self._dhd.dhdEnableForce(DHD_ON, self._id) < 0:
+            error = self._last_error()
+            self.close()
+            raise DeviceUnavailableError(f"the device does not accept forces (dhdEnableForce): {error}")
         self._x, self._y, self._z = ctypes.c_double(), ctypes.c_double(), ctypes.c_double()
         self._frame = (ctypes.c_double * 9)()
         self._gripper = ctypes.c_double()
@@ -121,8 +130,17 @@ class DhdBackend(DeviceBackend):
             button=button,
         )
 
+    def render(self, wrench: Wrench) -> None:
+        """Sends force, torque and gripper force (dhdSetForceAndTorqueAndGripperForce)."""
+        force, torque = wrench.force, wrench.torque
+        values = (*map(float, force), *map(float, torque), float(wrench.gripper))
+        if self._dhd.dhdSetForceAndTorqueAndGripperForce(*values, self._id) < 0:
+            raise DeviceReadError(f"dhdSetForceAndTorqueAndGripperForce: {self._last_error()}")
+
     def close(self) -> None:
-        """Closes the connection to the device."""
+        """Leaves the device without force, then closes the connection to it."""
         if self._id >= 0:
+            self._dhd.dhdSetForceAndTorqueAndGripperForce(*([0.0] * 7), self._id)
+            self._dhd.dhdEnableForce(DHD_OFF, self._id)
             self._dhd.dhdClose(self._id)
             self._id = -1

@@ -1,4 +1,4 @@
-"""The device loop: read the backend, emulate the click, estimate the twist, publish; at a fixed wall-clock rate.
+"""The device loop: read, emulate the click, estimate the twist, publish, render the guidance; at a fixed rate.
 
 Nothing here needs ROS: the node passes the clock that stamps samples (ROS time), the publishing function and a
 logger, so the whole loop runs in unit tests.
@@ -12,6 +12,7 @@ import numpy as np
 
 from teleteach.haptics.click import ClickDetector
 from teleteach.haptics.device import DeviceBackend, DeviceReadError
+from teleteach.haptics.guidance import GuidanceRenderer, Wrench
 from teleteach.haptics.twist import TwistEstimator
 
 
@@ -114,6 +115,9 @@ class DeviceLoop:
         log_error: receives the (throttled) read-error reports.
         log_info: receives the recovery report.
         error_log_period: [s] of wall time between two error reports.
+        guidance: the guidance whose wrench the backend renders each cycle (None: no force ever); a failed read (the
+            device lost) drops it and renders zero, until the next guidance message.
+        publish_wrench: called with each rendered :class:`Wrench` (the node publishes a decimated share).
     """
 
     def __init__(
@@ -127,7 +131,11 @@ class DeviceLoop:
         log_info: Callable[[str], None] = lambda message: None,
         error_log_period: float = 1.0,
         wall_clock: Callable[[], float] = wall_time.monotonic,
+        guidance: Optional[GuidanceRenderer] = None,
+        publish_wrench: Callable[[Wrench], None] = lambda wrench: None,
     ) -> None:
+        self.guidance = guidance
+        self._publish_wrench = publish_wrench
         self.backend = backend
         self._publish = publish
         self._clock = clock
@@ -154,6 +162,9 @@ class DeviceLoop:
                 self._clicks.reset()
                 self._twist.reset()
             self._log_error(f"device read failed, not publishing until it recovers: {error}")
+            if self.guidance is not None:
+                self.guidance.drop()
+                self._render(Wrench.zero())
             return False
         if self._failing_since is not None:
             self._log_info(f"device reads recovered after {self.failed_reads - self._failing_since + 1} failures")
@@ -163,11 +174,24 @@ class DeviceLoop:
         self._publish(
             DeviceState(stamp, sample.position, sample.orientation, linear, angular, float(sample.gripper), button)
         )
+        if self.guidance is not None:
+            now = self._wall_clock()
+            self._render(
+                self.guidance.wrench(now, sample.position, sample.orientation, linear, angular, sample.gripper)
+            )
         self.published += 1
         self.last_published_at = self._wall_clock()
         if self.first_published_at is None:
             self.first_published_at = self.last_published_at
         return True
+
+    def _render(self, wrench: Wrench) -> None:
+        try:
+            self.backend.render(wrench)
+        except DeviceReadError as error:
+            self._log_error(f"device did not take the guidance force: {error}")
+            return
+        self._publish_wrench(wrench)
 
     @property
     def achieved_rate(self) -> float:

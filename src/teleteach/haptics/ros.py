@@ -5,6 +5,11 @@ ROS Publishers (relative names, ``/sigma7/...`` in the root namespace):
     sigma7/twist (geometry_msgs/TwistStamped): filtered velocity [m/s, rad/s], same frame.
     sigma7/gripper_angle (std_msgs/Float64): [rad], 0 = closed.
     sigma7/button (std_msgs/Bool): emulated click state; one rising edge per click.
+    sigma7/force (geometry_msgs/WrenchStamped): the guidance force [N] and torque [Nm] rendered (~force_rate).
+
+ROS Subscribers:
+    sigma7/guidance (teleteach/HapticGuidance): what to render; a bad message is refused with its reason (logged)
+        and renders nothing.
 """
 
 import dataclasses
@@ -15,15 +20,25 @@ import warnings
 from typing import Any, Callable
 
 import rospy
-from geometry_msgs.msg import PoseStamped, TwistStamped
+from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from std_msgs.msg import Bool, Float64
 
 from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.device import DeviceBackend, DeviceUnavailableError
 from teleteach.haptics.dhd import DhdBackend
+from teleteach.haptics.guidance import (
+    AXES,
+    AxisGuidance,
+    Guidance,
+    GuidanceError,
+    GuidanceLimits,
+    GuidanceRenderer,
+    Wrench,
+)
 from teleteach.haptics.loop import DeviceLoop, DeviceState, WallRate
 from teleteach.haptics.scenario import AT_END_CHOICES, ScenarioBackend, check_clicks, load_scenario
 from teleteach.haptics.twist import TwistEstimator
+from teleteach.msg import HapticGuidance
 
 BACKENDS = ("dhd", "scenario", "virtual")
 
@@ -43,6 +58,8 @@ class Sigma7Config:
     click_duration: float = 0.2
     dhd_library: str = ""
     dhd_native_button: bool = False
+    guidance: GuidanceLimits = dataclasses.field(default_factory=GuidanceLimits)
+    force_rate: float = 100.0
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
@@ -55,6 +72,8 @@ class Sigma7Config:
             raise ValueError(f"~rate must be a positive number of Hz, got {self.rate}")
         if not self.max_catch_up >= 0.0:
             raise ValueError(f"~max_catch_up must be a number of seconds >= 0, got {self.max_catch_up}")
+        if not 0.0 < self.force_rate <= self.rate:
+            raise ValueError(f"~force_rate must be in (0, ~rate], got {self.force_rate}")
 
     @classmethod
     def from_params(cls, get_param: Callable[[str, Any], Any]) -> "Sigma7Config":
@@ -82,6 +101,13 @@ class Sigma7Config:
             click_duration=float(param("~virtual/click_duration", "click_duration")),
             dhd_library=param("~dhd/library", "dhd_library"),
             dhd_native_button=bool(param("~dhd/native_button", "dhd_native_button")),
+            guidance=GuidanceLimits(
+                **{
+                    field.name: float(get_param(f"~guidance/{field.name}", getattr(GuidanceLimits(), field.name)))
+                    for field in dataclasses.fields(GuidanceLimits)
+                }
+            ),
+            force_rate=float(param("~force_rate", "force_rate")),
         )
 
 
@@ -120,6 +146,60 @@ class Sigma7Publisher:
         self._button.publish(Bool(state.button))
 
 
+def guidance_from_message(message: HapticGuidance) -> Guidance:
+    """The library's guidance of a message; raises GuidanceError naming what is wrong."""
+    detents = (
+        message.detents_x,
+        message.detents_y,
+        message.detents_z,
+        message.detents_roll,
+        message.detents_pitch,
+        message.detents_yaw,
+    )
+    axes = tuple(
+        AxisGuidance(
+            mode=message.modes[index],
+            centre=message.centres[index],
+            detents=tuple(detents[index]),
+            stiffness=message.stiffness[index],
+            width=message.detent_widths[index],
+            damping=message.damping[index],
+        )
+        for index in range(len(AXES))
+    )
+    return Guidance(
+        axes=axes,
+        gripper_detent=message.gripper_detent if message.gripper_click else None,
+        gripper_stiffness=message.gripper_stiffness,
+        gripper_width=message.gripper_width,
+        max_force=message.max_force,
+        max_torque=message.max_torque,
+    )
+
+
+class WrenchPublisher:
+    """Publishes every ``decimation``-th rendered wrench on sigma7/force (what the operator's hand was given)."""
+
+    def __init__(self, frame_id: str, decimation: int) -> None:
+        self._frame_id = frame_id
+        self._decimation = max(1, decimation)
+        self._count = 0
+        self._publisher = rospy.Publisher("sigma7/force", WrenchStamped, queue_size=10)
+
+    def __call__(self, wrench: Wrench) -> None:
+        """Publishes one wrench of ``decimation``."""
+        self._count += 1
+        if self._count % self._decimation:
+            return
+        message = WrenchStamped()
+        message.header.stamp = rospy.Time.now()
+        message.header.frame_id = self._frame_id
+        force, torque = message.wrench.force, message.wrench.torque
+        force.x, force.y, force.z = wrench.force
+        torque.x, torque.y, torque.z = wrench.torque
+        self._publisher.publish(message)
+
+
 class Sigma7Node:
     """Builds the backend named by the config and runs the device loop until shutdown.
 
@@ -133,6 +213,7 @@ class Sigma7Node:
         self._application = None
         self._window = None
         self.backend = self._make_backend()
+        self.guidance = GuidanceRenderer(config.guidance)
         self.loop = DeviceLoop(
             self.backend,
             Sigma7Publisher(config.frame_id),
@@ -141,7 +222,22 @@ class Sigma7Node:
             twist_estimator=TwistEstimator(config.twist_cutoff),
             log_error=rospy.logerr,
             log_info=rospy.loginfo,
+            guidance=self.guidance,
+            publish_wrench=WrenchPublisher(config.frame_id, round(config.rate / config.force_rate)),
         )
+        self._guidance_subscriber = rospy.Subscriber(
+            "sigma7/guidance", HapticGuidance, self._on_guidance, queue_size=10
+        )
+
+    def _on_guidance(self, message: HapticGuidance) -> None:
+        """Render the new guidance, or refuse it (and render nothing) saying why."""
+        try:
+            guidance = guidance_from_message(message)
+        except (GuidanceError, IndexError) as error:
+            self.guidance.drop()
+            rospy.logwarn(f"sigma7_node: guidance refused, rendering none: {error}")
+            return
+        self.guidance.set(guidance, wall_time.monotonic())
 
     def _make_backend(self) -> DeviceBackend:
         config = self.config

@@ -1,0 +1,236 @@
+"""Haptic guidance: the forces that keep the operator's hand where the GUI needs it (issue: haptic guidance).
+
+The thesis names the device's sensitivity as its main usability problem: selecting with X, the hand drifts in Y.
+The GUI says per device axis (x, y, z [m]; roll, pitch, yaw [rad]) what it wants: ``free``; ``hold`` (a spring
+toward a centre); or ``detents`` (a well around each position a slider or dial can stop at); plus damping, an
+optional detent on the gripper, and caps. :class:`GuidanceRenderer` turns that into a force and torque for the
+current device state, in the device loop (1 kHz), without ROS:
+
+- a hold axis pulls with ``-k (q - centre)``;
+- a detents axis pulls toward the nearest detent with ``-k w / (2 pi) sin(2 pi d / w)`` for ``|d| <= w / 2``
+  (``d`` the distance to it, ``w`` the well's width): stiffness ``k`` at the detent, zero at the well's edge, so
+  the hand clicks from one position into the next without a jump;
+- damping ``-b q_dot`` on every axis that has it;
+- force and torque saturated (their norms) at the guidance's caps and the node's own, the gripper force at its cap;
+- a new guidance blends in from the previous one over ``ramp_time``; stale guidance (no refresh for
+  ``stale_after``), a dropped one (bad message, device lost) and none give exactly zero.
+"""
+
+import dataclasses
+import math
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+
+from teleteach.rotations import quaternion_to_rpy
+
+AXES = ("x", "y", "z", "roll", "pitch", "yaw")
+MODES = ("free", "hold", "detents")
+
+
+class GuidanceError(ValueError):
+    """A guidance cannot be rendered; the message says which field and why."""
+
+
+@dataclasses.dataclass(frozen=True)
+class AxisGuidance:
+    """What one device axis does: ``mode`` free | hold | detents; units [m] or [rad] (stiffness [N/m] or [Nm/rad])."""
+
+    mode: str = "free"
+    centre: float = 0.0
+    detents: Tuple[float, ...] = ()
+    stiffness: float = 0.0
+    width: float = 0.0
+    damping: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Guidance:
+    """The guidance of all six axes and the gripper, with caps [N], [Nm] (see ``msg/HapticGuidance.msg``)."""
+
+    axes: Tuple[AxisGuidance, ...] = tuple(AxisGuidance() for _ in AXES)
+    gripper_detent: Optional[float] = None
+    gripper_stiffness: float = 0.0
+    gripper_width: float = 0.0
+    max_force: float = 0.0
+    max_torque: float = 0.0
+
+    def __post_init__(self):
+        if len(self.axes) != len(AXES):
+            raise GuidanceError(f"guidance needs {len(AXES)} axes ({', '.join(AXES)}), got {len(self.axes)}")
+        for name, axis in zip(AXES, self.axes):
+            _check_axis(name, axis)
+        numbers = {
+            "max_force": self.max_force,
+            "max_torque": self.max_torque,
+            "gripper_stiffness": self.gripper_stiffness,
+            "gripper_width": self.gripper_width,
+        }
+        for field, value in numbers.items():
+            _non_negative(field, value)
+        if self.gripper_detent is not None:
+            if not math.isfinite(self.gripper_detent):
+                raise GuidanceError(f"gripper_detent must be finite, got {self.gripper_detent}")
+            if not self.gripper_width > 0.0:
+                raise GuidanceError("a gripper detent needs gripper_width > 0")
+
+
+def _non_negative(field: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+        raise GuidanceError(f"{field} must be a finite number >= 0, got {value}")
+
+
+def _check_axis(name: str, axis: AxisGuidance) -> None:
+    if axis.mode not in MODES:
+        raise GuidanceError(f"axis {name}: unknown mode {axis.mode!r}; expected one of {', '.join(MODES)}")
+    for field in ("stiffness", "width", "damping"):
+        _non_negative(f"axis {name} {field}", getattr(axis, field))
+    if not math.isfinite(axis.centre):
+        raise GuidanceError(f"axis {name} centre must be finite, got {axis.centre}")
+    if not all(math.isfinite(position) for position in axis.detents):
+        raise GuidanceError(f"axis {name} detents must be finite, got {list(axis.detents)}")
+    if axis.mode == "detents" and not (axis.detents and axis.width > 0.0):
+        raise GuidanceError(f"axis {name}: detents need at least one position and a width > 0")
+
+
+@dataclasses.dataclass(frozen=True)
+class Wrench:
+    """What the device is told to render: force [N] and torque [Nm] in the device frame, gripper force [N]."""
+
+    force: np.ndarray
+    torque: np.ndarray
+    gripper: float = 0.0
+
+    @classmethod
+    def zero(cls) -> "Wrench":
+        """No force at all."""
+        return cls(np.zeros(3), np.zeros(3), 0.0)
+
+    def blend(self, other: "Wrench", weight: float) -> "Wrench":
+        """``(1 - weight) self + weight other``."""
+        return Wrench(
+            (1.0 - weight) * self.force + weight * other.force,
+            (1.0 - weight) * self.torque + weight * other.torque,
+            (1.0 - weight) * self.gripper + weight * other.gripper,
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class GuidanceLimits:
+    """The node's own bounds (``config/device.yaml`` ``guidance``), below the device's."""
+
+    max_force: float = 4.0  # [N]
+    max_torque: float = 0.1  # [Nm]
+    max_gripper_force: float = 1.0  # [N]
+    ramp_time: float = 0.2  # [s]
+    stale_after: float = 0.5  # [s]
+
+    def __post_init__(self):
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise GuidanceError(f"guidance {field.name} must be a positive number, got {value}")
+
+
+def axis_force(axis: AxisGuidance, position: float, velocity: float) -> float:
+    """The force (or torque) one axis renders at ``position`` moving at ``velocity``."""
+    force = -axis.damping * velocity
+    if axis.mode == "hold":
+        force -= axis.stiffness * (position - axis.centre)
+    elif axis.mode == "detents":
+        offset = position - min(axis.detents, key=lambda detent: abs(position - detent))
+        if abs(offset) <= axis.width / 2.0:
+            force -= axis.stiffness * axis.width / (2.0 * math.pi) * math.sin(2.0 * math.pi * offset / axis.width)
+    return force
+
+
+def _saturate(vector: np.ndarray, limit: float) -> np.ndarray:
+    norm = math.sqrt(float(vector @ vector))
+    return vector * (limit / norm) if norm > limit else vector
+
+
+def render(
+    guidance: Guidance,
+    limits: GuidanceLimits,
+    position: Sequence[float],
+    orientation: Sequence[float],
+    linear_velocity: Sequence[float],
+    angular_velocity: Sequence[float],
+    gripper: float,
+) -> Wrench:
+    """The capped wrench of ``guidance`` at a device state (position [m], quaternion xyzw, velocities, gripper [rad]).
+
+    Angles are the GUI's roll, pitch, yaw (R = Rz Ry Rx); the torque of each angle's axis is applied about the device
+    axis of the same name, which is what they are for the small turns a dial or a held wrist makes.
+    """
+    turned = any(axis.mode != "free" for axis in guidance.axes[3:])  # the angles cost a conversion: only if used
+    angles = quaternion_to_rpy(orientation) if turned else (0.0, 0.0, 0.0)
+    coordinates = (*position, *angles)
+    velocities = (*linear_velocity, *angular_velocity)
+    values = [axis_force(axis, q, v) for axis, q, v in zip(guidance.axes, coordinates, velocities)]
+    if not all(math.isfinite(value) for value in values):
+        return Wrench.zero()
+    force = _saturate(np.array(values[:3]), min(guidance.max_force, limits.max_force))
+    torque = _saturate(np.array(values[3:]), min(guidance.max_torque, limits.max_torque))
+    gripper_force = 0.0
+    if guidance.gripper_detent is not None:
+        detent = AxisGuidance("detents", detents=(guidance.gripper_detent,), stiffness=guidance.gripper_stiffness)
+        detent = dataclasses.replace(detent, width=guidance.gripper_width)
+        cap = min(guidance.max_force, limits.max_gripper_force)
+        gripper_force = float(np.clip(axis_force(detent, gripper, 0.0), -cap, cap))
+    return Wrench(force, torque, gripper_force)
+
+
+class GuidanceRenderer:
+    """The guidance in force now: set by messages, blended in on change, dropped when stale or bad.
+
+    Times are wall-clock seconds (the device loop's clock), so a stopped simulation clock cannot keep a force on.
+    """
+
+    def __init__(self, limits: GuidanceLimits) -> None:
+        self.limits = limits
+        self._guidance: Optional[Guidance] = None
+        self._previous: Optional[Guidance] = None
+        self._since = -math.inf  # when the current guidance was set (its ramp started)
+        self._refreshed = -math.inf  # when it was last received
+
+    @property
+    def guidance(self) -> Optional[Guidance]:
+        """The guidance being rendered (None: none)."""
+        return self._guidance
+
+    def set(self, guidance: Guidance, now: float) -> None:
+        """A (valid) guidance arrived: a refresh of the current one, or a new one that blends in."""
+        self._refreshed = now
+        if guidance == self._guidance:
+            return
+        self._previous = self._guidance if self._active(now) else None
+        self._guidance, self._since = guidance, now
+
+    def drop(self) -> None:
+        """Render nothing until the next valid guidance (a bad message, the device lost, shutdown)."""
+        self._guidance = self._previous = None
+
+    def _active(self, now: float) -> bool:
+        return self._guidance is not None and now - self._refreshed <= self.limits.stale_after
+
+    def wrench(
+        self,
+        now: float,
+        position: Sequence[float],
+        orientation: Sequence[float],
+        linear_velocity: Sequence[float],
+        angular_velocity: Sequence[float],
+        gripper: float,
+    ) -> Wrench:
+        """The wrench to render at this device state: zero without fresh guidance."""
+        if not self._active(now):
+            return Wrench.zero()
+        state = (position, orientation, linear_velocity, angular_velocity, gripper)
+        target = render(self._guidance, self.limits, *state)
+        weight = min(1.0, (now - self._since) / self.limits.ramp_time)
+        if weight >= 1.0:
+            self._previous = None
+            return target
+        start = Wrench.zero() if self._previous is None else render(self._previous, self.limits, *state)
+        return start.blend(target, weight)
