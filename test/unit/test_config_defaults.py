@@ -12,6 +12,7 @@ from teleteach.control.impedance import ImpedanceParams
 from teleteach.gui.config import GuiConfig
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.guidance import GuidanceLimits
+from teleteach.haptics.hand import HandParameters
 from teleteach.haptics.ros import Sigma7Config
 from teleteach.node import node_parameters
 from teleteach.shared_control.loop import SharedControlConfig
@@ -45,9 +46,10 @@ def comparable(value):
         (Sigma7Config, config("device.yaml")),
         (ClickParameters, config("device.yaml", "click")),
         (GuidanceLimits, config("device.yaml", "guidance")),
+        (HandParameters, config("device.yaml", "hand")),
         (SharedControlConfig, config("shared_control.yaml")),
     ],
-    ids=["impedance", "gui", "sigma7", "click", "guidance", "shared_control"],
+    ids=["impedance", "gui", "sigma7", "click", "guidance", "hand", "shared_control"],
 )
 def test_no_code_default_disagrees_with_its_yaml(parameters, yaml_values):
     disagreeing = {}

@@ -35,6 +35,9 @@ def test_config_reads_every_param():
     assert (config.click.close_threshold, config.click.release_threshold) == (0.05, 0.15)
     assert config.dhd_native_button is True
     assert Sigma7Config.from_params(params(scenario="x.yaml")).rate == 1000.0
+    assert Sigma7Config.from_params(params(scenario="x.yaml")).hand_model is None
+    hand = Sigma7Config.from_params(params(scenario="x.yaml", hand_enabled=True, hand_tremor_rms=0.002, hand_seed=7))
+    assert (hand.hand_model.tremor_rms, hand.hand_model.seed, hand.hand_model.mass) == (0.002, 7, 0.3)
 
 
 @pytest.mark.parametrize(
@@ -45,6 +48,9 @@ def test_config_reads_every_param():
         ({"scenario": "x.yaml", "rate": 0}, "~rate must be a positive number"),
         ({"scenario": "x.yaml", "at_end": "loop"}, "~at_end must be one of hold, exit"),
         ({"scenario": "x.yaml", "click_close_threshold": 0.3}, "close_threshold < release_threshold"),
+        ({"backend": "dhd", "hand_enabled": True}, "~hand/enabled models a hand for the scenario and virtual"),
+        ({"scenario": "x.yaml", "hand_enabled": True, "hand_mass": -1.0}, "hand mass must be a positive number"),
+        ({"scenario": "x.yaml", "force_rate": 2000.0}, r"~force_rate must be in \(0, ~rate\]"),
     ],
 )
 def test_config_refuses_bad_params(values, expected):

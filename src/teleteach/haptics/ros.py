@@ -17,7 +17,7 @@ import os
 import threading
 import time as wall_time
 import warnings
-from typing import Any, Callable
+from typing import Any, Callable, Optional
 
 import rospy
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
@@ -35,6 +35,7 @@ from teleteach.haptics.guidance import (
     GuidanceRenderer,
     Wrench,
 )
+from teleteach.haptics.hand import HandModelBackend, HandParameters
 from teleteach.haptics.loop import DeviceLoop, DeviceState, WallRate
 from teleteach.haptics.scenario import AT_END_CHOICES, ScenarioBackend, check_clicks, load_scenario
 from teleteach.haptics.twist import TwistEstimator
@@ -60,6 +61,7 @@ class Sigma7Config:
     dhd_native_button: bool = False
     guidance: GuidanceLimits = dataclasses.field(default_factory=GuidanceLimits)
     force_rate: float = 100.0
+    hand_model: Optional[HandParameters] = None  # None: no hand model (the backend's pose is the device's)
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
@@ -72,6 +74,8 @@ class Sigma7Config:
             raise ValueError(f"~rate must be a positive number of Hz, got {self.rate}")
         if not self.max_catch_up >= 0.0:
             raise ValueError(f"~max_catch_up must be a number of seconds >= 0, got {self.max_catch_up}")
+        if self.hand_model is not None and self.backend == "dhd":
+            raise ValueError("~hand/enabled models a hand for the scenario and virtual backends; a real device has one")
         if not 0.0 < self.force_rate <= self.rate:
             raise ValueError(f"~force_rate must be in (0, ~rate], got {self.force_rate}")
 
@@ -108,6 +112,7 @@ class Sigma7Config:
                 }
             ),
             force_rate=float(param("~force_rate", "force_rate")),
+            hand_model=_hand_parameters(get_param),
         )
 
 
@@ -144,6 +149,21 @@ class Sigma7Publisher:
         self._twist.publish(twist)
         self._gripper.publish(Float64(state.gripper))
         self._button.publish(Bool(state.button))
+
+
+def _hand_parameters(get_param: Callable[[str, Any], Any]) -> Optional[HandParameters]:
+    """The hand model's parameters (``~hand/...``), or None when ``~hand/enabled`` is false."""
+    if not get_param("~hand/enabled", False):
+        return None
+    defaults = HandParameters()
+    return HandParameters(
+        **{
+            field.name: type(getattr(defaults, field.name))(
+                get_param(f"~hand/{field.name}", getattr(defaults, field.name))
+            )
+            for field in dataclasses.fields(HandParameters)
+        }
+    )
 
 
 def guidance_from_message(message: HapticGuidance) -> Guidance:
@@ -240,6 +260,13 @@ class Sigma7Node:
         self.guidance.set(guidance, wall_time.monotonic())
 
     def _make_backend(self) -> DeviceBackend:
+        backend = self._make_input()
+        if self.config.hand_model is None:
+            return backend
+        rospy.loginfo(f"sigma7_node: a modelled hand holds the device ({self.config.hand_model})")
+        return HandModelBackend(backend, self.config.hand_model)
+
+    def _make_input(self) -> DeviceBackend:
         config = self.config
         if config.backend == "dhd":
             return DhdBackend(config.dhd_library, config.dhd_native_button)
