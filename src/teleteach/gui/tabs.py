@@ -201,6 +201,7 @@ class HighLevelTab(QWidget):
         self.button_area.setContentsMargins(0, 0, 0, 0)
         self.button_scroll = QScrollArea()  # a long banner or a big tree: scroll, never squeeze the buttons
         self.button_scroll.setWidgetResizable(True)
+        self.button_scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)  # the groups wrap at six buttons
         self.button_scroll.setFrameShape(QFrame.NoFrame)
         self.button_scroll.setWidget(buttons)
         step1.addWidget(self.button_scroll)
@@ -312,6 +313,8 @@ class HighLevelTab(QWidget):
         self._layout_signature = signature
         while self.button_area.count():
             old = self.button_area.takeAt(0).widget()
+            if old is None:
+                continue  # the stretch below the groups
             old.hide()  # gone from the screen now, not when the event loop gets round to deleting it
             old.deleteLater()
         self.buttons = []
@@ -337,6 +340,7 @@ class HighLevelTab(QWidget):
                 self.buttons.append(button)
                 names.append(name)
             self.button_area.addWidget(box)
+        self.button_area.addStretch(1)  # the groups keep their height; the room left stays below them
         sizes = {}
         if self.tree is not None:
             root = self.tree.root
