@@ -11,7 +11,9 @@ pytestmark = pytest.mark.gui
 SCENARIO = ROOT / "test" / "data" / "guided_selection.yaml"
 
 
-def test_a_trembling_hand_settles_on_the_button_s_detent_and_confirms_it(qapp, bt_node, make_window, topic_log):
+def test_a_trembling_hand_settles_on_the_button_s_detent_and_confirms_it(
+    qapp, bt_node, make_window, topic_log, data_root
+):
     from geometry_msgs.msg import PoseStamped, WrenchStamped
 
     window = make_window()
@@ -21,7 +23,7 @@ def test_a_trembling_hand_settles_on_the_button_s_detent_and_confirms_it(qapp, b
     poses = topic_log("/sigma7/pose", PoseStamped)
     forces = topic_log("/sigma7/force", WrenchStamped)
     arguments = ["backend:=scenario", f"scenario:={SCENARIO}", "hand_model:=true", "tremor:=0.002"]
-    device = start(["roslaunch", "teleteach", "device.launch", *arguments], ROOT / "test-artifacts" / "guided_hand.log")
+    device = start(["roslaunch", "teleteach", "device.launch", *arguments], data_root.parent / "guided_hand.log")
     try:
         pump_until(qapp, lambda: flow.step is Step.OPERATION, 40, "the click confirming a node")
         # Expect the node the hand meant, pulled there by the detent (the guidance's force was felt)

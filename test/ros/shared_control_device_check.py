@@ -95,10 +95,13 @@ class SharedControlFromTheDevice(unittest.TestCase):
             f"the arm ended at {np.round(arm_points[-1], 3)}"
         )
         # Expect: the reference never jumped, not even when the GUI switched shared control on with the arm off the
-        # task plane (the approach: at most approach_speed, 0.1 m/s, i.e. 2 mm per 50 Hz cycle, plus rounding)
+        # task plane (the jump this guards against was 25 cm). A step is at most the fastest plan's (speed_bounds'
+        # top, 0.2 m/s: 4 mm per 50 Hz cycle, while the approach's 0.1 m/s gives 2 mm); a cycle that ran late may
+        # carry two (a fresh machine once showed 5.0 mm), so a step of two cycles is the bound
         _, references = reference.all()
         steps = np.linalg.norm(np.diff(references, axis=0), axis=1)
-        self.assertLess(float(steps.max()), 0.005, f"largest step of /equilibrium_pose: {steps.max():.4f} m")
+        largest = 2.0 * float(params["speed_bounds"][1]) / float(params["rate"])
+        self.assertLess(float(steps.max()), largest, f"largest step of /equilibrium_pose: {steps.max():.4f} m")
         # Expect: the check saw the pushes, the arm went the hand's way in (nearly) all of them
         self.assertGreaterEqual(compared, 20, "too few windows with the hand moving steadily and the arm clear")
         self.assertLessEqual(len(against), compared // 10, f"arm against the hand (t, hand, arm): {against}")
