@@ -6,7 +6,7 @@ controller reads them as the node does (``CommandTimeline`` by header stamp, sam
 cycle, on a cycle grid offset from the operator's), so the bench runs the node's code without a roscore; a simulated
 clock makes the figures independent of the machine's load, which ``--busy`` demonstrates by running them again with
 a busy loop on one core. ``--latest`` uses the node's previous reading (the latest message that has arrived) and
-``--paper`` the paper's identification (no hysteresis, 1 s window), for comparison.
+``--paper`` the paper's identification (no hysteresis, a uniform 1 s window), for comparison.
 
 Per cell: misidentified cycles (estimation cycles, SHARED or UNKNOWN, whose skill is off the operator's pattern,
 outside the 0.5 s allowed after the switch), flicker (returns to a skill the identification had left), switch
@@ -161,19 +161,25 @@ def main():
     parser.add_argument("--quick", action="store_true", help="a quarter of the cells")
     parser.add_argument("--busy", action="store_true", help="run the sweep again with a busy loop on one core")
     parser.add_argument("--latest", action="store_true", help="read the latest message (the node's old reading)")
-    parser.add_argument("--paper", action="store_true", help="the paper's identification: no hysteresis, 1 s window")
+    parser.add_argument(
+        "--paper", action="store_true", help="the paper's identification: no hysteresis, a uniform 1 s window"
+    )
     parser.add_argument("--solver", default="fast", help="compiled | fast | ipopt (fast needs no compiled cache)")
     parser.add_argument("--seed", type=int, default=15)
     parser.add_argument("--switch-confidence", type=float, help="override config/shared_control.yaml")
     parser.add_argument("--switch-hold", type=float, help="override config/shared_control.yaml [s]")
+    parser.add_argument("--window-time", type=float, help="override config/shared_control.yaml [s]")
+    parser.add_argument("--recency-half-life", type=float, help="override config/shared_control.yaml [s]")
     args = parser.parse_args()
     params = node_parameters()
     config = dataclasses.replace(SharedControlConfig.from_parameters(params), solver=args.solver)
-    for name in ("switch_confidence", "switch_hold"):
+    for name in ("switch_confidence", "switch_hold", "window_time", "recency_half_life"):
         if getattr(args, name) is not None:
             config = dataclasses.replace(config, **{name: getattr(args, name)})
     if args.paper:
-        config = dataclasses.replace(config, switch_confidence=0.0, switch_hold=0.0, window_time=1.0)
+        config = dataclasses.replace(
+            config, switch_confidence=0.0, switch_hold=0.0, window_time=1.0, recency_half_life=0.0
+        )
     controller = SharedControl(config, (0.0, 0.0))
     runs = {"idle": None}
     if args.busy:

@@ -8,6 +8,7 @@ import pytest
 from teleteach.shared_control.constraints import Box, StraightEdge, violation
 from teleteach.shared_control.loop import DIRECT, FALLBACK, SHARED, UNKNOWN, SharedControl, SharedControlConfig
 from teleteach.shared_control.models import synthetic_commands
+from teleteach.shared_control.problems import recency_weights
 
 DT = 0.02
 TOLERANCE = 1e-6
@@ -316,3 +317,50 @@ def test_unknown_pattern_executes_the_operators_step_inside_the_constraints():
         assert records[k].authority == 0.0
     assert violation(np.array([r.state for r in records]).T, box, None) <= TOLERANCE
     assert max(r.state[1] for r in records) > 0.05  # it went along the top of the boundary, as the operator pushed
+
+
+def identified_skills(controller, commands):
+    return [r.skill for r in (controller.step(c) for c in commands) if r.mode in (SHARED, UNKNOWN)]
+
+
+def test_recency_weighting_identifies_a_pattern_change_sooner_than_the_uniform_window():
+    rng = np.random.default_rng(2)
+    times = np.arange(0.0, 4.0, DT)
+    rho = (0.015, 30.0, 0.0)  # small fast loops: the slowest switch of bench/shared_control_sweep.py
+    commands = np.vstack([synthetic_commands(s, rho, 0.0, 0.05, times, 0.01, rng) for s in ("cycloid", "wave")])
+    delays = {}
+    for half_life in (0.4, 0.0):
+        controller = SharedControl(SharedControlConfig(solver="fast", recency_half_life=half_life), (0.0, 0.0))
+        skills = identified_skills(controller, commands)
+        switch = len(skills) - len(times)
+        found = skills.index("wave", switch)
+        # Expect: the cycloid until the operator changes, then only the wave
+        assert set(skills[:switch]) == {"cycloid"} and set(skills[found:]) == {"wave"}
+        delays[half_life] = (found - switch) * DT
+    assert delays[0.4] < delays[0.0]
+    assert delays[0.4] <= 0.5
+
+
+def test_a_skill_in_a_local_minimum_is_reseeded_before_the_identification_leaves_it():
+    controller = SharedControl(SharedControlConfig(solver="fast", reseed_period=0.0), (0.0, 0.0))
+    commands = synthetic_commands(
+        "wave", (0.03, 20.0, 0.0), 0.3, 0.05, np.arange(0, 3, DT), 0.01, np.random.default_rng(3)
+    )
+    assert set(identified_skills(controller, commands[:100])) == {"wave"}
+    # The wave's warm start is pushed into a poor local minimum (as after a change of the operator's pattern).
+    layout = controller.estimation_layouts["wave"]
+    skill = layout.skill
+    stuck = controller.estimates["wave"].copy()
+    stuck[layout.i_rho + skill.frequency_index] = skill.rho_upper[skill.frequency_index]
+    stuck[layout.i_rho + skill.amplitude_index] = skill.rho_lower[skill.amplitude_index]
+    controller.estimates["wave"] = stuck
+    # Expect: still a wave (without the check the cycloid took over for 28 cycles)
+    assert set(identified_skills(controller, commands[100:])) == {"wave"}
+
+
+def test_recency_weights_halve_at_the_half_life_and_keep_a_mean_of_one():
+    weights = recency_weights(40, DT, 0.4)
+    assert weights.mean() == pytest.approx(1.0)
+    assert weights[-1] / weights[-21] == pytest.approx(2.0)  # 20 cycles = 0.4 s older: half the weight
+    assert np.all(np.diff(weights) > 0)  # the newest command counts most
+    assert np.array_equal(recency_weights(40, DT, 0.0), np.ones(40))  # the paper's uniform window

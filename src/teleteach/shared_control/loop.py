@@ -75,6 +75,9 @@ class SharedControlConfig:
             authority (below, authority falls in proportion) [-].
         authority_residual: (full, none): relative fitting error e_1 / mean |h|^2 of the identified skill below
             which the plan has full authority and above which the operator has it (linear between) [-].
+        recency_half_life: age at which a command of the window counts half as much as the newest one in the fit
+            (``problems.recency_weights``): after the operator changes pattern the new one outweighs the old sooner,
+            while the whole window still damps noise (0: the paper's uniform window) [s].
         reseed_period: every this long, each skill's warm-started estimate is compared with a fresh grid seed and
             restarted from it when the seed fits better: after the operator changes pattern, the estimate of the
             new pattern's skill can sit in a local minimum fitted to the old one (0: never) [s].
@@ -106,6 +109,7 @@ class SharedControlConfig:
     switch_confidence: float = 0.08
     switch_hold: float = 0.04
     reseed_period: float = 0.2
+    recency_half_life: float = 0.4
     blend_authority: bool = True
     authority_confidence: float = 0.9
     authority_residual: Tuple[float, float] = (0.05, 0.2)
@@ -113,7 +117,8 @@ class SharedControlConfig:
     @classmethod
     def paper(cls, **changes) -> "SharedControlConfig":
         """The RSS paper's controller: a 1 s window and the plan always in control (no blend, no UNKNOWN)."""
-        return dataclasses.replace(cls(), **{"window_time": 1.0, "blend_authority": False, **changes})
+        paper = {"window_time": 1.0, "blend_authority": False, "recency_half_life": 0.0}
+        return dataclasses.replace(cls(), **{**paper, **changes})
 
     @classmethod
     def from_parameters(cls, parameters: Dict[str, object]) -> "SharedControlConfig":
@@ -278,6 +283,7 @@ class SharedControl:
                 cfg.solver,
                 cfg.max_iterations_estimation,
                 cfg.cache_dir,
+                cfg.recency_half_life,
             )
             self.optimisations[name] = TrajectoryOptimisation(
                 to, cfg.n_horizon, cfg.dt, cfg.solver, cfg.max_iterations_optimisation, cfg.cache_dir
@@ -429,6 +435,16 @@ class SharedControl:
             notes.append("skill estimation failed for every skill")
             return self._fallback(report)
         confidence = identification_confidence(errors)
+        if self._switch_pending(self.skills[best], confidence):
+            # Before the identification leaves a skill, that skill's estimate gets a fresh seed: a local minimum of
+            # its warm start after the operator's pattern changed must not switch the skill back and forth.
+            current, previous = self.skills.index(self.identified), results[self.identified]
+            result = results[self.identified] = self._reseeded(self.identified, commands, previous)
+            report.estimation_time += result.time - previous.time
+            self._cpu[0] += result.cpu_time - previous.cpu_time
+            errors[current] = result.cost if result.theta is not None and np.isfinite(result.cost) else math.inf
+            report.errors = list(errors)
+            best, confidence = int(np.argmin(errors)), identification_confidence(errors)
         skill = self._identify(self.skills[best], confidence, errors)
         theta_hat = results[skill].theta
         layout = self.optimisation_layouts[skill]
@@ -514,6 +530,11 @@ class SharedControl:
             velocity = (state - self.state) / dt
         return state, velocity
 
+    def _switch_pending(self, best: str, confidence: float) -> bool:
+        """True when ``best`` would count towards leaving the identified skill this cycle."""
+        current = self.identified
+        return current is not None and best != current and confidence >= self.config.switch_confidence
+
     def _identify(self, best: str, confidence: float, errors: Sequence[float]) -> str:
         """The skill to follow: ``best`` once it has kept ``switch_confidence`` for ``switch_hold`` (hysteresis)."""
         cfg = self.config
@@ -554,14 +575,27 @@ class SharedControl:
         result = estimation.solve(
             commands, previous, previous, weights, self.alpha_c, curvature, cfg.heading_continuity
         )
-        if self._reseed_due(name) and result.theta is not None:
-            seed = self._seed(name, commands)
-            if estimation.fitting_error(seed, commands) < estimation.fitting_error(result.theta, commands):
-                reseeded = estimation.solve(
-                    commands, seed, seed, weights, self.alpha_c, curvature, cfg.heading_continuity
-                )
-                if reseeded.theta is not None and np.isfinite(reseeded.cost) and reseeded.cost < result.cost:
-                    result = reseeded
+        if self._reseed_due(name):
+            result = self._reseeded(name, commands, result)
+        return result
+
+    def _reseeded(self, name: str, commands: np.ndarray, result: SolveResult) -> SolveResult:
+        """``result``, or the estimate restarted from a fresh grid seed when that fits the window better."""
+        if result.theta is None:
+            return result
+        cfg = self.config
+        layout, estimation = self.estimation_layouts[name], self.estimations[name]
+        seed = self._seed(name, commands)
+        if estimation.fitting_error(seed, commands) >= estimation.fitting_error(result.theta, commands):
+            return result
+        curvature = np.zeros(layout.n)
+        curvature[: layout.i_alpha] = cfg.curvature_weight
+        weights = _weights(layout, cfg.regularisation_weights)
+        reseeded = estimation.solve(commands, seed, seed, weights, self.alpha_c, curvature, cfg.heading_continuity)
+        if reseeded.theta is not None and np.isfinite(reseeded.cost) and reseeded.cost < result.cost:
+            reseeded.time += result.time
+            reseeded.cpu_time += result.cpu_time
+            return reseeded
         return result
 
     def _reseed_due(self, name: str) -> bool:

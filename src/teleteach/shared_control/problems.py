@@ -135,11 +135,22 @@ def _solve(solver: ca.Function, scale, x0, lbx, ubx, p, lbg, ubg, lam_x0, lam_g0
     )
 
 
+def recency_weights(n_window: int, dt: float, half_life: float) -> np.ndarray:
+    """Weight of each command of the window in the fit, oldest first, with a mean of 1 (uniform without a half-life)."""
+    if half_life <= 0.0:
+        return np.ones(n_window)
+    ages = dt * np.arange(n_window - 1, -1, -1)
+    weights = 0.5 ** (ages / half_life)
+    return weights / weights.mean()
+
+
 class SkillEstimation:
     """Skill estimation for one skill (eqs 7-8) over a window of n_window operator commands.
 
-    epsilon_i(theta) = mean_k ||v0 u(s_k; theta) - h_k||^2 + ||theta - theta_prev||^2_W + ||phi||^2_W_phi, with
-    s_k = -v0 (n_window - 1 - k) dt (the newest command at s_c = 0) and theta within bounds. The alpha_c
+    epsilon_i(theta) = mean_k w_k ||v0 u(s_k; theta) - h_k||^2 + ||theta - theta_prev||^2_W + ||phi||^2_W_phi, with
+    s_k = -v0 (n_window - 1 - k) dt (the newest command at s_c = 0) and theta within bounds. The recency weights
+    w_k = 2^(-age_k / half_life), normalised to a mean of 1, let a new pattern outweigh the old one sooner after the
+    operator changes it (all 1 without a half-life: the paper's uniform window). The alpha_c
     continuity constraint and the regularisation towards theta_prev are set per solve (relaxed on the first one);
     the curvature penalty (the paper's alternative R = ||phi||^2_W) always applies.
 
@@ -155,6 +166,8 @@ class SkillEstimation:
         solver: one of ``SOLVERS``.
         max_iter: iteration cap.
         cache_dir: folder of compiled code (``compiled``), default ``cache.cache_dir()``.
+        recency_half_life: age at which a command counts half as much as the newest one in the fit [s] (0: all
+            commands count the same).
     """
 
     def __init__(
@@ -166,6 +179,7 @@ class SkillEstimation:
         solver: str = "fast",
         max_iter: int = 15,
         cache_dir: Optional[str] = None,
+        recency_half_life: float = 0.0,
     ):
         if solver not in SOLVERS:
             raise ValueError(f"unknown solver {solver!r}; choose one of {SOLVERS}")
@@ -187,7 +201,8 @@ class SkillEstimation:
         v0 = theta[layout.i_v0]
         s_window = -v0 * dt * ca.DM(np.arange(n_window - 1, -1, -1)).T
         velocity = v0 * self.control.map(n_window)(s_window, z)
-        fit_residuals = ca.vec(velocity - commands) / np.sqrt(n_window)
+        root_recency = np.sqrt(recency_weights(n_window, dt, recency_half_life))
+        fit_residuals = ca.vec((velocity - commands) * ca.repmat(ca.DM(root_recency).T, 2, 1)) / np.sqrt(n_window)
         self.fit = ca.Function("fit", [z, commands], [ca.sumsqr(fit_residuals)], ["z", "h"], ["fit"])
         self._mapped_fits = {}
         residuals = ca.vertcat(fit_residuals / speed_scale, root_weights * (z - z_prev))
