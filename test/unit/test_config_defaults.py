@@ -86,7 +86,11 @@ def launch_arguments(name):
 
 @pytest.mark.parametrize(
     "launch_file, yaml_values",
-    [("bt.launch", config("behaviour_tree.yaml")), ("sim.launch", config("controllers.yaml", "simulation"))],
+    [
+        ("bt.launch", config("behaviour_tree.yaml")),
+        ("sim.launch", config("controllers.yaml", "simulation")),
+        ("rviz.launch", config("ellipsoid_marker.yaml")),
+    ],
 )
 def test_launch_arguments_of_yaml_values_default_to_the_yaml(launch_file, yaml_values):
     # Expect an argument that overrides a yaml value to be empty by default (= the yaml's), never a second default

@@ -21,7 +21,7 @@ from typing import Any, Callable, Optional
 
 import rospy
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
-from std_msgs.msg import Bool, Float64
+from std_msgs.msg import Bool, Float64, Int8
 
 from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.device import DeviceBackend, DeviceUnavailableError
@@ -37,9 +37,9 @@ from teleteach.haptics.guidance import (
 )
 from teleteach.haptics.hand import HandModelBackend, HandParameters
 from teleteach.haptics.loop import DeviceLoop, DeviceState, WallRate
-from teleteach.haptics.scenario import AT_END_CHOICES, ScenarioBackend, check_clicks, load_scenario
+from teleteach.haptics.scenario import AT_END_CHOICES, ScenarioBackend, SystemState, check_clicks, load_scenario
 from teleteach.haptics.twist import TwistEstimator
-from teleteach.msg import HapticGuidance
+from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest
 
 BACKENDS = ("dhd", "scenario", "virtual")
 
@@ -281,8 +281,6 @@ class Sigma7Node:
             f"{len(scenario.click_times())} clicks) from ROS time {start_time:.3f}"
         )
         if scenario.waits:
-            from teleteach.haptics.system_view import RosSystemView
-
             backend = ScenarioBackend(scenario, start_time, config.at_end, system=RosSystemView())
         else:
             backend = ScenarioBackend(scenario, start_time, config.at_end)
@@ -352,3 +350,51 @@ class Sigma7Node:
         self._application.exec_()
         stop.set()
         worker.join()
+
+
+class RosSystemView:
+    """What a scripted operator waits for (scenario ``wait:``), read from the topics a real operator sees on the GUI.
+
+    The latest :class:`SystemState`; call it to read it (any thread).
+
+    ROS Subscribers (all latched by their publishers):
+        /teleteach/active_tab (std_msgs/Int8): the GUI's tab
+        /teleteach/recording (std_msgs/Bool): whether the GUI records a demonstration
+        /behaviour_tree/log/tree (teleteach/BehaviourTree): the nodes RUNNING
+        /behaviour_tree/help_request (teleteach/HelpRequest): open while its node_name is not empty
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._state = SystemState()
+        self._subscribers = [
+            rospy.Subscriber("/teleteach/active_tab", Int8, self._update("tab", lambda m: int(m.data))),
+            rospy.Subscriber("/teleteach/recording", Bool, self._update("recording", lambda m: bool(m.data))),
+            rospy.Subscriber(
+                "/behaviour_tree/log/tree",
+                BehaviourTree,
+                self._update(
+                    "running", lambda m: frozenset(b.name for b in m.behaviours if b.status == Behaviour.RUNNING)
+                ),
+                queue_size=1,
+            ),
+            rospy.Subscriber(
+                "/behaviour_tree/help_request", HelpRequest, self._update("help_request", lambda m: bool(m.node_name))
+            ),
+        ]
+
+    def _update(self, field, convert):
+        def callback(message) -> None:
+            with self._lock:
+                self._state = dataclasses.replace(self._state, **{field: convert(message)})
+
+        return callback
+
+    def __call__(self) -> SystemState:
+        """The state as last heard."""
+        with self._lock:
+            return self._state
+
+
+def _running_nodes(message: BehaviourTree) -> frozenset:
+    return frozenset(b.name for b in message.behaviours if b.status == Behaviour.RUNNING)

@@ -7,7 +7,8 @@ robot:
 
     diameter_i = clip(metres_per_stiffness * eigenvalue_i, min_diameter, max_diameter)
 
-With the defaults (1e-4 m per N/m, 0.02 m .. 0.4 m) the GUI's maximum of 3000 N/m is a 0.3 m diameter.
+With config/ellipsoid_marker.yaml's values (1e-4 m per N/m, 0.02 m .. 0.4 m) the GUI's maximum of 3000 N/m is a
+0.3 m diameter.
 """
 
 import math
@@ -138,60 +139,3 @@ class EllipsoidMarkerBuilder:
         marker.color.r, marker.color.g, marker.color.b, marker.color.a = self.rgba
         marker.frame_locked = False
         return marker
-
-
-class EllipsoidMarkerPublisher:
-    """ROS wiring: /eigenvalues + /eigenvectors + /cartesian_pose in, /visualization_marker out at a fixed rate.
-
-    Publishing on a timer (not on every 100+ Hz pose) keeps RViz's load independent of the controller rate.
-
-    Args:
-        builder: holds the state and builds the marker.
-        rate: publication rate [Hz].
-
-    ROS Subscribers:
-        /eigenvalues (geometry_msgs/Vector3Stamped), /eigenvectors (geometry_msgs/QuaternionStamped),
-        /cartesian_pose (geometry_msgs/PoseStamped)
-
-    ROS Publishers:
-        /visualization_marker (visualization_msgs/Marker)
-    """
-
-    WARN_PERIOD = 5.0
-    """Seconds between two warnings about the same topic's bad messages."""
-
-    def __init__(self, builder: EllipsoidMarkerBuilder, rate: float = 30.0):
-        import rospy
-
-        if not (math.isfinite(rate) and rate > 0.0):
-            raise ValueError(f"rate must be a finite number > 0 Hz, got {rate}")
-        self._rospy = rospy
-        self.builder = builder
-        self.publisher = rospy.Publisher("/visualization_marker", Marker, queue_size=1)
-        self._subscribers = [
-            rospy.Subscriber("/eigenvalues", Vector3Stamped, self._guarded(builder.set_eigenvalues), queue_size=1),
-            rospy.Subscriber("/eigenvectors", QuaternionStamped, self._guarded(builder.set_eigenvectors), queue_size=1),
-            rospy.Subscriber("/cartesian_pose", PoseStamped, self._guarded(builder.set_pose), queue_size=1),
-        ]
-        self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._publish)
-
-    def _guarded(self, setter):
-        def callback(message):
-            try:
-                setter(message)
-            except InvalidCommandError as error:
-                self._rospy.logwarn_throttle(self.WARN_PERIOD, f"ellipsoid_marker: rejected a message: {error}")
-
-        return callback
-
-    def _publish(self, _event) -> None:
-        marker = self.builder.marker()
-        if marker is not None:
-            self.publisher.publish(marker)
-
-    def shutdown(self) -> None:
-        """Stop the timer and unregister the topics."""
-        self._timer.shutdown()
-        for subscriber in self._subscribers:
-            subscriber.unregister()
-        self.publisher.unregister()

@@ -1,0 +1,91 @@
+"""The layering docs/architecture.md promises: no import cycles, the library never imports the executables, benches
+or tests, and only the ROS layers import rospy (so every part's logic is testable without a master)."""
+
+import ast
+
+from conftest import ROOT
+
+PACKAGE = ROOT / "src" / "teleteach"
+# The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers, the main job and the learn_skill CLI.
+ROS_LAYERS = {"node.py", "gui/app.py", "gui/worker.py", "run/thesis.py", "learning/command.py"}
+
+
+def modules():
+    """{module name: (path relative to the package, parsed tree)} of every module of the library."""
+    found = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        relative = path.relative_to(PACKAGE)
+        parts = ["teleteach", *relative.with_suffix("").parts]
+        if parts[-1] == "__init__":
+            parts.pop()
+        found[".".join(parts)] = (relative.as_posix(), ast.parse(path.read_text(), str(path)))
+    return found
+
+
+def imported_names(tree, top_level_only):
+    """Module names a tree imports (at its top level only, or anywhere, e.g. inside functions)."""
+    statements = tree.body if top_level_only else ast.walk(tree)
+    for node in statements:
+        if isinstance(node, ast.Import):
+            yield from (alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            yield node.module
+            yield from (f"{node.module}.{alias.name}" for alias in node.names)
+
+
+def find_cycle(graph):
+    """One import cycle of ``graph`` ({module: set of modules}) as a list, or None."""
+    state = {}
+
+    def visit(module, path):
+        state[module] = "open"
+        for target in sorted(graph[module]):
+            if state.get(target) == "open":
+                return path[path.index(target) :] + [target]
+            if target not in state:
+                cycle = visit(target, [*path, target])
+                if cycle:
+                    return cycle
+        state[module] = "done"
+        return None
+
+    for module in sorted(graph):
+        if module not in state:
+            cycle = visit(module, [module])
+            if cycle:
+                return cycle
+    return None
+
+
+def test_the_library_has_no_import_cycle_at_module_level():
+    library = modules()
+    graph = {
+        name: {target for target in imported_names(tree, top_level_only=True) if target in library and target != name}
+        for name, (_, tree) in library.items()
+    }
+    assert sum(len(targets) for targets in graph.values()) > 100  # the check saw the library's imports
+    assert find_cycle(graph) is None
+
+
+def test_a_cycle_is_found_when_there_is_one():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
+
+
+def test_the_library_never_imports_the_executables_benches_or_tests():
+    outside = {"nodes", "bench", "test", "conftest"}
+    offending = {
+        path: sorted(name for name in imported_names(tree, top_level_only=False) if name.split(".")[0] in outside)
+        for path, tree in modules().values()
+    }
+    assert {path: names for path, names in offending.items() if names} == {}
+
+
+def test_only_the_ros_layers_import_rospy():
+    importers = {
+        path
+        for path, tree in modules().values()
+        if any(name.split(".")[0] == "rospy" for name in imported_names(tree, top_level_only=False))
+    }
+    layers = {path for path in importers if path.endswith("/ros.py")}
+    assert layers >= {"bt/ros.py", "haptics/ros.py", "shared_control/ros.py", "sim/ros.py", "skills/ros.py"}
+    assert importers - layers <= ROS_LAYERS
