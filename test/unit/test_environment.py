@@ -44,6 +44,27 @@ def test_controller_manager_messages_are_wire_compatible():
     assert ListControllers._md5sum == "1341feb2e63fa791f855565d0da950d8"
 
 
+def test_gripper_actions_are_wire_compatible_with_franka_gripper():
+    # franka_gripper's md5sums (franka_ros noetic): a real franka_gripper_node takes the skills' goals unchanged.
+    from teleteach.msg import (
+        GraspActionGoal,
+        GraspGoal,
+        GraspResult,
+        HomingActionGoal,
+        MoveActionGoal,
+        MoveGoal,
+        StopActionGoal,
+    )
+
+    assert GraspActionGoal._md5sum == "7bd1a6e7f94ef15bb6dd05cb170e7909"
+    assert MoveActionGoal._md5sum == "f8907a1e7bb902f2e4c7db8e1cf3d24f"
+    assert GraspGoal._md5sum == "627a0f0b10ad0c919fbd62b0b3427e63"
+    assert MoveGoal._md5sum == "d16050a0fe85f1c2cb8347c99678362e"
+    assert GraspResult._md5sum == "45872d25d65c97743cc71afc6d4e884d"
+    # Homing and Stop have empty goals: the same md5sum as any empty goal, and a result like Grasp's
+    assert HomingActionGoal._md5sum == StopActionGoal._md5sum
+
+
 def test_all_contract_types_are_generated():
     from teleteach.msg import (  # noqa: F401
         Behaviour,
