@@ -5,14 +5,17 @@ import math
 import threading
 import unittest
 
+import actionlib
 import numpy as np
 import rospy
 import rostest
+from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, String
+from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from teleteach.msg import MoveAction, MoveGoal
 from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
 
 IMPEDANCE = "cartesian_impedance_controller"
@@ -39,7 +42,8 @@ class Robot:
         self.trajectory = rospy.Publisher(
             "/position_joint_trajectory_controller/command", JointTrajectory, queue_size=10
         )
-        self.gripper = rospy.Publisher("/gripper/command", Float64, queue_size=10)
+        self.gripper = actionlib.SimpleActionClient("/franka_gripper/move", MoveAction)
+        assert self.gripper.wait_for_server(rospy.Duration(60)), "no /franka_gripper/move"
         rospy.wait_for_service("/controller_manager/switch_controller", timeout=60)
         self.switch = rospy.ServiceProxy("/controller_manager/switch_controller", SwitchController)
         self.list = rospy.ServiceProxy("/controller_manager/list_controllers", ListControllers)
@@ -142,7 +146,7 @@ class ControllerSwitch(unittest.TestCase):
         eigenvectors = QuaternionStamped()
         eigenvectors.header.stamp = now
         robot.eigenvectors.publish(eigenvectors)
-        robot.gripper.publish(Float64(data=-0.01))
+        robot.gripper.send_goal(MoveGoal(width=-0.01, speed=0.1))
         bad_trajectory = JointTrajectory(
             joint_names=["panda_joint1"],
             points=[JointTrajectoryPoint(positions=[0.1], time_from_start=rospy.Duration(1.0))],
@@ -159,10 +163,15 @@ class ControllerSwitch(unittest.TestCase):
             "stale stamp",
             "negative stiffness",
             "eigenvectors is zero",
-            "gripper width",
+            "/franka_gripper/move: width -0.01 m is outside [0, 0.08] m",
             "joint names",
         ]:
             self.assertIn(reason, text)
+        # the bad gripper goal was aborted, saying why (franka_gripper's result fields)
+        self.assertTrue(robot.gripper.wait_for_result(rospy.Duration(5.0)))
+        self.assertEqual(robot.gripper.get_state(), GoalStatus.ABORTED)
+        self.assertFalse(robot.gripper.get_result().success)
+        self.assertIn("width -0.01 m is outside", robot.gripper.get_result().error)
         self.assertLess(robot.max_motion(0.5), 0.005)
 
         # A good reference is followed: 3 cm down (stiffness 800 N/m in the config)

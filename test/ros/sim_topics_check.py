@@ -1,19 +1,49 @@
 #!/usr/bin/env python3
-"""rostest check of robot_sim's published topics, TF and the base and gripper commands."""
+"""rostest check of robot_sim's published topics, TF, and its base (move_base) and gripper (franka_gripper) actions."""
 
 import math
 import threading
 import unittest
 
+import actionlib
 import numpy as np
 import rospy
 import rostest
 import tf2_ros
+from actionlib_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, WrenchStamped
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
 from visualization_msgs.msg import MarkerArray
+
+from teleteach.msg import (
+    GraspAction,
+    GraspEpsilon,
+    GraspGoal,
+    HomingAction,
+    HomingGoal,
+    MoveAction,
+    MoveGoal,
+    StopAction,
+    StopGoal,
+)
+
+
+def client(name, action):
+    """A SimpleActionClient whose server is up."""
+    made = actionlib.SimpleActionClient(name, action)
+    assert made.wait_for_server(rospy.Duration(60.0)), f"no {name}"
+    return made
+
+
+def base_goal(x, frame="world"):
+    goal = MoveBaseGoal()
+    goal.target_pose.header.frame_id = frame
+    goal.target_pose.header.stamp = rospy.Time.now()
+    goal.target_pose.pose.position.x = x
+    goal.target_pose.pose.orientation.w = 1.0
+    return goal
 
 
 class Latest:
@@ -49,11 +79,17 @@ class SimTopics(unittest.TestCase):
         diagnostics = Latest("/diagnostics", DiagnosticArray)
         tf_buffer = tf2_ros.Buffer()
         tf2_ros.TransformListener(tf_buffer)
-        base_goal = rospy.Publisher("/base/goal", PoseStamped, queue_size=1)
-        gripper = rospy.Publisher("/gripper/command", Float64, queue_size=1)
+        move_base = client("/move_base", MoveBaseAction)
+        gripper = {
+            name: client(f"/franka_gripper/{name}", action)
+            for name, action in (
+                ("move", MoveAction),
+                ("grasp", GraspAction),
+                ("homing", HomingAction),
+                ("stop", StopAction),
+            )
+        }
         pose.wait()
-        while base_goal.get_num_connections() == 0 or gripper.get_num_connections() == 0:
-            rospy.sleep(0.05)
         rospy.sleep(1.0)
 
         # /cartesian_pose: base_link, >= 100 Hz of sim time
@@ -85,29 +121,73 @@ class SimTopics(unittest.TestCase):
         t = tcp.transform.translation
         self.assertLess(math.dist([t.x, t.y, t.z], [reported.x, reported.y, reported.z]), 0.002)
 
-        # /base/goal: TF world -> base_link drives there at <= 0.5 m/s
-        goal = PoseStamped()
-        goal.header.frame_id = "world"
-        goal.header.stamp = rospy.Time.now()
-        goal.pose.position.x, goal.pose.position.y = 1.0, 0.0
-        goal.pose.orientation.w = 1.0
+        # /move_base: TF world -> base_link drives there at <= 0.5 m/s, with feedback, and the goal succeeds there
+        feedback = []
         started = rospy.Time.now()
-        base_goal.publish(goal)
+        move_base.send_goal(base_goal(1.0), feedback_cb=lambda message: feedback.append(message.base_position))
         rospy.sleep(1.0)
         moved = tf_buffer.lookup_transform("world", "base_link", rospy.Time(0), rospy.Duration(5.0))
         elapsed = (moved.header.stamp - started).to_sec()
         self.assertGreater(moved.transform.translation.x, 0.2)
         self.assertLessEqual(moved.transform.translation.x, 0.5 * elapsed + 0.02)
-        rospy.sleep(2.5)
+        self.assertTrue(move_base.wait_for_result(rospy.Duration(10.0)))
+        self.assertEqual(move_base.get_state(), GoalStatus.SUCCEEDED)
+        rospy.sleep(0.3)  # TF reaches this listener a little after the result
         arrived = tf_buffer.lookup_transform("world", "base_link", rospy.Time(0), rospy.Duration(5.0))
         self.assertAlmostEqual(arrived.transform.translation.x, 1.0, places=3)
-
-        # /gripper/command: both fingers go to half the width
-        gripper.publish(Float64(data=0.02))
+        self.assertTrue(feedback and all(0.0 <= f.pose.position.x <= 1.0 for f in feedback), feedback[-1:])
+        self.assertEqual(feedback[-1].header.frame_id, "world")
+        # cancelled on the way back, the base stops where it is; a goal in another frame is aborted, saying why
+        move_base.send_goal(base_goal(0.0))
         rospy.sleep(1.0)
+        move_base.cancel_goal()
+        self.assertTrue(move_base.wait_for_result(rospy.Duration(10.0)))
+        self.assertEqual(move_base.get_state(), GoalStatus.PREEMPTED)
+        rospy.sleep(0.3)
+        stopped = tf_buffer.lookup_transform("world", "base_link", rospy.Time(0), rospy.Duration(5.0))
+        rospy.sleep(1.0)
+        later = tf_buffer.lookup_transform("world", "base_link", rospy.Time(0), rospy.Duration(5.0))
+        self.assertTrue(0.2 < stopped.transform.translation.x < 0.8, stopped.transform.translation.x)
+        self.assertAlmostEqual(later.transform.translation.x, stopped.transform.translation.x, places=2)
+        move_base.send_goal(base_goal(2.0, frame="base_link"))
+        self.assertTrue(move_base.wait_for_result(rospy.Duration(10.0)))
+        self.assertEqual(move_base.get_state(), GoalStatus.ABORTED)
+        self.assertIn("frame 'base_link' is wrong", move_base.get_goal_status_text())
+
+        # /franka_gripper/move: both fingers go to half the width; the result says success
+        gripper["move"].send_goal(MoveGoal(width=0.02, speed=0.1))
+        self.assertTrue(gripper["move"].wait_for_result(rospy.Duration(10.0)))
+        self.assertTrue(gripper["move"].get_result().success, gripper["move"].get_result().error)
+        rospy.sleep(0.2)
         with joints.lock:
             fingers = joints.message.position[7:]
         np.testing.assert_allclose(fingers, [0.01, 0.01], atol=1e-3)
+        # /franka_gripper/homing opens fully; a grasp on nothing closes and fails (judged from the width, as
+        # franka_gripper does: the goal succeeds, its result does not)
+        gripper["homing"].send_goal(HomingGoal())
+        self.assertTrue(gripper["homing"].wait_for_result(rospy.Duration(10.0)))
+        self.assertTrue(gripper["homing"].get_result().success)
+        grasp = GraspGoal(width=0.05, epsilon=GraspEpsilon(inner=0.005, outer=0.005), speed=0.1, force=20.0)
+        gripper["grasp"].send_goal(grasp)
+        self.assertTrue(gripper["grasp"].wait_for_result(rospy.Duration(10.0)))
+        self.assertEqual(gripper["grasp"].get_state(), GoalStatus.SUCCEEDED)
+        self.assertFalse(gripper["grasp"].get_result().success)
+        self.assertIn("outside [0.0450, 0.0550] m", gripper["grasp"].get_result().error)
+        # /franka_gripper/stop ends a slow move half-way: the move's result is unsuccessful, the fingers stay
+        gripper["move"].send_goal(MoveGoal(width=0.08, speed=0.01))
+        rospy.sleep(1.0)
+        gripper["stop"].send_goal(StopGoal())
+        self.assertTrue(gripper["stop"].wait_for_result(rospy.Duration(10.0)))
+        self.assertTrue(gripper["stop"].get_result().success)
+        self.assertTrue(gripper["move"].wait_for_result(rospy.Duration(10.0)))
+        self.assertFalse(gripper["move"].get_result().success)
+        self.assertIn("stopped", gripper["move"].get_result().error)
+        with joints.lock:
+            stopped_width = sum(joints.message.position[7:])
+        rospy.sleep(0.5)
+        with joints.lock:
+            self.assertAlmostEqual(sum(joints.message.position[7:]), stopped_width, places=3)
+        self.assertLess(stopped_width, 0.03)
 
 
 if __name__ == "__main__":

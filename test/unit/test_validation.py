@@ -33,8 +33,6 @@ UNIT = [0.0, 0.0, 0.0, 1.0]
         (lambda: v.validate_pose("base_link", "base_link", [0.0, math.inf, 0.5], UNIT), "NaN or inf"),
         (lambda: v.check_stamp(10.0, 12.5, 1.0), "stale stamp"),
         (lambda: v.check_stamp(15.0, 12.5, 1.0), "stale stamp"),
-        (lambda: v.validate_gripper_width(0.09, 0.08), "gripper width"),
-        (lambda: v.validate_gripper_width(math.nan, 0.08), "gripper width"),
         (lambda: v.validate_base_goal("base_link", [1.0, 0.0, 0.0], UNIT), "frame 'base_link' is wrong"),
         (lambda: v.validate_base_goal("world", [1.0, 0.0, 0.0], [0.7071068, 0.0, 0.0, 0.7071068]), "about z only"),
     ],
@@ -104,7 +102,7 @@ def test_robot_sim_keeps_the_last_good_command(robot_sim):
         lambda: sim.command_equilibrium("world", [0.5, 0.0, 0.8], UNIT),
         lambda: sim.command_equilibrium("base_link", [0.5, 0.0, math.nan], UNIT),
         lambda: sim.command_equilibrium("base_link", [0.5, 0.0, 0.8], UNIT, stamp=sim.time + 5.0),
-        lambda: sim.command_gripper(-0.01),
+        lambda: sim.gripper.move(-0.01, 0.1, sim.time),
         lambda: sim.command_trajectory(["panda_joint1"], [([0.1], [], 1.0)]),
     ]
     for call in bad:

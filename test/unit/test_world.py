@@ -126,11 +126,14 @@ def test_pick_lifts_the_product_and_it_rides_along_with_the_base(robot_sim, kine
         sim.command_trajectory(names, [(joints.tolist(), [0.0] * 7, seconds)])
         sim.run(seconds + 0.3)
 
-    sim.command_gripper(0.08)
+    sim.gripper.move(0.08, 0.1, sim.time)
     move(top + np.array([0.0, 0.0, 0.10]), 1.5)
     move(top - np.array([0.0, 0.0, 0.025]), 1.0)
-    sim.command_gripper(0.0)
+    grasp = sim.gripper.grasp(product.size[1], 0.005, 0.005, 0.1, 20.0, sim.time)
     sim.run(0.8)
+    # Expect: the grasp judged from the fingers' width: they stopped on the product's 5 cm
+    assert grasp.done and grasp.success, grasp
+    assert grasp.final_width == pytest.approx(product.size[1], abs=0.002)
     assert sim.world.grasped == "product_pick_1"
     move(top + np.array([0.0, 0.0, 0.15]), 1.0)
     lifted = sim.world.product_poses()["product_pick_1"][0]
@@ -141,7 +144,7 @@ def test_pick_lifts_the_product_and_it_rides_along_with_the_base(robot_sim, kine
     carried = sim.world.product_poses()["product_pick_1"][0]
     np.testing.assert_allclose(carried - lifted, [-0.3, 0.0, 0.0], atol=0.01)
     # opening releases it: it falls to the floor
-    sim.command_gripper(0.08)
+    sim.gripper.move(0.08, 0.1, sim.time)
     sim.run(1.5)
     assert sim.world.grasped is None
     assert sim.world.product_poses()["product_pick_1"][0][2] < 0.1

@@ -37,6 +37,7 @@ from teleteach.msg import (
 )
 from teleteach.node import node_parameters
 from teleteach.paths import config_file
+from teleteach.ros_actions import server_ready
 from teleteach.srv import AddSkill, AddSkillResponse, ChangeTree, ChangeTreeResponse
 
 REPLAY_SKILL = "ReplaySkill"
@@ -107,18 +108,7 @@ class ActionClients:
         """The servers (of the clients made so far) that are not connected yet."""
         return [server for server, client in self._clients.items() if not self.ready(client)]
 
-    @staticmethod
-    def ready(client: actionlib.ActionClient) -> bool:
-        """Whether the server is connected, without waiting (ActionClient.wait_for_server's test, done once)."""
-        status = client.last_status_msg
-        if status is None:
-            return False
-        server_id = status._connection_header["callerid"]
-        if not (client.pub_goal.impl.has_connection(server_id) and client.pub_cancel.impl.has_connection(server_id)):
-            return False
-        result = any(c.callerid_pub == server_id for c in client.result_sub.impl.connections)
-        feedback = any(c.callerid_pub == server_id for c in client.feedback_sub.impl.connections)
-        return result and feedback
+    ready = staticmethod(server_ready)  # whether the server is connected, without waiting
 
     @staticmethod
     def server_id(client: actionlib.ActionClient) -> str:

@@ -105,13 +105,6 @@ def validate_joint_trajectory(joint_names, points, expected_names, lower_limits,
     return np.array(times), np.array(positions), (np.array(velocities) if velocities else None)
 
 
-def validate_gripper_width(width, max_width):
-    """Finger opening width [m] within [0, max_width]."""
-    if not math.isfinite(width) or width < 0.0 or width > max_width:
-        raise InvalidCommandError(f"gripper width {width} m is outside [0, {max_width}] m")
-    return float(width)
-
-
 def validate_base_goal(frame_id, position, quaternion):
     """A planar base goal in 'world': returns (x [m], y [m], yaw [rad]); the orientation must be a pure yaw."""
     position, quaternion = validate_pose(frame_id, "world", position, quaternion)

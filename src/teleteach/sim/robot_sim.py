@@ -16,6 +16,7 @@ from teleteach.control.joint_trajectory import JointTrajectoryController
 from teleteach.control.manager import ControllerManager
 from teleteach.paths import config_file
 from teleteach.sim import panda
+from teleteach.sim.gripper import SimGripper
 from teleteach.sim.scene import Scene, load_scene
 from teleteach.sim.world import SupermarketWorld
 
@@ -71,11 +72,20 @@ class RobotSim:
             position_gain=float(trajectory["position_gain"]),
             velocity_gain=float(trajectory["velocity_gain"]),
             finger_force=float(gripper["force"]),
-            finger_speed=float(gripper["speed"]),
+            finger_speed=float(gripper["max_speed"]),
             base_speed=float(base["max_speed"]),
             base_turn_rate=float(base["max_turn_rate"]),
             grasp_assist=bool(simulation["grasp_assist"]),
             solver_residual_threshold=float(simulation["solver_residual_threshold"]),
+        )
+        self.gripper = SimGripper(
+            self.world,
+            max_width=panda.MAX_FINGER_WIDTH,
+            max_speed=float(gripper["max_speed"]),
+            max_force=float(gripper["max_force"]),
+            move_force=float(gripper["force"]),
+            settle_time=float(gripper["settle_time"]),
+            position_tolerance=float(gripper["position_tolerance"]),
         )
         self.max_age = float(self.config["command_validation"]["max_age"])
         self.impedance = CartesianImpedanceController(impedance_params(self.config))
@@ -104,6 +114,7 @@ class RobotSim:
         self.state = self.world.read_state()
         command = self.manager.update(self.state)
         self.world.step(command)
+        self.gripper.update(self.time)
 
     def run(self, seconds):
         """Tick for a simulated duration [s]."""
@@ -146,14 +157,14 @@ class RobotSim:
         start = stamp if stamp != 0.0 else self.time
         self.trajectory.set_trajectory(start, times, positions, velocities, self.time)
 
-    def command_gripper(self, width):
-        """Finger opening width [m], 0 .. 0.08."""
-        self.world.set_gripper_width(validation.validate_gripper_width(width, panda.MAX_FINGER_WIDTH))
-
     def command_base_goal(self, frame_id, position, quaternion, stamp=0.0):
         """Base goal in world (x, y and yaw of the pose)."""
         validation.check_stamp(stamp, self.time, self.max_age)
         self.world.set_base_goal(*validation.validate_base_goal(frame_id, position, quaternion))
+
+    def stop_base(self):
+        """Stop the base where it is."""
+        self.world.stop_base()
 
     def switch_controllers(self, start, stop, strictness):
         """ros_control switch; returns (ok, message). The started controller holds the current state."""

@@ -8,6 +8,7 @@ import threading
 import time
 import warnings
 
+import actionlib
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import (
@@ -18,15 +19,27 @@ from geometry_msgs.msg import (
     Vector3Stamped,
     WrenchStamped,
 )
+from move_base_msgs.msg import MoveBaseAction, MoveBaseFeedback, MoveBaseResult
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, String
+from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
 
 from teleteach.control.validation import InvalidCommandError
-from teleteach.msg import ControllerState, HardwareInterfaceResources
+from teleteach.msg import (
+    ControllerState,
+    GraspAction,
+    GraspResult,
+    HardwareInterfaceResources,
+    HomingAction,
+    HomingResult,
+    MoveAction,
+    MoveResult,
+    StopAction,
+    StopResult,
+)
 from teleteach.rotations import yaw_quaternion
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, RobotSim, load_controller_config
@@ -35,6 +48,8 @@ from teleteach.sim.urdf import robot_description
 from teleteach.srv import ListControllers, ListControllersResponse, SwitchController, SwitchControllerResponse
 
 JOINT_NAMES = list(panda.ARM_JOINTS + panda.FINGER_JOINTS)
+ACTION_POLL = 0.002  # [s] wall time between two looks at a running gripper or base command
+FEEDBACK_PERIOD = 0.1  # [s] wall time between move_base feedback messages
 
 
 def _synchronous_publisher(topic, message_type):
@@ -76,10 +91,15 @@ class RobotSimNode:
 
     ROS Subscribers:
         /eigenvalues, /eigenvectors, /equilibrium_pose, /equilibrium_twist (x_dot_r of eq 5),
-        /position_joint_trajectory_controller/command, /gripper/command, /base/goal.
+        /position_joint_trajectory_controller/command.
 
     ROS Services:
         /controller_manager/switch_controller, /controller_manager/list_controllers.
+
+    ROS Action Servers:
+        /franka_gripper/{move,grasp,homing,stop} (franka_gripper's actions and result semantics: a move or grasp
+        that ends away from its width succeeds as a goal with ``success`` false; a bad goal is aborted with the
+        reason in ``error``), /move_base (move_base_msgs/MoveBaseAction: target_pose in world, feedback base_position).
     """
 
     def __init__(self, sim: RobotSim, real_time_factor=1.0, clock_rate=250.0):
@@ -114,13 +134,37 @@ class RobotSimNode:
                 JointTrajectory,
                 self._guard("/position_joint_trajectory_controller/command", self._on_trajectory),
             ),
-            rospy.Subscriber("/gripper/command", Float64, self._guard("/gripper/command", self._on_gripper)),
-            rospy.Subscriber("/base/goal", PoseStamped, self._guard("/base/goal", self._on_base_goal)),
         ]
         self._services = [
             rospy.Service("/controller_manager/switch_controller", SwitchController, self._on_switch),
             rospy.Service("/controller_manager/list_controllers", ListControllers, self._on_list),
         ]
+        gripper = self.sim.gripper
+        self._action_servers = [
+            self._gripper_server(
+                "/franka_gripper/move",
+                MoveAction,
+                MoveResult,
+                lambda goal: gripper.move(goal.width, goal.speed, self.sim.time),
+            ),
+            self._gripper_server(
+                "/franka_gripper/grasp",
+                GraspAction,
+                GraspResult,
+                lambda goal: gripper.grasp(
+                    goal.width, goal.epsilon.inner, goal.epsilon.outer, goal.speed, goal.force, self.sim.time
+                ),
+            ),
+            self._gripper_server(
+                "/franka_gripper/homing", HomingAction, HomingResult, lambda goal: gripper.homing(self.sim.time)
+            ),
+            self._gripper_server(
+                "/franka_gripper/stop", StopAction, StopResult, lambda goal: gripper.stop(self.sim.time)
+            ),
+            actionlib.SimpleActionServer("/move_base", MoveBaseAction, execute_cb=self._move_base, auto_start=False),
+        ]
+        for server in self._action_servers:
+            server.start()
 
     @classmethod
     def from_params(cls):
@@ -146,9 +190,7 @@ class RobotSimNode:
                 with self._lock:
                     apply(msg)
             except (InvalidCommandError, ValueError, TypeError) as error:
-                self._rejected += 1
-                self._rejections.publish(String(data=f"{topic}: {error}"))
-                rospy.logwarn_throttle(1.0, f"robot_sim rejected a message on {topic}: {error}")
+                self._reject(topic, error)
 
         return callback
 
@@ -172,13 +214,74 @@ class RobotSimNode:
         points = [(point.positions, point.velocities, point.time_from_start.to_sec()) for point in msg.points]
         self.sim.command_trajectory(msg.joint_names, points, _stamp(msg))
 
-    def _on_gripper(self, msg):
-        self.sim.command_gripper(msg.data)
+    def _reject(self, name, error):
+        """Count, announce on ~rejected and log (throttled) a message or goal that changed nothing."""
+        self._rejected += 1
+        self._rejections.publish(String(data=f"{name}: {error}"))
+        rospy.logwarn_throttle(1.0, f"robot_sim rejected a message on {name}: {error}")
 
-    def _on_base_goal(self, msg):
-        self.sim.command_base_goal(
-            msg.header.frame_id, _xyz(msg.pose.position), _xyzw(msg.pose.orientation), _stamp(msg)
-        )
+    def _gripper_server(self, name, action, result_type, start):
+        """A franka_gripper action server: start(goal) begins a SimGripper command, which is followed until it ends."""
+
+        def execute(goal):
+            try:
+                with self._lock:
+                    command = start(goal)
+            except (InvalidCommandError, ValueError, TypeError) as error:
+                self._reject(name, error)
+                server.set_aborted(result_type(success=False, error=str(error)), str(error))
+                return
+            while not command.done and not rospy.is_shutdown():
+                if server.is_preempt_requested():
+                    with self._lock:
+                        self.sim.gripper.stop(self.sim.time)
+                    server.set_preempted(result_type(success=False, error="preempted"), "preempted")
+                    return
+                time.sleep(ACTION_POLL)
+            # franka_gripper: the goal succeeds, the result says whether the fingers got there (or hold the object)
+            server.set_succeeded(result_type(success=command.success, error=command.error), command.error)
+
+        server = actionlib.SimpleActionServer(name, action, execute_cb=execute, auto_start=False)
+        return server
+
+    def _move_base(self, goal):
+        """move_base: drive the base to target_pose (world); preempted, it stops where it is."""
+        server = self._action_servers[-1]
+        target = goal.target_pose
+        try:
+            with self._lock:
+                # an action goal is not stale by its stamp: it waits in actionlib's queue for this thread
+                self.sim.command_base_goal(
+                    target.header.frame_id, _xyz(target.pose.position), _xyzw(target.pose.orientation)
+                )
+        except (InvalidCommandError, ValueError, TypeError) as error:
+            self._reject("/move_base", error)
+            server.set_aborted(MoveBaseResult(), str(error))
+            return
+        last_feedback = 0.0
+        while not rospy.is_shutdown():
+            with self._lock:
+                moving, base = self.sim.world.base_moving, self.sim.world.base_pose.copy()
+            if not moving:
+                break
+            if server.is_preempt_requested():
+                with self._lock:
+                    self.sim.stop_base()
+                server.set_preempted(MoveBaseResult(), "preempted: the base stopped where it was")
+                return
+            if time.monotonic() - last_feedback >= FEEDBACK_PERIOD:
+                last_feedback = time.monotonic()
+                server.publish_feedback(MoveBaseFeedback(base_position=self._base_pose_message(base)))
+            time.sleep(ACTION_POLL)
+        server.set_succeeded(MoveBaseResult(), "goal reached")
+
+    def _base_pose_message(self, base):
+        x, y, yaw = base
+        pose = PoseStamped(header=self._header("world"))
+        pose.pose.position.x, pose.pose.position.y = x, y
+        orientation = pose.pose.orientation
+        orientation.x, orientation.y, orientation.z, orientation.w = yaw_quaternion(yaw)
+        return pose
 
     def _on_switch(self, request):
         with self._lock:

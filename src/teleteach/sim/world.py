@@ -34,8 +34,8 @@ class SupermarketWorld:
         time_step: physics step [s].
         position_gain: pybullet motor position gain of the position-controlled arm [-].
         velocity_gain: pybullet motor velocity gain [-].
-        finger_force: maximum force of each finger [N].
-        finger_speed: maximum speed of each finger [m/s].
+        finger_force: force of each finger [N] when a command gives none.
+        finger_speed: opening-width rate [m/s] (each finger half of it) when a command gives none.
         base_speed: maximum linear speed of the mobile base [m/s].
         base_turn_rate: maximum yaw rate of the mobile base [rad/s].
         grasp_assist: fix a squeezed product to the hand.
@@ -50,7 +50,7 @@ class SupermarketWorld:
         position_gain=0.3,
         velocity_gain=1.0,
         finger_force=20.0,
-        finger_speed=0.1,
+        finger_speed=0.2,
         base_speed=0.5,
         base_turn_rate=1.0,
         grasp_assist=True,
@@ -211,8 +211,12 @@ class SupermarketWorld:
         return rotation @ force, rotation @ torque
 
     # ------------------------------------------------------------------------------------------------- commands
-    def set_gripper_width(self, width):
-        """Open the fingers to width [m] (0 .. 0.08) at the finger speed and force."""
+    def set_gripper_width(self, width, speed=None, force=None):
+        """Drive the fingers toward width [m] (0 .. 0.08) at speed [m/s] of the width, force [N] per finger.
+
+        speed and force default to finger_speed and finger_force. A product between the fingers stops them: they
+        squeeze it.
+        """
         self.gripper_width = float(np.clip(width, 0.0, panda.MAX_FINGER_WIDTH))
         for index in panda.FINGER_INDICES:
             pybullet.setJointMotorControl2(
@@ -220,15 +224,30 @@ class SupermarketWorld:
                 index,
                 pybullet.POSITION_CONTROL,
                 targetPosition=self.gripper_width / 2.0,
-                force=self.finger_force,
-                maxVelocity=self.finger_speed,
+                force=self.finger_force if force is None else float(force),
+                maxVelocity=(self.finger_speed if speed is None else float(speed)) / 2.0,
                 **self._call,
             )
+
+    def finger_width(self):
+        """The measured opening of both fingers together [m]."""
+        states = pybullet.getJointStates(self.robot, panda.FINGER_INDICES, **self._call)
+        return float(states[0][0] + states[1][0])
+
+    @property
+    def base_moving(self):
+        """Whether the base is still driving toward its goal."""
+        return self._driving
 
     def set_base_goal(self, x, y, yaw):
         """Drive the base to (x [m], y [m], yaw [rad]) in world."""
         self.base_goal = np.array([x, y, math.atan2(math.sin(yaw), math.cos(yaw))])
         self._driving = True
+
+    def stop_base(self):
+        """Stop the base where it is (its goal becomes its pose)."""
+        self.base_goal = self.base_pose.copy()
+        self._driving = False
 
     def teleport_base(self, pose: BasePose):
         """Put the base at a pose at once (tests and set-up only; the base normally drives)."""

@@ -33,13 +33,14 @@ class ArmConfig:
 
 @dataclass(frozen=True)
 class GripperConfig:
-    """Finger openings [m] and timing [s]."""
+    """Finger openings [m], speed [m/s], grasp force [N] and tolerances [m] (franka_gripper's epsilon), timeout [s]."""
 
     open_width: float
     release_width: float
-    grasp_width: float
-    position_tolerance: float
-    settle_time: float
+    speed: float
+    grasp_force: float
+    grasp_epsilon_inner: float
+    grasp_epsilon_outer: float
     timeout: float
 
 
@@ -128,9 +129,12 @@ def _section(cls, data, positive=(), non_negative=()):
 def _parse(data):
     arm = _section(ArmConfig, data["arm"], positive=[field.name for field in fields(ArmConfig)])
     gripper = _section(
-        GripperConfig, data["gripper"], non_negative=["grasp_width"], positive=["position_tolerance", "timeout"]
+        GripperConfig,
+        data["gripper"],
+        non_negative=["grasp_epsilon_inner", "grasp_epsilon_outer"],
+        positive=["speed", "grasp_force", "timeout"],
     )
-    for name in ("open_width", "release_width", "grasp_width"):
+    for name in ("open_width", "release_width"):
         if not 0.0 <= getattr(gripper, name) <= 0.08:
             raise ValueError(f"gripper.{name} must be within [0, 0.08] m")
     base = _section(BaseConfig, data["base"], positive=[field.name for field in fields(BaseConfig)])

@@ -14,7 +14,7 @@ from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.skills import trajectory
 from teleteach.skills.config import MotionConfig
-from teleteach.skills.robot import Execution, Robot, SkillError
+from teleteach.skills.robot import Execution, PreemptedError, Robot, SkillError
 
 POLL_PERIOD = 0.02  # [s] how often waits look at the robot's state
 TOP_DOWN = Rotation.from_euler("x", math.pi)  # TCP z axis pointing down, fingers closing across base y
@@ -185,46 +185,81 @@ class Motion:
 
     # ------------------------------------------------------------------------------------------ gripper
     def gripper(self, width) -> float:
-        """Open or close the fingers to width [m]; returns the measured width once they arrived or stopped."""
+        """Move the fingers to width [m] (franka_gripper/move); returns the measured width, SkillError if it fails."""
         settings = self.config.gripper
-        self.robot.command_gripper(width)
+        initial_error = max(abs(self.robot.gripper_width() - width), 1e-6)
+        goal = self.robot.move_gripper(width, settings.speed)
+        succeeded, said = self._wait(
+            goal,
+            settings.timeout,
+            f"the gripper's move to {width:.3f} m",
+            lambda: 1.0 - abs(self.robot.gripper_width() - width) / initial_error,
+        )
+        if not succeeded:
+            raise SkillError(f"the gripper did not reach {width:.3f} m: {said or 'the move failed'}")
+        return self.robot.gripper_width()
+
+    def grasp(self, width) -> Tuple[bool, float, str]:
+        """Grasp an object of width [m] (franka_gripper/grasp): (held, measured width [m], what the gripper said)."""
+        settings = self.config.gripper
+        initial_error = max(abs(self.robot.gripper_width() - width), 1e-6)
+        goal = self.robot.grasp(
+            width, settings.grasp_epsilon_inner, settings.grasp_epsilon_outer, settings.speed, settings.grasp_force
+        )
+        held, said = self._wait(
+            goal,
+            settings.timeout,
+            f"the grasp of {width:.3f} m",
+            lambda: 1.0 - abs(self.robot.gripper_width() - width) / initial_error,
+        )
+        return held, self.robot.gripper_width(), said
+
+    def _wait(self, goal, timeout, what, progress) -> Tuple[bool, str]:
+        """Wait (robot time, at most timeout [s]) for a robot goal to finish; cancel it when preempted or late."""
         start = self.robot.now()
-        still_since, last = start, self.robot.gripper_width()
-        initial_error = max(abs(last - width), 1e-6)
-        while True:
-            self.execution.check()
+        while not goal.done():
+            try:
+                self.execution.check()
+            except PreemptedError:
+                goal.cancel()
+                raise
+            self.execution.report(progress())
+            if self.robot.now() - start > timeout:
+                goal.cancel()
+                raise SkillError(f"{what} did not finish within {timeout:.1f} s")
             self.robot.sleep(POLL_PERIOD)
-            now, measured = self.robot.now(), self.robot.gripper_width()
-            self.execution.report(1.0 - abs(measured - width) / initial_error)
-            if abs(measured - width) < settings.position_tolerance:
-                return measured
-            if abs(measured - last) > 2e-4:
-                still_since, last = now, measured
-            elif now - still_since >= settings.settle_time and now - start >= settings.settle_time:
-                return measured
-            if now - start > settings.timeout:
-                raise SkillError(f"the gripper did not reach {width:.3f} m within {settings.timeout:.1f} s")
+        return goal.outcome()
 
     # --------------------------------------------------------------------------------------------- base
     def move_base(self, x, y, yaw) -> None:
-        """Drive the base to (x [m], y [m], yaw [rad]) in world; done when TF says it is there."""
+        """Drive the base to (x [m], y [m], yaw [rad]) in world (move_base); done when TF says it is there."""
         settings = self.config.base
         start_pose = self.robot.base_pose()
         initial = math.hypot(x - start_pose[0], y - start_pose[1]) + abs(angle_difference(yaw, start_pose[2]))
         limit = initial / settings.expected_speed + settings.timeout
-        self.robot.command_base(x, y, yaw)
+        goal = self.robot.move_base(x, y, yaw)
         start = self.robot.now()
         while True:
-            self.execution.check()
+            try:
+                self.execution.check()
+            except PreemptedError:
+                goal.cancel()
+                raise
             pose = self.robot.base_pose()
             distance = math.hypot(x - pose[0], y - pose[1])
             turn = abs(angle_difference(yaw, pose[2]))
             self.execution.report(1.0 - (distance + turn) / initial if initial > 0 else 1.0)
-            if distance < settings.position_tolerance and turn < settings.yaw_tolerance:
-                return
+            if goal.done():
+                succeeded, said = goal.outcome()
+                if not succeeded:
+                    raise SkillError(f"move_base did not reach ({x:.2f}, {y:.2f}, {yaw:.2f}): {said or 'it failed'}")
+                if distance < settings.position_tolerance and turn < settings.yaw_tolerance:
+                    return
             if self.robot.now() - start > limit:
+                goal.cancel()
+                said = " (move_base said it arrived: see base tolerances)" if goal.done() else ""
                 raise SkillError(
                     f"the base did not reach ({x:.2f}, {y:.2f}, {yaw:.2f}) within {limit:.0f} s: "
-                    f"{distance:.3f} m, {turn:.3f} rad away"
+                    f"{distance:.3f} m, {turn:.3f} rad away{said}"
                 )
             self.robot.sleep(POLL_PERIOD)

@@ -46,6 +46,11 @@ def up(height):
     return np.array([0.0, 0.0, height])
 
 
+def across_fingers(size, grasp_yaw) -> float:
+    """Width [m] between the fingers of an upright box of size (x, y, z) [m]: its extent across y turned by the yaw."""
+    return float(abs(math.cos(grasp_yaw)) * size[1] + abs(math.sin(grasp_yaw)) * size[0])
+
+
 @dataclass
 class WorldView:
     """What the skills ask about the world: scene geometry plus the robot's live view of it.
@@ -203,6 +208,7 @@ class PickItem(PredefinedSkill):
         centre = world_to_base(motion.robot.base_pose(), world.product_position(product))
         orientation = world.top_down(world.scene.product(product).yaw)
         grasp_point = centre + up(grasp.height_above_center)
+        expected = across_fingers(world.scene.product(product).size, grasp.yaw)
         motion.execution.phase("open gripper", 0.1)
         motion.gripper(world.config.gripper.open_width)
         motion.execution.phase("approach", 0.25)
@@ -210,7 +216,9 @@ class PickItem(PredefinedSkill):
         motion.execution.phase("descend", 0.15)
         motion.move_linear(grasp_point, orientation)
         motion.execution.phase("grasp", 0.1)
-        width = motion.gripper(world.config.gripper.grasp_width)
+        grasped, width, said = motion.grasp(expected)
+        if not grasped:
+            raise SkillError(f"the grasp of {product} ({1000.0 * expected:.0f} mm wide) failed: {said}")
         motion.execution.phase("lift", 0.15)
         motion.move_linear(grasp_point + up(grasp.lift_height), orientation)
         motion.execution.phase("carry posture", 0.25)

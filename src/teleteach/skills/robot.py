@@ -1,8 +1,9 @@
 """The small robot interface the skills run on, and how a running skill reports and gets stopped.
 
-The ROS layer (:mod:`teleteach.skills.ros`) implements :class:`Robot` over topics, TF and services; anything
-else that can report joint states, product poses and the base pose and take joint trajectories, gripper widths and
-base goals (a simulation stepped in-process, for example) can run the same skills.
+The ROS layer (:mod:`teleteach.skills.ros`) implements :class:`Robot` over topics, TF, services and actions (the
+gripper through franka_gripper's actions, the base through move_base); anything else that can report joint states,
+product poses and the base pose and take joint trajectories, gripper and base goals (a simulation stepped in-process,
+for example) can run the same skills.
 """
 
 import abc
@@ -19,6 +20,22 @@ class SkillError(RuntimeError):
 
 class PreemptedError(Exception):
     """The client cancelled the goal or sent a new one."""
+
+
+class RobotGoal(abc.ABC):
+    """A goal the robot works on by itself (a gripper or base action): polled until done, cancelled when preempted."""
+
+    @abc.abstractmethod
+    def done(self) -> bool:
+        """Whether the robot has finished with the goal (succeeded, failed or cancelled)."""
+
+    @abc.abstractmethod
+    def outcome(self) -> Tuple[bool, str]:
+        """Once done: whether it succeeded, and what the robot said (empty when it said nothing)."""
+
+    @abc.abstractmethod
+    def cancel(self) -> None:
+        """Ask the robot to stop working on the goal."""
 
 
 class Robot(abc.ABC):
@@ -69,12 +86,19 @@ class Robot(abc.ABC):
         """Replace the position controller's trajectory (times from now [s], positions [rad], velocities [rad/s])."""
 
     @abc.abstractmethod
-    def command_gripper(self, width: float) -> None:
-        """Open the fingers to width [m]."""
+    def move_gripper(self, width: float, speed: float) -> RobotGoal:
+        """franka_gripper/move: the fingers to width [m] at speed [m/s]."""
 
     @abc.abstractmethod
-    def command_base(self, x: float, y: float, yaw: float) -> None:
-        """Drive base_link to (x [m], y [m], yaw [rad]) in world."""
+    def grasp(self, width: float, epsilon_inner: float, epsilon_outer: float, speed: float, force: float) -> RobotGoal:
+        """franka_gripper/grasp: close at speed [m/s] on an object of width [m] and squeeze it with force [N].
+
+        It succeeds when the fingers stop within [width - epsilon_inner, width + epsilon_outer] [m].
+        """
+
+    @abc.abstractmethod
+    def move_base(self, x: float, y: float, yaw: float) -> RobotGoal:
+        """move_base: drive base_link to (x [m], y [m], yaw [rad]) in world."""
 
     @abc.abstractmethod
     def command_stiffness(self, eigenvalues: np.ndarray, eigenvectors: np.ndarray, stamp: float) -> None:

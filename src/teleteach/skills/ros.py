@@ -1,9 +1,10 @@
 """The ROS layer of the skills: the robot interface over topics, TF and services, and the skills as action servers.
 
 :class:`RosRobot` implements :class:`teleteach.skills.robot.Robot`. In: /joint_states, TF world->base_link,
-/teleteach/scene, /cartesian_pose. Out: joint trajectories, gripper, base goals, stiffness and equilibrium commands,
-controller switches. :class:`SkillServer` serves /skills/<Name> (teleteach/ExecuteSkill), one action server per skill
-(thesis Appendix B.2), all running through one SkillRunner. Names are the README's ROS graph (docs/architecture.md).
+/teleteach/scene, /cartesian_pose. Out: joint trajectories, stiffness and equilibrium commands, controller switches,
+gripper goals (franka_gripper's actions) and base goals (move_base). :class:`SkillServer` serves /skills/<Name>
+(teleteach/ExecuteSkill), one action server per skill (thesis Appendix B.2), all running through one SkillRunner.
+Names are the README's ROS graph (docs/architecture.md).
 """
 
 import threading
@@ -14,17 +15,28 @@ import actionlib
 import numpy as np
 import rospy
 import tf2_ros
+from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import MarkerArray
 
-from teleteach.msg import ExecuteSkillAction, ExecuteSkillFeedback, ExecuteSkillResult
+from teleteach.msg import (
+    ExecuteSkillAction,
+    ExecuteSkillFeedback,
+    ExecuteSkillResult,
+    GraspAction,
+    GraspEpsilon,
+    GraspGoal,
+    MoveAction,
+    MoveGoal,
+)
+from teleteach.ros_actions import server_ready
 from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.sim.scene import PRODUCTS_NAMESPACE, product_poses
-from teleteach.skills.robot import Execution, Robot, SkillError
+from teleteach.skills.robot import Execution, Robot, RobotGoal, SkillError
 from teleteach.skills.runner import REPLAY_SKILL, SKILL_NAMES, SkillRunner
 from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
 
@@ -35,17 +47,46 @@ SCENE_FRESHNESS = 0.15  # [s] sim time: a scene older than this when asked is wa
 SCENE_WAIT = 2.0  # [s] wall time to wait for a fresh scene before using the last one
 TF_FRESHNESS = 0.05  # [s] sim time: a base transform older than this when asked is waited for
 TF_WAIT = 2.0  # [s] wall time to wait for a fresh base transform before using the last one
-CONNECTION_WAIT = 3.0  # [s] wall time to wait for a command topic's subscriber (robot_sim) to connect
+CONNECTION_WAIT = 3.0  # [s] wall time to wait for a command topic's subscriber or an action server to connect
 STATE_WAIT = 10.0  # [s] wall time to wait for the first /joint_states or base transform (robot_sim may be starting)
 
 
-class RosRobot(Robot):
-    """Robot interface over topics, TF and the controller manager services.
+class _ActionGoal(RobotGoal):
+    """A goal sent through a SimpleActionClient; ``judge(state, result, text)`` says whether it succeeded."""
 
-    ROS Publishers: /position_joint_trajectory_controller/command, /gripper/command, /base/goal, /eigenvalues,
-    /eigenvectors, /equilibrium_pose.
+    def __init__(self, client: actionlib.SimpleActionClient, judge):
+        self.client, self.judge = client, judge
+
+    def done(self) -> bool:
+        return self.client.simple_state == actionlib.SimpleGoalState.DONE
+
+    def outcome(self) -> Tuple[bool, str]:
+        return self.judge(self.client.get_state(), self.client.get_result(), self.client.get_goal_status_text())
+
+    def cancel(self) -> None:
+        self.client.cancel_goal()
+
+
+def _gripper_outcome(state, result, text):
+    """franka_gripper: a goal that ended SUCCEEDED says in its result whether the fingers got there (or hold)."""
+    if state == GoalStatus.SUCCEEDED and result is not None:
+        return bool(result.success), result.error
+    return False, (result.error if result is not None and result.error else text) or GoalStatus.to_string(state)
+
+
+def _move_base_outcome(state, _result, text):
+    """move_base: only SUCCEEDED is success; the status text says why not."""
+    return state == GoalStatus.SUCCEEDED, text or GoalStatus.to_string(state)
+
+
+class RosRobot(Robot):
+    """Robot interface over topics, TF, the controller manager services and the gripper and base actions.
+
+    ROS Publishers: /position_joint_trajectory_controller/command, /eigenvalues, /eigenvectors, /equilibrium_pose.
     ROS Subscribers: /joint_states, /teleteach/scene, /cartesian_pose; TF world->base_link.
     ROS Services (called): /controller_manager/switch_controller, /controller_manager/list_controllers.
+    ROS Action Clients: /franka_gripper/move, /franka_gripper/grasp (franka_gripper's actions), /move_base
+    (move_base_msgs/MoveBaseAction, target_pose in world).
     """
 
     def __init__(self):
@@ -60,8 +101,9 @@ class RosRobot(Robot):
         self._trajectory = rospy.Publisher(
             "/position_joint_trajectory_controller/command", JointTrajectory, queue_size=1
         )
-        self._gripper = rospy.Publisher("/gripper/command", Float64, queue_size=1)
-        self._base = rospy.Publisher("/base/goal", PoseStamped, queue_size=1)
+        self._gripper_move = actionlib.SimpleActionClient("/franka_gripper/move", MoveAction)
+        self._gripper_grasp = actionlib.SimpleActionClient("/franka_gripper/grasp", GraspAction)
+        self._move_base = actionlib.SimpleActionClient("/move_base", MoveBaseAction)
         self._eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=10)
         self._eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=10)
         self._equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
@@ -220,19 +262,41 @@ class RosRobot(Robot):
         ]
         self._publish(self._trajectory, msg)
 
-    def command_gripper(self, width: float) -> None:
-        """Finger opening [m]."""
-        self._publish(self._gripper, Float64(data=float(width)))
+    @staticmethod
+    def _send(client: actionlib.SimpleActionClient, goal, judge) -> RobotGoal:
+        """Send a goal once its server is connected (waited for in wall time: a stopped /clock must not hang here)."""
+        deadline = time.monotonic() + CONNECTION_WAIT
+        while not server_ready(client.action_client):
+            if time.monotonic() > deadline or rospy.is_shutdown():
+                name = client.action_client.ns
+                raise SkillError(f"nobody serves {name}: is robot_sim (or the robot's driver) running?")
+            time.sleep(0.01)
+        client.send_goal(goal)
+        return _ActionGoal(client, judge)
 
-    def command_base(self, x: float, y: float, yaw: float) -> None:
-        """Base goal in world."""
-        msg = PoseStamped()
-        msg.header.frame_id, msg.header.stamp = WORLD_FRAME, rospy.Time.now()
-        msg.pose.position.x, msg.pose.position.y = float(x), float(y)
-        quaternion = yaw_rotation(yaw).as_quat()
-        orientation = msg.pose.orientation
-        orientation.x, orientation.y, orientation.z, orientation.w = (float(value) for value in quaternion)
-        self._publish(self._base, msg)
+    def move_gripper(self, width: float, speed: float) -> RobotGoal:
+        """franka_gripper/move."""
+        return self._send(self._gripper_move, MoveGoal(width=float(width), speed=float(speed)), _gripper_outcome)
+
+    def grasp(self, width: float, epsilon_inner: float, epsilon_outer: float, speed: float, force: float) -> RobotGoal:
+        """franka_gripper/grasp."""
+        goal = GraspGoal(
+            width=float(width),
+            epsilon=GraspEpsilon(inner=float(epsilon_inner), outer=float(epsilon_outer)),
+            speed=float(speed),
+            force=float(force),
+        )
+        return self._send(self._gripper_grasp, goal, _gripper_outcome)
+
+    def move_base(self, x: float, y: float, yaw: float) -> RobotGoal:
+        """move_base to a pose in world."""
+        goal = MoveBaseGoal()
+        target = goal.target_pose
+        target.header.frame_id, target.header.stamp = WORLD_FRAME, rospy.Time.now()
+        target.pose.position.x, target.pose.position.y = float(x), float(y)
+        orientation = target.pose.orientation
+        orientation.x, orientation.y, orientation.z, orientation.w = (float(v) for v in yaw_rotation(yaw).as_quat())
+        return self._send(self._move_base, goal, _move_base_outcome)
 
     def command_stiffness(self, eigenvalues, eigenvectors, stamp: float) -> None:
         """/eigenvalues [N/m] and /eigenvectors (quaternion of the principal axes), base_link."""

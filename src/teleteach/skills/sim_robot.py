@@ -12,7 +12,40 @@ from teleteach.control.manager import STRICT
 from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import RobotSim
-from teleteach.skills.robot import Robot, SkillError
+from teleteach.skills.robot import Robot, RobotGoal, SkillError
+
+
+class _GripperGoal(RobotGoal):
+    """A command of the simulated hand (teleteach.sim.gripper.GripperCommand) as a robot goal."""
+
+    def __init__(self, sim: RobotSim, command):
+        self.sim, self.command = sim, command
+
+    def done(self) -> bool:
+        return self.command.done
+
+    def outcome(self) -> Tuple[bool, str]:
+        return self.command.success, self.command.error
+
+    def cancel(self) -> None:
+        if not self.command.done:
+            self.sim.gripper.stop(self.sim.time)
+
+
+class _BaseGoal(RobotGoal):
+    """The simulated base driving to its goal, as a robot goal."""
+
+    def __init__(self, sim: RobotSim):
+        self.sim = sim
+
+    def done(self) -> bool:
+        return not self.sim.world.base_moving
+
+    def outcome(self) -> Tuple[bool, str]:
+        return True, ""
+
+    def cancel(self) -> None:
+        self.sim.stop_base()
 
 
 class SimRobot(Robot):
@@ -72,13 +105,20 @@ class SimRobot(Robot):
         points = [(list(p), list(v), float(t)) for t, p, v in zip(times, positions, velocities)]
         self.sim.command_trajectory(panda.ARM_JOINTS, points, stamp=self.sim.time)
 
-    def command_gripper(self, width: float) -> None:
-        """Finger opening [m]."""
-        self.sim.command_gripper(width)
+    def move_gripper(self, width: float, speed: float) -> RobotGoal:
+        """The simulated hand's move (franka_gripper/move)."""
+        return _GripperGoal(self.sim, self.sim.gripper.move(width, speed, self.sim.time))
 
-    def command_base(self, x: float, y: float, yaw: float) -> None:
-        """Base goal in world."""
+    def grasp(self, width: float, epsilon_inner: float, epsilon_outer: float, speed: float, force: float) -> RobotGoal:
+        """The simulated hand's grasp (franka_gripper/grasp)."""
+        return _GripperGoal(
+            self.sim, self.sim.gripper.grasp(width, epsilon_inner, epsilon_outer, speed, force, self.sim.time)
+        )
+
+    def move_base(self, x: float, y: float, yaw: float) -> RobotGoal:
+        """Drive the simulated base to a goal in world (move_base)."""
         self.sim.command_base_goal("world", [x, y, 0.0], yaw_rotation(yaw).as_quat(), stamp=self.sim.time)
+        return _BaseGoal(self.sim)
 
     def command_stiffness(self, eigenvalues, eigenvectors, stamp: float) -> None:
         """Principal stiffnesses [N/m] and their axes' quaternion."""
