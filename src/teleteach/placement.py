@@ -10,7 +10,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.sim.scene import Gap, Scene
+from teleteach.sim.scene import Gap, GapLookup
 
 HEIGHT_TOLERANCE = 0.02  # [m] a product centre farther than this above/below its gap's target is not on the board
 UPRIGHT_TILT = 10.0  # [deg] largest tilt of a product's vertical axis that still counts as standing upright
@@ -85,7 +85,7 @@ def neighbours(gap: Gap, initial: Mapping[str, np.ndarray], product: str) -> Lis
 
 
 def judge(
-    scene: Scene,
+    scene: GapLookup,
     product: str,
     pose: Tuple[Sequence[float], Sequence[float]],
     initial: Mapping[str, np.ndarray],
@@ -95,7 +95,7 @@ def judge(
     """Judge where ``product`` ended.
 
     Args:
-        scene: the scene, for its gaps.
+        scene: the gaps (the scene file's, or the perceived ones: teleteach.perception.ObservedScene).
         product: the product's name.
         pose: its final centre [m] and (x, y, z, w) quaternion in world.
         initial: every product's centre [m] before the placement (for the neighbours' moves).
@@ -126,7 +126,7 @@ def judge(
 
 
 def placed_products(
-    scene: Scene, initial: Mapping[str, np.ndarray], final: Mapping[str, Tuple[np.ndarray, np.ndarray]]
+    scene: GapLookup, initial: Mapping[str, np.ndarray], final: Mapping[str, Tuple[np.ndarray, np.ndarray]]
 ) -> List[Placement]:
     """The products that were carried (moved more than CARRIED) and ended at a gap's board height near a gap.
 

@@ -8,7 +8,8 @@ import rospy
 from visualization_msgs.msg import MarkerArray
 
 from teleteach.msg import Behaviour, ExecuteSkillActionGoal
-from teleteach.sim.scene import load_scene, product_positions
+from teleteach.perception.observed import product_positions
+from teleteach.sim.scene import load_scene
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS
 
 

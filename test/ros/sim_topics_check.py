@@ -28,6 +28,7 @@ from teleteach.msg import (
     StopAction,
     StopGoal,
 )
+from teleteach.perception.observed import observed_from_markers
 
 
 def client(name, action):
@@ -109,6 +110,12 @@ class SimTopics(unittest.TestCase):
         self.assertGreaterEqual(len([m for m in markers if m.ns == "shelf"]), 2)
         products = {m.text for m in markers if m.ns == "products"}
         self.assertTrue({"product_pick_1", "product_pick_2", "product_shelf_1"} <= products)
+        # ... and read as the skills read it (teleteach.perception): every product, both gaps, the pick table
+        perceived, rejected = observed_from_markers(markers)
+        self.assertEqual(rejected, [])
+        self.assertEqual(set(perceived.products), products)
+        self.assertEqual(sorted(perceived.gaps), ["gap_1", "gap_2"])
+        self.assertEqual(list(perceived.tables), ["pick_table"])
         self.assertEqual(wrench.wait().header.frame_id, "base_link")
         status = diagnostics.wait().status[0]
         self.assertEqual(status.name, "robot_sim")

@@ -16,8 +16,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from teleteach.control.validation import InvalidCommandError, validate_eigenvalues, validate_quaternion
+from teleteach.perception.observed import product_poses
 from teleteach.recording.bags import BagError, check_bag
-from teleteach.sim.scene import product_poses
 
 RUNNING, SUCCESS = 2, 3  # teleteach/Behaviour statuses (the message module needs the catkin build, this does not)
 

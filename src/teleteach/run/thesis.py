@@ -26,12 +26,13 @@ from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.gui.session import Tab
 from teleteach.haptics.scenario import load_scenario
 from teleteach.paths import config_file, share_dir
+from teleteach.perception.observed import product_positions
 from teleteach.recording.report import make_report
 from teleteach.recording.session import SessionError, read_session
 from teleteach.run import outcome
 from teleteach.run.outcome import RunSummary
 from teleteach.run.processes import ProcessError, Processes, own_master, screenshot, start_xvfb
-from teleteach.sim.scene import SceneError, load_scene, product_positions
+from teleteach.sim.scene import SceneError, load_scene
 
 DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")
 TREE_FILE = config_file("tree.yaml")

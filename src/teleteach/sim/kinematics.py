@@ -9,7 +9,7 @@ import pybullet
 
 from teleteach.control.impedance import orientation_error
 from teleteach.sim import panda
-from teleteach.sim.scene import load_scene
+from teleteach.sim.scene import load_site
 
 DAMPING = 0.02  # damped least squares regularisation [m]
 NULLSPACE_GAIN = 0.05  # pull toward the seed posture per iteration [-]
@@ -29,7 +29,7 @@ class PandaKinematics:
 
     def __init__(self, mount_height=None):
         if mount_height is None:
-            mount_height = load_scene().robot.mount_height
+            mount_height = load_site().robot.mount_height
         self.mount_height = float(mount_height)
         self._client = pybullet.connect(pybullet.DIRECT)
         self._robot = panda.load_panda(self._client, [0.0, 0.0, self.mount_height], [0.0, 0.0, 0.0, 1.0])
@@ -70,7 +70,7 @@ class PandaKinematics:
         Raises:
             IKError: the pose is not reached within tolerance ([m] and [rad]).
         """
-        seed = np.array(seed if seed is not None else load_scene().robot.ready_joint_positions, dtype=float)
+        seed = np.array(seed if seed is not None else load_site().robot.ready_joint_positions, dtype=float)
         target = np.asarray(position, dtype=float)
         joints = np.clip(seed, panda.LOWER_LIMITS, panda.UPPER_LIMITS)
         error = np.full(6, np.inf)

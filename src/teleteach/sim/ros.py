@@ -25,7 +25,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
 from teleteach.control.validation import InvalidCommandError
 from teleteach.msg import (
@@ -40,11 +40,14 @@ from teleteach.msg import (
     StopAction,
     StopResult,
 )
+from teleteach.perception.observed import WORLD_FRAME, observed_from_scene
+from teleteach.perception.ros import box_marker, scene_markers
 from teleteach.rotations import yaw_quaternion
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, RobotSim, load_controller_config
-from teleteach.sim.scene import GAPS_NAMESPACE, PRODUCTS_NAMESPACE, load_scene
+from teleteach.sim.scene import load_scene
 from teleteach.sim.urdf import robot_description
+from teleteach.sim.world import SHELF_COLOUR
 from teleteach.srv import ListControllers, ListControllersResponse, SwitchController, SwitchControllerResponse
 
 JOINT_NAMES = list(panda.ARM_JOINTS + panda.FINGER_JOINTS)
@@ -85,7 +88,8 @@ class RobotSimNode:
 
     ROS Publishers:
         /clock, /joint_states, /cartesian_pose (200 Hz, base_link), /force_torque_ext (100 Hz, base_link, contact
-        wrench on the end effector about the TCP), /teleteach/scene (MarkerArray, 10 Hz, world), /diagnostics
+        wrench on the end effector about the TCP), /teleteach/scene (10 Hz: the world's products, gaps and pick
+        table as teleteach.perception describes them, and the shelf boards for RViz), /diagnostics
         (1 Hz: real-time factor, step cost, running controller), ~rejected (String: each rejected command), TF
         world -> base_link (100 Hz).
 
@@ -405,56 +409,14 @@ class RobotSimNode:
         self._tf.publish(TFMessage(transforms=[transform]))
 
     def _publish_scene(self):
-        markers = MarkerArray()
-        header = self._header("world")
+        """teleteach/scene: what a perfect perception sees of the world (teleteach.perception), plus the shelf."""
         scene = self.sim.scene
-        for index, part in enumerate(scene.shelf):
-            markers.markers.append(
-                _box_marker(
-                    header, "shelf", index, part.center, (0, 0, 0, 1), part.size, (0.55, 0.4, 0.25, 1.0), part.name
-                )
-            )
-        table = scene.pick_table
-        markers.markers.append(
-            _box_marker(header, "table", 0, table.center, (0, 0, 0, 1), table.size, (0.5, 0.5, 0.5, 1.0), table.name)
-        )
-        for index, gap in enumerate(scene.gaps.values()):
-            markers.markers.append(
-                _box_marker(
-                    header,
-                    GAPS_NAMESPACE,
-                    index,
-                    gap.position,
-                    yaw_quaternion(gap.yaw),
-                    (0.06, gap.width, 0.002),
-                    (0.1, 0.8, 0.1, 0.5),
-                    gap.name,
-                )
-            )
         with self._lock:
             poses = self.sim.world.product_poses()
-        for index, product in enumerate(scene.products):
-            position, quaternion = poses[product.name]
-            markers.markers.append(
-                _box_marker(
-                    header,
-                    PRODUCTS_NAMESPACE,
-                    index,
-                    position,
-                    quaternion,
-                    product.size,
-                    (0.8, 0.2, 0.2, 1.0),
-                    product.name,
-                )
-            )
-        self._scene.publish(markers)
-
-
-def _box_marker(header, namespace, marker_id, position, quaternion, size, colour, text):
-    marker = Marker(header=header, ns=namespace, id=marker_id, type=Marker.CUBE, action=Marker.ADD, text=text)
-    marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = (float(v) for v in position)
-    orientation = marker.pose.orientation
-    orientation.x, orientation.y, orientation.z, orientation.w = (float(v) for v in quaternion)
-    marker.scale.x, marker.scale.y, marker.scale.z = size
-    marker.color.r, marker.color.g, marker.color.b, marker.color.a = colour
-    return marker
+        observed = observed_from_scene(scene, poses, self.sim.time)
+        header = self._header(WORLD_FRAME)
+        shelf = [
+            box_marker(header, "shelf", index, part.center, (0, 0, 0, 1), part.size, SHELF_COLOUR, part.name)
+            for index, part in enumerate(scene.shelf)
+        ]
+        self._scene.publish(scene_markers(observed, self.sim.time, shelf))

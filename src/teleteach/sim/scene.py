@@ -1,4 +1,9 @@
-"""The supermarket scene description (config/supermarket.yaml) as plain data, shared by the sim and the skills."""
+"""The supermarket scene description (config/supermarket.yaml) as plain data.
+
+robot_sim reads all of it (:func:`load_scene`); the skill server only the site (:func:`load_site`: how the arm sits on
+the base, named base poses); static_scene only the objects (:func:`load_objects`: products, pick table, gaps), which
+the skills then perceive on ``teleteach/scene`` (teleteach.perception).
+"""
 
 import dataclasses
 import math
@@ -12,8 +17,6 @@ import yaml
 from teleteach.paths import config_file
 from teleteach.rotations import yaw_quaternion
 
-PRODUCTS_NAMESPACE = "products"  # the marker namespace of the products on /teleteach/scene (world frame)
-GAPS_NAMESPACE = "gaps"  # the marker namespace of the free slots on /teleteach/scene: text = gap name
 DEFAULT_SCENE_FILE = config_file("supermarket.yaml")
 
 
@@ -82,16 +85,9 @@ class RobotSetup:
     start_gripper_width: float
 
 
-@dataclass(frozen=True)
-class Scene:
-    """Everything config/supermarket.yaml describes."""
+class GapLookup:
+    """Finding gaps by name or position in a ``gaps`` mapping (the scene file's, or the perceived one)."""
 
-    robot: RobotSetup
-    base_poses: Dict[str, BasePose]
-    floor_friction: float
-    shelf: List[Box]
-    pick_table: Box
-    products: List[Product]
     gaps: Dict[str, Gap]
 
     def gap(self, name) -> Gap:
@@ -110,6 +106,36 @@ class Scene:
         if not self.gaps:
             raise SceneError("the scene has no gaps")
         return min(self.gaps.values(), key=lambda gap: gap.distance(position)[0])
+
+
+@dataclass(frozen=True)
+class Site:
+    """What the skills know of a site without perceiving it: how the arm sits on the base, and named base poses."""
+
+    robot: RobotSetup
+    base_poses: Dict[str, BasePose]
+
+
+@dataclass(frozen=True)
+class SceneObjects(GapLookup):
+    """The objects of a scene file: products where they start, the pick table, the gaps."""
+
+    products: List[Product]
+    pick_table: Box
+    gaps: Dict[str, Gap]
+
+
+@dataclass(frozen=True)
+class Scene(GapLookup):
+    """Everything config/supermarket.yaml describes."""
+
+    robot: RobotSetup
+    base_poses: Dict[str, BasePose]
+    floor_friction: float
+    shelf: List[Box]
+    pick_table: Box
+    products: List[Product]
+    gaps: Dict[str, Gap]
 
     def product(self, name):
         """The product called name (KeyError if there is none)."""
@@ -131,18 +157,40 @@ class Scene:
         return dataclasses.replace(self, products=[product for product in self.products if product.name not in names])
 
 
+def _read(path: Optional[str], parse):
+    path = pathlib.Path(path) if path else DEFAULT_SCENE_FILE
+    try:
+        data = yaml.safe_load(path.read_text())
+        return parse(data)
+    except (OSError, KeyError, TypeError, ValueError, AttributeError, yaml.YAMLError) as error:
+        raise SceneError(f"{path}: {error!r}") from error
+
+
 def load_scene(path: Optional[str] = None) -> Scene:
-    """Read the scene file (default: the package's config/supermarket.yaml).
+    """Read the whole scene file (default: the package's config/supermarket.yaml).
 
     Raises:
         SceneError: the file is missing a key or holds a value of the wrong shape.
     """
-    path = pathlib.Path(path) if path else DEFAULT_SCENE_FILE
-    try:
-        data = yaml.safe_load(path.read_text())
-        return _parse(data)
-    except (KeyError, TypeError, ValueError) as error:
-        raise SceneError(f"{path}: {error!r}") from error
+    return _read(path, _parse)
+
+
+def load_site(path: Optional[str] = None) -> Site:
+    """Read the sections ``robot`` and ``base_poses`` of a scene file (default: config/supermarket.yaml).
+
+    Raises:
+        SceneError: one is missing or holds a value of the wrong shape.
+    """
+    return _read(path, _parse_site)
+
+
+def load_objects(path: Optional[str] = None) -> SceneObjects:
+    """Read the sections ``product_defaults``, ``products``, ``pick_table`` and ``gaps`` of a scene file.
+
+    Raises:
+        SceneError: one is missing or holds a value of the wrong shape.
+    """
+    return _read(path, _parse_objects)
 
 
 def _triple(values):
@@ -151,8 +199,23 @@ def _triple(values):
     return tuple(float(value) for value in values)
 
 
-def _parse(data):
+def _parse_site(data):
     robot = data["robot"]
+    return Site(
+        robot=RobotSetup(
+            mount_height=float(robot["mount_height"]),
+            base_size=_triple(robot["base_size"]),
+            ready_joint_positions=tuple(float(value) for value in robot["ready_joint_positions"]),
+            start_gripper_width=float(robot["start_gripper_width"]),
+        ),
+        base_poses={
+            name: BasePose(float(pose["x"]), float(pose["y"]), float(pose["yaw"]))
+            for name, pose in data["base_poses"].items()
+        },
+    )
+
+
+def _parse_objects(data):
     defaults = data["product_defaults"]
     products = [
         Product(
@@ -165,7 +228,6 @@ def _parse(data):
         )
         for item in data["products"]
     ]
-    shelf_friction = float(data["shelf"]["friction"])
     table = data["pick_table"]
     gaps = {
         str(name): Gap(
@@ -173,50 +235,25 @@ def _parse(data):
         )
         for name, gap in data["gaps"].items()
     }
+    return SceneObjects(
+        products=products,
+        pick_table=Box("pick_table", _triple(table["center"]), _triple(table["size"]), float(table["friction"])),
+        gaps=gaps,
+    )
+
+
+def _parse(data):
+    site, objects = _parse_site(data), _parse_objects(data)
+    shelf_friction = float(data["shelf"]["friction"])
     return Scene(
-        robot=RobotSetup(
-            mount_height=float(robot["mount_height"]),
-            base_size=_triple(robot["base_size"]),
-            ready_joint_positions=tuple(float(value) for value in robot["ready_joint_positions"]),
-            start_gripper_width=float(robot["start_gripper_width"]),
-        ),
-        base_poses={
-            name: BasePose(float(pose["x"]), float(pose["y"]), float(pose["yaw"]))
-            for name, pose in data["base_poses"].items()
-        },
+        robot=site.robot,
+        base_poses=site.base_poses,
         floor_friction=float(data["floor"]["friction"]),
         shelf=[
             Box(str(part["name"]), _triple(part["center"]), _triple(part["size"]), shelf_friction)
             for part in data["shelf"]["parts"]
         ],
-        pick_table=Box("pick_table", _triple(table["center"]), _triple(table["size"]), float(table["friction"])),
-        products=products,
-        gaps=gaps,
+        pick_table=objects.pick_table,
+        products=objects.products,
+        gaps=objects.gaps,
     )
-
-
-def product_poses(markers: Iterable) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
-    """World poses of the products in the markers of a /teleteach/scene MarkerArray, by product name.
-
-    Each pose is the box centre [m] and its (x, y, z, w) quaternion.
-    """
-    return {
-        marker.text: (
-            np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z]),
-            np.array(
-                [
-                    marker.pose.orientation.x,
-                    marker.pose.orientation.y,
-                    marker.pose.orientation.z,
-                    marker.pose.orientation.w,
-                ]
-            ),
-        )
-        for marker in markers
-        if marker.ns == PRODUCTS_NAMESPACE and marker.text and marker.header.frame_id.lstrip("/") == "world"
-    }
-
-
-def product_positions(markers: Iterable) -> Dict[str, np.ndarray]:
-    """World positions [m] of the products in the markers of a /teleteach/scene MarkerArray, by product name."""
-    return {name: position for name, (position, _) in product_poses(markers).items()}

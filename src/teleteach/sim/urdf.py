@@ -7,14 +7,14 @@ no network and no ROS package for the meshes.
 import xml.etree.ElementTree as ElementTree
 
 from teleteach.sim import panda
-from teleteach.sim.scene import load_scene
+from teleteach.sim.scene import load_site
 
 MESH_PREFIX = "package://meshes/"
 
 
 def robot_description(mount_height=None, base_size=None):
     """The URDF text of base_link + Panda (panda_link0 mount_height [m] above base_link, a base box base_size [m])."""
-    robot_setup = load_scene().robot
+    robot_setup = load_site().robot
     mount_height = robot_setup.mount_height if mount_height is None else mount_height
     base_size = robot_setup.base_size if base_size is None else base_size
     robot = ElementTree.fromstring(panda.PANDA_URDF.read_text())

@@ -12,9 +12,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from teleteach import placement
+from teleteach.perception.observed import ObservedBox, ObservedScene, table_on
 from teleteach.placement import Placement
 from teleteach.rotations import yaw_rotation
-from teleteach.sim.scene import Gap, Scene, SceneError
+from teleteach.sim.scene import Gap, SceneError, Site
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import TOP_DOWN, Motion, world_to_base
 from teleteach.skills.robot import SkillError
@@ -53,15 +54,35 @@ def across_fingers(size, grasp_yaw) -> float:
 
 @dataclass
 class WorldView:
-    """What the skills ask about the world: scene geometry plus the robot's live view of it.
+    """What the skills ask about the world: its perception, joints and base, and the site's named base poses.
+
+    Products, gaps and tables come only from the robot's perception (teleteach/scene: teleteach.perception).
 
     Args:
         motion: the running skill's motions (robot, kinematics, config).
-        scene: the supermarket scene description.
+        site: the named base poses (a teleteach.sim.scene.Site, or the whole Scene).
     """
 
     motion: Motion
-    scene: Scene
+    site: Site
+
+    def perceived(self) -> ObservedScene:
+        """The scene as the robot perceives it now."""
+        return self.motion.robot.observed_scene()
+
+    def product_box(self, name) -> ObservedBox:
+        """Product name as perceived now (pose and size), or SkillError when the scene does not report it."""
+        try:
+            return self.perceived().product(name)
+        except KeyError:
+            raise SkillError(f"{name} is not in the scene") from None
+
+    def gap(self, name) -> Gap:
+        """The perceived gap called name, or SkillError naming the gaps the scene reports."""
+        try:
+            return self.perceived().gap(name)
+        except SceneError as error:
+            raise SkillError(str(error)) from None
 
     @property
     def config(self) -> MotionConfig:
@@ -70,21 +91,14 @@ class WorldView:
 
     def product_position(self, name) -> np.ndarray:
         """Where product name is now (world) [m], or SkillError when the scene does not report it."""
-        position = self.motion.robot.product_positions().get(name)
-        if position is None:
-            raise SkillError(f"{name} is not in the scene")
-        return np.asarray(position, dtype=float)
+        return self.product_box(name).position.copy()
 
     def on_table(self, name) -> bool:
-        """Whether product name stands on the pick table."""
-        position = self.motion.robot.product_positions().get(name)
-        if position is None:
+        """Whether product name stands on a pick table of the scene."""
+        scene = self.perceived()
+        if name not in scene.products:
             return False
-        table = self.scene.pick_table
-        height = self.scene.product(name).size[2]
-        top = table.center[2] + table.size[2] / 2.0
-        inside = all(abs(position[axis] - table.center[axis]) <= table.size[axis] / 2.0 for axis in (0, 1))
-        return inside and abs(position[2] - (top + height / 2.0)) <= self.config.grasp.table_tolerance
+        return table_on(scene, scene.product(name), self.config.grasp.table_tolerance) is not None
 
     def expected_in_hand(self) -> np.ndarray:
         """Where a held product's centre should be (world) [m]: height_above_center along the TCP's z (down)."""
@@ -138,7 +152,7 @@ class WorldView:
             raise SkillError(f"{product} is not in the scene")
         final = {name: position for name, (position, _) in poses.items()}
         try:
-            return placement.judge(self.scene, product, poses[product], before, final, gap)
+            return placement.judge(self.perceived(), product, poses[product], before, final, gap)
         except SceneError as error:
             raise SkillError(str(error)) from None
 
@@ -149,7 +163,10 @@ class WorldView:
     def gap_near_hand(self) -> Gap:
         """The gap closest to the hand: the one a product in the hand is being put into."""
         position, _ = self.motion.tcp_world()
-        return self.scene.nearest_gap(position)
+        try:
+            return self.perceived().nearest_gap(position)
+        except SceneError as error:
+            raise SkillError(str(error)) from None
 
     def top_down(self, yaw_world) -> Rotation:
         """TCP orientation in base_link pointing down, rotated by yaw_world [rad] (world) about the vertical."""
@@ -205,10 +222,11 @@ class PickItem(PredefinedSkill):
         held, _ = world.held_product()
         if held is not None:
             raise SkillError(f"the gripper already holds {held}")
-        centre = world_to_base(motion.robot.base_pose(), world.product_position(product))
-        orientation = world.top_down(world.scene.product(product).yaw)
+        box = world.product_box(product)
+        centre = world_to_base(motion.robot.base_pose(), box.position)
+        orientation = world.top_down(box.yaw)
         grasp_point = centre + up(grasp.height_above_center)
-        expected = across_fingers(world.scene.product(product).size, grasp.yaw)
+        expected = across_fingers(box.size, grasp.yaw)
         motion.execution.phase("open gripper", 0.1)
         motion.gripper(world.config.gripper.open_width)
         motion.execution.phase("approach", 0.25)
@@ -238,9 +256,9 @@ class MoveBase(PredefinedSkill):
     def run(self, world: WorldView) -> str:
         """Drive; succeed when TF puts base_link at the pose."""
         name = self.settings.get("base_pose", "")
-        if name not in world.scene.base_poses:
-            raise SkillError(f"{self.name}: unknown base pose '{name}' (scene has {sorted(world.scene.base_poses)})")
-        target = world.scene.base_poses[name]
+        if name not in world.site.base_poses:
+            raise SkillError(f"{self.name}: unknown base pose '{name}' (the site has {sorted(world.site.base_poses)})")
+        target = world.site.base_poses[name]
         motion = world.motion
         carry = np.asarray(world.config.postures["carry"])
         motion.execution.phase("carry posture", 0.2)
@@ -258,8 +276,8 @@ class PlaceItem(PredefinedSkill):
         """Place; succeed when the held product stands upright in the gap."""
         motion, place = world.motion, world.config.place
         try:
-            gap = world.scene.gap(self.settings.get("gap", ""))
-        except SceneError as error:
+            gap = world.gap(self.settings.get("gap", ""))
+        except SkillError as error:
             raise SkillError(f"{self.name}: {error}") from None
         product, _ = world.product_in_hand()
         if product is None:
@@ -375,8 +393,8 @@ class ProductInGap(PredefinedSkill):
         """Succeed when some product is in the gap; the failure names the nearest one."""
         gap = self.settings.get("gap", "")
         try:
-            world.scene.gap(gap)
-        except SceneError as error:
+            world.gap(gap)
+        except SkillError as error:
             raise SkillError(f"{self.name}: {error}") from None
         now = world.motion.robot.product_positions()
         placements = [world.placement(product, now, gap) for product in now]

@@ -11,6 +11,8 @@ from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
+from teleteach.perception.observed import ObservedScene
+
 HOLD_TIME = 0.05  # [s] a hold point lies this far ahead (a point at time 0 would already be in the past)
 
 
@@ -62,8 +64,12 @@ class Robot(abc.ABC):
         """base_link in world: x [m], y [m], yaw [rad]; raises SkillError when unknown."""
 
     @abc.abstractmethod
+    def observed_scene(self) -> ObservedScene:
+        """The products, gaps and tables as the robot's perception reports them now (teleteach.perception)."""
+
     def product_poses(self) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
         """Product name -> centre position [m] and (x, y, z, w) quaternion in world, as the scene reports them now."""
+        return self.observed_scene().product_poses()
 
     def product_positions(self) -> Dict[str, np.ndarray]:
         """Product name -> centre position [m] in world, as the scene reports them now."""

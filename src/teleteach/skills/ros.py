@@ -9,7 +9,7 @@ Names are the README's ROS graph (docs/architecture.md).
 
 import threading
 import time
-from typing import Dict, Sequence, Tuple
+from typing import Sequence, Tuple
 
 import actionlib
 import numpy as np
@@ -32,10 +32,10 @@ from teleteach.msg import (
     MoveAction,
     MoveGoal,
 )
+from teleteach.perception.observed import ObservedScene, observed_from_markers
 from teleteach.ros_actions import server_ready
 from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
-from teleteach.sim.scene import PRODUCTS_NAMESPACE, product_poses
 from teleteach.skills.robot import Execution, Robot, RobotGoal, SkillError
 from teleteach.skills.runner import REPLAY_SKILL, SKILL_NAMES, SkillRunner
 from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
@@ -93,7 +93,7 @@ class RosRobot(Robot):
         self._lock = threading.Condition()
         self._joints = None
         self._fingers = None
-        self._products = {}
+        self._scene = ObservedScene({}, {}, {})
         self._scene_stamp = -1.0
         self._cartesian = None
         self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
@@ -127,11 +127,12 @@ class RosRobot(Robot):
                 self._lock.notify_all()
 
     def _on_scene(self, msg):
-        products = product_poses(msg.markers)
-        stamps = [marker.header.stamp.to_sec() for marker in msg.markers if marker.ns == PRODUCTS_NAMESPACE]
+        scene, rejected = observed_from_markers(msg.markers)
+        if rejected:
+            rospy.logwarn_throttle(5.0, f"skill_server: left out of teleteach/scene: {'; '.join(rejected)}")
         with self._lock:
-            self._products = products
-            self._scene_stamp = max(stamps) if stamps else rospy.get_time()
+            self._scene = scene
+            self._scene_stamp = scene.stamp if scene.products or scene.gaps else rospy.get_time()
             self._lock.notify_all()
 
     def _on_cartesian_pose(self, msg):
@@ -199,14 +200,12 @@ class RosRobot(Robot):
         yaw = 2.0 * np.arctan2(rotation.z, rotation.w)
         return float(translation.x), float(translation.y), float(np.arctan2(np.sin(yaw), np.cos(yaw)))
 
-    def product_poses(self) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
-        """Product poses in world from the latest /teleteach/scene no older than SCENE_FRESHNESS."""
+    def observed_scene(self) -> ObservedScene:
+        """The latest /teleteach/scene, waited for (SCENE_WAIT) until one no older than SCENE_FRESHNESS arrives."""
         wanted = self.now() - SCENE_FRESHNESS
         with self._lock:
             self._lock.wait_for(lambda: self._scene_stamp >= wanted or rospy.is_shutdown(), timeout=SCENE_WAIT)
-            return {
-                name: (position.copy(), quaternion.copy()) for name, (position, quaternion) in self._products.items()
-            }
+            return self._scene
 
     def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
         """Latest /cartesian_pose (TCP in base_link)."""

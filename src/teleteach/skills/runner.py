@@ -6,7 +6,7 @@ from typing import Dict
 
 import yaml
 
-from teleteach.sim.scene import Scene
+from teleteach.sim.scene import Site
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import InverseKinematics, Motion
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS, WorldView, create_skills
@@ -47,14 +47,14 @@ class SkillRunner:
     Args:
         robot: the robot interface.
         config: the motion configuration.
-        scene: the supermarket scene.
+        site: the named base poses (teleteach.sim.scene.Site; the whole Scene will do).
         kinematics: Panda forward kinematics and Jacobian in base_link (teleteach.sim.kinematics.PandaKinematics).
     """
 
-    def __init__(self, robot: Robot, config: MotionConfig, scene: Scene, kinematics):
+    def __init__(self, robot: Robot, config: MotionConfig, site: Site, kinematics):
         self.robot = robot
         self.config = config
-        self.scene = scene
+        self.site = site
         self.ik = InverseKinematics(kinematics, tolerance=config.arm.ik_tolerance)
         self.skills = create_skills(config)
         self.replay = StiffnessReplay()
@@ -72,7 +72,7 @@ class SkillRunner:
         motion = Motion(self.robot, self.config, self.ik, execution)
         try:
             if name == REPLAY_SKILL:
-                message = self.replay.run(WorldView(motion, self.scene), parameters)
+                message = self.replay.run(WorldView(motion, self.site), parameters)
             else:
                 skill = self.skills[name]
                 settings = parse_settings(parameters)
@@ -80,7 +80,7 @@ class SkillRunner:
                     skill = type(skill)(name, {**skill.settings, **settings})
                 if skill.moves:
                     motion.ensure_position_control()
-                message = skill.run(WorldView(motion, self.scene))
+                message = skill.run(WorldView(motion, self.site))
             execution.complete("done")
             return Outcome(True, message)
         except PreemptedError:

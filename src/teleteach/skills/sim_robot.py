@@ -4,11 +4,12 @@ The skills then run against the same physics, controllers and command validation
 passes only when a skill waits (sleep() steps the simulation), so runs are deterministic and faster than real time.
 """
 
-from typing import Dict, Sequence, Tuple
+from typing import Sequence, Tuple
 
 import numpy as np
 
 from teleteach.control.manager import STRICT
+from teleteach.perception.observed import ObservedScene, observed_from_scene
 from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import RobotSim
@@ -80,9 +81,9 @@ class SimRobot(Robot):
         x, y, yaw = self.sim.world.base_pose
         return float(x), float(y), float(yaw)
 
-    def product_poses(self) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
-        """Product centres [m] and orientations in world."""
-        return self.sim.world.product_poses()
+    def observed_scene(self) -> ObservedScene:
+        """What robot_sim would publish on teleteach/scene now: the world's products, the scene's gaps and table."""
+        return observed_from_scene(self.sim.scene, self.sim.world.product_poses(), self.sim.time)
 
     def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
         """TCP in base_link as the controllers see it."""

@@ -1,0 +1,176 @@
+"""What the robot sees of the shop: products, free slots on the shelf (gaps) and pick tables, in one perception message.
+
+The interface is the topic ``teleteach/scene``, a visualization_msgs/MarkerArray in frame ``world``, which a perception
+node fills: robot_sim from its world, static_scene from a yaml of a real shelf, or a real detector. One marker per
+object (any shape; RViz draws it), ``ns`` its class, ``text`` its name, ``pose`` and ``scale`` its box:
+
+- ns ``products``: a product. Pose: its centre and orientation; scale: its size (x, y, z) [m].
+- ns ``gaps``: a free slot. Pose: where a placed product's centre belongs, turned about z only (its x axis points
+  into the shelf); scale.y: the free width between the neighbours [m]; scale.x: twice the placement tolerance [m] (a
+  product whose centre is that close horizontally counts as placed), so RViz draws the slot's tolerance.
+- ns ``tables``: a surface products are picked from. Pose: its box's centre, turned about z only; scale: its size.
+
+Other namespaces (robot_sim's ``shelf`` boards) are for RViz: the skills ignore them. Each message is the whole scene:
+an object it does not name is not seen. A marker that cannot be an object (another frame, no name, NaN, a zero or
+non-unit quaternion, a tilted gap or table, a size <= 0, a name already taken in its namespace) is left out, with
+the reason in the list :func:`observed_from_markers` returns.
+"""
+
+import math
+from dataclasses import dataclass
+from typing import Dict, Iterable, List, Optional, Tuple
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from teleteach.control.validation import InvalidCommandError, finite_vector, validate_quaternion
+from teleteach.rotations import yaw_quaternion
+from teleteach.sim.scene import Gap, GapLookup, Scene
+
+WORLD_FRAME = "world"
+PRODUCTS = "products"
+GAPS = "gaps"
+TABLES = "tables"
+ADD = 0  # visualization_msgs/Marker.ADD: other actions (DELETE, DELETEALL) carry no object
+
+
+@dataclass(frozen=True)
+class ObservedBox:
+    """A product or table as seen: centre [m], (x, y, z, w) quaternion and size (x, y, z) [m] in world."""
+
+    name: str
+    position: np.ndarray
+    quaternion: np.ndarray
+    size: Tuple[float, float, float]
+
+    @property
+    def yaw(self) -> float:
+        """Rotation of the box's x axis about the vertical [rad]."""
+        x_axis = Rotation.from_quat(self.quaternion).apply([1.0, 0.0, 0.0])
+        return float(math.atan2(x_axis[1], x_axis[0]))
+
+    def local(self, point) -> np.ndarray:
+        """A point [m] of world in the box's frame (origin at its centre)."""
+        return Rotation.from_quat(self.quaternion).inv().apply(np.asarray(point, dtype=float) - self.position)
+
+
+@dataclass(frozen=True)
+class ObservedScene(GapLookup):
+    """The products, gaps and tables of one ``teleteach/scene`` message; ``stamp`` [s] is its newest marker's."""
+
+    products: Dict[str, ObservedBox]
+    gaps: Dict[str, Gap]
+    tables: Dict[str, ObservedBox]
+    stamp: float = 0.0
+
+    def product(self, name) -> ObservedBox:
+        """The product called name (KeyError if it is not seen)."""
+        return self.products[name]
+
+    def product_poses(self) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+        """Name -> (centre [m], quaternion (x, y, z, w)) of every product, in world."""
+        return {name: (box.position.copy(), box.quaternion.copy()) for name, box in self.products.items()}
+
+
+def observed_from_scene(scene: Scene, product_poses=None, stamp: float = 0.0) -> ObservedScene:
+    """What a perfect perception sees of a scene: its products, gaps and pick table.
+
+    Products stand where ``product_poses`` (name -> centre, quaternion) says; without it, where the file puts them.
+    """
+    products = {}
+    for product in scene.products:
+        if product_poses is None:
+            position, quaternion = np.array(product.position), np.array(yaw_quaternion(product.yaw))
+        elif product.name in product_poses:
+            position, quaternion = product_poses[product.name]
+        else:
+            continue
+        products[product.name] = ObservedBox(
+            product.name, np.asarray(position, float), np.asarray(quaternion, float), product.size
+        )
+    table = scene.pick_table
+    tables = {table.name: ObservedBox(table.name, np.array(table.center), np.array([0.0, 0.0, 0.0, 1.0]), table.size)}
+    return ObservedScene(products, dict(scene.gaps), tables, stamp)
+
+
+def marker_stamp(stamp) -> float:
+    """A header stamp in seconds: rospy's Time, or a rosbags message's (sec, nanosec)."""
+    if hasattr(stamp, "to_sec"):
+        return stamp.to_sec()
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
+def _box(marker, yaw_only: bool) -> ObservedBox:
+    """The box a marker describes; InvalidCommandError says why it cannot be one."""
+    if not marker.text:
+        raise InvalidCommandError("no name in text")
+    if marker.header.frame_id.lstrip("/") != WORLD_FRAME:
+        raise InvalidCommandError(f"frame '{marker.header.frame_id}' is not '{WORLD_FRAME}'")
+    pose = marker.pose
+    position = finite_vector([pose.position.x, pose.position.y, pose.position.z], 3, "position")
+    quaternion = validate_quaternion(
+        [pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w], "orientation"
+    )
+    if yaw_only and math.hypot(quaternion[0], quaternion[1]) > 1e-3:
+        raise InvalidCommandError("orientation must be a rotation about z only")
+    size = finite_vector([marker.scale.x, marker.scale.y, marker.scale.z], 3, "scale")
+    if np.any(size <= 0.0):
+        raise InvalidCommandError(f"scale must be > 0, got {size.tolist()}")
+    return ObservedBox(marker.text, position, quaternion, tuple(float(value) for value in size))
+
+
+def observed_from_markers(markers: Iterable) -> Tuple[ObservedScene, List[str]]:
+    """The scene the markers of a ``teleteach/scene`` message describe, and why each left-out marker was left out.
+
+    Works on rospy messages and on messages read from a bag with rosbags (same field names).
+    """
+    products: Dict[str, ObservedBox] = {}
+    gaps: Dict[str, Gap] = {}
+    tables: Dict[str, ObservedBox] = {}
+    rejected: List[str] = []
+    stamps: List[float] = []
+    for marker in markers:
+        if marker.action != ADD or marker.ns not in (PRODUCTS, GAPS, TABLES):
+            continue
+        taken = {PRODUCTS: products, GAPS: gaps, TABLES: tables}[marker.ns]
+        try:
+            box = _box(marker, yaw_only=marker.ns != PRODUCTS)
+            if box.name in taken:
+                raise InvalidCommandError("the name is taken by an earlier marker")
+        except InvalidCommandError as error:
+            rejected.append(f"{marker.ns} marker '{marker.text}': {error}")
+            continue
+        if marker.ns == GAPS:
+            taken[box.name] = Gap(box.name, tuple(box.position.tolist()), box.yaw, box.size[1], box.size[0] / 2.0)
+        else:
+            taken[box.name] = box
+        stamps.append(marker_stamp(marker.header.stamp))
+    return ObservedScene(products, gaps, tables, max(stamps) if stamps else 0.0), rejected
+
+
+def product_poses(markers: Iterable) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+    """World poses (centre [m], (x, y, z, w) quaternion) of the products in a ``teleteach/scene`` message, by name."""
+    return observed_from_markers(markers)[0].product_poses()
+
+
+def product_positions(markers: Iterable) -> Dict[str, np.ndarray]:
+    """World positions [m] of the products in a ``teleteach/scene`` message, by name."""
+    return {name: position for name, (position, _) in product_poses(markers).items()}
+
+
+def gap_box(gap: Gap) -> Tuple[np.ndarray, np.ndarray, Tuple[float, float, float]]:
+    """The marker box of a gap: target centre [m], yaw quaternion, scale (2 x tolerance, width, 2 mm) [m]."""
+    return np.array(gap.position), np.array(yaw_quaternion(gap.yaw)), (2.0 * gap.tolerance, gap.width, 0.002)
+
+
+def table_on(scene: ObservedScene, product: ObservedBox, tolerance: float) -> Optional[str]:
+    """The table the product stands on, or None.
+
+    On a table: the product's centre is inside the top's outline, half its height above the top (within tolerance [m]).
+    """
+    for table in scene.tables.values():
+        local = table.local(product.position)
+        inside = abs(local[0]) <= table.size[0] / 2.0 and abs(local[1]) <= table.size[1] / 2.0
+        if inside and abs(local[2] - (table.size[2] + product.size[2]) / 2.0) <= tolerance:
+            return table.name
+    return None
