@@ -1,5 +1,6 @@
 """teleteach.node.init_node against a real roscore: the rosout parameter that keeps rospy's logging cheap is set
-to its default when missing, and a value the user chose is kept; a node without its yaml names what is missing."""
+to its default when missing, and a value the user chose is kept; a node without its yaml, or static_scene with a
+broken scene file, names what is wrong in one line."""
 
 import subprocess
 import sys
@@ -57,3 +58,22 @@ def test_shared_control_without_its_yaml_names_the_missing_parameters_in_one_lin
     assert result.returncode == 1
     assert len(fatal) == 1, result.stdout + result.stderr
     assert "shared_control: bad parameter: missing parameter ~plane, ~boundary, ~initial_state" in fatal[0]
+
+
+def test_static_scene_with_a_broken_scene_file_names_it_in_one_line(tmp_path):
+    node = subprocess.run(["rospack", "find", "teleteach"], capture_output=True, text=True, check=True).stdout.strip()
+    broken = tmp_path / "shop.yaml"
+    broken.write_text("product_defaults: {size: [0.06, 0.05, 0.14], mass: 0.3, friction: 0.6}\nproducts: []\n")
+    with Processes(tmp_path / "logs") as processes:
+        start_roscore(processes)
+        result = subprocess.run(
+            [sys.executable, f"{node}/nodes/static_scene", f"_scene_file:={broken}"],
+            env=processes.env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    # Expect: exit 2 with one fatal line naming the file and the missing section
+    fatal = [line for line in result.stderr.splitlines() + result.stdout.splitlines() if "[FATAL]" in line]
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert len(fatal) == 1 and f"static_scene: {broken}: KeyError('pick_table')" in fatal[0], fatal

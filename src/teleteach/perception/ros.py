@@ -3,13 +3,19 @@
 robot_sim and static_scene publish the message; its format is in teleteach.perception.observed.
 """
 
+import threading
 from typing import Iterable
 
 import rospy
+import tf2_ros
+from actionlib_msgs.msg import GoalStatus
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 from visualization_msgs.msg import Marker, MarkerArray
 
+from teleteach.msg import GraspActionResult
 from teleteach.perception.observed import GAPS, PRODUCTS, TABLES, WORLD_FRAME, ObservedScene, gap_box
+from teleteach.perception.static import StaticScene
 
 PRODUCT_COLOUR = (0.8, 0.2, 0.2, 1.0)
 GAP_COLOUR = (0.1, 0.8, 0.1, 0.5)
@@ -51,3 +57,73 @@ def scene_markers(observed: ObservedScene, stamp: float, extras: Iterable[Marker
             )
         )
     return MarkerArray(markers=markers)
+
+
+class StaticSceneNode:
+    """static_scene: teleteach/scene from a scene file, the held product following the hand (perception.static).
+
+    Args:
+        scene: the belief.
+        rate: publication rate [Hz].
+        tcp_frame: the TF frame of the tool centre point (between the fingertips).
+        finger_joints: the two finger joints in joint_states (their positions add up to the opening).
+
+    ROS Publishers: teleteach/scene (visualization_msgs/MarkerArray, world, at rate).
+    ROS Subscribers: joint_states (the fingers' opening), franka_gripper/grasp/result (a grasp that succeeded
+    attaches the product at the TCP); TF world -> tcp_frame.
+    """
+
+    def __init__(self, scene: StaticScene, rate: float, tcp_frame: str, finger_joints):
+        self.scene = scene
+        self.tcp_frame = tcp_frame
+        self.finger_joints = list(finger_joints)
+        self._lock = threading.Lock()
+        self._width = None
+        self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
+        self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
+        self._publisher = rospy.Publisher("teleteach/scene", MarkerArray, queue_size=1, latch=True)
+        self._subscribers = [
+            rospy.Subscriber("joint_states", JointState, self._on_joint_states, queue_size=1),
+            rospy.Subscriber("franka_gripper/grasp/result", GraspActionResult, self._on_grasp, queue_size=5),
+        ]
+        self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._tick)
+
+    def _on_joint_states(self, msg):
+        positions = dict(zip(msg.name, msg.position))
+        if all(name in positions for name in self.finger_joints):
+            with self._lock:
+                self._width = float(sum(positions[name] for name in self.finger_joints))
+
+    def _tcp(self):
+        """The TCP pose in world (position, quaternion), or None while TF does not have it."""
+        try:
+            transform = self._tf_buffer.lookup_transform(WORLD_FRAME, self.tcp_frame, rospy.Time(0))
+        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException):
+            return None
+        t, r = transform.transform.translation, transform.transform.rotation
+        return (t.x, t.y, t.z), (r.x, r.y, r.z, r.w)
+
+    def _on_grasp(self, msg):
+        if msg.status.status != GoalStatus.SUCCEEDED or not msg.result.success:
+            return
+        tcp = self._tcp()
+        with self._lock:
+            if tcp is None or self._width is None:
+                rospy.logwarn(
+                    f"static_scene: a grasp succeeded, but the TCP ({self.tcp_frame}) or the fingers are unknown"
+                )
+                return
+            name = self.scene.grasped(*tcp, self._width)
+        if name:
+            rospy.loginfo(f"static_scene: {name} is in the hand")
+        else:
+            rospy.logwarn("static_scene: a grasp succeeded with no product of the scene file at the TCP")
+
+    def _tick(self, _event):
+        tcp = self._tcp()
+        with self._lock:
+            released = None if tcp is None or self._width is None else self.scene.follow(*tcp, self._width)
+            observed = self.scene.observed(rospy.get_time())
+        if released:
+            rospy.loginfo(f"static_scene: {released} released where the hand left it")
+        self._publisher.publish(scene_markers(observed, observed.stamp))
