@@ -1,0 +1,45 @@
+"""Stiffness for the TU Delft franka_human_friendly_controllers' CartesianVariableImpedanceController.
+
+Its public source (github.com/franzesegiovanni/franka_human_friendly_controllers, src/
+cartesian_variable_impedance_controller.cpp, in the versions that subscribe ``/stiffness``; newer versions take
+stiffness only through dynamic_reconfigure) reads std_msgs/Float32MultiArray ``data`` as seven numbers: the diagonal of
+the translational stiffness [N/m] (clamped there to [0, 4000]), of the rotational stiffness [Nm/rad] ([0, 50]), and the
+nullspace stiffness ([0, 50]), in the arm's base frame, with damping 2 sqrt(K) per axis. It copies ``data`` into a
+fixed array of seven without checking the length, so exactly seven are sent, all finite.
+
+A diagonal cannot hold a turned ellipsoid. The bridge sends the diagonal of the thesis' K = V Sigma V^T (eq 1) and
+K_R = V K_R V^T (eq 4), i.e. the stiffness along each base axis, and reports the largest off-diagonal term it left out:
+exact for ellipsoids aligned with the base axes (in any order), an approximation otherwise.
+"""
+
+from typing import Tuple
+
+import numpy as np
+
+from teleteach.control import validation
+from teleteach.control.stiffness import TRANSLATIONAL, stiffness_matrix
+
+STIFFNESS_VALUES = 7  # Kx, Ky, Kz [N/m], Krx, Kry, Krz [Nm/rad], nullspace [Nm/rad]
+
+
+def franka_stiffness(
+    eigenvalues, eigenvectors, rotational_stiffness: float, nullspace_stiffness: float, max_stiffness: float
+) -> Tuple[np.ndarray, float]:
+    """The seven values of ``/stiffness``, and the largest translational off-diagonal term left out [N/m].
+
+    Args:
+        eigenvalues: principal stiffnesses [N/m] (/eigenvalues); each clamped to max_stiffness.
+        eigenvectors: quaternion (x, y, z, w) of the principal axes in the base frame (/eigenvectors).
+        rotational_stiffness: K_R on each rotational axis [Nm/rad].
+        nullspace_stiffness: the controller's nullspace stiffness [Nm/rad].
+        max_stiffness: largest principal stiffness sent [N/m].
+
+    Raises:
+        InvalidCommandError: NaN or inf, a negative stiffness, a zero or non-unit quaternion.
+    """
+    values = validation.validate_eigenvalues(eigenvalues, max_stiffness)
+    quaternion = validation.validate_quaternion(eigenvectors, "eigenvectors")
+    stiffness = stiffness_matrix(values, quaternion, rotational_stiffness)
+    translational = stiffness[TRANSLATIONAL, TRANSLATIONAL]
+    left_out = float(np.max(np.abs(translational - np.diag(np.diag(translational)))))
+    return np.append(np.diag(stiffness), nullspace_stiffness), left_out

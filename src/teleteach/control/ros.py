@@ -1,0 +1,91 @@
+"""ROS layer of control: the stiffness bridge to franka_human_friendly_controllers (teleteach.control.franka_stiffness).
+
+robot_sim's controllers have their own node (teleteach.sim.ros).
+"""
+
+import contextlib
+
+import rospy
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from std_msgs.msg import Float32MultiArray, MultiArrayDimension
+
+from teleteach.control.franka_stiffness import STIFFNESS_VALUES, franka_stiffness
+from teleteach.control.validation import (
+    InvalidCommandError,
+    check_frame,
+    validate_eigenvalues,
+    validate_quaternion,
+)
+
+WARN_PERIOD = 1.0  # [s] between two warnings of the same kind
+OFF_DIAGONAL_NOTICE = 1.0  # [N/m] off-diagonal stiffness left out beyond this is reported
+
+
+class StiffnessBridgeNode:
+    """stiffness_bridge: /eigenvalues + /eigenvectors -> /stiffness (franka_human_friendly_controllers).
+
+    Publishes once both have arrived, on every good message; a bad one (NaN or inf, negative, a zero or non-unit
+    quaternion, another frame) is rejected with a log line and changes nothing: the controller keeps the last good
+    stiffness.
+
+    Args:
+        frame: the frame the eigen topics may name (empty is accepted too); the controller's base frame must be
+            parallel to it.
+        max_stiffness: largest principal stiffness sent [N/m].
+        rotational_stiffness: K_R on each rotational axis [Nm/rad].
+        nullspace_stiffness: the controller's nullspace stiffness [Nm/rad].
+
+    ROS Subscribers: eigenvalues (geometry_msgs/Vector3Stamped), eigenvectors (geometry_msgs/QuaternionStamped).
+    ROS Publishers: stiffness (std_msgs/Float32MultiArray, seven values).
+    """
+
+    def __init__(self, frame: str, max_stiffness: float, rotational_stiffness: float, nullspace_stiffness: float):
+        self.frame = frame
+        self.max_stiffness = float(max_stiffness)
+        self.rotational_stiffness = float(rotational_stiffness)
+        self.nullspace_stiffness = float(nullspace_stiffness)
+        self.eigenvalues = None
+        self.eigenvectors = None
+        self.publisher = rospy.Publisher("stiffness", Float32MultiArray, queue_size=10)
+        self._subscribers = [
+            rospy.Subscriber("eigenvalues", Vector3Stamped, self._on_eigenvalues, queue_size=10),
+            rospy.Subscriber("eigenvectors", QuaternionStamped, self._on_eigenvectors, queue_size=10),
+        ]
+
+    def _on_eigenvalues(self, message):
+        vector = message.vector
+        with self._guard("eigenvalues", message.header.frame_id):
+            self.eigenvalues = validate_eigenvalues((vector.x, vector.y, vector.z), self.max_stiffness)
+            self._publish()
+
+    def _on_eigenvectors(self, message):
+        q = message.quaternion
+        with self._guard("eigenvectors", message.header.frame_id):
+            self.eigenvectors = validate_quaternion((q.x, q.y, q.z, q.w), "eigenvectors")
+            self._publish()
+
+    @contextlib.contextmanager
+    def _guard(self, topic, frame_id):
+        """Check the frame, then run the update; a rejected message is logged and changes nothing."""
+        try:
+            if frame_id:
+                check_frame(frame_id, self.frame)
+            yield
+        except InvalidCommandError as error:
+            rospy.logwarn_throttle(WARN_PERIOD, f"stiffness_bridge rejected a message on {topic}: {error}")
+
+    def _publish(self):
+        if self.eigenvalues is None or self.eigenvectors is None:
+            return
+        values, left_out = franka_stiffness(
+            self.eigenvalues, self.eigenvectors, self.rotational_stiffness, self.nullspace_stiffness, self.max_stiffness
+        )
+        if left_out > OFF_DIAGONAL_NOTICE:
+            rospy.logwarn_throttle(
+                WARN_PERIOD,
+                f"stiffness_bridge: the controller takes a diagonal stiffness: {left_out:.0f} N/m off the diagonal "
+                "(a turned ellipsoid) left out",
+            )
+        message = Float32MultiArray(data=[float(value) for value in values])
+        message.layout.dim = [MultiArrayDimension(label="stiffness", size=STIFFNESS_VALUES, stride=STIFFNESS_VALUES)]
+        self.publisher.publish(message)

@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""rostest check of stiffness_bridge: what franka_human_friendly_controllers would receive on /stiffness for the GUI's
+/eigenvalues and /eigenvectors, and bad messages rejected (logged on /rosout, nothing sent, the node still bridging)."""
+
+import math
+import threading
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from rosgraph_msgs.msg import Log
+from std_msgs.msg import Float32MultiArray
+
+
+class Bridge:
+    """Publishes the eigen topics; keeps every /stiffness message and the bridge's log lines."""
+
+    def __init__(self):
+        self.lock = threading.Condition()
+        self.received, self.logs = [], []
+        rospy.Subscriber("/stiffness", Float32MultiArray, self._on_stiffness)
+        rospy.Subscriber("/rosout", Log, self._on_log)
+        self.eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=10)
+        self.eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=10)
+        for publisher in (self.eigenvalues, self.eigenvectors):
+            while publisher.get_num_connections() == 0 and not rospy.is_shutdown():
+                rospy.sleep(0.05)
+
+    def _on_stiffness(self, msg):
+        with self.lock:
+            self.received.append(list(msg.data))
+            self.lock.notify_all()
+
+    def _on_log(self, msg):
+        if msg.name == "/stiffness_bridge":
+            with self.lock:
+                self.logs.append(msg.msg)
+                self.lock.notify_all()
+
+    def send_values(self, x, y, z, frame="base_link"):
+        message = Vector3Stamped()
+        message.header.frame_id = frame
+        message.vector.x, message.vector.y, message.vector.z = x, y, z
+        self.eigenvalues.publish(message)
+
+    def send_vectors(self, x, y, z, w, frame="base_link"):
+        message = QuaternionStamped()
+        message.header.frame_id = frame
+        q = message.quaternion
+        q.x, q.y, q.z, q.w = x, y, z, w
+        self.eigenvectors.publish(message)
+
+    def wait(self, what, count):
+        """Wait (bounded) until `what` (received or logs) holds count entries; return them."""
+        with self.lock:
+            self.lock.wait_for(lambda: len(getattr(self, what)) >= count, timeout=10.0)
+            return list(getattr(self, what))
+
+
+class StiffnessBridgeTest(unittest.TestCase):
+    def test_stiffness_reaches_the_controller_and_bad_messages_do_not(self):
+        bridge = Bridge()
+        half = math.sqrt(0.5)
+        # Expect nothing until both topics have spoken, then the diagonal of V Sigma V^T: turned a quarter about z,
+        # the ellipsoid's y (3000 N/m) lies along base x; rotational 30 Nm/rad; nullspace 0.5 (config)
+        bridge.send_values(1000.0, 3000.0, 2000.0)
+        bridge.send_vectors(0.0, 0.0, half, half)
+        received = bridge.wait("received", 1)
+        self.assertEqual(len(received), 1)
+        np.testing.assert_allclose(received[0], [3000.0, 1000.0, 2000.0, 30.0, 30.0, 30.0, 0.5], atol=1e-3)
+        # Expect: NaN, a negative stiffness, a zero quaternion and another frame are each rejected with a log line,
+        # nothing is sent for them, and the next good message is bridged
+        bridge.send_values(math.nan, 1.0, 1.0)
+        bridge.send_values(1.0, -5.0, 1.0)
+        bridge.send_vectors(0.0, 0.0, 0.0, 0.0)
+        rospy.sleep(1.1)  # the bridge logs one rejection per second at most
+        bridge.send_values(1.0, 1.0, 1.0, frame="world")
+        logs = bridge.wait("logs", 2)
+        bridge.send_values(500.0, 600.0, 700.0)
+        received = bridge.wait("received", 2)
+        self.assertEqual(len(received), 2, received)
+        np.testing.assert_allclose(received[1][:3], [600.0, 500.0, 700.0], atol=1e-3)
+        rejections = [line for line in logs if "rejected" in line]
+        self.assertTrue(any("eigenvalues: eigenvalues contains NaN or inf" in line for line in rejections), logs)
+        self.assertTrue(any("frame 'world' is wrong" in line for line in rejections), logs)
+        # Expect: a turned ellipsoid (45 degrees about z) sends its diagonal and says what the controller cannot take
+        bridge.send_vectors(0.0, 0.0, math.sin(math.pi / 8), math.cos(math.pi / 8))
+        received = bridge.wait("received", 3)
+        np.testing.assert_allclose(received[2][:3], [550.0, 550.0, 700.0], atol=1e-3)
+        logs = bridge.wait("logs", len(logs) + 1)
+        self.assertTrue(any("50 N/m off the diagonal" in line for line in logs), logs)
+        self.assertTrue(all(len(values) == 7 for values in received))
+
+
+if __name__ == "__main__":
+    rospy.init_node("stiffness_bridge_check")
+    rostest.rosrun("teleteach", "stiffness_bridge_check", StiffnessBridgeTest)
