@@ -1,7 +1,10 @@
 """`catkin_make install` gives a package that runs without the source tree: robot_sim and a skill started from an
-install space in a temporary directory, with its own environment (no devel space, no checkout on any path)."""
+install space in a temporary directory, with its own environment (no devel space, no checkout on any path), and the
+robot's meshes found through the package there."""
 
 import os
+import pathlib
+import re
 import subprocess
 import sys
 
@@ -65,3 +68,21 @@ def test_an_install_space_runs_the_robot_and_a_skill(tmp_path):
         commands = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True, check=True).stdout
         for node in ("robot_sim", "skill_server"):
             assert f"{prefix}/lib/teleteach/{node}" in commands, commands
+        # Expect: the robot description names its meshes through the package, and ROS finds every one of them in the
+        # install space (what RViz on another machine with teleteach installed does)
+        read = "import rosgraph; print(rosgraph.Master('/install_space_check').getParam('/robot_description'))"
+        description = subprocess.run(
+            [env["VIRTUAL_ENV"] + "/bin/python", "-c", read],
+            env=processes.env,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+        share = subprocess.run(
+            ["rospack", "find", "teleteach"], env=processes.env, capture_output=True, text=True, check=True
+        ).stdout.strip()
+        assert share == f"{prefix}/share/teleteach", share
+        meshes = sorted(set(re.findall(r'filename="([^"]+)"', description)))
+        assert len(meshes) > 10 and all(mesh.startswith("package://teleteach/meshes/panda/") for mesh in meshes)
+        missing = [mesh for mesh in meshes if not (pathlib.Path(share) / mesh[len("package://teleteach/") :]).is_file()]
+        assert missing == [], missing

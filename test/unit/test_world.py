@@ -5,6 +5,8 @@ import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 import pytest
+import rospkg
+from conftest import ROOT
 from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module
 
 from teleteach.sim import panda
@@ -97,8 +99,24 @@ def test_urdf_has_base_link_and_resolvable_meshes():
     assert set(panda.ARM_JOINTS + panda.FINGER_JOINTS) <= joints
     children = {joint.find("child").get("link") for joint in robot.findall("joint")}
     assert links - children == {"base_link"}  # the root
+    # Expect every mesh named through the package (RViz elsewhere resolves it), and found there by ROS's own lookup
     meshes = [mesh.get("filename") for mesh in robot.iter("mesh")]
-    assert meshes and all(m.startswith("file://") and pathlib.Path(m[len("file://") :]).is_file() for m in meshes)
+    package = pathlib.Path(rospkg.RosPack().get_path("teleteach"))
+    assert meshes and all(m.startswith("package://teleteach/meshes/panda/") for m in meshes), meshes
+    assert all((package / m[len("package://teleteach/") :]).is_file() for m in meshes)
+
+
+def test_the_shipped_meshes_are_pybullet_datas_but_for_one_texture_path():
+    # pybullet simulates panda.urdf from pybullet_data; RViz shows the copies in meshes/panda: they must not drift
+    # apart. The one change (NOTICE): collision/link6.mtl named its texture by a Windows path of its author.
+    shipped = ROOT / "meshes" / "panda"
+    upstream = panda.PANDA_URDF.parent / "meshes"
+    files = sorted(path.relative_to(upstream) for path in upstream.rglob("*") if path.is_file())
+    assert len(files) > 20
+    changed = [str(name) for name in files if (shipped / name).read_bytes() != (upstream / name).read_bytes()]
+    assert changed == ["collision/link6.mtl"]
+    assert "D:\\" not in (shipped / "collision" / "link6.mtl").read_text()
+    assert (shipped / "collision" / "colors.png").read_bytes() == (upstream / "visual" / "colors.png").read_bytes()
 
 
 def test_base_drives_at_capped_speed(robot_sim):

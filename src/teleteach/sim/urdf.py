@@ -1,7 +1,8 @@
 """The URDF on /robot_description: the mobile base (base_link) with pybullet_data's Panda on it.
 
-Mesh paths become absolute file:// URIs into the installed pybullet_data, so RViz and robot_state_publisher need
-no network and no ROS package for the meshes.
+Its meshes are the copies this package ships in meshes/panda (pybullet_data's, from franka_ros: Apache-2.0, see
+NOTICE), named ``package://teleteach/meshes/panda/...``: RViz on any machine of the ROS network that has teleteach
+installed (devel or install space) finds them through its ROS_PACKAGE_PATH.
 """
 
 import xml.etree.ElementTree as ElementTree
@@ -9,7 +10,8 @@ import xml.etree.ElementTree as ElementTree
 from teleteach.sim import panda
 from teleteach.sim.scene import load_site
 
-MESH_PREFIX = "package://meshes/"
+MESH_PREFIX = "package://meshes/"  # how pybullet_data's panda.urdf names its meshes (relative to itself)
+PACKAGE_MESHES = "package://teleteach/meshes/panda/"  # the same files, shipped in this package
 
 
 def robot_description(mount_height=None, base_size=None):
@@ -19,9 +21,8 @@ def robot_description(mount_height=None, base_size=None):
     base_size = robot_setup.base_size if base_size is None else base_size
     robot = ElementTree.fromstring(panda.PANDA_URDF.read_text())
     robot.set("name", "teleteach_panda")
-    mesh_root = "file://" + str(panda.PANDA_URDF.parent / "meshes") + "/"
     for mesh in robot.iter("mesh"):
-        mesh.set("filename", mesh.get("filename").replace(MESH_PREFIX, mesh_root))
+        mesh.set("filename", mesh.get("filename").replace(MESH_PREFIX, PACKAGE_MESHES))
     for element in robot.iter():
         # pybullet's xacro output puts colour-less materials into <collision>: not URDF, drop them
         if element.tag == "collision":
