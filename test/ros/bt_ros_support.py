@@ -30,22 +30,24 @@ STATUS = {Behaviour.INVALID: "INVALID", Behaviour.RUNNING: "RUNNING", Behaviour.
 
 
 class TreeView:
-    """The latest log/tree, help request, skill library and skill server events."""
+    """The latest log/tree, help request, skill library and skill server events of the tree in namespace (e.g.
+    /robot_1; the root namespace by default)."""
 
-    def __init__(self):
+    def __init__(self, namespace=""):
         self.lock = threading.Lock()
         self.tree = None
         self.help = None
         self.library = None
         self.histories = {}  # skill_test_server process id -> its events (a respawned server is a new process)
-        rospy.Subscriber("/behaviour_tree/log/tree", BehaviourTree, self._on_tree, queue_size=10)
-        rospy.Subscriber("/behaviour_tree/help_request", HelpRequest, self._on_help, queue_size=10)
-        rospy.Subscriber("/behaviour_tree/skill_library", SkillLibrary, self._on_library, queue_size=10)
-        rospy.Subscriber("/skill_test_server/events", String, self._on_event, queue_size=100)
-        self.pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
-        rospy.wait_for_service("/change_tree", timeout=30)
-        self.change_tree = rospy.ServiceProxy("/change_tree", ChangeTree)
-        self.add_skill = rospy.ServiceProxy("/behaviour_tree/add_skill", AddSkill)
+        ns = namespace.rstrip("/")
+        rospy.Subscriber(f"{ns}/behaviour_tree/log/tree", BehaviourTree, self._on_tree, queue_size=10)
+        rospy.Subscriber(f"{ns}/behaviour_tree/help_request", HelpRequest, self._on_help, queue_size=10)
+        rospy.Subscriber(f"{ns}/behaviour_tree/skill_library", SkillLibrary, self._on_library, queue_size=10)
+        rospy.Subscriber(f"{ns}/skill_test_server/events", String, self._on_event, queue_size=100)
+        self.pause_publisher = rospy.Publisher(f"{ns}/behaviour_tree/pause", Bool, queue_size=1, latch=True)
+        rospy.wait_for_service(f"{ns}/change_tree", timeout=30)
+        self.change_tree = rospy.ServiceProxy(f"{ns}/change_tree", ChangeTree)
+        self.add_skill = rospy.ServiceProxy(f"{ns}/behaviour_tree/add_skill", AddSkill)
 
     def _on_tree(self, message):
         with self.lock:

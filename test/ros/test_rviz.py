@@ -37,9 +37,10 @@ def test_rviz_config_is_valid_yaml_with_every_display():
     shown = displays(config)
     assert shown["RobotModel"]["Class"] == "rviz/RobotModel"
     assert shown["RobotModel"]["Robot Description"] == "robot_description"
-    assert shown["Scene"] == {**shown["Scene"], "Class": "rviz/MarkerArray", "Marker Topic": "/teleteach/scene"}
-    assert shown["StiffnessEllipsoid"]["Marker Topic"] == "/visualization_marker"
-    assert shown["EquilibriumPose"] == {**shown["EquilibriumPose"], "Class": "rviz/Pose", "Topic": "/equilibrium_pose"}
+    # topics relative to RViz's namespace: in <group ns="robot_2"> it shows robot_2's
+    assert shown["Scene"] == {**shown["Scene"], "Class": "rviz/MarkerArray", "Marker Topic": "teleteach/scene"}
+    assert shown["StiffnessEllipsoid"]["Marker Topic"] == "visualization_marker"
+    assert shown["EquilibriumPose"] == {**shown["EquilibriumPose"], "Class": "rviz/Pose", "Topic": "equilibrium_pose"}
     assert shown["TF"]["Class"] == "rviz/TF"
     assert all(display["Enabled"] for display in shown.values())
     view = manager["Views"]["Current"]

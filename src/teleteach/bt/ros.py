@@ -94,7 +94,7 @@ class ActionClients:
     tells it apart. test/ros/test_bt_action_internals.py pins that layout against the installed rospy.
     """
 
-    def __init__(self, namespace: str = "/skills"):
+    def __init__(self, namespace: str = "skills"):
         self.namespace = namespace.rstrip("/")
         self._clients: typing.Dict[str, actionlib.ActionClient] = {}
 
@@ -272,22 +272,22 @@ class BehaviourTreeNode:
         self.clients = clients
         self.startup_timeout = startup_timeout
         latched = {"queue_size": 1, "latch": True}
-        self.log_publisher = rospy.Publisher("/behaviour_tree/log/tree", BehaviourTree, **latched)
-        self.tip_publisher = rospy.Publisher("/behaviour_tree/tip", Behaviour, **latched)
-        self.ascii_tree_publisher = rospy.Publisher("/behaviour_tree/ascii/tree", String, **latched)
-        self.snapshot_publisher = rospy.Publisher("/behaviour_tree/ascii/snapshot", String, **latched)
-        self.dot_publisher = rospy.Publisher("/behaviour_tree/dot/tree", String, **latched)
-        self.library_publisher = rospy.Publisher("/behaviour_tree/skill_library", SkillLibraryMsg, **latched)
-        self.help_publisher = rospy.Publisher("/behaviour_tree/help_request", HelpRequest, **latched)
+        self.log_publisher = rospy.Publisher("behaviour_tree/log/tree", BehaviourTree, **latched)
+        self.tip_publisher = rospy.Publisher("behaviour_tree/tip", Behaviour, **latched)
+        self.ascii_tree_publisher = rospy.Publisher("behaviour_tree/ascii/tree", String, **latched)
+        self.snapshot_publisher = rospy.Publisher("behaviour_tree/ascii/snapshot", String, **latched)
+        self.dot_publisher = rospy.Publisher("behaviour_tree/dot/tree", String, **latched)
+        self.library_publisher = rospy.Publisher("behaviour_tree/skill_library", SkillLibraryMsg, **latched)
+        self.help_publisher = rospy.Publisher("behaviour_tree/help_request", HelpRequest, **latched)
         self._published_library = -1
         self._published_help: typing.Any = ()
         self._structure_rendered = {self.ascii_tree_publisher: -1, self.dot_publisher: -1}
         self._snapshot_dirty = True
         self._messages: typing.Dict[str, typing.Tuple[NodeRecord, bytes]] = {}
         self._fresh_messages: typing.Dict[str, typing.Tuple[NodeRecord, bytes]] = {}
-        rospy.Subscriber("/behaviour_tree/pause", Bool, self._on_pause, queue_size=10)
-        self.change_service = rospy.Service("/change_tree", ChangeTree, self._on_change_tree)
-        self.add_skill_service = rospy.Service("/behaviour_tree/add_skill", AddSkill, self._on_add_skill)
+        rospy.Subscriber("behaviour_tree/pause", Bool, self._on_pause, queue_size=10)
+        self.change_service = rospy.Service("change_tree", ChangeTree, self._on_change_tree)
+        self.add_skill_service = rospy.Service("behaviour_tree/add_skill", AddSkill, self._on_add_skill)
 
     @classmethod
     def from_params(cls) -> "BehaviourTreeNode":
@@ -300,7 +300,8 @@ class BehaviourTreeNode:
         library = SkillLibrary.load(rospy.get_param("~skills", "") or config_file("skills.yaml"))
         spec = load_tree(rospy.get_param("~tree", "") or config_file("tree.yaml"), library)
         data_root = datadir.data_dir(rospy.get_param("~data_dir", "") or None)
-        store = TreeStore(data_root / "trees")
+        # a tree in a namespace (one of two robots on a master) keeps its own files: trees/<namespace>/
+        store = TreeStore(data_root / "trees" / rospy.get_namespace().strip("/"))
         restarted = rospy.get_param(RUNNING_PARAM, False)
         if restarted:
             rospy.logwarn("behaviour_tree: the previous behaviour_tree died without stopping: resuming what it saved")

@@ -41,7 +41,7 @@ from teleteach.srv import (
     SwitchControllerRequest,
 )
 
-SWITCH_SERVICE = "/controller_manager/switch_controller"
+SWITCH_SERVICE = "controller_manager/switch_controller"
 
 
 class MainWindow(QMainWindow):
@@ -60,19 +60,19 @@ class MainWindow(QMainWindow):
         self.session = TeachingSession()
         self._tab = -1
 
-        self._tab_publisher = rospy.Publisher("/teleteach/active_tab", Int8, queue_size=1, latch=True)
-        self._pause_publisher = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
-        self._recording_publisher = rospy.Publisher("/teleteach/recording", Bool, queue_size=1, latch=True)
+        self._tab_publisher = rospy.Publisher("teleteach/active_tab", Int8, queue_size=1, latch=True)
+        self._pause_publisher = rospy.Publisher("behaviour_tree/pause", Bool, queue_size=1, latch=True)
+        self._recording_publisher = rospy.Publisher("teleteach/recording", Bool, queue_size=1, latch=True)
         self._recording_publisher.publish(Bool(False))
-        self._shared_control_publisher = rospy.Publisher("/shared_control/enable", Bool, queue_size=1, latch=True)
-        self._guidance_publisher = rospy.Publisher("/sigma7/guidance", HapticGuidance, queue_size=1, latch=True)
+        self._shared_control_publisher = rospy.Publisher("shared_control/enable", Bool, queue_size=1, latch=True)
+        self._guidance_publisher = rospy.Publisher("sigma7/guidance", HapticGuidance, queue_size=1, latch=True)
         self._guidance = GuidanceDesigner(config)
         self._held_pose = HeldPose()
         self._device_sample = None
         self._sent_guidance: Optional[Guidance] = None
         self._guidance_sent_at = -math.inf
         self._shared_control_publisher.publish(Bool(False))
-        equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
+        equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
 
         self.setWindowTitle("teleteach: teleoperated teaching")
@@ -256,7 +256,7 @@ class MainWindow(QMainWindow):
     def _send_change(self, request: EditRequest) -> None:
         self.services.call(
             "change_tree",
-            "/change_tree",
+            "change_tree",
             ChangeTree,
             ChangeTreeRequest(**request._asdict()),
         )
@@ -314,7 +314,7 @@ class MainWindow(QMainWindow):
             self.saved_skills.append(name)
             self.statusBar().showMessage(f"saved {name} ({len(skill.time)} samples) to {path}", 10000)
             self.services.call(
-                "add_skill", "/behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
+                "add_skill", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
             )
 
     # SHARED CONTROL -------------------------------------------------------------------------------

@@ -50,7 +50,7 @@ class GuiConfig:
     trajectory: str = "perpendicular"
     skill_prefix: str = "DemonstratedPlace"
     initial_tab: int = 0
-    shared_control_node: str = "/shared_control"
+    shared_control_node: str = "shared_control"
     shared_control_stiffness: Tuple[float, float, float] = (500.0, 500.0, 500.0)
     shared_skill_prefix: str = "SharedControl"
     shared_trail_length: int = 500

@@ -209,25 +209,25 @@ class RosWorker(QObject):
     @pyqtSlot()
     def start(self) -> None:
         """Create subscribers, publishers and timers (runs in the worker thread)."""
-        self._eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=10)
-        self._eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=10)
+        self._eigenvalues = rospy.Publisher("eigenvalues", Vector3Stamped, queue_size=10)
+        self._eigenvectors = rospy.Publisher("eigenvectors", QuaternionStamped, queue_size=10)
         subscriptions: List[Tuple[str, type, Callable]] = [
-            ("/sigma7/pose", PoseStamped, self._on_pose),
-            ("/sigma7/button", Bool, self._on_button),
-            ("/sigma7/gripper_angle", Float64, self._on_gripper),
-            ("/cartesian_pose", PoseStamped, self._on_cartesian),
-            ("/behaviour_tree/log/tree", BehaviourTree, self._on_tree),
-            ("/behaviour_tree/skill_library", SkillLibrary, self._on_library),
-            ("/behaviour_tree/help_request", HelpRequest, self._on_help),
-            ("/shared_control/state", SharedControlState, self._on_shared_state),
-            ("/shared_control/plan", Path, self._on_shared_plan),
-            ("/shared_control/boundary", PolygonStamped, self._on_shared_boundary),
-            ("/shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
-            ("/equilibrium_pose", PoseStamped, self._on_equilibrium),
+            ("sigma7/pose", PoseStamped, self._on_pose),
+            ("sigma7/button", Bool, self._on_button),
+            ("sigma7/gripper_angle", Float64, self._on_gripper),
+            ("cartesian_pose", PoseStamped, self._on_cartesian),
+            ("behaviour_tree/log/tree", BehaviourTree, self._on_tree),
+            ("behaviour_tree/skill_library", SkillLibrary, self._on_library),
+            ("behaviour_tree/help_request", HelpRequest, self._on_help),
+            ("shared_control/state", SharedControlState, self._on_shared_state),
+            ("shared_control/plan", Path, self._on_shared_plan),
+            ("shared_control/boundary", PolygonStamped, self._on_shared_boundary),
+            ("shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
+            ("equilibrium_pose", PoseStamped, self._on_equilibrium),
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
-            queue = 2000 if topic in ("/sigma7/button", "/sigma7/gripper_angle") else 5
+            queue = 2000 if topic in ("sigma7/button", "/sigma7/gripper_angle") else 5
             self._subscribers[topic] = rospy.Subscriber(
                 topic, message_class, callback, queue_size=queue, tcp_nodelay=True
             )
@@ -260,7 +260,7 @@ class RosWorker(QObject):
     def _on_pose(self, message: PoseStamped) -> None:
         p, q = message.pose.position, message.pose.orientation
         raw = parse_pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w), self.config)
-        self._last_seen["/sigma7/pose"] = time.monotonic()
+        self._last_seen["sigma7/pose"] = time.monotonic()
         self.device_time = message.header.stamp.to_sec() or self.device_time
         if raw is None:
             self._rejected += 1
@@ -426,10 +426,10 @@ class RosWorker(QObject):
         ``device_timeout``; the stiffness keeps its last valid value meanwhile.
         """
         missing = []
-        silent = time.monotonic() - self._last_seen.get("/sigma7/pose", -1e9) > self.config.device_timeout
-        if silent or self._subscribers["/sigma7/pose"].get_num_connections() == 0:
+        silent = time.monotonic() - self._last_seen.get("sigma7/pose", -1e9) > self.config.device_timeout
+        if silent or self._subscribers["sigma7/pose"].get_num_connections() == 0:
             missing.append(DEVICE_LOST)
-        if self._subscribers["/behaviour_tree/log/tree"].get_num_connections() == 0:
+        if self._subscribers["behaviour_tree/log/tree"].get_num_connections() == 0:
             missing.append("no behaviour tree (/behaviour_tree/log/tree)")
         problems = "; ".join(missing)
         if problems != self._health:

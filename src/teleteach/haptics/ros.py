@@ -368,10 +368,10 @@ class RosSystemView:
         self._lock = threading.Lock()
         self._state = SystemState()
         self._subscribers = [
-            rospy.Subscriber("/teleteach/active_tab", Int8, self._update("tab", lambda m: int(m.data))),
-            rospy.Subscriber("/teleteach/recording", Bool, self._update("recording", lambda m: bool(m.data))),
+            rospy.Subscriber("teleteach/active_tab", Int8, self._update("tab", lambda m: int(m.data))),
+            rospy.Subscriber("teleteach/recording", Bool, self._update("recording", lambda m: bool(m.data))),
             rospy.Subscriber(
-                "/behaviour_tree/log/tree",
+                "behaviour_tree/log/tree",
                 BehaviourTree,
                 self._update(
                     "running", lambda m: frozenset(b.name for b in m.behaviours if b.status == Behaviour.RUNNING)
@@ -379,7 +379,7 @@ class RosSystemView:
                 queue_size=1,
             ),
             rospy.Subscriber(
-                "/behaviour_tree/help_request", HelpRequest, self._update("help_request", lambda m: bool(m.node_name))
+                "behaviour_tree/help_request", HelpRequest, self._update("help_request", lambda m: bool(m.node_name))
             ),
         ]
 

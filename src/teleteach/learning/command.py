@@ -26,7 +26,7 @@ from teleteach.learning.skill import (
     stiffness_from_principal,
 )
 
-ADD_SKILL_SERVICE = "/behaviour_tree/add_skill"
+ADD_SKILL_SERVICE = "behaviour_tree/add_skill"
 
 
 def parser() -> argparse.ArgumentParser:
@@ -107,18 +107,20 @@ def add_to_library(name: str, path: pathlib.Path, timeout: float) -> str:
 
     from teleteach.srv import AddSkill
 
+    service = rospy.resolve_name(
+        ADD_SKILL_SERVICE
+    )  # in ROS_NAMESPACE (or __ns:=): /behaviour_tree/add_skill at the root
     if not rosgraph.is_master_online():
-        raise LearningError(f"--add: no ROS master is running, so {ADD_SKILL_SERVICE} is absent (skill saved: {path})")
+        raise LearningError(f"--add: no ROS master is running, so {service} is absent (skill saved: {path})")
     try:
-        rospy.wait_for_service(ADD_SKILL_SERVICE, timeout=timeout)
-        response = rospy.ServiceProxy(ADD_SKILL_SERVICE, AddSkill)(name=name, kind="dmp", data_file=str(path))
+        rospy.wait_for_service(service, timeout=timeout)
+        response = rospy.ServiceProxy(service, AddSkill)(name=name, kind="dmp", data_file=str(path))
     except rospy.ROSException:
         raise LearningError(
-            f"--add: service {ADD_SKILL_SERVICE} is not available (is the behaviour_tree node running?); "
-            f"skill saved: {path}"
+            f"--add: service {service} is not available (is the behaviour_tree node running?); skill saved: {path}"
         ) from None
     except rospy.ServiceException as error:
-        raise LearningError(f"--add: {ADD_SKILL_SERVICE} failed: {error} (skill saved: {path})") from None
+        raise LearningError(f"--add: {service} failed: {error} (skill saved: {path})") from None
     if not response.success:
         raise LearningError(f"--add: the behaviour tree refused the skill: {response.message} (skill saved: {path})")
     return response.message

@@ -12,26 +12,30 @@ from typing import List, Optional, Sequence, Union
 
 from teleteach.datadir import data_dir
 
-DEVICE_TOPICS = ("/sigma7/pose", "/sigma7/twist", "/sigma7/gripper_angle", "/sigma7/button")
+DEVICE_TOPICS = ("sigma7/pose", "sigma7/twist", "sigma7/gripper_angle", "sigma7/button")
 """The haptic device's input: all a replay feeds into a live system."""
 
 TEACHING_TOPICS = (
     *DEVICE_TOPICS,
-    "/teleteach/active_tab",
-    "/eigenvalues",
-    "/eigenvectors",
-    "/equilibrium_pose",
-    "/cartesian_pose",
-    "/behaviour_tree/log/tree",
-    "/behaviour_tree/help_request",
-    "/shared_control/state",
-    "/joint_states",
-    "/tf",
-    "/tf_static",
-    "/force_torque_ext",
-    "/teleteach/scene",
+    "teleteach/active_tab",
+    "eigenvalues",
+    "eigenvectors",
+    "equilibrium_pose",
+    "cartesian_pose",
+    "behaviour_tree/log/tree",
+    "behaviour_tree/help_request",
+    "shared_control/state",
+    "joint_states",
+    "tf",
+    "tf_static",
+    "force_torque_ext",
+    "teleteach/scene",
 )
-"""Everything a session bag records (the scene too, so that a visual replay shows the shelf and the products)."""
+"""Everything a session bag records (the scene too, so that a visual replay shows the shelf and the products).
+
+Relative names: rosbag resolves them in the recorder's namespace (``/eigenvalues`` at the root, where the offline
+readers, teleteach.recording.session and teleteach.learning.bag, expect them).
+"""
 
 BAG_MAGIC = b"#ROSBAG V2.0\n"
 """First bytes of every ROS 1 bag (format 2.0)."""
@@ -94,4 +98,4 @@ def replay_command(
     command = ["rosbag", "play", str(path), "-r", repr(float(rate)), "-d", repr(float(delay)), "-s", repr(float(start))]
     if visual:
         return [*command, "--clock"]
-    return [*command, "--topics", *DEVICE_TOPICS]
+    return [*command, "--topics", *(f"/{topic}" for topic in DEVICE_TOPICS)]  # as a bag recorded at the root names them

@@ -107,12 +107,12 @@ class Monitor:
         self.tabs: List[Tuple[float, int]] = []
         self._on_tab = on_tab
         self._subscribers = [
-            rospy.Subscriber("/behaviour_tree/log/tree", BehaviourTree, self._tree, queue_size=20),
-            rospy.Subscriber("/behaviour_tree/ascii/tree", String, self._ascii, queue_size=5),
-            rospy.Subscriber("/behaviour_tree/skill_library", SkillLibrary, self._library, queue_size=5),
-            rospy.Subscriber("/behaviour_tree/help_request", HelpRequest, self._help, queue_size=5),
-            rospy.Subscriber("/teleteach/scene", MarkerArray, self._scene, queue_size=1),
-            rospy.Subscriber("/teleteach/active_tab", Int8, self._tab, queue_size=5),
+            rospy.Subscriber("behaviour_tree/log/tree", BehaviourTree, self._tree, queue_size=20),
+            rospy.Subscriber("behaviour_tree/ascii/tree", String, self._ascii, queue_size=5),
+            rospy.Subscriber("behaviour_tree/skill_library", SkillLibrary, self._library, queue_size=5),
+            rospy.Subscriber("behaviour_tree/help_request", HelpRequest, self._help, queue_size=5),
+            rospy.Subscriber("teleteach/scene", MarkerArray, self._scene, queue_size=1),
+            rospy.Subscriber("teleteach/active_tab", Int8, self._tab, queue_size=5),
         ]
         self._now = rospy.get_time
 
@@ -366,13 +366,13 @@ class ThesisRun:
         while time.monotonic() < deadline:
             if launch.poll() is not None:
                 return False, f"roslaunch ended early (exit {launch.returncode}); see launch.log"
-            if start is None and rospy.has_param("/sigma7_node/scenario_start"):
-                start = float(rospy.get_param("/sigma7_node/scenario_start"))
+            if start is None and rospy.has_param("sigma7_node/scenario_start"):
+                start = float(rospy.get_param("sigma7_node/scenario_start"))
                 self.say(
                     f"run_thesis: scenario started at simulated t = {start:.2f} s ({duration:.0f} s without waits)"
                 )
             now = rospy.get_time()
-            if played_at is None and rospy.get_param("/sigma7_node/scenario_played", False):
+            if played_at is None and rospy.get_param("sigma7_node/scenario_played", False):
                 played_at = now  # the device node says so: with waits, the end is not start + duration
             played = played_at is not None and now >= played_at + 1.0
             for name, (status, message, _) in list(monitor.leaves.items()):

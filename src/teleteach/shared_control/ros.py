@@ -224,11 +224,11 @@ class SharedControlNode:
         self._approach: Optional[Tuple[Approach, float]] = None  # (the move, its start time) while it runs
         self._pending_compile: Optional[tuple] = None  # compiled solvers still to build, once enabled
         self.controller = self._build(config, box, initial_state)
-        self.pose_publisher = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=1)
-        self.twist_publisher = rospy.Publisher("/equilibrium_twist", TwistStamped, queue_size=1)
-        self.state_publisher = rospy.Publisher("/shared_control/state", SharedControlState, queue_size=10)
-        self.plan_publisher = rospy.Publisher("/shared_control/plan", Path, queue_size=1)
-        self.boundary_publisher = rospy.Publisher("/shared_control/boundary", PolygonStamped, queue_size=1, latch=True)
+        self.pose_publisher = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=1)
+        self.twist_publisher = rospy.Publisher("equilibrium_twist", TwistStamped, queue_size=1)
+        self.state_publisher = rospy.Publisher("shared_control/state", SharedControlState, queue_size=10)
+        self.plan_publisher = rospy.Publisher("shared_control/plan", Path, queue_size=1)
+        self.boundary_publisher = rospy.Publisher("shared_control/boundary", PolygonStamped, queue_size=1, latch=True)
         boundary = PolygonStamped()
         boundary.header.stamp = rospy.Time.now()
         boundary.header.frame_id = frame_id
@@ -237,16 +237,16 @@ class SharedControlNode:
             boundary.polygon.points = [Point32(*(float(v) for v in plane.to_base(c))) for c in corners]
         self.boundary_publisher.publish(boundary)
         if source == "operator_command":
-            topic, message_type = "/shared_control/operator_command", Vector3Stamped
+            topic, message_type = "shared_control/operator_command", Vector3Stamped
             convert = command_from_vector
         elif source == "twist":
-            topic, message_type = "/sigma7/twist", TwistStamped
+            topic, message_type = "sigma7/twist", TwistStamped
 
             def convert(message):
                 return command_from_twist(message, projection, twist_scale, twist_deadband)
 
         else:
-            topic, message_type = "/joy", Joy
+            topic, message_type = "joy", Joy
 
             def convert(message):
                 return command_from_joy(message, joy_axes, joy_scale)
@@ -257,10 +257,10 @@ class SharedControlNode:
         self._input_subscriber = rospy.Subscriber(*self._input, queue_size=1000) if enabled else None
         self._subscribers = [
             rospy.Subscriber(
-                "/shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
+                "shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
             ),
-            rospy.Subscriber("/shared_control/enable", Bool, lambda message: self.set_enabled(message.data)),
-            rospy.Subscriber("/cartesian_pose", PoseStamped, self._on_arm, queue_size=1),
+            rospy.Subscriber("shared_control/enable", Bool, lambda message: self.set_enabled(message.data)),
+            rospy.Subscriber("cartesian_pose", PoseStamped, self._on_arm, queue_size=1),
         ]
         self._timer = rospy.Timer(rospy.Duration(config.dt), self._cycle)
 

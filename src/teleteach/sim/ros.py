@@ -44,7 +44,7 @@ from teleteach.perception.observed import WORLD_FRAME, observed_from_scene
 from teleteach.perception.ros import box_marker, scene_markers
 from teleteach.rotations import yaw_quaternion
 from teleteach.sim import panda
-from teleteach.sim.robot_sim import BASE_FRAME, RobotSim, load_controller_config
+from teleteach.sim.robot_sim import BASE_FRAME, ControllerConfigError, RobotSim, load_controller_config
 from teleteach.sim.scene import load_scene
 from teleteach.sim.urdf import robot_description
 from teleteach.sim.world import SHELF_COLOUR
@@ -85,6 +85,8 @@ class RobotSimNode:
         sim: the simulation.
         real_time_factor: simulated seconds per wall-clock second; 0 runs as fast as possible.
         clock_rate: /clock publication rate [Hz of simulated time].
+        follow_clock: publish no /clock; step the world up to the /clock another robot_sim publishes (ROS has one
+            clock per master: a second simulated robot on the same master follows the first one's).
 
     ROS Publishers:
         /clock, /joint_states, /cartesian_pose (200 Hz, base_link), /force_torque_ext (100 Hz, base_link, contact
@@ -106,7 +108,7 @@ class RobotSimNode:
         reason in ``error``), /move_base (move_base_msgs/MoveBaseAction: target_pose in world, feedback base_position).
     """
 
-    def __init__(self, sim: RobotSim, real_time_factor=1.0, clock_rate=250.0):
+    def __init__(self, sim: RobotSim, real_time_factor=1.0, clock_rate=250.0, follow_clock=False):
         self.sim = sim
         self.real_time_factor = float(real_time_factor)
         dt = sim.world.time_step
@@ -115,44 +117,42 @@ class RobotSimNode:
         self._step_seconds = 0.0
         self._steps = 0
         self._rejected = 0
-        rospy.set_param(
-            "/robot_description", robot_description(sim.scene.robot.mount_height, sim.scene.robot.base_size)
-        )
-        self._clock = _synchronous_publisher("/clock", Clock)
-        self._joint_states = _synchronous_publisher("/joint_states", JointState)
-        self._cartesian_pose = _synchronous_publisher("/cartesian_pose", PoseStamped)
-        self._force_torque = _synchronous_publisher("/force_torque_ext", WrenchStamped)
-        self._tf = _synchronous_publisher("/tf", TFMessage)
-        self._scene = rospy.Publisher("/teleteach/scene", MarkerArray, queue_size=1, latch=True)
-        self._diagnostics = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=1)
+        rospy.set_param("robot_description", robot_description(sim.scene.robot.mount_height, sim.scene.robot.base_size))
+        self._clock = None if follow_clock else _synchronous_publisher("/clock", Clock)  # /clock: global by design
+        self._joint_states = _synchronous_publisher("joint_states", JointState)
+        self._cartesian_pose = _synchronous_publisher("cartesian_pose", PoseStamped)
+        self._force_torque = _synchronous_publisher("force_torque_ext", WrenchStamped)
+        self._tf = _synchronous_publisher("tf", TFMessage)
+        self._scene = rospy.Publisher("teleteach/scene", MarkerArray, queue_size=1, latch=True)
+        self._diagnostics = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=1)
         self._rejections = rospy.Publisher("~rejected", String, queue_size=10)
         self._subscribers = [
-            rospy.Subscriber("/eigenvalues", Vector3Stamped, self._guard("/eigenvalues", self._on_eigenvalues)),
-            rospy.Subscriber("/eigenvectors", QuaternionStamped, self._guard("/eigenvectors", self._on_eigenvectors)),
-            rospy.Subscriber("/equilibrium_pose", PoseStamped, self._guard("/equilibrium_pose", self._on_equilibrium)),
+            rospy.Subscriber("eigenvalues", Vector3Stamped, self._guard("eigenvalues", self._on_eigenvalues)),
+            rospy.Subscriber("eigenvectors", QuaternionStamped, self._guard("eigenvectors", self._on_eigenvectors)),
+            rospy.Subscriber("equilibrium_pose", PoseStamped, self._guard("equilibrium_pose", self._on_equilibrium)),
             rospy.Subscriber(
-                "/equilibrium_twist", TwistStamped, self._guard("/equilibrium_twist", self._on_equilibrium_twist)
+                "equilibrium_twist", TwistStamped, self._guard("equilibrium_twist", self._on_equilibrium_twist)
             ),
             rospy.Subscriber(
-                "/position_joint_trajectory_controller/command",
+                "position_joint_trajectory_controller/command",
                 JointTrajectory,
-                self._guard("/position_joint_trajectory_controller/command", self._on_trajectory),
+                self._guard("position_joint_trajectory_controller/command", self._on_trajectory),
             ),
         ]
         self._services = [
-            rospy.Service("/controller_manager/switch_controller", SwitchController, self._on_switch),
-            rospy.Service("/controller_manager/list_controllers", ListControllers, self._on_list),
+            rospy.Service("controller_manager/switch_controller", SwitchController, self._on_switch),
+            rospy.Service("controller_manager/list_controllers", ListControllers, self._on_list),
         ]
         gripper = self.sim.gripper
         self._action_servers = [
             self._gripper_server(
-                "/franka_gripper/move",
+                "franka_gripper/move",
                 MoveAction,
                 MoveResult,
                 lambda goal: gripper.move(goal.width, goal.speed, self.sim.time),
             ),
             self._gripper_server(
-                "/franka_gripper/grasp",
+                "franka_gripper/grasp",
                 GraspAction,
                 GraspResult,
                 lambda goal: gripper.grasp(
@@ -160,12 +160,12 @@ class RobotSimNode:
                 ),
             ),
             self._gripper_server(
-                "/franka_gripper/homing", HomingAction, HomingResult, lambda goal: gripper.homing(self.sim.time)
+                "franka_gripper/homing", HomingAction, HomingResult, lambda goal: gripper.homing(self.sim.time)
             ),
             self._gripper_server(
-                "/franka_gripper/stop", StopAction, StopResult, lambda goal: gripper.stop(self.sim.time)
+                "franka_gripper/stop", StopAction, StopResult, lambda goal: gripper.stop(self.sim.time)
             ),
-            actionlib.SimpleActionServer("/move_base", MoveBaseAction, execute_cb=self._move_base, auto_start=False),
+            actionlib.SimpleActionServer("move_base", MoveBaseAction, execute_cb=self._move_base, auto_start=False),
         ]
         for server in self._action_servers:
             server.start()
@@ -175,17 +175,25 @@ class RobotSimNode:
         """Build the node from its private parameters.
 
         ~gui, ~scene_file, ~controllers_file, ~absent_products (list of product names of the scene file to leave
-        out); ~real_time_factor, ~clock_rate and ~initial_controller override the controller file's `simulation`.
+        out); ~real_time_factor, ~clock_rate, ~clock and ~initial_controller override the controller file's
+        `simulation`.
         """
         scene = load_scene(rospy.get_param("~scene_file", "") or None)
         scene = scene.without_products(rospy.get_param("~absent_products", None) or [])
         config = load_controller_config(rospy.get_param("~controllers_file", "") or None)
         simulation = config["simulation"]
-        for name in ("initial_controller", "real_time_factor", "clock_rate"):
+        for name in ("initial_controller", "real_time_factor", "clock_rate", "clock"):
             if rospy.has_param(f"~{name}"):
                 simulation[name] = rospy.get_param(f"~{name}")
         sim = RobotSim(scene, config, gui=bool(rospy.get_param("~gui", False)))
-        return cls(sim, float(simulation["real_time_factor"]), float(simulation["clock_rate"]))
+        if simulation["clock"] not in ("publish", "follow"):
+            raise ControllerConfigError(f"simulation clock must be publish or follow, got {simulation['clock']!r}")
+        return cls(
+            sim,
+            float(simulation["real_time_factor"]),
+            float(simulation["clock_rate"]),
+            follow_clock=simulation["clock"] == "follow",
+        )
 
     # ---------------------------------------------------------------------------------------------- callbacks
     def _guard(self, topic, apply):
@@ -259,7 +267,7 @@ class RobotSimNode:
                     target.header.frame_id, _xyz(target.pose.position), _xyzw(target.pose.orientation)
                 )
         except (InvalidCommandError, ValueError, TypeError) as error:
-            self._reject("/move_base", error)
+            self._reject("move_base", error)
             server.set_aborted(MoveBaseResult(), str(error))
             return
         last_feedback = 0.0
@@ -320,21 +328,15 @@ class RobotSimNode:
 
     # ------------------------------------------------------------------------------------------------- loop
     def spin(self):
-        """Tick the simulation until shutdown, paced to the real-time factor."""
+        """Tick the simulation until shutdown, paced to the real-time factor (or to another robot_sim's /clock)."""
+        if self._clock is None:
+            self._follow()
+            return
         wall_start, sim_start = time.monotonic(), self.sim.time
-        report_wall, report_sim = wall_start, sim_start
+        self._report_wall, self._report_sim = wall_start, sim_start
         while not rospy.is_shutdown():
-            started = time.perf_counter()
-            with self._lock:
-                self.sim.tick()
-            self._step_seconds += time.perf_counter() - started
-            self._steps += 1
-            self._publish(self.sim.world.ticks)
+            self._step()
             now = time.monotonic()
-            if self._steps % 1000 == 0:
-                factor = (self.sim.time - report_sim) / max(now - report_wall, 1e-9)
-                self._report(factor)
-                report_wall, report_sim = now, self.sim.time
             if self.real_time_factor > 0.0:
                 ahead = (self.sim.time - sim_start) / self.real_time_factor - (now - wall_start)
                 if ahead > 0.002:
@@ -342,6 +344,33 @@ class RobotSimNode:
                 elif ahead < -0.2:
                     # Too slow to keep up: run on without trying to catch up with lost time.
                     wall_start, sim_start = now, self.sim.time
+
+    def _step(self):
+        """One tick, its publications, and every 1000 ticks the real-time factor report."""
+        started = time.perf_counter()
+        with self._lock:
+            self.sim.tick()
+        self._step_seconds += time.perf_counter() - started
+        self._steps += 1
+        self._publish(self.sim.world.ticks)
+        if self._steps % 1000 == 0:
+            now = time.monotonic()
+            self._report((self.sim.time - self._report_sim) / max(now - self._report_wall, 1e-9))
+            self._report_wall, self._report_sim = now, self.sim.time
+
+    def _follow(self):
+        """Step the world up to /clock (published by another robot_sim); the world's time starts at its first value."""
+        while not rospy.is_shutdown() and rospy.get_time() <= 0.0:
+            time.sleep(0.01)
+        with self._lock:
+            self.sim.world.time = rospy.get_time()
+        self._report_wall, self._report_sim = time.monotonic(), self.sim.time
+        rospy.loginfo(f"robot_sim follows /clock from t = {self.sim.time:.3f} s")
+        step = self.sim.world.time_step
+        while not rospy.is_shutdown():
+            while self.sim.time + step <= rospy.get_time() and not rospy.is_shutdown():
+                self._step()
+            time.sleep(0.0005)
 
     def _report(self, factor):
         mean_us = 1e6 * self._step_seconds / max(self._steps, 1)
@@ -373,7 +402,7 @@ class RobotSimNode:
         return msg
 
     def _publish(self, tick):
-        if tick % self._clock_every == 0:
+        if self._clock is not None and tick % self._clock_every == 0:
             self._clock.publish(Clock(clock=rospy.Time.from_sec(self.sim.time)))
         if tick % 5 == 0:
             state = self.sim.state

@@ -82,14 +82,16 @@ def _move_base_outcome(state, _result, text):
 class RosRobot(Robot):
     """Robot interface over topics, TF, the controller manager services and the gripper and base actions.
 
-    ROS Publishers: /position_joint_trajectory_controller/command, /eigenvalues, /eigenvectors, /equilibrium_pose.
+    ROS Publishers (names relative, at the root as shown): /<position controller>/command, /eigenvalues,
+    /eigenvectors, /equilibrium_pose.
     ROS Subscribers: /joint_states, /teleteach/scene, /cartesian_pose; TF world->base_link.
     ROS Services (called): /controller_manager/switch_controller, /controller_manager/list_controllers.
     ROS Action Clients: /franka_gripper/move, /franka_gripper/grasp (franka_gripper's actions), /move_base
     (move_base_msgs/MoveBaseAction, target_pose in world).
     """
 
-    def __init__(self):
+    def __init__(self, position_controller: str):
+        """position_controller: the joint trajectory controller's name; its trajectories go to <name>/command."""
         self._lock = threading.Condition()
         self._joints = None
         self._fingers = None
@@ -98,20 +100,18 @@ class RosRobot(Robot):
         self._cartesian = None
         self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
-        self._trajectory = rospy.Publisher(
-            "/position_joint_trajectory_controller/command", JointTrajectory, queue_size=1
-        )
-        self._gripper_move = actionlib.SimpleActionClient("/franka_gripper/move", MoveAction)
-        self._gripper_grasp = actionlib.SimpleActionClient("/franka_gripper/grasp", GraspAction)
-        self._move_base = actionlib.SimpleActionClient("/move_base", MoveBaseAction)
-        self._eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=10)
-        self._eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=10)
-        self._equilibrium = rospy.Publisher("/equilibrium_pose", PoseStamped, queue_size=10)
-        self._switch = rospy.ServiceProxy("/controller_manager/switch_controller", SwitchController)
-        self._list = rospy.ServiceProxy("/controller_manager/list_controllers", ListControllers)
-        rospy.Subscriber("/joint_states", JointState, self._on_joint_states, queue_size=1)
-        rospy.Subscriber("/teleteach/scene", MarkerArray, self._on_scene, queue_size=1)
-        rospy.Subscriber("/cartesian_pose", PoseStamped, self._on_cartesian_pose, queue_size=1)
+        self._trajectory = rospy.Publisher(f"{position_controller}/command", JointTrajectory, queue_size=1)
+        self._gripper_move = actionlib.SimpleActionClient("franka_gripper/move", MoveAction)
+        self._gripper_grasp = actionlib.SimpleActionClient("franka_gripper/grasp", GraspAction)
+        self._move_base = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self._eigenvalues = rospy.Publisher("eigenvalues", Vector3Stamped, queue_size=10)
+        self._eigenvectors = rospy.Publisher("eigenvectors", QuaternionStamped, queue_size=10)
+        self._equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
+        self._switch = rospy.ServiceProxy("controller_manager/switch_controller", SwitchController)
+        self._list = rospy.ServiceProxy("controller_manager/list_controllers", ListControllers)
+        rospy.Subscriber("joint_states", JointState, self._on_joint_states, queue_size=1)
+        rospy.Subscriber("teleteach/scene", MarkerArray, self._on_scene, queue_size=1)
+        rospy.Subscriber("cartesian_pose", PoseStamped, self._on_cartesian_pose, queue_size=1)
 
     # ------------------------------------------------------------------------------------------- callbacks
     def _on_joint_states(self, msg):
@@ -332,7 +332,7 @@ class SkillServer:
     ROS Action Servers: /skills/<Name> for each predefined skill and /skills/ReplaySkill (teleteach/ExecuteSkill).
     """
 
-    def __init__(self, runner: SkillRunner, namespace="/skills"):
+    def __init__(self, runner: SkillRunner, namespace="skills"):
         self.runner = runner
         self.servers = {}
         for name in SKILL_NAMES:

@@ -34,11 +34,11 @@ class EllipsoidMarkerPublisher:
         if not (math.isfinite(rate) and rate > 0.0):
             raise ValueError(f"rate must be a finite number > 0 Hz, got {rate}")
         self.builder = builder
-        self.publisher = rospy.Publisher("/visualization_marker", Marker, queue_size=1)
+        self.publisher = rospy.Publisher("visualization_marker", Marker, queue_size=1)
         self._subscribers = [
-            rospy.Subscriber("/eigenvalues", Vector3Stamped, self._guarded(builder.set_eigenvalues), queue_size=1),
-            rospy.Subscriber("/eigenvectors", QuaternionStamped, self._guarded(builder.set_eigenvectors), queue_size=1),
-            rospy.Subscriber("/cartesian_pose", PoseStamped, self._guarded(builder.set_pose), queue_size=1),
+            rospy.Subscriber("eigenvalues", Vector3Stamped, self._guarded(builder.set_eigenvalues), queue_size=1),
+            rospy.Subscriber("eigenvectors", QuaternionStamped, self._guarded(builder.set_eigenvectors), queue_size=1),
+            rospy.Subscriber("cartesian_pose", PoseStamped, self._guarded(builder.set_pose), queue_size=1),
         ]
         self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._publish)
 
