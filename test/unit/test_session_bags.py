@@ -10,10 +10,13 @@ def test_record_command_writes_timestamped_bags_into_the_data_directory(tmp_path
     command = record_command("lesson_1", tmp_path / "data")
     assert command[:4] == ["rosbag", "record", "-o", str(tmp_path / "data" / "bags" / "lesson_1")]
     assert (tmp_path / "data" / "bags").is_dir()  # rosbag record does not create it
-    assert command[4:] == list(TEACHING_TOPICS)
+    assert command[4:] == [f"/{topic}" for topic in TEACHING_TOPICS]  # the root's names
     assert set(DEVICE_TOPICS) <= set(TEACHING_TOPICS)
     for topic in ("eigenvalues", "eigenvectors", "behaviour_tree/log/tree", "tf_static", "teleteach/active_tab"):
-        assert topic in TEACHING_TOPICS  # relative: recorded in the recorder's namespace
+        assert topic in TEACHING_TOPICS
+    # a recorder in a namespace records that namespace's topics, named in full in the bag
+    inside = record_command("lesson_1", tmp_path / "data", namespace="/robot_2/")
+    assert inside[4:] == [f"/robot_2/{topic}" for topic in TEACHING_TOPICS]
 
 
 def test_record_command_uses_the_environments_data_directory(tmp_path, monkeypatch):

@@ -95,7 +95,7 @@ class ActionClients:
     """
 
     def __init__(self, namespace: str = "skills"):
-        self.namespace = namespace.rstrip("/")
+        self.namespace = rospy.resolve_name(namespace.rstrip("/"))  # relative: in the node's namespace (/skills)
         self._clients: typing.Dict[str, actionlib.ActionClient] = {}
 
     def get(self, server: str) -> actionlib.ActionClient:

@@ -33,7 +33,7 @@ TEACHING_TOPICS = (
 )
 """Everything a session bag records (the scene too, so that a visual replay shows the shelf and the products).
 
-Relative names: rosbag resolves them in the recorder's namespace (``/eigenvalues`` at the root, where the offline
+Relative names: the recorder records them in its namespace (``/eigenvalues`` at the root, where the offline
 readers, teleteach.recording.session and teleteach.learning.bag, expect them).
 """
 
@@ -51,15 +51,20 @@ def record_command(
     prefix: str = "session",
     data_directory: Optional[Union[str, pathlib.Path]] = None,
     extra_topics: Sequence[str] = (),
+    namespace: str = "/",
 ) -> List[str]:
     """The ``rosbag record`` command line writing ``<data dir>/bags/<prefix>_<YYYY-MM-DD-HH-MM-SS>.bag``.
 
-    Creates the bags folder (rosbag record does not). rosbag adds the timestamp itself (``-o``).
+    Creates the bags folder (rosbag record does not). rosbag adds the timestamp itself (``-o``). The teaching topics
+    are named in ``namespace`` (the recorder's), as absolute names: rosbag writes a relative name into the bag as it
+    was given, where readers would not find it.
     """
     if not _PREFIX.match(prefix):
         raise BagError(f"bag prefix {prefix!r} must be letters, digits, '_', '.' or '-' (no path)")
     bags = data_dir(data_directory) / "bags"
-    topics = list(TEACHING_TOPICS) + [topic for topic in extra_topics if topic not in TEACHING_TOPICS]
+    base = "/" + namespace.strip("/") + "/" if namespace.strip("/") else "/"
+    topics = [base + topic for topic in TEACHING_TOPICS]
+    topics += [topic for topic in extra_topics if topic not in topics]
     return ["rosbag", "record", "-o", str(bags / prefix), *topics]
 
 

@@ -228,6 +228,7 @@ class RobotSimNode:
 
     def _reject(self, name, error):
         """Count, announce on ~rejected and log (throttled) a message or goal that changed nothing."""
+        name = rospy.resolve_name(name)  # as it is seen on the graph: /eigenvalues at the root
         self._rejected += 1
         self._rejections.publish(String(data=f"{name}: {error}"))
         rospy.logwarn_throttle(1.0, f"robot_sim rejected a message on {name}: {error}")

@@ -221,7 +221,7 @@ class RosRobot(Robot):
             self._list.wait_for_service(SERVICE_TIMEOUT)
             response = self._list()
         except (rospy.ROSException, rospy.ServiceException) as error:
-            raise SkillError(f"/controller_manager/list_controllers failed: {error}") from None
+            raise SkillError(f"{self._list.resolved_name} failed: {error}") from None
         return [controller.name for controller in response.controller if controller.state == "running"]
 
     def switch_controllers(self, start: Sequence[str], stop: Sequence[str]) -> None:
@@ -233,7 +233,7 @@ class RosRobot(Robot):
             self._switch.wait_for_service(SERVICE_TIMEOUT)
             response = self._switch(request)
         except (rospy.ROSException, rospy.ServiceException) as error:
-            raise SkillError(f"/controller_manager/switch_controller failed: {error}") from None
+            raise SkillError(f"{self._switch.resolved_name} failed: {error}") from None
         if not response.ok:
             raise SkillError(f"the controller manager refused to start {list(start)} and stop {list(stop)} (STRICT)")
 
@@ -267,7 +267,7 @@ class RosRobot(Robot):
         deadline = time.monotonic() + CONNECTION_WAIT
         while not server_ready(client.action_client):
             if time.monotonic() > deadline or rospy.is_shutdown():
-                name = client.action_client.ns
+                name = rospy.resolve_name(client.action_client.ns)
                 raise SkillError(f"nobody serves {name}: is robot_sim (or the robot's driver) running?")
             time.sleep(0.01)
         client.send_goal(goal)
