@@ -1,14 +1,13 @@
 """The pybullet world: scene file, base_link frame (Jacobian), kinematics for the skills, URDF, base drive, grasp."""
 
-import pathlib
 import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 import pytest
-import rospkg
 from conftest import ROOT
 from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module
 
+from teleteach.paths import share_dir
 from teleteach.sim import panda
 from teleteach.sim.kinematics import IKError, PandaKinematics
 from teleteach.sim.scene import SceneError, load_scene
@@ -99,9 +98,10 @@ def test_urdf_has_base_link_and_resolvable_meshes():
     assert set(panda.ARM_JOINTS + panda.FINGER_JOINTS) <= joints
     children = {joint.find("child").get("link") for joint in robot.findall("joint")}
     assert links - children == {"base_link"}  # the root
-    # Expect every mesh named through the package (RViz elsewhere resolves it), and found there by ROS's own lookup
+    # Expect every mesh named through the package (RViz elsewhere resolves it), and in the package (ROS's own lookup of
+    # an install space: test/ros/test_install_space.py)
     meshes = [mesh.get("filename") for mesh in robot.iter("mesh")]
-    package = pathlib.Path(rospkg.RosPack().get_path("teleteach"))
+    package = share_dir()
     assert meshes and all(m.startswith("package://teleteach/meshes/panda/") for m in meshes), meshes
     assert all((package / m[len("package://teleteach/") :]).is_file() for m in meshes)
 
