@@ -227,7 +227,7 @@ class RosWorker(QObject):
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
-            queue = 2000 if topic in ("sigma7/button", "/sigma7/gripper_angle") else 5
+            queue = 2000 if topic in ("sigma7/button", "sigma7/gripper_angle") else 5
             self._subscribers[topic] = rospy.Subscriber(
                 topic, message_class, callback, queue_size=queue, tcp_nodelay=True
             )
