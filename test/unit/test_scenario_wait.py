@@ -50,6 +50,7 @@ def test_a_wait_is_parsed_with_its_timeout():
         ("wait: {}", "must be a mapping of one or more of"),
         ("wait: {help_request: true}, timeout: -1", "keyframes[1].timeout: must be a positive number"),
         ("timeout: 3", "only a keyframe that waits has a timeout"),
+        ("wait: {study: STARTED}", "study must be one of PREPARING, INSTRUCTIONS, RUNNING, DONE, QUESTIONNAIRE"),
     ],
 )
 def test_bad_waits_name_the_line_and_field(keyframe, message):
@@ -61,6 +62,14 @@ def test_bad_waits_name_the_line_and_field(keyframe, message):
     with pytest.raises(ScenarioError) as caught:
         parse_scenario(text, source="s.yaml")
     assert str(caught.value).startswith("s.yaml:3: keyframes[1]") and message in str(caught.value)
+
+
+def test_a_scripted_participant_waits_for_a_study_s_phase():
+    text = WAITING.replace("wait: {tab: LOW_LEVEL, tree_running: PickItem2}", "wait: {study: QUESTIONNAIRE}")
+    wait = parse_scenario(text).keyframes[1].wait
+    assert wait == Wait(study="QUESTIONNAIRE", timeout=5.0)
+    assert unmet(wait, SystemState(study="DONE")) == ["study QUESTIONNAIRE (seen DONE)"]
+    assert unmet(wait, SystemState(study="QUESTIONNAIRE")) == []
 
 
 def test_unmet_says_what_was_seen():

@@ -163,6 +163,14 @@ def compare(measure: str, task: str, first: str, second: str, pairs: Dict[str, T
     )
 
 
+def extra_items(data: StudyData) -> List[str]:
+    """The questionnaire's items beyond NASA-TLX (the study's Likert items), in the order asked."""
+    names: List[str] = []
+    for answers in data.questionnaires:
+        names += [name for name in answers["answers"] if name not in TLX_NAMES and name not in names]
+    return names
+
+
 def _participant_means(rows: List[dict], key: str, condition: str, task: Optional[str]) -> Dict[str, float]:
     values: Dict[str, List[float]] = {}
     for row in rows:
@@ -217,7 +225,7 @@ def analyse(data: StudyData) -> Tuple[List[dict], List[dict], List[dict], List[C
     for condition in data.conditions:
         rows = [row for row in tlx if row["condition"] == condition]
         entry = {"condition": condition, "participants": len(rows)}
-        for key in ("raw_tlx", *TLX_NAMES):
+        for key in ("raw_tlx", *TLX_NAMES, *extra_items(data)):
             for statistic, value in describe([row.get(key) for row in rows]).items():
                 if statistic != "n":
                     entry[f"{key}_{statistic}"] = value
@@ -231,9 +239,9 @@ def analyse(data: StudyData) -> Tuple[List[dict], List[dict], List[dict], List[C
                     _participant_means(rows, measure, first, task), _participant_means(rows, measure, second, task)
                 )
                 comparisons.append(compare(measure, task, first, second, pairs))
-        first_tlx, second_tlx = (_participant_means(tlx, "raw_tlx", name, None) for name in (first, second))
-        pairs = _pairs(first_tlx, second_tlx)
-        comparisons.append(compare("raw_tlx", "(all)", first, second, pairs))
+        for item in ("raw_tlx", *extra_items(data)):
+            first_answers, second_answers = (_participant_means(tlx, item, name, None) for name in (first, second))
+            comparisons.append(compare(item, "(all)", first, second, _pairs(first_answers, second_answers)))
     return summary, tlx, tlx_summary, comparisons
 
 
@@ -332,6 +340,18 @@ def markdown(report: Report) -> str:
             f"{_number(row['raw_tlx_sd'])} | {_number(row['raw_tlx_median'])} | {subscales} |"
         )
     lines += ["", "Subscale columns: means (0-100; performance: 0 perfect, 100 failure).", ""]
+    items = extra_items(data)
+    if items:
+        lines += ["## Other questionnaire items per condition", ""]
+        lines.append("| item | condition | participants | mean | sd | median |")
+        lines.append("|---|---|---|---|---|---|")
+        for item in items:
+            for row in report.tlx_summary:
+                lines.append(
+                    f"| {item} | {row['condition']} | {row['participants']} | {_number(row[f'{item}_mean'], 2)} | "
+                    f"{_number(row[f'{item}_sd'], 2)} | {_number(row[f'{item}_median'], 1)} |"
+                )
+        lines.append("")
     lines += ["## Paired comparisons (Wilcoxon signed-rank, two-sided)", ""]
     lines.append("| measure | task | conditions | n | medians | median difference | W | p | effect size r |")
     lines.append("|---|---|---|---|---|---|---|---|---|")
@@ -437,6 +457,7 @@ def _learning_curves(data: StudyData, out: pathlib.Path, plt) -> pathlib.Path:
                 axis.plot(*zip(*points), alpha=0.3, marker=".", color=mean_line.get_color())
             axis.set_xticks(repetitions)
         axis.set_title(task)
+        axis.set_ylim(bottom=0.0)
         axis.set_xlabel("trial of the task (under one condition)")
         axis.set_ylabel("task time [s]")
         axis.legend()

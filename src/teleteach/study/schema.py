@@ -39,7 +39,7 @@ _PLACEMENT = ("product", "gap", "hold")
 _ORDER = ("conditions", "tasks", "seed")
 _QUESTIONNAIRE = ("nasa_tlx", "items")
 _ITEM = ("name", "title", "question", "low", "high", "points")
-_SCRIPTED = ("parameters", "speed", "reading_time")
+_SCRIPTED = ("parameters", "speed", "reading_time", "aim")
 DEFAULT_TIMEOUT = 180.0  # [s] a task's time limit when its file gives none
 
 
@@ -89,6 +89,7 @@ class Scripted:
     parameters: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     speed: Tuple[float, float] = (1.0, 1.0)  # time scale of the task scripts, drawn per participant
     reading_time: Tuple[float, float] = (1.0, 1.0)  # [s] before the start gesture, drawn per trial
+    aim: float = 0.0  # [m] the hand aims off the task script's positions by up to this in x and y, drawn per trial
 
 
 @dataclasses.dataclass(frozen=True)
@@ -448,4 +449,12 @@ def _scripted(fields: _Fields, value: Any) -> Scripted:
         parameters=_parameters(fields, (*path, "parameters"), raw.get("parameters", {})),
         speed=_range(fields, (*path, "speed"), raw.get("speed", [1.0, 1.0]), positive=True),
         reading_time=_range(fields, (*path, "reading_time"), raw.get("reading_time", [1.0, 1.0]), positive=True),
+        aim=_aim(fields, (*path, "aim"), raw.get("aim", 0.0)),
     )
+
+
+def _aim(fields: _Fields, path, value: Any) -> float:
+    aim = _number(fields, path, value)
+    if not 0.0 <= aim <= 0.02:
+        raise fields.error(path, f"must be between 0 and 0.02 m, got {aim}")
+    return aim

@@ -6,8 +6,9 @@ the trial runs, then plays the task's own script (``script:`` of the task, a sce
 start), stretched by the participant's pace. When the condition's questionnaire follows, it waits for it, moves the
 slider of each item to its answer (device X, one scale position per bin of the GUI's ``device_range``) and clicks,
 and clicks once more to submit. Pace, reading time and answers are drawn from seeded generators, so that simulated
-participants differ and a rerun of the same participant is the same; the hand model's tremor (seeded per
-participant) adds the rest.
+participants differ and a rerun of the same participant is the same: the pace, the reading time, where the hand
+aims (off the script's positions by up to ``aim`` in x and y, per trial) and the answers; the hand model's tremor
+(seeded per participant) adds the rest.
 """
 
 import dataclasses
@@ -93,15 +94,17 @@ def compose(
     time += CLICK_DURATION + 0.2
     frames.append(_frame(time, REST, wait={"study": "RUNNING"}, timeout=30.0))
     start = time + 1.0
+    offset = [generator(study, participant, f"aim/{step.key}").uniform(-1.0, 1.0) * study.scripted.aim for _ in "xy"]
     for keyframe in script.keyframes:
         extra = {"click": True} if keyframe.click else {}
         if keyframe.wait is not None:
             wait = {name: value for name, value in _wait_fields(keyframe.wait).items() if value is not None}
             extra.update(wait=wait, timeout=keyframe.wait.timeout)
-        frames.append(_frame(start + scale * keyframe.time, keyframe.position, keyframe.rpy, keyframe.gripper, **extra))
+        position = [keyframe.position[0] + offset[0], keyframe.position[1] + offset[1], keyframe.position[2]]
+        frames.append(_frame(start + scale * keyframe.time, position, keyframe.rpy, keyframe.gripper, **extra))
     time = start + scale * script.duration
     answers = None
-    last = script.keyframes[-1]
+    last = dataclasses.replace(script.keyframes[-1], position=tuple(frames[-1]["position"]))
     if questionnaire and study.questionnaire:
         timeout = task.timeout + prepare_timeout
         answering, time, answers = _answering(study, participant, step.condition, time, last, device_range, timeout)
@@ -109,7 +112,10 @@ def compose(
         frames.append(_frame(time + 1.0, REST))
     else:
         frames.append(_frame(time + 1.0, last.position, last.rpy, last.gripper))  # the task's end, held
-    description = f"scripted participant {participant}: {step.key} (pace {scale:.2f}, reading {reading:.1f} s)"
+    description = (
+        f"scripted participant {participant}: {step.key} (pace {scale:.2f}, reading {reading:.1f} s, "
+        f"aim off by {1000 * offset[0]:+.1f}, {1000 * offset[1]:+.1f} mm)"
+    )
     text = _scenario_text(description, script.interpolation, max(script.click_duration, CLICK_DURATION), frames)
     return ScriptedTrial(text, answers)
 
