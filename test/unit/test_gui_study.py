@@ -47,7 +47,7 @@ def test_the_start_gesture_is_a_click_with_the_handle_at_the_centre(screen):
     assert screen.on_click() is None
     assert screen.message == "Bring the handle to the centre (the dot into the ring), then click."
     screen.on_device(at(0.015, -0.019, 0.01))
-    assert screen.centred
+    assert screen.centred and screen.message == ""
     assert screen.on_click() == Submission("start")
     assert screen.on_click() is None  # sent once, while the answer is awaited
     screen.answered(False, "no trial waits for its start (phase PREPARING)")

@@ -62,7 +62,13 @@ def test_the_example_study_loads_with_its_conditions_tasks_and_questionnaire():
 def test_defaults_of_a_minimal_study(tmp_path):
     study = study_of(GOOD, tmp_path)
     (task,) = study.tasks
-    assert (task.timeout, task.trials, task.pause_tree, task.script, task.title) == (180.0, 1, True, None, "remove")
+    assert (task.timeout, task.trials, task.pause_tree, task.script, task.title) == (
+        180.0,
+        1,
+        "instructions",
+        None,
+        "remove",
+    )
     assert (study.order.conditions, study.order.tasks) == ("latin_square", "fixed")
     assert [item.name for item in study.questionnaire] == list(TLX_NAMES)
 
@@ -161,6 +167,11 @@ def test_defaults_of_a_minimal_study(tmp_path):
             "name: small\nquestionnaire: {items: [{name: effort, question: Again}]}",
             "study.yaml:2: questionnaire.items[0].name: must be a new name of letters, digits, '_' or '-', got "
             "'effort'",
+        ),
+        (
+            "    goal:",
+            "    pause_tree: yes\n    goal:",
+            "study.yaml:11: tasks.remove.pause_tree: must be one of instructions, always, never, got True",
         ),
         ("name: small", "name: sm all", "study.yaml:1: name: must be letters, digits, '_' or '-' (a folder name)"),
         ("tasks:", "tasks: [", "study.yaml:11: not valid YAML: expected ',' or ']'"),

@@ -93,6 +93,8 @@ class StudyScreen:
     def on_device(self, sample: DeviceSample) -> None:
         """A device sample (only while the study's page is shown)."""
         self.sample = sample
+        if self.phase == "INSTRUCTIONS" and self.centred and self.message.startswith("Bring"):
+            self.message = ""  # the handle is where it should be now
         self._follow_device()
 
     def on_click(self) -> Optional[Submission]:

@@ -232,7 +232,7 @@ class StudyPage(QWidget):
             return
         item = screen.item
         self.title.setText(f"{item.title}  ({screen.item_index + 1} of {count})")
-        self.body.setText("About the part you just finished (all its trials):")
+        self.body.setText("About the trials you just did (since the last questionnaire):")
         self.question.setText(item.question)
         self.scale.show_scale(item.points, screen.position, [f"{item.value(index):g}" for index in range(item.points)])
         self.low.setText(item.low)

@@ -225,7 +225,7 @@ class StudyRunner:
                 atomic_write_text(folder / "scripted_answers.json", json.dumps(scripted.answers, indent=2) + "\n")
         metrics = TrialMetrics(task.intended, self.settings.contact_threshold)
         self._ros.begin_trial(task.goal, self.scene, metrics)
-        self._ros.pause_tree(task.pause_tree)
+        self._ros.pause_tree(task.pause_tree != "never")
         launch = self._launch(step, folder)
         log = folder / "launch.log"
         recorder = shots = None
@@ -236,7 +236,8 @@ class StudyRunner:
             self._ros.publish()
             shots = self._screenshots(folder)
             self._wait_for_start(launch, log)
-            self._ros.pause_tree(False)
+            if task.pause_tree == "instructions":
+                self._ros.pause_tree(False)
             self.say(f"study: trial {step.trial} started")
             self._run_until_done(launch)
             success, task_time, status = self._flow.outcome
@@ -371,11 +372,19 @@ class StudyRunner:
             time.sleep(period)
 
     def _stop_recorder(self, recorder: subprocess.Popen, folder: pathlib.Path) -> Optional[pathlib.Path]:
-        """Close the bag (SIGINT) and move it into the trial's folder as trial.bag."""
+        """Close the bag (SIGINT) and move it into the trial's folder as trial.bag.
+
+        rosbag's wrapper passes SIGINT on to its recorder and exits at once; the recorder closes the bag (renames
+        ``.bag.active`` to ``.bag``) a moment later, so the bag is waited for.
+        """
         self.processes.stop(recorder, grace=15.0)
-        bags = sorted((folder / "data" / "bags").glob("trial_*.bag"))
+        folder_bags = folder / "data" / "bags"
+        deadline = time.monotonic() + 20.0
+        while list(folder_bags.glob("trial_*.bag.active")) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        bags = sorted(folder_bags.glob("trial_*.bag"))
         if not bags:
-            self.say(f"study: WARNING: no bag was written for {folder.name} (see record.log)")
+            self.say(f"study: WARNING: no bag was closed for {folder.name} (see record.log)")
             return None
         target = folder / "trial.bag"
         shutil.move(str(bags[-1]), target)
@@ -391,7 +400,7 @@ class StudyRunner:
         while self._flow.answers is None:
             self._check_alive(launch, log)
             if self.options.device == "scenario" and time.monotonic() > deadline:
-                raise TrialError("the scripted participant did not answer the questionnaire")
+                raise TrialError(f"the scripted participant did not answer the questionnaire after {step.condition}")
             time.sleep(0.1)
         answers = self._flow.answers
         self.store.save_questionnaire(
@@ -558,8 +567,8 @@ def main(argv: Optional[List[str]] = None) -> int:
         print(f"study: {error}", flush=True)
         return 2
     except (TrialError, ProcessError) as error:
-        print(f"study: {error}; the trial stays unfinished: continue with --resume", flush=True)
+        print(f"study: {error}; the step that ran is not stored: continue with --resume", flush=True)
         return 1
     except KeyboardInterrupt:
-        print("study: interrupted; the trial that ran stays unfinished: continue with --resume", flush=True)
+        print("study: interrupted; the step that ran is not stored: continue with --resume", flush=True)
         return 1

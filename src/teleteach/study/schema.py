@@ -27,6 +27,7 @@ NAME = re.compile(r"^[A-Za-z0-9_-]+$")
 CONDITION_ORDERS = ("latin_square", "random", "fixed")
 TASK_ORDERS = ("fixed", "latin_square", "random")
 START_MODES = ("HIGH_LEVEL", "LOW_LEVEL", "SHARED_CONTROL")
+PAUSE_TREE = ("instructions", "always", "never")
 INTENDED_STEPS = ("mode", "node", "operation", "index")
 _TOP = ("name", "description", "participants", "conditions", "tasks", "trials_per_task", "order", "questionnaire")
 _TOP += ("system", "scripted")
@@ -68,7 +69,7 @@ class Task:
     timeout: float  # [s]
     trials: int
     intended: Mapping[str, str] = dataclasses.field(default_factory=dict)  # step -> the right choice
-    pause_tree: bool = True  # the tree waits while the instructions show
+    pause_tree: str = "instructions"  # the tree waits while the instructions show | for the whole trial | never
     system: Mapping[str, Any] = dataclasses.field(default_factory=dict)  # full.launch arguments of this task
     script: Optional[pathlib.Path] = None  # the scripted participant's keyframes
 
@@ -316,12 +317,18 @@ def _tasks(fields: _Fields, data: Mapping[str, Any], folder: pathlib.Path, trial
                 timeout=_number(fields, (*path, "timeout"), spec.get("timeout", DEFAULT_TIMEOUT), positive=True),
                 trials=_integer(fields, (*path, "trials"), spec.get("trials", trials_per_task), 1),
                 intended={step: str(choice) for step, choice in intended.items()},
-                pause_tree=_flag(fields, (*path, "pause_tree"), spec.get("pause_tree", True)),
+                pause_tree=_choice(fields, (*path, "pause_tree"), spec.get("pause_tree", "instructions"), PAUSE_TREE),
                 system=_system(fields, (*path, "system"), spec.get("system", {})),
                 script=_script(fields, (*path, "script"), spec.get("script"), folder),
             )
         )
     return tasks
+
+
+def _choice(fields: _Fields, path, value: Any, choices: Sequence[str]) -> str:
+    if value not in choices:
+        raise fields.error(path, f"must be one of {', '.join(choices)}, got {value!r}")
+    return value
 
 
 def _flag(fields: _Fields, path, value: Any) -> bool:
