@@ -19,24 +19,33 @@ def button_x(index, count=23):
     return -0.1 + (index + 0.5) * 0.2 / count
 
 
+@pytest.fixture
+def study_node(ros_master):
+    """The study node's ROS layer in this process, for the example study's participant P01."""
+    from teleteach.study.ordering import session_plan
+    from teleteach.study.ros import StudyRos
+    from teleteach.study.schema import load_study
+    from teleteach.study.trial import StudyFlow
+
+    study = load_study(EXAMPLE)
+    flow = StudyFlow(study, "P01", trials=8)
+    ros = StudyRos(flow)
+    yield study, session_plan(study, "P01"), flow, ros
+    ros.close()  # later tests' windows must not hear this study's latched state
+
+
 def test_a_participant_goes_through_a_trial_and_the_questionnaire(
-    qapp, bt_node, make_window, device, artifacts_dir: pathlib.Path
+    qapp, bt_node, make_window, device, study_node, artifacts_dir: pathlib.Path
 ):
     import rospy
 
     from teleteach.srv import StudyInput
     from teleteach.study.metrics import TrialMetrics
-    from teleteach.study.ordering import session_plan
-    from teleteach.study.ros import StudyRos
-    from teleteach.study.schema import load_study
     from teleteach.study.scripted import slider_x
-    from teleteach.study.trial import Phase, StudyFlow
+    from teleteach.study.trial import Phase
 
-    study = load_study(EXAMPLE)
-    plan = session_plan(study, "P01")
+    study, plan, flow, ros = study_node
     task = study.task(plan[0].task)
-    flow = StudyFlow(study, "P01", trials=8)
-    ros = StudyRos(flow)
     metrics = TrialMetrics(task.intended, contact_threshold=10.0)
     ros.begin_trial(task.goal, None, metrics)
     window = make_window()

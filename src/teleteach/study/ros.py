@@ -97,6 +97,14 @@ class StudyRos:
             rospy.Subscriber("force_torque_ext", WrenchStamped, self._on_wrench, queue_size=100),
         ]
 
+    def close(self) -> None:
+        """Unadvertise and unsubscribe: a latched state must not reach a GUI that starts later."""
+        for subscriber in self._subscribers:
+            subscriber.unregister()
+        self._state.unregister()
+        self._pause.unregister()
+        self._service.shutdown("study node closed")
+
     # a trial ------------------------------------------------------------------------------------------------
     def begin_trial(self, goal: Goal, scene: Optional[Scene], metrics: TrialMetrics) -> None:
         """Judge ``goal`` and measure into ``metrics`` from now on (what an earlier trial's system said is gone)."""
