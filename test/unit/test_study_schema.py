@@ -56,7 +56,7 @@ def test_the_example_study_loads_with_its_conditions_tasks_and_questionnaire():
     assert remove.script == EXAMPLE.parent / "scripts" / "remove_place_item.yaml"
     assert [item.name for item in study.questionnaire] == [*TLX_NAMES, "in_control"]
     assert study.questionnaire[-1].points == 7 and study.questionnaire[-1].maximum == 7.0
-    assert study.scripted.parameters["sigma7_node/hand/tremor_rms"] == 0.001
+    assert study.scripted.parameters["sigma7_node/hand/tremor_rms"] == 0.002 and study.scripted.aim == 0.0035
 
 
 def test_defaults_of_a_minimal_study(tmp_path):
