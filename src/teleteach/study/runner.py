@@ -544,9 +544,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     parser.add_argument("--screenshots", action="store_true", help="picture each phase of each trial into its folder")
     parser.add_argument("--use-master", action="store_true", help="use the running ROS master (full.launch study:=)")
     if argv is None:
-        import rospy
+        import rosgraph
 
-        argv = rospy.myargv(sys.argv)[1:]
+        argv = rosgraph.myargv(sys.argv)[1:]  # without roslaunch's __name:= and __log:=
     arguments = parser.parse_args(argv)
     try:
         study = load_study(arguments.study_file)
