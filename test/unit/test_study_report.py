@@ -115,6 +115,8 @@ def test_the_paired_comparison_is_scipy_s_wilcoxon_on_the_participants_means(tmp
     assert tlx.n == 6 and tlx.effect_size_r < 0
     errors = next(c for c in report.comparisons if (c.measure, c.task) == ("wrong_selections", "stiffen_y"))
     assert errors.p_value is not None and errors.effect_size_r == pytest.approx(-1.0)
+    assert "normal approximation" in errors.note  # zeros: scipy's approximation, said in the table
+    assert comparison.note == ""  # no ties, no zeros: exact
     rows = read_csv(report.folder / "comparisons.csv")
     assert len(rows) == len(report.comparisons) == 2 * 2 + 2  # 2 tasks x 2 measures, raw TLX, in_control
 

@@ -25,6 +25,7 @@ import itertools
 import json
 import math
 import pathlib
+import warnings
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -149,7 +150,11 @@ def compare(measure: str, task: str, first: str, second: str, pairs: Dict[str, T
     if nonzero < 2:
         note = f"no test: {nonzero} participant(s) with a difference (of {n} paired)"
         return Comparison(measure, task, first, second, n, *medians, None, None, None, note)
-    result = stats.wilcoxon(x, y, zero_method="wilcox", alternative="two-sided")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = stats.wilcoxon(x, y, zero_method="wilcox", alternative="two-sided")
+    # scipy takes the normal approximation when there are ties or zeros, and warns when n is small for it
+    note = "; ".join(str(warning.message) for warning in caught)
     return Comparison(
         measure,
         task,
@@ -160,6 +165,7 @@ def compare(measure: str, task: str, first: str, second: str, pairs: Dict[str, T
         float(result.statistic),
         float(result.pvalue),
         rank_biserial(differences),
+        note,
     )
 
 
@@ -362,7 +368,9 @@ def markdown(report: Report) -> str:
             f"{comparison.n} | {_number(comparison.median_first, 2)} vs {_number(comparison.median_second, 2)} | "
             f"{_number(comparison.median_difference, 2)} | "
             + (
-                f"{_number(comparison.statistic, 1)} | {comparison.p_value:.3f} | {comparison.effect_size_r:.2f} |"
+                f"{_number(comparison.statistic, 1)} | {comparison.p_value:.3f}"
+                + (f" ({comparison.note})" if comparison.note else "")
+                + f" | {comparison.effect_size_r:.2f} |"
                 if tested
                 else f"- | - | - ({comparison.note}) |"
             )
