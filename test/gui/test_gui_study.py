@@ -134,8 +134,8 @@ def test_a_participant_goes_through_a_trial_and_the_questionnaire(
     for number, item in enumerate(items):
         device.move(x=slider_x(item, 100.0 if number == 1 else meant[item.name], 0.1))
         pump(qapp, 0.4)
-        if number == 2:
-            window.screenshot().save(str(artifacts_dir / "study_4_questionnaire.png"))
+        if number in (2, len(items) - 1):  # a NASA-TLX subscale, the Likert item
+            window.screenshot().save(str(artifacts_dir / f"study_4_questionnaire_{item.name}.png"))
         device.click()
         pump(qapp, 0.4)
         if number == 1:  # physical demand was meant lower: back, and again

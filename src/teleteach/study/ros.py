@@ -202,10 +202,18 @@ class StudyRos:
                 self._metrics.wrench((force.x, force.y, force.z), (torque.x, torque.y, torque.z))
 
 
-def graph_connections() -> Dict[str, Dict[str, List[str]]]:
-    """{"publishers": {topic: [nodes]}, "subscribers": {topic: [nodes]}} as the master knows them now."""
-    publishers, subscribers, _ = rosgraph.masterapi.Master(rospy.get_name()).getSystemState()
-    return {"publishers": dict(publishers), "subscribers": dict(subscribers)}
+def gui_listens() -> bool:
+    """Whether the teaching GUI (in this node's namespace) subscribes to study/state."""
+    _, subscribers, _ = rosgraph.masterapi.Master(rospy.get_name()).getSystemState()
+    return rospy.resolve_name("teaching_gui") in dict(subscribers).get(rospy.resolve_name(STATE_TOPIC), [])
+
+
+def not_ready(trees_heard: int) -> List[str]:
+    """What of a trial's system is not up yet: the behaviour tree (heard), the GUI, the device (advertised)."""
+    publishers, _, _ = rosgraph.masterapi.Master(rospy.get_name()).getSystemState()
+    device = bool(dict(publishers).get(rospy.resolve_name("sigma7/pose")))
+    parts = (("the behaviour tree", trees_heard > 0), ("the GUI", gui_listens()), ("the device", device))
+    return [what for what, ready in parts if not ready]
 
 
 def parameters_seen(names: Iterable[str]) -> Dict[str, Any]:

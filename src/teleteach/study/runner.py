@@ -48,12 +48,12 @@ from teleteach.study.trial import Phase, StudyFlow
 
 DEVICES = ("dhd", "virtual", "scenario")
 STUDY_TOPICS = (
-    "/study/state",
-    "/teleteach/selection",
-    "/sigma7/guidance",
-    "/sigma7/force",
-    "/behaviour_tree/pause",
-    "/teleteach/recording",
+    "study/state",
+    "teleteach/selection",
+    "sigma7/guidance",
+    "sigma7/force",
+    "behaviour_tree/pause",
+    "teleteach/recording",
 )
 """Recorded into each trial's bag besides the teaching topics (teleteach.recording.bags.TEACHING_TOPICS)."""
 KEEP_PARAMETERS = ("roslaunch", "rosdistro", "rosversion", "run_id", "study")
@@ -303,23 +303,19 @@ class StudyRunner:
 
     def _wait_until_ready(self, launch: subprocess.Popen, folder: pathlib.Path) -> subprocess.Popen:
         """Until the tree, the GUI and the device are up; then the recorder, until its bag is open."""
-        from teleteach.study.ros import graph_connections
+        from teleteach.study.ros import not_ready
 
         deadline = time.monotonic() + self.settings.prepare_timeout
-        waiting = "the behaviour tree"
+        waiting = ["the behaviour tree"]
         while time.monotonic() < deadline:
             self._check_alive(launch, folder / "launch.log")
-            graph = graph_connections()
-            gui = "/teaching_gui" in graph["subscribers"].get("/study/state", [])
-            device = bool(graph["publishers"].get("/sigma7/pose"))
-            tree = self._ros.trees_heard > 0
-            parts = (("the behaviour tree", tree), ("the GUI", gui), ("the device", device))
-            waiting = ", ".join(what for what, ready in parts if not ready)
+            waiting = not_ready(self._ros.trees_heard)
             if not waiting:
                 break
             time.sleep(0.2)
         else:
-            raise TrialError(f"the trial's system was not up after {self.settings.prepare_timeout:g} s ({waiting})")
+            missing = ", ".join(waiting)
+            raise TrialError(f"the trial's system was not up after {self.settings.prepare_timeout:g} s ({missing})")
         command = record_command("trial", folder / "data", STUDY_TOPICS)
         env = ros_environment(self._master_uri, self._display, folder / "data")
         recorder = self.processes.start(
@@ -431,7 +427,7 @@ class StudyRunner:
         folder.mkdir(parents=True, exist_ok=True)
         self._flow.preparing(step)
         self._ros.publish()
-        from teleteach.study.ros import clear_parameters, graph_connections
+        from teleteach.study.ros import clear_parameters, gui_listens
 
         clear_parameters(KEEP_PARAMETERS)
         parameters = self._parameters(step)
@@ -448,7 +444,7 @@ class StudyRunner:
         launch = self.processes.start("roslaunch", command, log, env, parent_death_signal=signal.SIGINT)
         try:
             deadline = time.monotonic() + self.settings.prepare_timeout
-            while "/teaching_gui" not in graph_connections()["subscribers"].get("/study/state", []):
+            while not gui_listens():
                 self._check_alive(launch, folder / "launch.log")
                 if time.monotonic() > deadline:
                     raise TrialError(f"the GUI was not up after {self.settings.prepare_timeout:g} s")
