@@ -48,14 +48,15 @@ from teleteach.study.trial import Phase, StudyFlow
 
 DEVICES = ("dhd", "virtual", "scenario")
 STUDY_TOPICS = (
-    "study/state",
-    "teleteach/selection",
-    "sigma7/guidance",
-    "sigma7/force",
-    "behaviour_tree/pause",
-    "teleteach/recording",
+    "/study/state",
+    "/teleteach/selection",
+    "/sigma7/guidance",
+    "/sigma7/force",
+    "/behaviour_tree/pause",
+    "/teleteach/recording",
 )
-"""Recorded into each trial's bag besides the teaching topics (teleteach.recording.bags.TEACHING_TOPICS)."""
+"""Recorded into each trial's bag besides the teaching topics (teleteach.recording.bags.TEACHING_TOPICS). Resolved
+names, like those: rosbag keeps a topic's name as given, and a bag's readers look for the resolved one."""
 KEEP_PARAMETERS = ("roslaunch", "rosdistro", "rosversion", "run_id", "study")
 """Parameter namespaces that outlive a trial's system (the master's own, and the study node's)."""
 
