@@ -4,6 +4,7 @@ import json
 import pathlib
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -112,6 +113,10 @@ def test_a_participant_is_run_by_one_runner_at_a_time(study, tmp_path):
     store.close()
     # a live process whose command line names a study runner holds the lock
     holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", "study"])
+    cmdline = pathlib.Path(f"/proc/{holder.pid}/cmdline")
+    deadline = time.monotonic() + 10.0
+    while b"time.sleep(60)" not in cmdline.read_bytes() and time.monotonic() < deadline:
+        time.sleep(0.01)  # the child has not exec'd python yet
     try:
         (store.folder / "runner.pid").write_text(f"{holder.pid}\n")
         with pytest.raises(SessionRefusedError, match=f"another study runner \\(pid {holder.pid}\\) is running P05"):
