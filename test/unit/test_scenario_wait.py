@@ -95,7 +95,8 @@ def test_the_device_holds_the_waiting_keyframe_until_the_system_is_ready():
     state["now"] = SystemState(tab=2, running=frozenset({"PickItem2"}))
     # Expect the scenario to go on from the keyframe (its click first) once the system shows what it waits for
     assert backend.read(103.0).position[0] == pytest.approx(0.05)
-    assert backend.read(103.1).gripper < 0.2
+    backend.read(103.04)  # reads closer than a quarter of the flick: no stall
+    assert backend.read(103.08).gripper < 0.2
     assert backend.read(103.5).position[1] == pytest.approx(0.025)
     assert not backend.finished and backend.failure == ""
     # Expect: played only once the last keyframe is reached on the scenario's clock, which stood still 2 s
@@ -121,6 +122,22 @@ def clicks_seen(backend, times):
     for time in times:
         detector.update(time, backend.read(time).gripper)
     return detector.clicks
+
+
+@pytest.mark.parametrize(
+    "stop, resume",
+    [
+        (1.03, 1.15),  # a stall from inside the flick, before the gripper closed, over its closing
+        (1.03, 1.6),  # ... and over its end
+        (1.04, 2.5),
+        (1.09, 1.2),  # closed before the stall: the detector sees it reopen within its time (no second flick)
+    ],
+)
+def test_a_stall_inside_a_click_before_the_gripper_closed_does_not_swallow_it(stop, resume):
+    scenario = parse_scenario(CLICKING)
+    stalled = np.concatenate([np.arange(0.0, stop, 0.001), np.arange(resume, 3.5, 0.001)])
+    # Expect the click of keyframe 1 (at 1.0 s, 0.2 s long) seen exactly once
+    assert clicks_seen(ScenarioBackend(scenario, start_time=0.0), stalled) == 1
 
 
 @pytest.mark.parametrize("resume", [1.1, 1.4, 2.5])

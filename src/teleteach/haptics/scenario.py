@@ -306,8 +306,10 @@ class ScenarioBackend(DeviceBackend):
     then reports :attr:`finished`.
 
     A stall of the reading loop must not swallow a click: when a read jumps over more than
-    ``late_click_fraction`` of a scripted flick, the whole flick is played from that read on instead (late, as an
-    operator would click after a freeze), while the motion goes on as scripted.
+    ``late_click_fraction`` of a scripted flick, from before the flick or from its first ``late_click_fraction``
+    (before the gripper has closed), the whole flick is played from that read on instead (late, as an operator would
+    click after a freeze), while the motion goes on as scripted. A stall later in the flick, once the gripper has
+    closed, leaves the flick to the click detector.
     """
 
     late_click_fraction = 0.25
@@ -330,6 +332,8 @@ class ScenarioBackend(DeviceBackend):
         self._next_wait = 0
         self._clicks = scenario.click_times()
         self._next_click = 0
+        self._flick: Optional[float] = None  # start of the latest scripted flick reached
+        self._replayed: Optional[float] = None  # start of the latest flick played late
         self._late_click_at: Optional[float] = None  # reading time from which a skipped flick plays
         self._held = 0.0
         self._waiting_since: Optional[float] = None
@@ -372,15 +376,17 @@ class ScenarioBackend(DeviceBackend):
         return sample
 
     def _note_skipped_click(self, time: float, elapsed: float) -> None:
-        """Start a late flick when this read jumped over a good part of a scripted one."""
+        """Start a late flick when this read jumped over a good part of a scripted one before its gripper closed."""
         while self._next_click < len(self._clicks) and self._clicks[self._next_click] <= elapsed:
-            start = self._clicks[self._next_click]
+            self._flick = self._clicks[self._next_click]
             self._next_click += 1
-            jumped = (
-                self._elapsed <= start and elapsed - start > self.late_click_fraction * self._scenario.click_duration
-            )
-            if jumped:
-                self._late_click_at = time
+        start = self._flick
+        if start is None or start == self._replayed:
+            return
+        window = self.late_click_fraction * self._scenario.click_duration
+        previous = self._elapsed
+        if previous < start + window and elapsed - max(previous, start) > window:
+            self._late_click_at, self._replayed = time, start
 
     @property
     def played(self) -> bool:
