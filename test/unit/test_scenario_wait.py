@@ -50,6 +50,7 @@ def test_a_wait_is_parsed_with_its_timeout():
         ("wait: {}", "must be a mapping of one or more of"),
         ("wait: {help_request: true}, timeout: -1", "keyframes[1].timeout: must be a positive number"),
         ("timeout: 3", "only a keyframe that waits has a timeout"),
+        ("wait: {study: STARTED}", "study must be one of PREPARING, INSTRUCTIONS, RUNNING, DONE, QUESTIONNAIRE"),
     ],
 )
 def test_bad_waits_name_the_line_and_field(keyframe, message):
@@ -61,6 +62,14 @@ def test_bad_waits_name_the_line_and_field(keyframe, message):
     with pytest.raises(ScenarioError) as caught:
         parse_scenario(text, source="s.yaml")
     assert str(caught.value).startswith("s.yaml:3: keyframes[1]") and message in str(caught.value)
+
+
+def test_a_scripted_participant_waits_for_a_study_s_phase():
+    text = WAITING.replace("wait: {tab: LOW_LEVEL, tree_running: PickItem2}", "wait: {study: QUESTIONNAIRE}")
+    wait = parse_scenario(text).keyframes[1].wait
+    assert wait == Wait(study="QUESTIONNAIRE", timeout=5.0)
+    assert unmet(wait, SystemState(study="DONE")) == ["study QUESTIONNAIRE (seen DONE)"]
+    assert unmet(wait, SystemState(study="QUESTIONNAIRE")) == []
 
 
 def test_unmet_says_what_was_seen():
@@ -86,7 +95,8 @@ def test_the_device_holds_the_waiting_keyframe_until_the_system_is_ready():
     state["now"] = SystemState(tab=2, running=frozenset({"PickItem2"}))
     # Expect the scenario to go on from the keyframe (its click first) once the system shows what it waits for
     assert backend.read(103.0).position[0] == pytest.approx(0.05)
-    assert backend.read(103.1).gripper < 0.2
+    backend.read(103.04)  # reads closer than a quarter of the flick: no stall
+    assert backend.read(103.08).gripper < 0.2
     assert backend.read(103.5).position[1] == pytest.approx(0.025)
     assert not backend.finished and backend.failure == ""
     # Expect: played only once the last keyframe is reached on the scenario's clock, which stood still 2 s
@@ -112,6 +122,22 @@ def clicks_seen(backend, times):
     for time in times:
         detector.update(time, backend.read(time).gripper)
     return detector.clicks
+
+
+@pytest.mark.parametrize(
+    "stop, resume",
+    [
+        (1.03, 1.15),  # a stall from inside the flick, before the gripper closed, over its closing
+        (1.03, 1.6),  # ... and over its end
+        (1.04, 2.5),
+        (1.09, 1.2),  # closed before the stall: the detector sees it reopen within its time (no second flick)
+    ],
+)
+def test_a_stall_inside_a_click_before_the_gripper_closed_does_not_swallow_it(stop, resume):
+    scenario = parse_scenario(CLICKING)
+    stalled = np.concatenate([np.arange(0.0, stop, 0.001), np.arange(resume, 3.5, 0.001)])
+    # Expect the click of keyframe 1 (at 1.0 s, 0.2 s long) seen exactly once
+    assert clicks_seen(ScenarioBackend(scenario, start_time=0.0), stalled) == 1
 
 
 @pytest.mark.parametrize("resume", [1.1, 1.4, 2.5])

@@ -2,7 +2,9 @@
 
 The window wires the worker's signals to the active tab, calls /change_tree, /behaviour_tree/add_skill and the
 controller manager off the GUI thread (failures go to the status bar), pauses the tree while LOW-LEVEL teaching
-runs, plays the kinematic trajectory while recording and turns a recording into a new skill.
+runs, plays the kinematic trajectory while recording and turns a recording into a new skill. During a user study
+(study/state, from ``rosrun teleteach study``) it shows the study's page instead of the tabs between trials
+(teleteach.gui.study), and publishes every confirmed selection on teleteach/selection.
 """
 
 import math
@@ -14,7 +16,7 @@ import rospy
 from geometry_msgs.msg import PoseStamped
 from PyQt5.QtCore import QMetaObject, QPoint, Qt, QThread, QTimer
 from PyQt5.QtGui import QPainter, QPixmap
-from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QTabWidget, QVBoxLayout, QWidget
+from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, QTabWidget, QVBoxLayout, QWidget
 from std_msgs.msg import Bool, Int8
 
 from teleteach import skill_file
@@ -27,16 +29,20 @@ from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_
 from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, Tab, TeachingSession
 from teleteach.gui.shared_tab import SharedControlTab
+from teleteach.gui.study import Page, StudyScreen, StudyStatus
+from teleteach.gui.study_page import StudyPage
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.haptics.guidance import Guidance
-from teleteach.msg import HapticGuidance
+from teleteach.msg import HapticGuidance, Selection
 from teleteach.node import init_node
 from teleteach.srv import (
     AddSkill,
     AddSkillRequest,
     ChangeTree,
     ChangeTreeRequest,
+    StudyInput,
+    StudyInputRequest,
     SwitchController,
     SwitchControllerRequest,
 )
@@ -72,6 +78,8 @@ class MainWindow(QMainWindow):
         self._sent_guidance: Optional[Guidance] = None
         self._guidance_sent_at = -math.inf
         self._shared_control_publisher.publish(Bool(False))
+        self._selection_publisher = rospy.Publisher("teleteach/selection", Selection, queue_size=20)
+        self.study = StudyScreen(config)
         equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
 
@@ -85,6 +93,13 @@ class MainWindow(QMainWindow):
             "background: #d22828; color: white; font-size: 15pt; font-weight: bold; padding: 8px;"
         )
         self.help_banner.hide()
+        self.study_banner = QLabel()
+        self.study_banner.setStyleSheet(
+            "background: #1a237e; color: white; font-size: 14pt; font-weight: bold; padding: 6px;"
+        )
+        self.study_banner.setWordWrap(True)  # a long status must not widen the window beyond the screen
+        self.study_banner.hide()
+        column.addWidget(self.study_banner)
         column.addWidget(self.help_banner)
         self.tabs = QTabWidget()
         self.start_tab = StartTab(config)
@@ -102,7 +117,11 @@ class MainWindow(QMainWindow):
         ):
             self.add_tab(tab, index.title)
         self.tabs.setStyleSheet("QTabBar::tab { min-width: 170px; min-height: 28px; font-weight: bold; }")
-        column.addWidget(self.tabs)
+        self.study_page = StudyPage(config.study_start_radius, config.device_range)
+        self.pages = QStackedWidget()
+        self.pages.addWidget(self.tabs)
+        self.pages.addWidget(self.study_page)
+        column.addWidget(self.pages)
         self.setCentralWidget(central)
         self.health_label = QLabel()
         self.statusBar().addPermanentWidget(self.health_label)
@@ -130,8 +149,13 @@ class MainWindow(QMainWindow):
         self.worker.shared_boundary.connect(self.shared_control.on_boundary, queued)
         self.worker.shared_obstacle.connect(self.shared_control.on_obstacle, queued)
         self.worker.shared_arm.connect(self.shared_control.on_arm, queued)
+        self.worker.study_state.connect(self._on_study_state, queued)
         self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
+        self.start_tab.mode_chosen.connect(lambda tab: self._publish_selection(Tab.START, "mode", Tab(tab).name))
         self.high_level.request_ready.connect(self._send_change)
+        self.high_level.selection_confirmed.connect(
+            lambda step, choice: self._publish_selection(Tab.HIGH_LEVEL, step, choice)
+        )
         self.low_level.recording_toggled.connect(self._toggle_recording)
         self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
         self.tabs.currentChanged.connect(self._on_tab_changed)
@@ -177,16 +201,29 @@ class MainWindow(QMainWindow):
 
     def _on_device(self, sample) -> None:
         self._device_sample = sample
+        if self.study.page is Page.STUDY:
+            self.study.on_device(sample)
+            self.study_page.show_screen(self.study)
+            return
         tab = self._active_tab_widget()
         if tab is not None and hasattr(tab, "on_device"):
             tab.on_device(sample)
 
     def _on_click(self, stamp: float) -> None:
+        if self.study.page is Page.STUDY:
+            submission = self.study.on_click()
+            if submission is not None:
+                request = StudyInputRequest(submission.kind, list(submission.names), list(submission.values))
+                self.services.call("study", "study/input", StudyInput, request)
+            self.study_page.show_screen(self.study)
+            return
         tab = self._active_tab_widget()
         if tab is not None:
             tab.on_click(stamp)
 
     def _on_gripper_opened(self) -> None:
+        if self.study.page is Page.STUDY:
+            return  # the study's page has no tabs to return from
         if self._tab != Tab.START:
             self.tabs.setCurrentIndex(Tab.START)
 
@@ -207,6 +244,24 @@ class MainWindow(QMainWindow):
         self.help_banner.show()
         self.statusBar().showMessage(f"help requested by {node_name}: {reason}", 30000)
 
+    # user study ---------------------------------------------------------------------------------------
+    def _on_study_state(self, status: StudyStatus) -> None:
+        """The study's page between trials, the tabs with a banner while one runs."""
+        self.study.on_status(status)
+        study_page = self.study.page is Page.STUDY
+        self.pages.setCurrentWidget(self.study_page if study_page else self.tabs)
+        if study_page:
+            self.study_page.show_screen(self.study)
+        banner = self.study.banner()
+        self.study_banner.setText(banner)
+        self.study_banner.setVisible(bool(banner))
+
+    def _publish_selection(self, tab: Tab, step: str, choice: str) -> None:
+        """A confirmed choice, for studies and bags (teleteach/Selection)."""
+        message = Selection(tab=tab.name, step=step, choice=choice)
+        message.header.stamp = rospy.Time.now()
+        self._selection_publisher.publish(message)
+
     def _on_health(self, problems: str) -> None:
         self.health_label.setText(problems)
         self.health_label.setStyleSheet("color: #d22828;" if problems else "")
@@ -215,6 +270,8 @@ class MainWindow(QMainWindow):
     # haptic guidance ----------------------------------------------------------------------------------
     def current_guidance(self) -> Guidance:
         """What the device should render for the current tab, step and mode (teleteach.gui.guidance)."""
+        if self.study.page is Page.STUDY:
+            return self._guidance.free()  # the study's own page: the same feel in every condition
         if self._tab == Tab.START:
             return self._guidance.start()
         if self._tab == Tab.HIGH_LEVEL:
@@ -358,6 +415,10 @@ class MainWindow(QMainWindow):
                 reason = message or "the controller manager refused the switch"
                 self.low_level.controller_label.setText(f"controller: switch to {controller} failed")
                 self.statusBar().showMessage(f"switch to {controller} failed: {reason}", 15000)
+        elif key == "study":
+            self.study.answered(success and response.success, message if not success else response.message)
+            if self.study.page is Page.STUDY:
+                self.study_page.show_screen(self.study)
         elif key == "add_skill":
             text = message if not success else ("added: " if response.success else "refused: ") + response.message
             self.statusBar().showMessage(f"/behaviour_tree/add_skill {text}", 15000)

@@ -68,6 +68,7 @@ class GuiConfig:
     guidance_max_force: float = 3.0
     guidance_max_torque: float = 0.08
     guidance_refresh: float = 0.2
+    study_start_radius: float = 0.02
 
     def __post_init__(self):
         positive = (
@@ -93,6 +94,7 @@ class GuiConfig:
             "guidance_max_force",
             "guidance_max_torque",
             "guidance_refresh",
+            "study_start_radius",
         )
         for name in positive:
             value = getattr(self, name)

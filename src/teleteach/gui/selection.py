@@ -231,6 +231,26 @@ class SelectionFlow:
             return "redo"
         return ""
 
+    def confirmation(self) -> Optional[Tuple[str, str]]:
+        """What a click now confirms, as (step, choice); None when it confirms nothing.
+
+        ("node", "PlaceItem"), ("operation", "remove"), ("index", "3"), ("parameter", "2"), ("undo", ""), ("redo", ""),
+        ("repair", the failed node).
+        """
+        if self.step is Step.WAITING:
+            return None
+        if self.edit_gesture:
+            return self.edit_gesture, ""
+        if self.step is Step.NODE:
+            if self.repair_node and self.selected_node == REPAIR_CHOICE:
+                return "repair", self.repair_node
+            return ("node", self.selected_node) if self.choices else None
+        if self.step is Step.OPERATION:
+            return "operation", self.selected_operation
+        if self.step is Step.INDEX:
+            return "index", str(self.index)
+        return "parameter", f"{self.parameter:g}"
+
     def click(self) -> Optional[EditRequest]:
         """Confirm the current step; returns the request once the flow is complete."""
         if self.step is not Step.WAITING and self.edit_gesture:

@@ -179,6 +179,7 @@ class HighLevelTab(QWidget):
     """Buttons for the tree's nodes and the library's skills, and the three steps (thesis II-B, Fig. 5)."""
 
     request_ready = pyqtSignal(object)  # EditRequest
+    selection_confirmed = pyqtSignal(str, str)  # step, choice (SelectionFlow.confirmation)
 
     def __init__(self, config: GuiConfig):
         super().__init__()
@@ -365,7 +366,10 @@ class HighLevelTab(QWidget):
         """Confirm the current step; the last one sends the request."""
         if not self.active:
             return
+        confirmation = self.flow.confirmation()
         request: Optional[EditRequest] = self.flow.click()
+        if confirmation is not None:
+            self.selection_confirmed.emit(*confirmation)
         if request is not None:
             what = " ".join(part for part in (request.operation, request.node_type, request.node_name) if part)
             self.answer_label.setText(f"sending: {what} ...")

@@ -27,8 +27,10 @@ from teleteach.gui.recording import StiffnessRecorder, Trajectory
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.session import Tab
 from teleteach.gui.shared_tab import SharedStatus
-from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary
+from teleteach.gui.study import PHASES, StudyStatus
+from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
+from teleteach.study.questionnaire import Item
 
 
 def pose_to_array(pose) -> np.ndarray:
@@ -38,6 +40,39 @@ def pose_to_array(pose) -> np.ndarray:
 
 
 DEVICE_LOST = "device lost (/sigma7/pose silent)"
+
+
+def study_status(message: StudyState) -> StudyStatus:
+    """The GUI's view of a teleteach/StudyState."""
+    items = tuple(
+        Item(*fields)
+        for fields in zip(
+            message.item_names,
+            message.item_titles,
+            message.item_questions,
+            message.item_low,
+            message.item_high,
+            message.item_points,
+            message.item_minimum,
+            message.item_maximum,
+        )
+    )
+    return StudyStatus(
+        phase=PHASES[message.phase] if message.phase < len(PHASES) else "PREPARING",
+        study=message.study,
+        participant=message.participant,
+        condition_label=message.condition_label,
+        task=message.task,
+        title=message.title,
+        instructions=message.instructions,
+        trial=message.trial,
+        trials=message.trials,
+        elapsed=message.elapsed,
+        timeout=message.timeout,
+        status=message.status,
+        success=message.success,
+        items=items,
+    )
 
 
 class TrajectoryPlayer:
@@ -153,7 +188,7 @@ class RosWorker(QObject):
     ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose,
     /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request, /shared_control/state,
     /shared_control/plan, /shared_control/boundary, /shared_control/obstacle, /equilibrium_pose (recorded in
-    SHARED CONTROL).
+    SHARED CONTROL), study/state (a user study's state).
     ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL or SHARED CONTROL is active).
     """
 
@@ -169,6 +204,7 @@ class RosWorker(QObject):
     shared_boundary = pyqtSignal(object)  # n x 2 task-plane points [m]
     shared_obstacle = pyqtSignal(object)  # (x, y, yaw) in the task plane
     shared_arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
+    study_state = pyqtSignal(object)  # StudyStatus of a user study (study/state)
 
     def __init__(
         self,
@@ -224,6 +260,7 @@ class RosWorker(QObject):
             ("shared_control/boundary", PolygonStamped, self._on_shared_boundary),
             ("shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
             ("equilibrium_pose", PoseStamped, self._on_equilibrium),
+            ("study/state", StudyState, lambda message: self.study_state.emit(study_status(message))),
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest

@@ -37,9 +37,16 @@ from teleteach.haptics.guidance import (
 )
 from teleteach.haptics.hand import HandModelBackend, HandParameters
 from teleteach.haptics.loop import DeviceLoop, DeviceState, WallRate
-from teleteach.haptics.scenario import AT_END_CHOICES, ScenarioBackend, SystemState, check_clicks, load_scenario
+from teleteach.haptics.scenario import (
+    AT_END_CHOICES,
+    STUDY_PHASES,
+    ScenarioBackend,
+    SystemState,
+    check_clicks,
+    load_scenario,
+)
 from teleteach.haptics.twist import TwistEstimator
-from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest
+from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
 
 BACKENDS = ("dhd", "scenario", "virtual")
 
@@ -362,6 +369,7 @@ class RosSystemView:
         /teleteach/recording (std_msgs/Bool): whether the GUI records a demonstration
         /behaviour_tree/log/tree (teleteach/BehaviourTree): the nodes RUNNING
         /behaviour_tree/help_request (teleteach/HelpRequest): open while its node_name is not empty
+        study/state (teleteach/StudyState): a user study's phase
     """
 
     def __init__(self) -> None:
@@ -381,6 +389,7 @@ class RosSystemView:
             rospy.Subscriber(
                 "behaviour_tree/help_request", HelpRequest, self._update("help_request", lambda m: bool(m.node_name))
             ),
+            rospy.Subscriber("study/state", StudyState, self._update("study", _study_phase)),
         ]
 
     def _update(self, field, convert):
@@ -394,6 +403,10 @@ class RosSystemView:
         """The state as last heard."""
         with self._lock:
             return self._state
+
+
+def _study_phase(message: StudyState) -> str:
+    return STUDY_PHASES[message.phase] if message.phase < len(STUDY_PHASES) else str(message.phase)
 
 
 def _running_nodes(message: BehaviourTree) -> frozenset:

@@ -15,7 +15,8 @@ R = Rz(yaw) Ry(pitch) Rx(roll), ``gripper`` [rad] >= 0 (0 closed, ~0.25 resting,
 and field, because a scenario is written by hand.
 
 A keyframe may also wait for the system, like a patient operator: ``wait: {tab: LOW_LEVEL, tree_running:
-PickItem2, recording: true, help_request: true}`` (any of these) with ``timeout`` [s] (default 30). When the
+PickItem2, recording: true, help_request: true, study: RUNNING}`` (any of these; ``study`` is a user study's phase,
+see teleteach/StudyState) with ``timeout`` [s] (default 30). When the
 scenario reaches that keyframe, the device holds it (the scenario's clock stops) until everything named holds, then
 goes on (a click of that keyframe comes after the wait); when the timeout expires first, the scenario fails with a
 message naming the keyframe and what it saw.
@@ -39,9 +40,10 @@ AT_END_CHOICES = ("hold", "exit")
 DEFAULT_CLICK_DURATION = 0.2  # [s]
 DEFAULT_WAIT_TIMEOUT = 30.0  # [s] of ROS time
 TABS = ("START", "HIGH_LEVEL", "LOW_LEVEL", "SHARED_CONTROL")  # /teleteach/active_tab 0..3
+STUDY_PHASES = ("PREPARING", "INSTRUCTIONS", "RUNNING", "DONE", "QUESTIONNAIRE", "FINISHED")  # teleteach/StudyState
 _TOP_LEVEL_FIELDS = ("description", "interpolation", "click_duration", "keyframes")
 _KEYFRAME_FIELDS = ("t", "position", "rpy", "gripper", "click", "wait", "timeout")
-_WAIT_FIELDS = ("tab", "tree_running", "recording", "help_request")
+_WAIT_FIELDS = ("tab", "tree_running", "recording", "help_request", "study")
 _REQUIRED_KEYFRAME_FIELDS = ("t", "position", "rpy", "gripper")
 
 
@@ -58,6 +60,7 @@ class Wait:
     recording: Optional[bool] = None
     help_request: Optional[bool] = None  # whether a help request must be open
     timeout: float = DEFAULT_WAIT_TIMEOUT  # [s]
+    study: Optional[str] = None  # a user study's phase (STUDY_PHASES) on study/state
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,6 +71,7 @@ class SystemState:
     running: FrozenSet[str] = frozenset()
     recording: Optional[bool] = None
     help_request: Optional[bool] = None
+    study: Optional[str] = None
 
 
 def unmet(wait: Wait, state: SystemState) -> List[str]:
@@ -83,6 +87,8 @@ def unmet(wait: Wait, state: SystemState) -> List[str]:
         missing.append(f"recording {str(wait.recording).lower()} (seen {state.recording})")
     if wait.help_request is not None and state.help_request != wait.help_request:
         missing.append(f"help_request {str(wait.help_request).lower()} (seen {state.help_request})")
+    if wait.study is not None and state.study != wait.study:
+        missing.append(f"study {wait.study} (seen {state.study})")
     return missing
 
 
@@ -300,8 +306,10 @@ class ScenarioBackend(DeviceBackend):
     then reports :attr:`finished`.
 
     A stall of the reading loop must not swallow a click: when a read jumps over more than
-    ``late_click_fraction`` of a scripted flick, the whole flick is played from that read on instead (late, as an
-    operator would click after a freeze), while the motion goes on as scripted.
+    ``late_click_fraction`` of a scripted flick, from before the flick or from its first ``late_click_fraction``
+    (before the gripper has closed), the whole flick is played from that read on instead (late, as an operator would
+    click after a freeze), while the motion goes on as scripted. A stall later in the flick, once the gripper has
+    closed, leaves the flick to the click detector.
     """
 
     late_click_fraction = 0.25
@@ -324,6 +332,8 @@ class ScenarioBackend(DeviceBackend):
         self._next_wait = 0
         self._clicks = scenario.click_times()
         self._next_click = 0
+        self._flick: Optional[float] = None  # start of the latest scripted flick reached
+        self._replayed: Optional[float] = None  # start of the latest flick played late
         self._late_click_at: Optional[float] = None  # reading time from which a skipped flick plays
         self._held = 0.0
         self._waiting_since: Optional[float] = None
@@ -366,15 +376,17 @@ class ScenarioBackend(DeviceBackend):
         return sample
 
     def _note_skipped_click(self, time: float, elapsed: float) -> None:
-        """Start a late flick when this read jumped over a good part of a scripted one."""
+        """Start a late flick when this read jumped over a good part of a scripted one before its gripper closed."""
         while self._next_click < len(self._clicks) and self._clicks[self._next_click] <= elapsed:
-            start = self._clicks[self._next_click]
+            self._flick = self._clicks[self._next_click]
             self._next_click += 1
-            jumped = (
-                self._elapsed <= start and elapsed - start > self.late_click_fraction * self._scenario.click_duration
-            )
-            if jumped:
-                self._late_click_at = time
+        start = self._flick
+        if start is None or start == self._replayed:
+            return
+        window = self.late_click_fraction * self._scenario.click_duration
+        previous = self._elapsed
+        if previous < start + window and elapsed - max(previous, start) > window:
+            self._late_click_at, self._replayed = time, start
 
     @property
     def played(self) -> bool:
@@ -477,7 +489,10 @@ def _parse_wait(raw: Dict[str, Any], field_where: Callable[[str], str]) -> Wait:
     for key in ("recording", "help_request"):
         if key in conditions and not isinstance(conditions[key], bool):
             raise ScenarioError(f"{field_where('wait')}: {key} must be true or false, got {conditions[key]!r}")
+    study = conditions.get("study")
+    if study is not None and study not in STUDY_PHASES:
+        raise ScenarioError(f"{field_where('wait')}: study must be one of {', '.join(STUDY_PHASES)}, got {study!r}")
     timeout = raw.get("timeout", DEFAULT_WAIT_TIMEOUT)
     if not _is_number(timeout) or not math.isfinite(timeout) or timeout <= 0.0:
         raise ScenarioError(f"{field_where('timeout')}: must be a positive number of seconds, got {timeout!r}")
-    return Wait(tab, running, conditions.get("recording"), conditions.get("help_request"), float(timeout))
+    return Wait(tab, running, conditions.get("recording"), conditions.get("help_request"), float(timeout), study)

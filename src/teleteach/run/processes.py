@@ -1,9 +1,12 @@
 """Child processes of a run: an X server when there is no display, roslaunch, RViz, screenshots.
 
 Processes are started in their own session and stopped by PID, in reverse order of starting (RViz before Xvfb),
-first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL.
+first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL. A process
+may be told to stop when ours dies, however it dies (Linux's parent-death signal): a killed study runner leaves no
+roslaunch behind.
 """
 
+import ctypes
 import os
 import pathlib
 import select
@@ -13,7 +16,9 @@ import socket
 import subprocess
 import time
 import xmlrpc.client
-from typing import IO, Callable, List, Optional, Sequence, Tuple
+from typing import IO, Callable, Dict, List, Optional, Sequence, Tuple
+
+PR_SET_PDEATHSIG = 1  # prctl option (linux/prctl.h)
 
 
 class ProcessError(RuntimeError):
@@ -92,8 +97,20 @@ class Processes:
     def __init__(self):
         self._started: List[Tuple[str, subprocess.Popen, Optional[IO]]] = []
 
-    def start(self, name: str, command: Sequence[str], log: Optional[pathlib.Path] = None, env=None, pass_fds=()):
-        """Start a command in its own session, output to ``log`` (or discarded), with ``pass_fds`` left open."""
+    def start(
+        self,
+        name: str,
+        command: Sequence[str],
+        log: Optional[pathlib.Path] = None,
+        env=None,
+        pass_fds=(),
+        parent_death_signal: Optional[int] = None,
+    ):
+        """Start a command in its own session, output to ``log`` (or discarded), with ``pass_fds`` left open.
+
+        ``parent_death_signal``: the signal the command gets when this process (the thread that starts it) dies,
+        e.g. SIGINT, so that roslaunch stops its nodes and rosbag closes its bag even after a SIGKILL of ours.
+        """
         if shutil.which(command[0]) is None and not pathlib.Path(command[0]).is_file():
             raise ProcessError(f"{command[0]} is not installed (needed for {name})")
         stream = open(log, "ab") if log is not None else None
@@ -105,6 +122,7 @@ class Processes:
             env=env,
             start_new_session=True,
             pass_fds=pass_fds,
+            preexec_fn=None if parent_death_signal is None else _on_parent_death(parent_death_signal),
         )
         self._started.append((name, process, stream))
         return process
@@ -136,7 +154,30 @@ class Processes:
             self.stop(self._started[-1][1])
 
 
-def start_xvfb(processes: Processes, size: str = "1400x1000x24", timeout: float = 15.0) -> str:
+def _on_parent_death(signal_number: int) -> Callable[[], None]:
+    """A preexec function: the child gets ``signal_number`` when its parent dies (prctl PR_SET_PDEATHSIG)."""
+
+    def set_signal() -> None:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal_number, 0, 0, 0)
+
+    return set_signal
+
+
+def ros_environment(master_uri: str, display: str, data_root: pathlib.Path) -> Dict[str, str]:
+    """The environment of a run's ROS processes: its master, its display, its data directory, loopback only.
+
+    ROS_IP is 127.0.0.1 unless the user set ROS_IP or ROS_HOSTNAME (README: several machines).
+    """
+    env = dict(os.environ)
+    if not env.get("ROS_IP") and not env.get("ROS_HOSTNAME"):
+        env["ROS_IP"] = "127.0.0.1"
+    env.update(ROS_MASTER_URI=master_uri, DISPLAY=display, TELETEACH_DATA=str(data_root), PYTHONUNBUFFERED="1")
+    return env
+
+
+def start_xvfb(
+    processes: Processes, size: str = "1400x1000x24", timeout: float = 15.0, parent_death_signal: Optional[int] = None
+) -> str:
     """Start Xvfb on a display it picks itself; returns the DISPLAY value.
 
     ``-displayfd``: no probe of free displays that another X server could race (abstract sockets are shared even
@@ -148,6 +189,7 @@ def start_xvfb(processes: Processes, size: str = "1400x1000x24", timeout: float 
             "Xvfb",
             ["Xvfb", "-displayfd", str(write_end), "-screen", "0", size, "-nolisten", "tcp"],
             pass_fds=(write_end,),
+            parent_death_signal=parent_death_signal,
         )
     finally:
         os.close(write_end)

@@ -31,7 +31,14 @@ from teleteach.recording.report import make_report
 from teleteach.recording.session import SessionError, read_session
 from teleteach.run import outcome
 from teleteach.run.outcome import RunSummary
-from teleteach.run.processes import ProcessError, Processes, own_master, screenshot, start_xvfb
+from teleteach.run.processes import (
+    ProcessError,
+    Processes,
+    own_master,
+    ros_environment,
+    screenshot,
+    start_xvfb,
+)
 from teleteach.sim.scene import SceneError, load_scene
 
 DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")
@@ -229,19 +236,6 @@ class TabScreenshots:
         self._thread.join(5.0)
 
 
-def _ros_env(port: int, display: str, data_root: pathlib.Path) -> Dict[str, str]:
-    env = dict(os.environ)
-    if not env.get("ROS_IP") and not env.get("ROS_HOSTNAME"):
-        env["ROS_IP"] = "127.0.0.1"  # a run listens on loopback only, unless the user set up a network
-    env.update(
-        ROS_MASTER_URI=f"http://localhost:{port}",
-        DISPLAY=display,
-        TELETEACH_DATA=str(data_root),
-        PYTHONUNBUFFERED="1",
-    )
-    return env
-
-
 def _run_folder(root: pathlib.Path) -> pathlib.Path:
     stamp = time.strftime("%Y-%m-%d-%H-%M-%S")
     folder = root / "runs" / stamp
@@ -327,11 +321,11 @@ class ThesisRun:
                     f"data_dir:={self.root}",
                 ],
                 self.folder / "launch.log",
-                _ros_env(port, display, self.root),
+                ros_environment(f"http://localhost:{port}", display, self.root),
             )
 
         port, launch = own_master(start_launch, self.processes.stop)
-        env = _ros_env(port, display, self.root)
+        env = ros_environment(f"http://localhost:{port}", display, self.root)
         self.say(f"run_thesis: launched full.launch (roscore on port {port}), log {self.folder / 'launch.log'}")
         os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"], TELETEACH_DATA=env["TELETEACH_DATA"])
         import rospy

@@ -1,0 +1,571 @@
+"""One participant's session of a study: every pending trial on a fresh system, the questionnaires, the data.
+
+``rosrun teleteach study <study.yaml> --participant P07 [--resume] [--device dhd|virtual|scenario]`` (or
+``roslaunch teleteach full.launch study:=<study.yaml> participant:=P07``). Each trial runs on a system of its own:
+``full.launch`` with the trial's condition loaded last as node parameters, its own data directory and a bag, so
+that every trial starts from the same world (the tree as configured, the products on the table) and the condition's
+parameters reach the nodes the way every parameter does, when they start. The study node itself (this process, a
+ROS node on one master for the whole session) shows the GUI the instructions, waits for the start gesture, judges
+the goal from the world, ends the trial, asks the questionnaire after a condition's last trial, and writes each
+result atomically (:mod:`teleteach.study.storage`). A crash loses at most the trial that ran: ``--resume`` goes on
+with it. The processes it starts stop when it dies, however it dies.
+"""
+
+import dataclasses
+import functools
+import json
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import threading
+import time
+from typing import Any, Callable, Dict, List, Optional
+
+import yaml
+
+from teleteach.datadir import atomic_write_text
+from teleteach.gui.config import GuiConfig
+from teleteach.paths import config_file
+from teleteach.recording.bags import record_command
+from teleteach.run.processes import (
+    ProcessError,
+    Processes,
+    own_master,
+    ros_environment,
+    screenshot,
+    start_xvfb,
+)
+from teleteach.sim.scene import load_scene
+from teleteach.study.metrics import TrialMetrics
+from teleteach.study.ordering import QUESTIONNAIRE, Step, participant_number
+from teleteach.study.parameters import launch_value, parameters_file
+from teleteach.study.schema import Study
+from teleteach.study.scripted import compose
+from teleteach.study.storage import ParticipantStore
+from teleteach.study.trial import Phase, StudyFlow
+
+DEVICES = ("dhd", "virtual", "scenario")
+STUDY_TOPICS = (
+    "/study/state",
+    "/teleteach/selection",
+    "/sigma7/guidance",
+    "/sigma7/force",
+    "/behaviour_tree/pause",
+    "/teleteach/recording",
+)
+"""Recorded into each trial's bag besides the teaching topics (teleteach.recording.bags.TEACHING_TOPICS). Resolved
+names, like those: rosbag keeps a topic's name as given, and a bag's readers look for the resolved one."""
+KEEP_PARAMETERS = ("roslaunch", "rosdistro", "rosversion", "run_id", "study")
+"""Parameter namespaces that outlive a trial's system (the master's own, and the study node's)."""
+
+
+class TrialError(RuntimeError):
+    """A trial could not run to its end (its system did not come up, or died): it stays unfinished, resumable."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RunnerSettings:
+    """config/study.yaml (units there)."""
+
+    prepare_timeout: float
+    end_screen: float
+    status_rate: float
+    judge_rate: float
+    contact_threshold: float
+    stop_grace: float
+    scripted_device_rate: float
+    screenshot_delay: float
+
+    @classmethod
+    def load(cls, path: Optional[pathlib.Path] = None) -> "RunnerSettings":
+        """Read ``config/study.yaml`` (every value is required: the yaml is their one home)."""
+        values = yaml.safe_load((path or config_file("study.yaml")).read_text()) or {}
+        names = [field.name for field in dataclasses.fields(cls)]
+        missing = [name for name in names if name not in values]
+        unknown = sorted(set(values) - set(names))
+        if missing or unknown:
+            missing_text, unknown_text = ", ".join(missing) or "-", ", ".join(unknown) or "-"
+            raise ValueError(f"config/study.yaml: missing {missing_text}; unknown {unknown_text}")
+        return cls(**{name: float(values[name]) for name in names})
+
+
+@dataclasses.dataclass(frozen=True)
+class RunnerOptions:
+    """How this session runs: the device, resuming, where the data goes, the ROS master and the display."""
+
+    device: str = "virtual"  # dhd | virtual | scenario (the scripted participant)
+    resume: bool = False
+    data_root: Optional[pathlib.Path] = None
+    use_running_master: bool = False  # True: the master of ROS_MASTER_URI (full.launch study:=); else our own
+    headless: bool = False  # no RViz, GUI repaints capped (always so on an X server of our own)
+    screenshots: bool = False  # each phase of each trial pictured into its folder
+
+    def __post_init__(self):
+        if self.device not in DEVICES:
+            raise ValueError(f"--device must be one of {', '.join(DEVICES)}, got {self.device!r}")
+
+
+class StudyRunner:
+    """Runs the pending steps of one participant; :meth:`run` returns the exit status (0: the session is complete)."""
+
+    def __init__(
+        self,
+        study: Study,
+        participant: str,
+        options: RunnerOptions,
+        settings: Optional[RunnerSettings] = None,
+        say: Callable[[str], None] = functools.partial(print, flush=True),
+    ):
+        self.study = study
+        self.participant = participant
+        self.options = options
+        self.settings = settings or RunnerSettings.load()
+        self.say = say
+        self.number = participant_number(study, participant)
+        self.store = ParticipantStore(study, participant, options.data_root)
+        self.processes = Processes()
+        self.scene = load_scene() if any(task.goal.placement for task in study.tasks) else None
+        self.gui = GuiConfig.load()
+        self._display = os.environ.get("DISPLAY", "")
+        self._master_uri = ""
+        self._ros = None
+        self._flow: Optional[StudyFlow] = None
+
+    # the session ----------------------------------------------------------------------------------------------
+    def run(self) -> int:
+        """Check, then run every pending step; processes are stopped whatever happens."""
+        self.store.open(self.options.resume)  # refuses (SessionRefusedError) before anything starts
+        try:
+            return self._run()
+        finally:
+            self.processes.stop_all()
+            self.store.close()
+
+    def _run(self) -> int:
+        pending = self.store.pending()
+        trials = sum(1 for step in self.store.plan if step.kind != QUESTIONNAIRE)
+        self.say(
+            f"study {self.study.name}: participant {self.participant} (number {self.number}), "
+            f"{len(pending)} of {len(self.store.plan)} steps to run, data in {self.store.folder}"
+        )
+        self._start_ros(trials)
+        index = 0
+        while index < len(pending):
+            step = pending[index]
+            following = pending[index + 1] if index + 1 < len(pending) else None
+            asks = following is not None and following.kind == QUESTIONNAIRE and following.condition == step.condition
+            if step.kind == QUESTIONNAIRE:
+                self._questionnaire_alone(step)
+                index += 1
+            else:
+                self._trial(step, following if asks else None)
+                index += 2 if asks else 1
+        self._flow.finish()
+        self._ros.publish()
+        self.say(f"study {self.study.name}: {self.participant} complete ({self.store.folder})")
+        return 0
+
+    def _start_ros(self, trials: int) -> None:
+        """A master of our own (unless one runs for us), an X server if there is no display, the study node."""
+        if not self._display:
+            self._display = start_xvfb(self.processes, parent_death_signal=signal.SIGTERM)
+            self.options = dataclasses.replace(self.options, headless=True)
+            self.say(f"study: started Xvfb on {self._display}")
+        if self.options.use_running_master:
+            self._master_uri = os.environ["ROS_MASTER_URI"]
+        else:
+            log = self.store.folder / "roscore.log"
+            port, _ = own_master(
+                lambda port: self.processes.start(
+                    "roscore",
+                    ["roscore", "-p", str(port)],
+                    log,
+                    ros_environment(f"http://localhost:{port}", self._display, self.store.folder),
+                    parent_death_signal=signal.SIGINT,
+                ),
+                self.processes.stop,
+            )
+            self._master_uri = f"http://localhost:{port}"
+            os.environ["ROS_MASTER_URI"] = self._master_uri
+            if not os.environ.get("ROS_IP") and not os.environ.get("ROS_HOSTNAME"):
+                os.environ["ROS_IP"] = "127.0.0.1"
+        from teleteach.node import init_node
+        from teleteach.study.ros import StudyRos
+
+        init_node("study", disable_signals=True)
+        self._flow = StudyFlow(self.study, self.participant, trials)
+        self._ros = StudyRos(self._flow)
+
+    # a trial ------------------------------------------------------------------------------------------------
+    def _trial(self, step: Step, questionnaire: Optional[Step]) -> None:
+        """Run ``step`` on a fresh system; then ``questionnaire`` on the same one (the GUI is up)."""
+        from teleteach.study.ros import clear_parameters
+
+        task = self.study.task(step.task)
+        folder = self.store.begin_trial(step)
+        self.say(f"study: trial {step.trial} ({step.key}): {task.title}, condition {step.condition}")
+        self._flow.preparing(step)
+        self._ros.publish()
+        clear_parameters(KEEP_PARAMETERS)
+        parameters = self._parameters(step)
+        atomic_write_text(folder / "parameters.yaml", parameters_file(parameters))
+        scripted = None
+        if self.options.device == "scenario":
+            scripted = compose(
+                self.study,
+                self.participant,
+                step,
+                questionnaire is not None,
+                self.gui.device_range,
+                self.settings.prepare_timeout,
+            )
+            atomic_write_text(folder / "scenario.yaml", scripted.scenario)
+            if scripted.answers is not None:
+                atomic_write_text(folder / "scripted_answers.json", json.dumps(scripted.answers, indent=2) + "\n")
+        metrics = TrialMetrics(task.intended, self.settings.contact_threshold)
+        self._ros.begin_trial(task.goal, self.scene, metrics)
+        self._ros.pause_tree(task.pause_tree != "never")
+        launch = self._launch(step, folder)
+        log = folder / "launch.log"
+        recorder = shots = None
+        try:
+            recorder = self._wait_until_ready(launch, folder)
+            seen = self._parameters_seen(parameters)
+            self._flow.instructions(step)
+            self._ros.publish()
+            shots = self._screenshots(folder)
+            self._wait_for_start(launch, log)
+            if task.pause_tree == "instructions":
+                self._ros.pause_tree(False)
+            self.say(f"study: trial {step.trial} started")
+            self._run_until_done(launch)
+            success, task_time, status = self._flow.outcome
+            self.say(f"study: trial {step.trial} {'done' if success else 'NOT done'} in {task_time:.1f} s: {status}")
+            time.sleep(self.settings.end_screen)
+            self._ros.end_trial()
+            self._ros.pause_tree(True)
+            bag = self._stop_recorder(recorder, folder)
+            recorder = None
+            atomic_write_text(folder / "stiffness.csv", metrics.stiffness_csv())
+            result = {
+                "study": self.study.name,
+                "participant": self.participant,
+                "step": step.key,
+                "position": step.position,
+                "trial": step.trial,
+                "condition": step.condition,
+                "task": step.task,
+                "repetition": step.repetition,
+                "success": success,
+                "outcome": "goal met" if success else "time up",
+                "status": status,
+                "task_time_s": round(task_time, 3),
+                "timeout_s": task.timeout,
+                "device": self.options.device,
+                "parameters": parameters,
+                "parameters_seen": seen,
+                "bag": bag.name if bag else None,
+                "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
+                **metrics.summary(),
+            }
+            self.store.finish_trial(step, result)
+            if questionnaire is not None:
+                self._ask(questionnaire, launch, log)
+        finally:
+            if shots is not None:
+                shots.stop()
+            if recorder is not None:
+                self.processes.stop(recorder, grace=10.0)
+            self.processes.stop(launch, grace=self.settings.stop_grace)
+            self._ros.end_trial()
+
+    def _parameters(self, step: Step) -> Dict[str, Any]:
+        """The node parameters of the trial: the scripted participant's (with its seed), then the condition's."""
+        parameters: Dict[str, Any] = {}
+        if self.options.device == "scenario":
+            parameters.update(self.study.scripted.parameters)
+            parameters["sigma7_node/hand/seed"] = self.number
+        parameters.update(self.study.condition(step.condition).parameters)
+        return parameters
+
+    def _launch(self, step: Step, folder: pathlib.Path) -> subprocess.Popen:
+        task = self.study.task(step.task)
+        arguments = {**self.study.system, **task.system}
+        command = ["roslaunch", "teleteach", "full.launch", f"device:={self.options.device}"]
+        command += [f"headless:={launch_value(self.options.headless)}", f"data_dir:={folder / 'data'}"]
+        command += [f"study_parameters:={folder / 'parameters.yaml'}"]
+        if self.options.device == "scenario":
+            command += [f"scenario:={folder / 'scenario.yaml'}", f"device_rate:={self.settings.scripted_device_rate:g}"]
+        command += [f"{name}:={launch_value(value)}" for name, value in arguments.items()]
+        env = ros_environment(self._master_uri, self._display, folder / "data")
+        return self.processes.start("roslaunch", command, folder / "launch.log", env, parent_death_signal=signal.SIGINT)
+
+    def _wait_until_ready(self, launch: subprocess.Popen, folder: pathlib.Path) -> subprocess.Popen:
+        """Until the tree, the GUI and the device are up; then the recorder, until its bag is open."""
+        from teleteach.study.ros import not_ready
+
+        deadline = time.monotonic() + self.settings.prepare_timeout
+        waiting = ["the behaviour tree"]
+        while time.monotonic() < deadline:
+            self._check_alive(launch, folder / "launch.log")
+            waiting = not_ready(self._ros.trees_heard)
+            if not waiting:
+                break
+            time.sleep(0.2)
+        else:
+            missing = ", ".join(waiting)
+            raise TrialError(f"the trial's system was not up after {self.settings.prepare_timeout:g} s ({missing})")
+        command = record_command("trial", folder / "data", STUDY_TOPICS)
+        env = ros_environment(self._master_uri, self._display, folder / "data")
+        recorder = self.processes.start(
+            "rosbag record", command, folder / "record.log", env, parent_death_signal=signal.SIGINT
+        )
+        bags = folder / "data" / "bags"
+        while not list(bags.glob("trial_*.bag.active")):
+            self._check_alive(launch, folder / "launch.log")
+            if recorder.poll() is not None or time.monotonic() > deadline:
+                raise TrialError(f"rosbag record did not open the trial's bag (see {folder / 'record.log'})")
+            time.sleep(0.1)
+        return recorder
+
+    @staticmethod
+    def _check_alive(launch: subprocess.Popen, log: pathlib.Path) -> None:
+        if launch.poll() is not None:
+            raise TrialError(f"the trial's system ended (roslaunch exit {launch.returncode}); see {log}")
+
+    def _parameters_seen(self, parameters: Dict[str, Any]) -> Dict[str, Any]:
+        from teleteach.study.ros import parameters_seen
+
+        return parameters_seen(parameters)
+
+    def _wait_for_start(self, launch: subprocess.Popen, log: pathlib.Path) -> None:
+        """Until the start gesture; bounded only for the scripted participant (a person may take their time)."""
+        deadline = time.monotonic() + self.settings.prepare_timeout
+        while self._flow.phase == Phase.INSTRUCTIONS:
+            self._check_alive(launch, log)
+            if self.options.device == "scenario" and time.monotonic() > deadline:
+                raise TrialError(f"the scripted participant did not start within {self.settings.prepare_timeout:g} s")
+            self._ros.publish()
+            time.sleep(1.0 / self.settings.status_rate)
+
+    def _run_until_done(self, launch: subprocess.Popen) -> None:
+        """Judge the goal until it is met or the time is up; the live status goes out at status_rate."""
+        period = 1.0 / self.settings.judge_rate
+        published = 0.0
+        while True:
+            now = time.monotonic()
+            if launch.poll() is not None:
+                self._flow.abort(now, f"the system ended (roslaunch exit {launch.returncode})")
+                self._ros.publish()
+                raise TrialError(f"the trial's system ended while it ran (roslaunch exit {launch.returncode})")
+            done = self._flow.update(now, self._ros.judgement())
+            if done or now - published >= 1.0 / self.settings.status_rate:
+                self._ros.publish()
+                published = now
+            if done:
+                return
+            time.sleep(period)
+
+    def _stop_recorder(self, recorder: subprocess.Popen, folder: pathlib.Path) -> Optional[pathlib.Path]:
+        """Close the bag (SIGINT) and move it into the trial's folder as trial.bag.
+
+        rosbag's wrapper passes SIGINT on to its recorder and exits at once; the recorder closes the bag (renames
+        ``.bag.active`` to ``.bag``) a moment later, so the bag is waited for.
+        """
+        self.processes.stop(recorder, grace=15.0)
+        folder_bags = folder / "data" / "bags"
+        deadline = time.monotonic() + 20.0
+        while list(folder_bags.glob("trial_*.bag.active")) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        bags = sorted(folder_bags.glob("trial_*.bag"))
+        if not bags:
+            self.say(f"study: WARNING: no bag was closed for {folder.name} (see record.log)")
+            return None
+        target = folder / "trial.bag"
+        shutil.move(str(bags[-1]), target)
+        return target
+
+    # questionnaires ---------------------------------------------------------------------------------------------
+    def _ask(self, step: Step, launch: subprocess.Popen, log: pathlib.Path) -> None:
+        """The condition's questionnaire in the GUI of the trial that just ended; the answers are stored."""
+        self._flow.questionnaire(step)
+        self._ros.publish()
+        self.say(f"study: questionnaire after condition {step.condition}")
+        deadline = time.monotonic() + self.settings.prepare_timeout + 120.0
+        while self._flow.answers is None:
+            self._check_alive(launch, log)
+            if self.options.device == "scenario" and time.monotonic() > deadline:
+                raise TrialError(f"the scripted participant did not answer the questionnaire after {step.condition}")
+            time.sleep(0.1)
+        answers = self._flow.answers
+        self.store.save_questionnaire(
+            step,
+            {
+                "study": self.study.name,
+                "participant": self.participant,
+                "condition": step.condition,
+                "step": step.key,
+                "position": step.position,
+                "answers": answers,
+                "items": [dataclasses.asdict(item) for item in self.study.questionnaire],
+                "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
+            },
+        )
+        self.say(f"study: answers after {step.condition} stored: {answers}")
+        if not self.store.pending():
+            self._flow.finish()  # the participant reads "thank you" before the last system stops
+            self._ros.publish()
+            time.sleep(self.settings.end_screen)
+        else:
+            self._flow.preparing(step)
+            self._ros.publish()
+
+    def _questionnaire_alone(self, step: Step) -> None:
+        """A questionnaire whose trials were done before a crash: a system for the GUI and the device only."""
+        folder = self.store.folder / "questionnaires" / f"{step.key}_system"
+        folder.mkdir(parents=True, exist_ok=True)
+        self._flow.preparing(step)
+        self._ros.publish()
+        from teleteach.study.ros import clear_parameters, gui_listens
+
+        clear_parameters(KEEP_PARAMETERS)
+        parameters = self._parameters(step)
+        atomic_write_text(folder / "parameters.yaml", parameters_file(parameters))
+        command = ["roslaunch", "teleteach", "full.launch", f"device:={self.options.device}", "real_robot:=true"]
+        command += ["shared_control:=false", f"headless:={launch_value(self.options.headless)}"]
+        command += [f"data_dir:={folder / 'data'}", f"study_parameters:={folder / 'parameters.yaml'}"]
+        if self.options.device == "scenario":
+            scenario = self._questionnaire_scenario(step)
+            atomic_write_text(folder / "scenario.yaml", scenario)
+            command += [f"scenario:={folder / 'scenario.yaml'}", f"device_rate:={self.settings.scripted_device_rate:g}"]
+        env = ros_environment(self._master_uri, self._display, folder / "data")
+        log = folder / "launch.log"
+        launch = self.processes.start("roslaunch", command, log, env, parent_death_signal=signal.SIGINT)
+        try:
+            deadline = time.monotonic() + self.settings.prepare_timeout
+            while not gui_listens():
+                self._check_alive(launch, folder / "launch.log")
+                if time.monotonic() > deadline:
+                    raise TrialError(f"the GUI was not up after {self.settings.prepare_timeout:g} s")
+                time.sleep(0.2)
+            shots = self._screenshots(folder)
+            try:
+                self._ask(step, launch, folder / "launch.log")
+            finally:
+                shots.stop()
+        finally:
+            self.processes.stop(launch, grace=self.settings.stop_grace)
+
+    def _questionnaire_scenario(self, step: Step) -> str:
+        """The scripted participant's answers alone: its answering part of a trial's scenario."""
+        from teleteach.study.scripted import questionnaire_scenario
+
+        text, answers = questionnaire_scenario(self.study, self.participant, step, self.gui.device_range)
+        atomic_write_text(
+            self.store.folder / "questionnaires" / f"{step.key}_system" / "scripted_answers.json",
+            json.dumps(answers, indent=2) + "\n",
+        )
+        return text
+
+    def _screenshots(self, folder: pathlib.Path) -> "PhaseScreenshots":
+        return PhaseScreenshots(
+            self._flow, self._display if self.options.screenshots else "", folder, self.settings.screenshot_delay
+        )
+
+
+class PhaseScreenshots:
+    """What the participant saw: a screenshot of each phase a while after it began (with a display to picture).
+
+    While a task runs, its latest state is pictured again every few seconds.
+    """
+
+    RUNNING_PERIOD = 3.0  # [s]
+
+    def __init__(self, flow: StudyFlow, display: str, folder: pathlib.Path, delay: float):
+        self.flow = flow
+        self.display = display
+        self.folder = folder
+        self.delay = delay
+        self._stop = threading.Event()
+        self._thread = None
+        if display:
+            self._thread = threading.Thread(target=self._loop, name="screenshots", daemon=True)
+            self._thread.start()
+
+    def _loop(self) -> None:
+        taken: List[Phase] = []
+        phase, since, latest = None, time.monotonic(), 0.0
+        while not self._stop.wait(0.1):
+            current, now = self.flow.phase, time.monotonic()
+            if current != phase:
+                phase, since = current, now
+            if phase == Phase.RUNNING and phase in taken and now - latest > self.RUNNING_PERIOD:
+                latest = now  # a running task changes: its latest picture too
+                screenshot(self.display, self.folder / "screen_running_latest.png")
+            if phase in taken or phase in (Phase.PREPARING, Phase.FINISHED) or now - since < self.delay:
+                continue
+            taken.append(phase)
+            latest = now
+            screenshot(self.display, self.folder / f"screen_{len(taken)}_{phase.name.lower()}.png")
+
+    def stop(self) -> None:
+        """End the loop."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(5.0)
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Command line of ``rosrun teleteach study``; exit 0 complete, 1 a trial failed (resumable), 2 refused."""
+    import argparse
+    import sys
+
+    from teleteach.study.ordering import ParticipantError
+    from teleteach.study.schema import StudyError, load_study
+    from teleteach.study.scripted import ScriptError
+    from teleteach.study.storage import SessionRefusedError
+
+    parser = argparse.ArgumentParser(
+        prog="study", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("study_file", help="the study file (config/studies/<name>.yaml)")
+    parser.add_argument("--participant", required=True, help="the participant's id, e.g. P07")
+    parser.add_argument("--resume", action="store_true", help="continue this participant at the next unfinished step")
+    parser.add_argument(
+        "--device", default="virtual", choices=DEVICES, help="dhd (Sigma.7), virtual, scenario (scripted participant)"
+    )
+    parser.add_argument("--data-dir", default=None, help="data directory (default $TELETEACH_DATA or ~/.ros/teleteach)")
+    parser.add_argument("--headless", action="store_true", help="no RViz, GUI repaints capped")
+    parser.add_argument("--screenshots", action="store_true", help="picture each phase of each trial into its folder")
+    parser.add_argument("--use-master", action="store_true", help="use the running ROS master (full.launch study:=)")
+    if argv is None:
+        import rosgraph
+
+        argv = rosgraph.myargv(sys.argv)[1:]  # without roslaunch's __name:= and __log:=
+    arguments = parser.parse_args(argv)
+    try:
+        study = load_study(arguments.study_file)
+        options = RunnerOptions(
+            device=arguments.device,
+            resume=arguments.resume,
+            data_root=pathlib.Path(arguments.data_dir).expanduser() if arguments.data_dir else None,
+            use_running_master=arguments.use_master,
+            headless=arguments.headless,
+            screenshots=arguments.screenshots,
+        )
+        if options.device == "scenario":
+            missing = [task.name for task in study.tasks if task.script is None]
+            if missing:
+                raise ScriptError(f"--device scenario needs a script for every task; {', '.join(missing)} has none")
+        return StudyRunner(study, arguments.participant, options).run()
+    except (StudyError, ParticipantError, SessionRefusedError, ScriptError, ValueError) as error:
+        print(f"study: {error}", flush=True)
+        return 2
+    except (TrialError, ProcessError) as error:
+        print(f"study: {error}; the step that ran is not stored: continue with --resume", flush=True)
+        return 1
+    except KeyboardInterrupt:
+        print("study: interrupted; the step that ran is not stored: continue with --resume", flush=True)
+        return 1

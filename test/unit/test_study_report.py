@@ -1,0 +1,149 @@
+"""study_report: the numbers of a study folder, checked against independent computations of the same data."""
+
+import csv
+import pathlib
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from teleteach.study.ordering import QUESTIONNAIRE
+from teleteach.study.questionnaire import TLX_NAMES
+from teleteach.study.report import ReportError, make_report, rank_biserial
+from teleteach.study.schema import load_study
+from teleteach.study.storage import ParticipantStore
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+STUDY = load_study(ROOT / "config" / "studies" / "example.yaml")
+PARTICIPANTS = ("P01", "P02", "P03", "P04", "P05", "P06")
+
+
+def made_up_time(participant, step):
+    """Guided trials faster by 1-3 s, later repetitions faster (a learning effect), one timeout."""
+    number = int(participant[1:])
+    base = 12.0 + number - 2.0 * (step.repetition - 1)
+    return base - (1.0 + 0.4 * number if step.condition == "guided" else 0.0)
+
+
+def fill(root, participants=PARTICIPANTS, stop_after=None):
+    for participant in participants:
+        store = ParticipantStore(STUDY, participant, root)
+        store.open(resume=False)
+        for index, step in enumerate(store.plan):
+            if stop_after is not None and index >= stop_after:
+                break
+            if step.kind == QUESTIONNAIRE:
+                number = int(participant[1:])
+                answers = {name: 5.0 * ((number + offset) % 21) for offset, name in enumerate(TLX_NAMES)}
+                if step.condition == "unguided":
+                    answers = {name: min(100.0, value + 15.0) for name, value in answers.items()}
+                answers["in_control"] = 6.0 if step.condition == "guided" else 3.0
+                store.save_questionnaire(
+                    step, {"participant": participant, "condition": step.condition, "answers": answers}
+                )
+                continue
+            store.begin_trial(step)
+            timed_out = participant == "P03" and step.key == "02_guided_remove_place_item_2"
+            store.finish_trial(
+                step,
+                {
+                    "participant": participant,
+                    "condition": step.condition,
+                    "task": step.task,
+                    "repetition": step.repetition,
+                    "trial": step.trial,
+                    "success": not timed_out,
+                    "task_time_s": 40.0 if timed_out else made_up_time(participant, step),
+                    "wrong_selections": (1 if step.condition == "unguided" and int(participant[1:]) % 2 else 0),
+                    "undo_count": 0,
+                    "help_requests": 0,
+                    "peak_force_n": 2.0,
+                    "contacts": 0,
+                },
+            )
+        store.close()
+    return root / "studies" / STUDY.name
+
+
+def read_csv(path):
+    with open(path) as stream:
+        return list(csv.DictReader(stream))
+
+
+def test_the_report_s_numbers_are_those_of_the_trials(tmp_path):
+    folder = fill(tmp_path)
+    report = make_report(folder)
+    trials = read_csv(report.folder / "trials.csv")
+    assert len(trials) == 6 * 8
+    guided_remove = [
+        float(row["task_time_s"])
+        for row in trials
+        if row["condition"] == "guided" and row["task"] == "remove_place_item" and row["success"] == "True"
+    ]
+    summary = next(row for row in report.summary if (row["condition"], row["task"]) == ("guided", "remove_place_item"))
+    # Expect 12 trials, 11 successes (P03's timeout left out of the times), mean / sd / median of those 11
+    assert (summary["trials"], summary["successes"], len(guided_remove)) == (12, 11, 11)
+    assert summary["task_time_s_mean"] == pytest.approx(np.mean(guided_remove))
+    assert summary["task_time_s_sd"] == pytest.approx(np.std(guided_remove, ddof=1))
+    assert summary["task_time_s_median"] == pytest.approx(np.median(guided_remove))
+    unguided = next(row for row in report.summary if (row["condition"], row["task"]) == ("unguided", "stiffen_y"))
+    assert unguided["wrong_selections_mean"] == pytest.approx(0.5)
+    tlx = read_csv(report.folder / "tlx.csv")
+    assert len(tlx) == 12
+    first = next(row for row in tlx if (row["participant"], row["condition"]) == ("P01", "guided"))
+    assert float(first["raw_tlx"]) == pytest.approx(np.mean([float(first[name]) for name in TLX_NAMES]))
+    assert len(read_csv(report.folder / "questionnaires.csv")) == 12 * 7
+    markdown = (report.folder / "report.md").read_text()
+    assert "6 participants (6 complete: P01, P02, P03, P04, P05, P06), 48 trials, 12 questionnaires" in markdown
+    assert "| guided | remove_place_item | 12 | 11 |" in markdown
+    for figure in ("task_time.png", "wrong_selections.png", "tlx.png", "learning_curves.png"):
+        assert (report.folder / figure).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_paired_comparison_is_scipy_s_wilcoxon_on_the_participants_means(tmp_path):
+    report = make_report(fill(tmp_path))
+    comparison = next(c for c in report.comparisons if (c.measure, c.task) == ("task_time_s", "stiffen_y"))
+    # independent: each participant's mean over the two repetitions, per condition
+    guided = [np.mean([made_up_time(p, step) for step in _steps(p, "guided", "stiffen_y")]) for p in PARTICIPANTS]
+    unguided = [np.mean([made_up_time(p, step) for step in _steps(p, "unguided", "stiffen_y")]) for p in PARTICIPANTS]
+    expected = stats.wilcoxon(guided, unguided)
+    assert comparison.n == 6 and comparison.p_value == pytest.approx(expected.pvalue)
+    assert comparison.statistic == pytest.approx(expected.statistic)
+    assert comparison.effect_size_r == pytest.approx(-1.0)  # every participant faster with guidance
+    assert comparison.median_difference == pytest.approx(np.median(np.subtract(guided, unguided)))
+    tlx = next(c for c in report.comparisons if c.measure == "raw_tlx")
+    assert tlx.n == 6 and tlx.effect_size_r < 0
+    errors = next(c for c in report.comparisons if (c.measure, c.task) == ("wrong_selections", "stiffen_y"))
+    assert errors.p_value is not None and errors.effect_size_r == pytest.approx(-1.0)
+    assert "normal approximation" in errors.note  # zeros: scipy's approximation, said in the table
+    assert comparison.note == ""  # no ties, no zeros: exact
+    rows = read_csv(report.folder / "comparisons.csv")
+    assert len(rows) == len(report.comparisons) == 2 * 2 + 2  # 2 tasks x 2 measures, raw TLX, in_control
+
+
+def _steps(participant, condition, task):
+    store = ParticipantStore(STUDY, participant)
+    return [step for step in store.plan if (step.condition, step.task) == (condition, task)]
+
+
+def test_the_rank_biserial_correlation_by_hand():
+    # |d| ranks 1, 2, 3, 4: positive ranks 1 + 2 + 3 = 6, negative 4 -> (6 - 4) / 10; zeros are dropped
+    assert rank_biserial([0.5, 1.0, 0.0, 2.0, -3.0]) == pytest.approx(0.2)
+    assert rank_biserial([0.0, 0.0]) == 0.0
+
+
+def test_too_few_pairs_are_said_not_tested_and_incomplete_participants_are_named(tmp_path):
+    folder = fill(tmp_path, participants=("P01", "P02"), stop_after=5)  # one condition each: no pairs
+    report = make_report(folder, tmp_path / "out")
+    assert all(comparison.p_value is None for comparison in report.comparisons)
+    note = next(c for c in report.comparisons if (c.measure, c.task) == ("task_time_s", "remove_place_item")).note
+    assert note == "no test: 0 participant(s) with a difference (of 0 paired)"
+    markdown = (tmp_path / "out" / "report.md").read_text()
+    assert "Incomplete: P01 (5 of 10 steps), P02 (5 of 10 steps)" in markdown
+
+
+def test_a_folder_without_a_study_is_one_error(tmp_path):
+    with pytest.raises(ReportError, match="is not a study folder"):
+        make_report(tmp_path / "nothing")
+    with pytest.raises(ReportError, match=r"holds no participant \(no \*/plan.json\)"):
+        make_report(tmp_path)
