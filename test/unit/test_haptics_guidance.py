@@ -121,6 +121,7 @@ BAD = [
     ({"mode": "detents", "stiffness": 1.0, "width": 0.01}, "axis y: detents need at least one position"),
     ({"mode": "detents", "detents": (0.0, math.nan), "width": 0.01}, "axis y detents must be finite"),
     ({"damping": -0.1}, "axis y damping must be a finite number >= 0"),
+    ({"mode": "detents", "detents": tuple(range(1001)), "width": 0.01}, "axis y: 1001 detents, more than the 1000"),
 ]
 
 
@@ -141,3 +142,12 @@ def test_bad_caps_and_gripper_are_refused():
         Guidance(axes=(AxisGuidance(),))
     with pytest.raises(GuidanceError, match="guidance max_force must be a positive number"):
         GuidanceLimits(max_force=0.0)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "limit"), [("max_force", 25.0, 20.0), ("max_torque", 0.5, 0.4), ("max_gripper_force", 9.0, 8.0)]
+)
+def test_the_node_s_caps_never_exceed_the_sigma7_s_own_limits(field, value, limit):
+    with pytest.raises(GuidanceError, match=f"guidance {field} {value} is above the Sigma.7's own limit of {limit}"):
+        GuidanceLimits(**{field: value})
+    assert getattr(GuidanceLimits(**{field: limit}), field) == limit

@@ -26,6 +26,12 @@ from teleteach.rotations import quaternion_to_rpy
 
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 MODES = ("free", "hold", "detents")
+# The Sigma.7's own continuous limits (Force Dimension's specification): no cap of the node may exceed them.
+SIGMA7_MAX_FORCE = 20.0  # [N]
+SIGMA7_MAX_TORQUE = 0.4  # [Nm]
+SIGMA7_MAX_GRIPPER_FORCE = 8.0  # [N]
+# More positions on one axis than any slider or dial offers: refused, so a message cannot slow the 1 kHz loop.
+MAX_DETENTS = 1000
 
 
 class GuidanceError(ValueError):
@@ -87,6 +93,8 @@ def _check_axis(name: str, axis: AxisGuidance) -> None:
         _non_negative(f"axis {name} {field}", getattr(axis, field))
     if not math.isfinite(axis.centre):
         raise GuidanceError(f"axis {name} centre must be finite, got {axis.centre}")
+    if len(axis.detents) > MAX_DETENTS:
+        raise GuidanceError(f"axis {name}: {len(axis.detents)} detents, more than the {MAX_DETENTS} allowed")
     if not all(math.isfinite(position) for position in axis.detents):
         raise GuidanceError(f"axis {name} detents must be finite, got {list(axis.detents)}")
     if axis.mode == "detents" and not (axis.detents and axis.width > 0.0):
@@ -117,7 +125,7 @@ class Wrench:
 
 @dataclasses.dataclass(frozen=True)
 class GuidanceLimits:
-    """The node's own bounds (``config/device.yaml`` ``guidance``), below the device's."""
+    """The node's own bounds (``config/device.yaml`` ``guidance``), never above the Sigma.7's."""
 
     max_force: float = 4.0  # [N]
     max_torque: float = 0.1  # [Nm]
@@ -130,6 +138,16 @@ class GuidanceLimits:
             value = getattr(self, field.name)
             if not (math.isfinite(value) and value > 0.0):
                 raise GuidanceError(f"guidance {field.name} must be a positive number, got {value}")
+        device_limits = {
+            "max_force": SIGMA7_MAX_FORCE,
+            "max_torque": SIGMA7_MAX_TORQUE,
+            "max_gripper_force": SIGMA7_MAX_GRIPPER_FORCE,
+        }
+        for field, limit in device_limits.items():
+            if getattr(self, field) > limit:
+                raise GuidanceError(
+                    f"guidance {field} {getattr(self, field)} is above the Sigma.7's own limit of {limit}"
+                )
 
 
 def axis_force(axis: AxisGuidance, position: float, velocity: float) -> float:
@@ -145,7 +163,7 @@ def axis_force(axis: AxisGuidance, position: float, velocity: float) -> float:
 
 
 def _saturate(vector: np.ndarray, limit: float) -> np.ndarray:
-    norm = math.sqrt(float(vector @ vector))
+    norm = math.hypot(*vector)  # no overflow for huge components: they are scaled down to the cap like any other
     return vector * (limit / norm) if norm > limit else vector
 
 
