@@ -50,12 +50,12 @@ def test_config_reads_every_param():
 @pytest.mark.parametrize(
     ("values", "expected"),
     [
-        ({"backend": "joystick"}, "~backend must be one of dhd, scenario, virtual"),
+        ({"backend": "joystick"}, "~backend must be one of dhd, scenario, virtual, topic"),
         ({"backend": "scenario"}, "needs ~scenario"),
         ({"scenario": "x.yaml", "rate": 0}, "~rate must be a positive number"),
         ({"scenario": "x.yaml", "at_end": "loop"}, "~at_end must be one of hold, exit"),
         ({"scenario": "x.yaml", "click_close_threshold": 0.3}, "close_threshold < release_threshold"),
-        ({"backend": "dhd", "hand_enabled": True}, "~hand/enabled models a hand for the scenario and virtual"),
+        ({"backend": "dhd", "hand_enabled": True}, "~hand/enabled models a hand for the scenario, virtual and topic"),
         ({"scenario": "x.yaml", "hand_enabled": True, "hand_mass": -1.0}, "hand mass must be a positive number"),
         ({"scenario": "x.yaml", "force_rate": 2000.0}, r"~force_rate must be in \(0, ~rate\]"),
     ],
@@ -350,3 +350,51 @@ def test_the_node_sends_the_guidance_to_the_sdk_bounded_and_ends_at_zero(roscore
     assert np.all(np.abs(received[:, 6]) <= 1.0 + 1e-9)
     assert np.all(received[-1] == 0.0), received[-3:]
     print(f"the stand-in received {len(received)} force commands, the largest {np.linalg.norm(guided[-1, :3]):.3f} N")
+
+
+def test_the_topic_backend_publishes_another_program_s_input_and_refuses_bad_input(roscore):
+    node = roslib.packages.find_node("teleteach", "sigma7_node")[0]
+    process = subprocess.Popen(
+        [node, "__name:=sigma7_topic", "_backend:=topic"],
+        env=roscore,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+
+    def publish(topic, message_type, message):
+        return subprocess.Popen(
+            ["rostopic", "pub", "-r", "50", topic, message_type, message],
+            env=roscore,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+
+    publishers = [
+        publish(
+            "/sigma7/input/pose", "geometry_msgs/PoseStamped", "{pose: {position: {x: 0.03}, orientation: {w: 1}}}"
+        ),
+        publish("/sigma7/input/gripper_angle", "std_msgs/Float64", "{data: -1.0}"),
+    ]
+    try:
+        echo = subprocess.run(
+            ["rostopic", "echo", "-n", "1", "/sigma7/pose"], env=roscore, capture_output=True, text=True, timeout=60
+        )
+        assert "x: 0.03\n    y: 0.0\n    z: 0.0" in echo.stdout, echo.stdout + echo.stderr
+        echo = subprocess.run(
+            ["rostopic", "echo", "-n", "1", "/sigma7/gripper_angle"],
+            env=roscore,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        # Expect the configured resting angle: the negative input angle was refused
+        assert "data: 0.25" in echo.stdout, echo.stdout + echo.stderr
+    finally:
+        for publisher in publishers:
+            publisher.send_signal(signal.SIGINT)
+            publisher.wait(30)
+        process.send_signal(signal.SIGINT)
+        output, _ = process.communicate(timeout=30)
+    assert process.returncode == 0, output
+    assert "input refused: input gripper angle must be a finite number >= 0 rad, got -1.0" in output, output

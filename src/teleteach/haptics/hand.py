@@ -1,6 +1,6 @@
 """A model of the operator's hand on the device, so that guidance can be felt by a scripted or virtual operator.
 
-Without hardware, the scenario and virtual backends give the pose the operator *intends*. With the hand model the
+Without hardware, the scenario, virtual and topic backends give the pose the operator *intends*. With the hand model the
 device's pose results from a hand spring-damper pulling the device's mass toward that intention, together with the
 guidance's force (what the device renders), plus an optional seeded tremor of the hand: physiological (8-12 Hz)
 and a slow drift (0.1-0.5 Hz), each a sum of sinusoids with the configured RMS per translation axis. Per axis::
