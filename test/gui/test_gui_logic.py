@@ -387,16 +387,19 @@ def test_unique_skill_name_skips_library_and_files(tmp_path):
     assert unique_skill_name("Demo", ["Demo_1"], tmp_path) == "Demo_3"
 
 
-def test_low_level_guidance_holds_every_axis_but_the_mode_s_where_the_mode_began():
+def test_low_level_guidance_frees_the_mode_s_length_keeps_its_angle_in_a_detent_and_holds_the_rest():
     designer = GuidanceDesigner(CONFIG)
     held = HeldPose()
     first = sample(0.01, 0.02, 0.03, 0.1, 0.2, 0.3)
     pose = held.at(("LOW", "Y"), first)
     assert held.at(("LOW", "Y"), sample(0.05, 0.05, 0.05, 0.5, 0.5, 0.5)) == pose  # latched while the mode lasts
     guidance = designer.low_level("Y", pose)
-    assert [axis.mode for axis in guidance.axes] == ["hold", "free", "hold", "hold", "free", "hold"]
+    assert [axis.mode for axis in guidance.axes] == ["hold", "free", "hold", "hold", "detents", "hold"]
     assert [axis.centre for axis in guidance.axes] == [0.01, 0.0, 0.03, 0.1, 0.0, 0.3]
     assert guidance.axes[3].stiffness == CONFIG.guidance_angle_hold_stiffness
+    pitch = guidance.axes[4]  # a well where the pitch was when mode Y began
+    assert pitch.detents == (0.2,) and pitch.width == CONFIG.guidance_mode_angle_width
+    assert pitch.stiffness == CONFIG.guidance_mode_angle_stiffness
     assert all(axis.mode == "free" for axis in designer.low_level("ALL", pose).axes)
     assert held.at(("LOW", "Z"), sample(0.05, 0.0, 0.0, 0.0, 0.0, 0.0))[0] == 0.05  # a new mode latches anew
 

@@ -65,6 +65,8 @@ class GuiConfig:
     guidance_angle_hold_stiffness: float = 0.5
     guidance_damping: float = 2.0
     guidance_angular_damping: float = 0.01
+    guidance_mode_angle_width: float = 0.4
+    guidance_mode_angle_stiffness: float = 4.0
     guidance_max_force: float = 3.0
     guidance_max_torque: float = 0.08
     guidance_refresh: float = 0.2
@@ -93,6 +95,7 @@ class GuiConfig:
             "guidance_max_force",
             "guidance_max_torque",
             "guidance_refresh",
+            "guidance_mode_angle_width",
         )
         for name in positive:
             value = getattr(self, name)
@@ -109,6 +112,7 @@ class GuiConfig:
             "guidance_angle_hold_stiffness",
             "guidance_damping",
             "guidance_angular_damping",
+            "guidance_mode_angle_stiffness",
         )
         for name in non_negative:
             value = getattr(self, name)
