@@ -419,5 +419,8 @@ def test_the_dial_step_puts_a_detent_at_each_index_in_roll():
     assert z.mode == "hold" and roll.mode == "detents"
     assert roll.detents == pytest.approx([x_for(index, 4, half_range=1.0) for index in range(4)])
     assert roll.stiffness == CONFIG.guidance_angle_detent_stiffness and roll.width == pytest.approx(0.5)
+    # every well holds the device at its centre while the gripper is closed for a click
+    assert roll.click_stiffness == CONFIG.guidance_angle_click_stiffness
+    assert designer.start().axes[0].click_stiffness == CONFIG.guidance_click_stiffness
     off = GuidanceDesigner(GuiConfig.load(guidance=False))
     assert all(axis.mode == "free" for axis in off.high_level(flow).axes)

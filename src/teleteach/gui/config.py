@@ -67,6 +67,8 @@ class GuiConfig:
     guidance_angular_damping: float = 0.01
     guidance_mode_angle_width: float = 0.4
     guidance_mode_angle_stiffness: float = 4.0
+    guidance_click_stiffness: float = 1500.0
+    guidance_angle_click_stiffness: float = 4.0
     guidance_max_force: float = 3.0
     guidance_max_torque: float = 0.08
     guidance_refresh: float = 0.2
@@ -113,6 +115,8 @@ class GuiConfig:
             "guidance_damping",
             "guidance_angular_damping",
             "guidance_mode_angle_stiffness",
+            "guidance_click_stiffness",
+            "guidance_angle_click_stiffness",
         )
         for name in non_negative:
             value = getattr(self, name)

@@ -15,6 +15,8 @@ the current step does not use and puts a detent at every position the step can s
 - SHARED CONTROL: free (the shared controller takes the hand's motion as it comes).
 
 Held centres are the device's pose when the state began (:class:`HeldPose`), so holding never moves what was set.
+Every detent also holds the device at its centre while the gripper is closed for a click (``guidance_*click_*``): the
+finger's push on the handle must not change the selection the click confirms.
 """
 
 import dataclasses
@@ -63,7 +65,15 @@ class GuidanceDesigner:
         if stiffness is None:
             stiffness = config.guidance_angle_detent_stiffness if angular else config.guidance_detent_stiffness
         damping = config.guidance_angular_damping if angular else config.guidance_damping
-        return AxisGuidance("detents", detents=tuple(positions), stiffness=stiffness, width=width, damping=damping)
+        click = config.guidance_angle_click_stiffness if angular else config.guidance_click_stiffness
+        return AxisGuidance(
+            "detents",
+            detents=tuple(positions),
+            stiffness=stiffness,
+            width=width,
+            damping=damping,
+            click_stiffness=click,
+        )
 
     def _hold(self, centre: float, angular: bool = False) -> AxisGuidance:
         config = self.config
@@ -142,6 +152,7 @@ def guidance_fields(guidance: Guidance) -> dict:
         "stiffness": [axis.stiffness for axis in guidance.axes],
         "detent_widths": [axis.width for axis in guidance.axes],
         "damping": [axis.damping for axis in guidance.axes],
+        "click_stiffness": [axis.click_stiffness for axis in guidance.axes],
         "gripper_click": guidance.gripper_detent is not None,
         "gripper_detent": guidance.gripper_detent or 0.0,
         "gripper_stiffness": guidance.gripper_stiffness,

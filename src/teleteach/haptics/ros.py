@@ -193,6 +193,7 @@ def guidance_from_message(message: HapticGuidance) -> Guidance:
             stiffness=message.stiffness[index],
             width=message.detent_widths[index],
             damping=message.damping[index],
+            click_stiffness=message.click_stiffness[index],
         )
         for index in range(len(AXES))
     )
@@ -242,7 +243,7 @@ class Sigma7Node:
         self._application = None
         self._window = None
         self.backend = self._make_backend()
-        self.guidance = GuidanceRenderer(config.guidance)
+        self.guidance = GuidanceRenderer(config.guidance, click_below=config.click.release_threshold)
         self.loop = DeviceLoop(
             self.backend,
             Sigma7Publisher(config.frame_id),
