@@ -70,7 +70,7 @@ class GuiConfig:
     guidance_click_stiffness: float = 1500.0
     guidance_angle_click_stiffness: float = 4.0
     guidance_max_force: float = 3.0
-    guidance_max_torque: float = 0.08
+    guidance_max_torque: float = 0.1
     guidance_refresh: float = 0.2
 
     def __post_init__(self):
