@@ -48,6 +48,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
 import dataclasses
+import faulthandler
 import json
 import math
 import pathlib
@@ -340,6 +341,7 @@ class Bench:
         self.processes = Processes()
         self.data_dir = log_dir / "data"
         self.data_dir.mkdir(parents=True, exist_ok=True)
+        self.closed_windows: List[object] = []
         try:
             if own_master:
                 import rospy
@@ -477,6 +479,9 @@ class Session:
     def close(self) -> None:
         self.window.close()
         self.bench.pump(0.3)
+        # Closed windows are kept, not deleted: the bench died of a segmentation fault when its fourth session
+        # began, three windows closed and collected; teaching_gui runs one window per process, which never dies.
+        self.bench.closed_windows.append(self.window)
         self.stiffness.close()
         self.operator.close()
         self.bench.processes.stop(self.device)
@@ -848,6 +853,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         parser.error("--trials and --block must be at least 1")
     # Stopped by Ctrl-C or SIGTERM (also when started in the background, where SIGINT is ignored), the bench still
     # stops its nodes: the handlers raise in the main thread and the sessions' cleanup runs.
+    faulthandler.enable()  # a crash in Qt or rospy prints where it happened
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, lambda number, _frame: sys.exit(128 + number))
     started = time.monotonic()
@@ -863,11 +869,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if guided["wrong_selections"]
         else "none with guidance"
     )
-    drift_ratio = (without["unintended_drift_n_per_m"] or 0.0) / max(guided["unintended_drift_n_per_m"] or 0.0, 1e-9)
+    drifts = (without["unintended_drift_n_per_m"], guided["unintended_drift_n_per_m"])
+    drift_ratio = f"{drifts[0] / drifts[1]:.1f}x" if drifts[0] is not None and drifts[1] else "n/a"
     print(
         f"goal (>= 5x fewer wrong selections and less drift, no slower selections): wrong selections "
         f"{without['wrong_selections']} -> {guided['wrong_selections']} ({wrong_ratio}), drift "
-        f"{without['unintended_drift_n_per_m']} -> {guided['unintended_drift_n_per_m']} N/m ({drift_ratio:.1f}x), "
+        f"{without['unintended_drift_n_per_m']} -> {guided['unintended_drift_n_per_m']} N/m ({drift_ratio}), "
         f"mean selection time {without['selection_time_s']['mean']} -> {guided['selection_time_s']['mean']} s"
     )
     print(f"took {report['duration_s']:.0f} s; wrote {arguments.out} and {arguments.out.with_suffix('.png')}")
