@@ -7,9 +7,9 @@ and a slow drift (0.1-0.5 Hz), each a sum of sinusoids with the configured RMS p
 
     m q'' = k (target - q) - b q' + F_guidance        (target = intention + tremor + drift)
 
-integrated with semi-implicit Euler in steps of at most 1 ms; angles (roll, pitch, yaw) likewise with an inertia,
-an angular spring and damping and the guidance's torque. :class:`HandModelBackend` puts the model between any
-backend and the loop.
+integrated with semi-implicit Euler in steps of at most 1 ms (across a stalled loop's gap too, with the last force);
+angles (roll, pitch, yaw) likewise with an inertia, an angular spring and damping and the guidance's torque.
+:class:`HandModelBackend` puts the model between any backend and the loop.
 """
 
 import dataclasses
@@ -26,7 +26,10 @@ TREMOR_BAND = (8.0, 12.0)  # [Hz] physiological tremor
 DRIFT_BAND = (0.1, 0.5)  # [Hz] slow drift of a hand that means to hold still
 SINUSOIDS = 5  # per axis and band
 MAX_STEP = 0.001  # [s] integration step
-MAX_GAP = 0.05  # [s] a longer gap between two reads (a stalled loop) restarts the model at the intention
+# [s] a gap between two reads (the loop stalled on a busy machine) is integrated with the last force, as a real device
+# keeps the force last commanded; only a longer one (a paused process) restarts the model at the intention. Restarting
+# after 50 ms stalls teleported the guided device to the intention, and the guidance snapped it back.
+MAX_GAP = 0.5
 
 
 @dataclasses.dataclass(frozen=True)
