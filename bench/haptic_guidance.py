@@ -52,6 +52,7 @@ import faulthandler
 import json
 import math
 import pathlib
+import re
 import signal
 import sys
 import tempfile
@@ -81,6 +82,8 @@ HOLD_TIME = 1.0  # [s] the operator holds the raised stiffness
 HOME = np.zeros(6)  # intended pose at START between trials: x, y, z [m], roll, pitch, yaw [rad]
 INPUT_RATE = 200.0  # [Hz] intended poses sent to the device node
 RESTING_GRIPPER, OPEN_GRIPPER = 0.25, 0.5  # [rad]
+# sigma7_node's last words: how its 1 kHz loop fared (a busy machine starves it)
+LOOP_SUMMARY = re.compile(r"published (\d+) cycles at ([\d.]+) Hz on average, (\d+) failed reads, (\d+) stalls longer")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -443,9 +446,12 @@ class Session:
         self.bench, self.tremor, self.guided, self.human = bench, tremor, guided, human or Human()
         name = f"device_{tremor * 1000:.0f}mm_{'with' if guided else 'without'}"
         arguments = ["backend:=topic", "hand_model:=true", f"tremor:={tremor}"]
+        self.device_log = bench.log_dir / f"{name}.log"
+        self.device_log.unlink(missing_ok=True)
         self.device = bench.processes.start(
-            name, ["roslaunch", "teleteach", "device.launch", *arguments], bench.log_dir / f"{name}.log"
+            name, ["roslaunch", "teleteach", "device.launch", *arguments], self.device_log
         )
+        self.loop: Optional[dict] = None  # the device loop's rate and stalls, once the session is closed
         self.operator = Operator(self.human)
         self.stiffness = StiffnessLog()
         self.config = GuiConfig.load(guidance=guided)
@@ -485,6 +491,10 @@ class Session:
         self.stiffness.close()
         self.operator.close()
         self.bench.processes.stop(self.device)
+        found = LOOP_SUMMARY.findall(self.device_log.read_text(errors="replace")) if self.device_log.exists() else []
+        if found:
+            cycles, rate, failed, stalls = found[-1]
+            self.loop = {"rate_hz": float(rate), "failed_reads": int(failed), "stalls_over_1s": int(stalls)}
 
     # the operator's acts ------------------------------------------------------------------------
     def _reaction(self, rng) -> float:
@@ -732,6 +742,8 @@ def run(trials: int, tremors: Sequence[float], block: int, tasks: Sequence[str] 
     results: Dict[str, Dict[float, List[TrialResult]]] = {
         condition: {tremor: [] for tremor in tremors} for condition in CONDITIONS
     }
+    loops: Dict[str, List[dict]] = {condition: [] for condition in CONDITIONS}
+    loads: List[float] = []  # the machine's 1-minute load average after each session
     with tempfile.TemporaryDirectory(prefix="haptic_guidance_") as folder:
         bench = Bench(pathlib.Path(folder))
         try:
@@ -752,6 +764,9 @@ def run(trials: int, tremors: Sequence[float], block: int, tasks: Sequence[str] 
                                         log(f"{condition} guidance, {task} trial {trial} abandoned: {result.abandoned}")
                         finally:
                             session.close()
+                        if session.loop is not None:
+                            loops[condition].append(session.loop)
+                        loads.append(os.getloadavg()[0])
                         figures = summarise(results[condition][tremor])
                         log(
                             f"tremor {tremor * 1000:.0f} mm, {condition} guidance, trials up to {trial + 1}: "
@@ -771,6 +786,14 @@ def run(trials: int, tremors: Sequence[float], block: int, tasks: Sequence[str] 
         report[condition]["per_task"] = {
             task: summarise([result for result in everything if result.task == task]) for task in tasks
         }
+        report[condition]["device_loop"] = {
+            "sessions": len(loops[condition]),
+            "mean_rate_hz": round(float(np.mean([loop["rate_hz"] for loop in loops[condition]])), 1)
+            if loops[condition]
+            else None,
+            "failed_reads": sum(loop["failed_reads"] for loop in loops[condition]),
+            "stalls_over_1s": sum(loop["stalls_over_1s"] for loop in loops[condition]),
+        }
         report[condition]["trials"] = [
             dict(dataclasses.asdict(result), tremor_m=tremor)
             for tremor in tremors
@@ -781,6 +804,10 @@ def run(trials: int, tremors: Sequence[float], block: int, tasks: Sequence[str] 
     report["trials_per_session"] = block
     report["tremors_m"] = list(tremors)
     report["human"] = dataclasses.asdict(Human())
+    report["machine"] = {
+        "cpus": os.cpu_count(),
+        "mean_load_average": round(float(np.mean(loads)), 1) if loads else None,
+    }
     return report
 
 
@@ -863,6 +890,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     arguments.out.write_text(json.dumps(report, indent=2) + "\n")
     plot(report, arguments.out.with_suffix(".png"))
     print(table(report))
+    for condition in CONDITIONS:
+        loop = report[condition]["device_loop"]
+        print(
+            f"device loop {condition} guidance: {loop['mean_rate_hz']} Hz on average (1000 asked), "
+            f"{loop['stalls_over_1s']} stalls over 1 s, {loop['failed_reads']} failed reads, "
+            f"{loop['sessions']} sessions"
+        )
+    print(f"machine: {report['machine']['cpus']} CPUs, load average {report['machine']['mean_load_average']}")
     without, guided = report["without"], report["with"]
     wrong_ratio = (
         f"{without['wrong_selections'] / guided['wrong_selections']:.1f}x"
