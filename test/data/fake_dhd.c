@@ -3,8 +3,11 @@
  * FAKE_DHD_DEVICES=0 simulates "no device plugged in"; FAKE_DHD_FAIL_READS=1 makes reads fail.
  * The device sits at (0.01, 0.02, 0.03) m, yawed by 0.5 rad, gripper at 0.3 rad, button pressed.
  * It records what it receives: the force enable state and the last force, torque and gripper force
- * (fakeDhdReceived, not part of the SDK, lets the test read them back), and how many force commands came. */
+ * (fakeDhdReceived, not part of the SDK, lets the test read them back), and how many force commands came.
+ * FAKE_DHD_RECORD=<path> also appends every force command to that file, one line of 7 numbers (fx fy fz tx ty tz fg),
+ * so a test can read what a node in another process sent. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -13,6 +16,7 @@ static int opened = 0;
 static int forces_enabled = 0;
 static int force_commands = 0;
 static double received[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+static FILE *record = NULL;
 
 static int flag(const char *name, int fallback) {
   const char *value = getenv(name);
@@ -31,6 +35,10 @@ int dhdOpen(void) {
 int dhdClose(char id) {
   (void)id;
   opened = 0;
+  if (record) {
+    fclose(record);
+    record = NULL;
+  }
   return 0;
 }
 
@@ -86,6 +94,12 @@ int dhdSetForceAndTorqueAndGripperForce(double fx, double fy, double fz, double 
   double values[7] = {fx, fy, fz, tx, ty, tz, fg};
   memcpy(received, values, sizeof(values));
   force_commands++;
+  const char *path = getenv("FAKE_DHD_RECORD");
+  if (path && !record) {
+    record = fopen(path, "a");
+    if (record) setvbuf(record, NULL, _IOLBF, 0);
+  }
+  if (record) fprintf(record, "%.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", fx, fy, fz, tx, ty, tz, fg);
   return 0;
 }
 

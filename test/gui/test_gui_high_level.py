@@ -320,6 +320,22 @@ def test_the_guidance_follows_the_steps(qapp, bt_node, device, make_window, topi
     # and refreshed while nothing changes (the device drops guidance that is not)
     stamp = step2.header.stamp
     pump_until(qapp, lambda: guidance_log.last().header.stamp > stamp, 2, "a refresh of the same guidance")
+    select_operation(qapp, window, device, "insert")
+    device.click()
+    pump_until(qapp, lambda: guidance_log.last().modes[3] == "detents", 5, "step 3's guidance")
+    step3 = guidance_log.last()
+    # Step 3: a well at each dial position in roll, X and Y held where they were confirmed
+    slots = flow.insert_slots
+    assert list(step3.modes[:4]) == ["hold", "hold", "hold", "detents"]
+    assert list(step3.detents_roll) == pytest.approx([centre(index, slots, 1.0) for index in range(slots)])
+    assert step3.centres[1] == pytest.approx(centre(OPERATIONS.index("insert"), 4))
+    # The GUI shows where the detents are: a tick per button, per operation and a notch per dial position
+    high = window.high_level
+    for control, detents in ((high.node_slider, start.detents_x), (high.operation_slider, step2.detents_y)):
+        assert control.tickPosition() != control.NoTicks and control.tickInterval() == 1
+        assert control.maximum() - control.minimum() + 1 == len(detents)
+    assert high.dial.notchesVisible() and high.dial.notchSize() == 1
+    assert high.dial.maximum() - high.dial.minimum() + 1 == len(step3.detents_roll)
 
 
 def test_guidance_switched_off_renders_nothing(qapp, bt_node, device, make_window, topic_log):

@@ -387,16 +387,19 @@ def test_unique_skill_name_skips_library_and_files(tmp_path):
     assert unique_skill_name("Demo", ["Demo_1"], tmp_path) == "Demo_3"
 
 
-def test_low_level_guidance_holds_every_axis_but_the_mode_s_where_the_mode_began():
+def test_low_level_guidance_frees_the_mode_s_length_keeps_its_angle_in_a_detent_and_holds_the_rest():
     designer = GuidanceDesigner(CONFIG)
     held = HeldPose()
     first = sample(0.01, 0.02, 0.03, 0.1, 0.2, 0.3)
     pose = held.at(("LOW", "Y"), first)
     assert held.at(("LOW", "Y"), sample(0.05, 0.05, 0.05, 0.5, 0.5, 0.5)) == pose  # latched while the mode lasts
     guidance = designer.low_level("Y", pose)
-    assert [axis.mode for axis in guidance.axes] == ["hold", "free", "hold", "hold", "free", "hold"]
+    assert [axis.mode for axis in guidance.axes] == ["hold", "free", "hold", "hold", "detents", "hold"]
     assert [axis.centre for axis in guidance.axes] == [0.01, 0.0, 0.03, 0.1, 0.0, 0.3]
     assert guidance.axes[3].stiffness == CONFIG.guidance_angle_hold_stiffness
+    pitch = guidance.axes[4]  # a well where the pitch was when mode Y began
+    assert pitch.detents == (0.2,) and pitch.width == CONFIG.guidance_mode_angle_width
+    assert pitch.stiffness == CONFIG.guidance_mode_angle_stiffness
     assert all(axis.mode == "free" for axis in designer.low_level("ALL", pose).axes)
     assert held.at(("LOW", "Z"), sample(0.05, 0.0, 0.0, 0.0, 0.0, 0.0))[0] == 0.05  # a new mode latches anew
 
@@ -416,5 +419,8 @@ def test_the_dial_step_puts_a_detent_at_each_index_in_roll():
     assert z.mode == "hold" and roll.mode == "detents"
     assert roll.detents == pytest.approx([x_for(index, 4, half_range=1.0) for index in range(4)])
     assert roll.stiffness == CONFIG.guidance_angle_detent_stiffness and roll.width == pytest.approx(0.5)
+    # every well holds the device at its centre while the gripper is closed for a click
+    assert roll.click_stiffness == CONFIG.guidance_angle_click_stiffness
+    assert designer.start().axes[0].click_stiffness == CONFIG.guidance_click_stiffness
     off = GuidanceDesigner(GuiConfig.load(guidance=False))
     assert all(axis.mode == "free" for axis in off.high_level(flow).axes)

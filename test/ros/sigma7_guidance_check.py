@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """rostest check: the sigma7 node renders /sigma7/guidance (seen on /sigma7/force), caps it, drops it when it is no
-longer refreshed, and refuses a NaN one with its reason."""
+longer refreshed, and refuses a NaN one, a negative stiffness and an unknown mode, each with its reason."""
 
 import threading
 import time
@@ -77,17 +77,24 @@ class GuidanceOverRos(unittest.TestCase):
             first_zero = next(stamp for stamp, force in self.forces if stamp > stopped and force[0] == 0.0)
         # Expect zero within 0.5 s of the last refresh (+ one /sigma7/force period and delivery)
         self.assertLess(first_zero - stopped, 0.5 + 0.1)
-        self.refresh(hold_x(100.0), 0.5)
-        self.assertLess(self.latest_force()[0], -1.0)
-        bad = hold_x(float("nan"))
-        self.publisher.publish(bad)
-        # Expect zero at once (well before the 0.5 s after which the last good one would be stale)
-        self.wait_for(lambda: self.latest_force()[0] == 0.0, 0.2, "zero force after a NaN guidance")
-        self.wait_for(
-            lambda: any("guidance refused, rendering none: axis x stiffness" in log for log in self.logs),
-            5.0,
-            "the refusal's reason on /rosout",
-        )
+        negative = hold_x(-100.0)
+        unknown = hold_x(100.0)
+        unknown.modes[0] = "sticky"
+        for bad, reason in (
+            (hold_x(float("nan")), "axis x stiffness must be a finite number >= 0, got nan"),
+            (negative, "axis x stiffness must be a finite number >= 0, got -100.0"),
+            (unknown, "axis x: unknown mode 'sticky'"),
+        ):
+            self.refresh(hold_x(100.0), 0.5)
+            self.assertLess(self.latest_force()[0], -1.0)
+            self.publisher.publish(bad)
+            # Expect zero at once (well before the 0.5 s after which the last good one would be stale)
+            self.wait_for(lambda: self.latest_force()[0] == 0.0, 0.2, f"zero force after a guidance with {reason}")
+            self.wait_for(
+                lambda reason=reason: any(f"guidance refused, rendering none: {reason}" in log for log in self.logs),
+                5.0,
+                f"the refusal's reason on /rosout ({reason})",
+            )
 
 
 if __name__ == "__main__":

@@ -121,6 +121,7 @@ BAD = [
     ({"mode": "detents", "stiffness": 1.0, "width": 0.01}, "axis y: detents need at least one position"),
     ({"mode": "detents", "detents": (0.0, math.nan), "width": 0.01}, "axis y detents must be finite"),
     ({"damping": -0.1}, "axis y damping must be a finite number >= 0"),
+    ({"mode": "detents", "detents": tuple(range(1001)), "width": 0.01}, "axis y: 1001 detents, more than the 1000"),
 ]
 
 
@@ -141,3 +142,39 @@ def test_bad_caps_and_gripper_are_refused():
         Guidance(axes=(AxisGuidance(),))
     with pytest.raises(GuidanceError, match="guidance max_force must be a positive number"):
         GuidanceLimits(max_force=0.0)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "limit"), [("max_force", 25.0, 20.0), ("max_torque", 0.5, 0.4), ("max_gripper_force", 9.0, 8.0)]
+)
+def test_the_node_s_caps_never_exceed_the_sigma7_s_own_limits(field, value, limit):
+    with pytest.raises(GuidanceError, match=f"guidance {field} {value} is above the Sigma.7's own limit of {limit}"):
+        GuidanceLimits(**{field: value})
+    assert getattr(GuidanceLimits(**{field: limit}), field) == limit
+
+
+def test_while_the_gripper_is_closed_for_a_click_a_detent_holds_the_device_at_its_well_s_centre():
+    wells = AxisGuidance("detents", detents=(0.0, 0.01, 0.02), stiffness=400.0, width=0.01, click_stiffness=1500.0)
+    patient = GuidanceLimits(stale_after=100.0)
+    renderer = GuidanceRenderer(patient, click_below=0.2)
+    renderer.set(guidance(x=wells), now=0.0)
+
+    def force_x(now, x, gripper):
+        return renderer.wrench(now, (x, 0.0, 0.0), IDENTITY, *STILL, gripper).force[0]
+
+    # Expect the well's own force while the gripper rests, 1.2 mm off the middle well's centre
+    well = axis_force(wells, 0.0112, 0.0)
+    assert force_x(1.0, 0.0112, 0.25) == pytest.approx(well)
+    # the finger closes the gripper: the hold blends in over 30 ms, then pulls with the click stiffness
+    assert force_x(1.001, 0.0112, 0.15) == pytest.approx(well)
+    assert force_x(1.016, 0.0112, 0.1) == pytest.approx(0.5 * well + 0.5 * -1.5 * 1.2, rel=1e-6)
+    # pushed on into the next well, the hold stays at the centre the click began in (capped at 4 N)
+    assert force_x(1.05, 0.0112, 0.0) == pytest.approx(-1.5 * 1.2)
+    assert force_x(1.1, 0.0152, 0.05) == pytest.approx(-4.0)
+    assert axis_force(wells, 0.0152, 0.0) > 0.0  # the wells alone would pull it on into the next one
+    # the gripper back open: the wells again
+    assert force_x(1.2, 0.0152, 0.25) == pytest.approx(axis_force(wells, 0.0152, 0.0))
+    # a detent without a click stiffness, or a hold, is not changed by a click
+    plain = GuidanceRenderer(patient, click_below=0.2)
+    plain.set(guidance(x=dataclasses.replace(wells, click_stiffness=0.0)), now=0.0)
+    assert plain.wrench(1.0, (0.0112, 0.0, 0.0), IDENTITY, *STILL, 0.0).force[0] == pytest.approx(well)

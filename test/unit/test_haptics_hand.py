@@ -72,11 +72,17 @@ def test_tremor_has_the_configured_rms_in_its_band_and_is_seeded():
     assert np.array_equal(Tremor(HandParameters()).at(5.0), np.zeros(3))
 
 
-def test_a_stalled_loop_restarts_the_model_at_the_intention():
-    model = HandModel(HandParameters())
-    model.step(0.0, STILL, Wrench.zero())
-    intended = np.array([0.05, 0, 0, 0, 0, 0])
-    assert model.step(1.0, intended, Wrench.zero())[0] == 0.05
+def test_a_stalled_loop_keeps_the_last_force_and_only_a_paused_one_restarts_the_model_at_the_intention():
+    model = HandModel(HandParameters(stiffness=300.0))
+    intended = np.array([0.02, 0, 0, 0, 0, 0])
+    push_back = Wrench(np.array([-1.5, 0.0, 0.0]), np.zeros(3))
+    model.step(0.0, intended, push_back)
+    for step in range(1, 2001):
+        pose = model.step(step / 1000.0, intended, push_back)
+    # Expect the hand's 300 N/m against 1.5 N: 5 mm short of the intention, also after a 0.3 s stall of the loop
+    assert pose[0] == pytest.approx(0.015, abs=1e-4)
+    assert model.step(2.3, intended, push_back)[0] == pytest.approx(0.015, abs=1e-4)
+    assert model.step(3.3, intended, push_back)[0] == 0.02  # a second without reads: the model starts afresh
 
 
 class Intention(DeviceBackend):

@@ -65,8 +65,12 @@ class GuiConfig:
     guidance_angle_hold_stiffness: float = 0.5
     guidance_damping: float = 2.0
     guidance_angular_damping: float = 0.01
+    guidance_mode_angle_width: float = 0.4
+    guidance_mode_angle_stiffness: float = 4.0
+    guidance_click_stiffness: float = 1500.0
+    guidance_angle_click_stiffness: float = 4.0
     guidance_max_force: float = 3.0
-    guidance_max_torque: float = 0.08
+    guidance_max_torque: float = 0.1
     guidance_refresh: float = 0.2
     study_start_radius: float = 0.02
 
@@ -95,6 +99,7 @@ class GuiConfig:
             "guidance_max_torque",
             "guidance_refresh",
             "study_start_radius",
+            "guidance_mode_angle_width",
         )
         for name in positive:
             value = getattr(self, name)
@@ -111,6 +116,9 @@ class GuiConfig:
             "guidance_angle_hold_stiffness",
             "guidance_damping",
             "guidance_angular_damping",
+            "guidance_mode_angle_stiffness",
+            "guidance_click_stiffness",
+            "guidance_angle_click_stiffness",
         )
         for name in non_negative:
             value = getattr(self, name)

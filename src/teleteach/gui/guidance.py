@@ -9,10 +9,14 @@ the current step does not use and puts a detent at every position the step can s
   position in roll, X and Y held; Z is held in every step, so pushing it down or pulling it up (undo, redo) is a
   deliberate act against a spring;
 - LOW-LEVEL modes X, Y, Z: everything held where it was when the mode began, except the selected axis' translation
-  and rotation; ALL: free;
+  (free) and rotation (a detent where it began, ``guidance_mode_angle_*``: the thesis (IV) found length and
+  rotation of an axis coupled, "changing the axis length unavoidably leads to slight changes in orientation"; a
+  deliberate turn breaks out of the well); ALL: free;
 - SHARED CONTROL: free (the shared controller takes the hand's motion as it comes).
 
 Held centres are the device's pose when the state began (:class:`HeldPose`), so holding never moves what was set.
+Every detent also holds the device at its centre while the gripper is closed for a click (``guidance_*click_*``): the
+finger's push on the handle must not change the selection the click confirms.
 """
 
 import dataclasses
@@ -54,11 +58,22 @@ class GuidanceDesigner:
 
     config: GuiConfig
 
-    def _detents(self, positions: Sequence[float], width: float, angular: bool = False) -> AxisGuidance:
+    def _detents(
+        self, positions: Sequence[float], width: float, angular: bool = False, stiffness: Optional[float] = None
+    ) -> AxisGuidance:
         config = self.config
-        stiffness = config.guidance_angle_detent_stiffness if angular else config.guidance_detent_stiffness
+        if stiffness is None:
+            stiffness = config.guidance_angle_detent_stiffness if angular else config.guidance_detent_stiffness
         damping = config.guidance_angular_damping if angular else config.guidance_damping
-        return AxisGuidance("detents", detents=tuple(positions), stiffness=stiffness, width=width, damping=damping)
+        click = config.guidance_angle_click_stiffness if angular else config.guidance_click_stiffness
+        return AxisGuidance(
+            "detents",
+            detents=tuple(positions),
+            stiffness=stiffness,
+            width=width,
+            damping=damping,
+            click_stiffness=click,
+        )
 
     def _hold(self, centre: float, angular: bool = False) -> AxisGuidance:
         config = self.config
@@ -111,18 +126,22 @@ class GuidanceDesigner:
         return self._guidance(x=self._hold(node_x), y=self._hold(operation_y), z=self._hold(0.0))
 
     def low_level(self, mode: str, held: Tuple[float, ...]) -> Guidance:
-        """LOW-LEVEL: in mode X, Y or Z only that axis' translation and rotation move; ALL is free."""
+        """LOW-LEVEL: in X, Y or Z that axis' translation free, its rotation in a well, the rest held; ALL free."""
         if mode == "ALL":
             return self._guidance()
         axis = "XYZ".index(mode)
-        moving = {AXES[axis], AXES[3 + axis]}
-        return self._guidance(
-            **{
-                name: self._hold(held[index], angular=index >= 3)
-                for index, name in enumerate(AXES)
-                if name not in moving
-            }
+        axes = {name: self._hold(held[index], angular=index >= 3) for index, name in enumerate(AXES)}
+        axes[AXES[axis]] = FREE
+        angle = 3 + axis
+        config = self.config
+        well = self._detents(
+            (held[angle],),
+            config.guidance_mode_angle_width,
+            angular=True,
+            stiffness=config.guidance_mode_angle_stiffness,
         )
+        axes[AXES[angle]] = well
+        return self._guidance(**axes)
 
 
 def guidance_fields(guidance: Guidance) -> dict:
@@ -133,6 +152,7 @@ def guidance_fields(guidance: Guidance) -> dict:
         "stiffness": [axis.stiffness for axis in guidance.axes],
         "detent_widths": [axis.width for axis in guidance.axes],
         "damping": [axis.damping for axis in guidance.axes],
+        "click_stiffness": [axis.click_stiffness for axis in guidance.axes],
         "gripper_click": guidance.gripper_detent is not None,
         "gripper_detent": guidance.gripper_detent or 0.0,
         "gripper_stiffness": guidance.gripper_stiffness,

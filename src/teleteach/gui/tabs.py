@@ -220,7 +220,8 @@ class HighLevelTab(QWidget):
         self.step2 = QGroupBox("Step 2: operation  (device Y, click; roll: page 2)")
         step2 = QHBoxLayout(self.step2)
         self.operation_slider = QSlider(Qt.Vertical)
-        self.operation_slider.setTickPosition(QSlider.TicksRight)
+        self.operation_slider.setTickPosition(QSlider.TicksRight)  # one tick per operation: the device's detents
+        self.operation_slider.setTickInterval(1)
         self.operation_slider.setMinimumHeight(120)
         step2.addWidget(self.operation_slider)
         labels = QVBoxLayout()
@@ -234,7 +235,8 @@ class HighLevelTab(QWidget):
         self.step3 = QGroupBox("Step 3: insert index / wrap value  (roll, click)")
         step3 = QVBoxLayout(self.step3)
         self.dial = QDial()
-        self.dial.setNotchesVisible(True)
+        self.dial.setNotchesVisible(True)  # a notch per position: the device's detents in roll
+        self.dial.setPageStep(1)
         self.dial.setWrapping(False)
         self.dial.setMinimumSize(120, 120)
         step3.addWidget(self.dial)

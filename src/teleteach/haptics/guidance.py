@@ -11,6 +11,11 @@ current device state, in the device loop (1 kHz), without ROS:
   (``d`` the distance to it, ``w`` the well's width): stiffness ``k`` at the detent, zero at the well's edge, so
   the hand clicks from one position into the next without a jump;
 - damping ``-b q_dot`` on every axis that has it;
+- while the gripper is closed for a click (below the click's ``release_threshold``), a detents axis with a
+  ``click_stiffness`` holds the device at the centre of the well it is in, that stiff (engaging over
+  ``CLICK_HOLD_BLEND``): closing the gripper with a finger pushes the hand (the "Heisenberg effect" of selecting
+  with a tracked device), and a well soft enough to glide through cannot resist that push; the hold keeps the
+  selection the click confirms;
 - force and torque saturated (their norms) at the guidance's caps and the node's own, the gripper force at its cap;
 - a new guidance blends in from the previous one over ``ramp_time``; stale guidance (no refresh for
   ``stale_after``), a dropped one (bad message, device lost) and none give exactly zero.
@@ -26,6 +31,13 @@ from teleteach.rotations import quaternion_to_rpy
 
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 MODES = ("free", "hold", "detents")
+# The Sigma.7's own continuous limits (Force Dimension's specification): no cap of the node may exceed them.
+SIGMA7_MAX_FORCE = 20.0  # [N]
+SIGMA7_MAX_TORQUE = 0.4  # [Nm]
+SIGMA7_MAX_GRIPPER_FORCE = 8.0  # [N]
+# More positions on one axis than any slider or dial offers: refused, so a message cannot slow the 1 kHz loop.
+MAX_DETENTS = 1000
+CLICK_HOLD_BLEND = 0.03  # [s] a click's hold engages over this: firm before the finger's push builds up, no step
 
 
 class GuidanceError(ValueError):
@@ -42,6 +54,7 @@ class AxisGuidance:
     stiffness: float = 0.0
     width: float = 0.0
     damping: float = 0.0
+    click_stiffness: float = 0.0  # detents: while clicking, a hold at the well's centre this stiff (0: none)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,10 +96,12 @@ def _non_negative(field: str, value: float) -> None:
 def _check_axis(name: str, axis: AxisGuidance) -> None:
     if axis.mode not in MODES:
         raise GuidanceError(f"axis {name}: unknown mode {axis.mode!r}; expected one of {', '.join(MODES)}")
-    for field in ("stiffness", "width", "damping"):
+    for field in ("stiffness", "width", "damping", "click_stiffness"):
         _non_negative(f"axis {name} {field}", getattr(axis, field))
     if not math.isfinite(axis.centre):
         raise GuidanceError(f"axis {name} centre must be finite, got {axis.centre}")
+    if len(axis.detents) > MAX_DETENTS:
+        raise GuidanceError(f"axis {name}: {len(axis.detents)} detents, more than the {MAX_DETENTS} allowed")
     if not all(math.isfinite(position) for position in axis.detents):
         raise GuidanceError(f"axis {name} detents must be finite, got {list(axis.detents)}")
     if axis.mode == "detents" and not (axis.detents and axis.width > 0.0):
@@ -117,7 +132,7 @@ class Wrench:
 
 @dataclasses.dataclass(frozen=True)
 class GuidanceLimits:
-    """The node's own bounds (``config/device.yaml`` ``guidance``), below the device's."""
+    """The node's own bounds (``config/device.yaml`` ``guidance``), never above the Sigma.7's."""
 
     max_force: float = 4.0  # [N]
     max_torque: float = 0.1  # [Nm]
@@ -130,6 +145,24 @@ class GuidanceLimits:
             value = getattr(self, field.name)
             if not (math.isfinite(value) and value > 0.0):
                 raise GuidanceError(f"guidance {field.name} must be a positive number, got {value}")
+        device_limits = {
+            "max_force": SIGMA7_MAX_FORCE,
+            "max_torque": SIGMA7_MAX_TORQUE,
+            "max_gripper_force": SIGMA7_MAX_GRIPPER_FORCE,
+        }
+        for field, limit in device_limits.items():
+            if getattr(self, field) > limit:
+                raise GuidanceError(
+                    f"guidance {field} {getattr(self, field)} is above the Sigma.7's own limit of {limit}"
+                )
+
+
+def _nearest(detents: Sequence[float], position: float) -> float:
+    return min(detents, key=lambda detent: abs(position - detent))
+
+
+def _angles(orientation: Sequence[float]) -> Tuple[float, float, float]:
+    return tuple(quaternion_to_rpy(orientation))
 
 
 def axis_force(axis: AxisGuidance, position: float, velocity: float) -> float:
@@ -138,14 +171,14 @@ def axis_force(axis: AxisGuidance, position: float, velocity: float) -> float:
     if axis.mode == "hold":
         force -= axis.stiffness * (position - axis.centre)
     elif axis.mode == "detents":
-        offset = position - min(axis.detents, key=lambda detent: abs(position - detent))
+        offset = position - _nearest(axis.detents, position)
         if abs(offset) <= axis.width / 2.0:
             force -= axis.stiffness * axis.width / (2.0 * math.pi) * math.sin(2.0 * math.pi * offset / axis.width)
     return force
 
 
 def _saturate(vector: np.ndarray, limit: float) -> np.ndarray:
-    norm = math.sqrt(float(vector @ vector))
+    norm = math.hypot(*vector)  # no overflow for huge components: they are scaled down to the cap like any other
     return vector * (limit / norm) if norm > limit else vector
 
 
@@ -187,12 +220,16 @@ class GuidanceRenderer:
     Times are wall-clock seconds (the device loop's clock), so a stopped simulation clock cannot keep a force on.
     """
 
-    def __init__(self, limits: GuidanceLimits) -> None:
+    def __init__(self, limits: GuidanceLimits, click_below: float = 0.0) -> None:
         self.limits = limits
+        self.click_below = click_below  # [rad] a gripper closed below this is clicking (the click's release threshold)
         self._guidance: Optional[Guidance] = None
         self._previous: Optional[Guidance] = None
         self._since = -math.inf  # when the current guidance was set (its ramp started)
         self._refreshed = -math.inf  # when it was last received
+        self._held: Optional[Guidance] = None  # the current guidance with its click holds, while a click lasts
+        self._held_for: Optional[Guidance] = None  # the guidance those holds were made from
+        self._held_since = -math.inf
 
     @property
     def guidance(self) -> Optional[Guidance]:
@@ -209,7 +246,7 @@ class GuidanceRenderer:
 
     def drop(self) -> None:
         """Render nothing until the next valid guidance (a bad message, the device lost, shutdown)."""
-        self._guidance = self._previous = None
+        self._guidance = self._previous = self._held = None
 
     def _active(self, now: float) -> bool:
         return self._guidance is not None and now - self._refreshed <= self.limits.stale_after
@@ -228,9 +265,36 @@ class GuidanceRenderer:
             return Wrench.zero()
         state = (position, orientation, linear_velocity, angular_velocity, gripper)
         target = render(self._guidance, self.limits, *state)
+        if gripper < self.click_below:
+            target = self._click_hold(now, position, orientation, target, state)
+        else:
+            self._held = None
         weight = min(1.0, (now - self._since) / self.limits.ramp_time)
         if weight >= 1.0:
             self._previous = None
             return target
         start = Wrench.zero() if self._previous is None else render(self._previous, self.limits, *state)
         return start.blend(target, weight)
+
+    def _click_hold(self, now: float, position, orientation, free: Wrench, state) -> Wrench:
+        """While clicking: detents axes with a click stiffness held at the centre of the well they were in.
+
+        The holds are made when the click begins (or the guidance changes during it) and blend in from the wells
+        over CLICK_HOLD_BLEND.
+        """
+        guidance = self._guidance
+        if not any(axis.mode == "detents" and axis.click_stiffness > 0.0 for axis in guidance.axes):
+            return free
+        if self._held is None or self._held_for is not guidance:
+            coordinates = (*position, *_angles(orientation))
+            axes = tuple(
+                AxisGuidance(
+                    "hold", centre=_nearest(axis.detents, q), stiffness=axis.click_stiffness, damping=axis.damping
+                )
+                if axis.mode == "detents" and axis.click_stiffness > 0.0
+                else axis
+                for axis, q in zip(guidance.axes, coordinates)
+            )
+            self._held, self._held_for, self._held_since = dataclasses.replace(guidance, axes=axes), guidance, now
+        held = render(self._held, self.limits, *state)
+        return free.blend(held, min(1.0, (now - self._held_since) / CLICK_HOLD_BLEND))

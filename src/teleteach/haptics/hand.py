@@ -1,15 +1,15 @@
 """A model of the operator's hand on the device, so that guidance can be felt by a scripted or virtual operator.
 
-Without hardware, the scenario and virtual backends give the pose the operator *intends*. With the hand model the
+Without hardware, the scenario, virtual and topic backends give the pose the operator *intends*. With the hand model the
 device's pose results from a hand spring-damper pulling the device's mass toward that intention, together with the
 guidance's force (what the device renders), plus an optional seeded tremor of the hand: physiological (8-12 Hz)
 and a slow drift (0.1-0.5 Hz), each a sum of sinusoids with the configured RMS per translation axis. Per axis::
 
     m q'' = k (target - q) - b q' + F_guidance        (target = intention + tremor + drift)
 
-integrated with semi-implicit Euler in steps of at most 1 ms; angles (roll, pitch, yaw) likewise with an inertia,
-an angular spring and damping and the guidance's torque. :class:`HandModelBackend` puts the model between any
-backend and the loop.
+integrated with semi-implicit Euler in steps of at most 1 ms (across a stalled loop's gap too, with the last force);
+angles (roll, pitch, yaw) likewise with an inertia, an angular spring and damping and the guidance's torque.
+:class:`HandModelBackend` puts the model between any backend and the loop.
 """
 
 import dataclasses
@@ -26,7 +26,10 @@ TREMOR_BAND = (8.0, 12.0)  # [Hz] physiological tremor
 DRIFT_BAND = (0.1, 0.5)  # [Hz] slow drift of a hand that means to hold still
 SINUSOIDS = 5  # per axis and band
 MAX_STEP = 0.001  # [s] integration step
-MAX_GAP = 0.05  # [s] a longer gap between two reads (a stalled loop) restarts the model at the intention
+# [s] a gap between two reads (the loop stalled on a busy machine) is integrated with the last force, as a real device
+# keeps the force last commanded; only a longer one (a paused process) restarts the model at the intention. Restarting
+# after 50 ms stalls teleported the guided device to the intention, and the guidance snapped it back.
+MAX_GAP = 0.5
 
 
 @dataclasses.dataclass(frozen=True)

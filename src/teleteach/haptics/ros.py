@@ -10,6 +10,8 @@ ROS Publishers (relative names, ``/sigma7/...`` in the root namespace):
 ROS Subscribers:
     sigma7/guidance (teleteach/HapticGuidance): what to render; a bad message is refused with its reason (logged)
         and renders nothing.
+    sigma7/input/pose (geometry_msgs/PoseStamped), sigma7/input/gripper_angle (std_msgs/Float64): the ``topic``
+        backend's input (another program's device pose and gripper angle [rad]); bad input is refused, logged.
 """
 
 import dataclasses
@@ -36,7 +38,7 @@ from teleteach.haptics.guidance import (
     Wrench,
 )
 from teleteach.haptics.hand import HandModelBackend, HandParameters
-from teleteach.haptics.loop import DeviceLoop, DeviceState, WallRate
+from teleteach.haptics.loop import DeviceLoop, DeviceState, ThrottledLog, WallRate
 from teleteach.haptics.scenario import (
     AT_END_CHOICES,
     STUDY_PHASES,
@@ -45,10 +47,11 @@ from teleteach.haptics.scenario import (
     check_clicks,
     load_scenario,
 )
+from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
 
-BACKENDS = ("dhd", "scenario", "virtual")
+BACKENDS = ("dhd", "scenario", "virtual", "topic")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,6 +69,8 @@ class Sigma7Config:
     click_duration: float = 0.2
     dhd_library: str = ""
     dhd_native_button: bool = False
+    topic_timeout: float = 0.5
+    topic_gripper: float = 0.25
     guidance: GuidanceLimits = dataclasses.field(default_factory=GuidanceLimits)
     force_rate: float = 100.0
     hand_model: Optional[HandParameters] = None  # None: no hand model (the backend's pose is the device's)
@@ -82,7 +87,9 @@ class Sigma7Config:
         if not self.max_catch_up >= 0.0:
             raise ValueError(f"~max_catch_up must be a number of seconds >= 0, got {self.max_catch_up}")
         if self.hand_model is not None and self.backend == "dhd":
-            raise ValueError("~hand/enabled models a hand for the scenario and virtual backends; a real device has one")
+            raise ValueError(
+                "~hand/enabled models a hand for the scenario, virtual and topic backends; a real device has one"
+            )
         if not 0.0 < self.force_rate <= self.rate:
             raise ValueError(f"~force_rate must be in (0, ~rate], got {self.force_rate}")
 
@@ -112,6 +119,8 @@ class Sigma7Config:
             click_duration=float(param("~virtual/click_duration", "click_duration")),
             dhd_library=param("~dhd/library", "dhd_library"),
             dhd_native_button=bool(param("~dhd/native_button", "dhd_native_button")),
+            topic_timeout=float(param("~topic/timeout", "topic_timeout")),
+            topic_gripper=float(param("~topic/gripper", "topic_gripper")),
             guidance=GuidanceLimits(
                 **{
                     field.name: float(get_param(f"~guidance/{field.name}", getattr(GuidanceLimits(), field.name)))
@@ -191,6 +200,7 @@ def guidance_from_message(message: HapticGuidance) -> Guidance:
             stiffness=message.stiffness[index],
             width=message.detent_widths[index],
             damping=message.damping[index],
+            click_stiffness=message.click_stiffness[index],
         )
         for index in range(len(AXES))
     )
@@ -240,7 +250,7 @@ class Sigma7Node:
         self._application = None
         self._window = None
         self.backend = self._make_backend()
-        self.guidance = GuidanceRenderer(config.guidance)
+        self.guidance = GuidanceRenderer(config.guidance, click_below=config.click.release_threshold)
         self.loop = DeviceLoop(
             self.backend,
             Sigma7Publisher(config.frame_id),
@@ -279,6 +289,8 @@ class Sigma7Node:
             return DhdBackend(config.dhd_library, config.dhd_native_button)
         if config.backend == "virtual":
             return self._open_virtual_window()
+        if config.backend == "topic":
+            return self._subscribe_input()
         scenario = load_scenario(config.scenario)
         check_clicks(scenario, config.click)
         start_time = self._wait_for_ros_time()
@@ -293,6 +305,33 @@ class Sigma7Node:
             backend = ScenarioBackend(scenario, start_time, config.at_end)
         self._played_timer = rospy.Timer(rospy.Duration(0.1), lambda _: self._note_played(backend))
         return backend
+
+    def _subscribe_input(self) -> TopicInput:
+        """The ``topic`` backend: the latest sigma7/input/pose and sigma7/input/gripper_angle."""
+        device = TopicInput(self.config.topic_timeout, self.config.topic_gripper)
+        refused = ThrottledLog(rospy.logwarn)
+
+        def on_pose(message: PoseStamped) -> None:
+            position, orientation = message.pose.position, message.pose.orientation
+            try:
+                device.pose(
+                    (position.x, position.y, position.z), (orientation.x, orientation.y, orientation.z, orientation.w)
+                )
+            except ValueError as error:
+                refused(f"sigma7_node: input refused: {error}")
+
+        def on_gripper(message: Float64) -> None:
+            try:
+                device.gripper(message.data)
+            except ValueError as error:
+                refused(f"sigma7_node: input refused: {error}")
+
+        self._input_subscribers = (
+            rospy.Subscriber("sigma7/input/pose", PoseStamped, on_pose, queue_size=10),
+            rospy.Subscriber("sigma7/input/gripper_angle", Float64, on_gripper, queue_size=10),
+        )
+        rospy.loginfo("sigma7_node: reading the device from sigma7/input/pose and sigma7/input/gripper_angle")
+        return device
 
     def _note_played(self, backend: ScenarioBackend) -> None:
         """Set ~scenario_played once the last keyframe has been played.
