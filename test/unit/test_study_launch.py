@@ -3,6 +3,7 @@
 import pathlib
 import subprocess
 
+import rosgraph
 import yaml
 
 from teleteach.study.parameters import parameters_file
@@ -18,8 +19,8 @@ def test_a_study_runs_the_study_node_alone_with_the_launch_s_arguments():
     study = ROOT / "config" / "studies" / "example.yaml"
     common = ("teleteach", "full.launch", f"study:={study}", "participant:=P07", "device:=dhd")
     assert roslaunch("--nodes", *common).split() == ["/study"]
-    arguments = roslaunch("--args", "study", *common, "study_resume:=true", "data_dir:=/tmp/d").split()[1:]
-    assert arguments[:-1] == [
+    command = roslaunch("--args", "study", *common, "study_resume:=true", "data_dir:=/tmp/d").split()
+    assert rosgraph.myargv(command)[1:] == [  # what the node parses: without roslaunch's remaps, name and log
         str(study),
         "--participant",
         "P07",
