@@ -6,8 +6,9 @@ import numpy as np
 
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import scale_to_index
-from teleteach.haptics.scenario import STUDY_PHASES, ScenarioTrajectory, load_scenario, parse_scenario
+from teleteach.haptics.scenario import ScenarioTrajectory, load_scenario, parse_scenario
 from teleteach.study.ordering import session_plan
+from teleteach.study.phase import PHASE_NAMES
 from teleteach.study.schema import load_study
 from teleteach.study.scripted import compose, intended_answers, pace, questionnaire_scenario
 
@@ -66,4 +67,4 @@ def test_answers_differ_between_participants_and_conditions_but_not_between_reru
     text, answers = questionnaire_scenario(STUDY, "P01", session_plan(STUDY, "P01")[4], RANGE)
     assert answers == guided
     phases = {frame.wait.study for frame in parse_scenario(text).keyframes if frame.wait}
-    assert phases == {"QUESTIONNAIRE"} and phases <= set(STUDY_PHASES)
+    assert phases == {"QUESTIONNAIRE"} and phases <= set(PHASE_NAMES)

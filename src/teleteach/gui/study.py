@@ -21,8 +21,6 @@ from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceSample, scale_to_index
 from teleteach.study.questionnaire import Item
 
-PHASES = ("PREPARING", "INSTRUCTIONS", "RUNNING", "DONE", "QUESTIONNAIRE", "FINISHED")  # teleteach/StudyState
-
 
 @dataclasses.dataclass(frozen=True)
 class StudyStatus:

@@ -27,9 +27,10 @@ from teleteach.gui.recording import StiffnessRecorder, Trajectory
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.session import Tab
 from teleteach.gui.shared_tab import SharedStatus
-from teleteach.gui.study import PHASES, StudyStatus
+from teleteach.gui.study import StudyStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
+from teleteach.study.phase import Phase, phase_name
 from teleteach.study.questionnaire import Item
 
 
@@ -58,7 +59,7 @@ def study_status(message: StudyState) -> StudyStatus:
         )
     )
     return StudyStatus(
-        phase=PHASES[message.phase] if message.phase < len(PHASES) else "PREPARING",
+        phase=phase_name(message.phase, Phase.PREPARING.name),
         study=message.study,
         participant=message.participant,
         condition_label=message.condition_label,

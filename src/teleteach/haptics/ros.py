@@ -41,7 +41,6 @@ from teleteach.haptics.hand import HandModelBackend, HandParameters
 from teleteach.haptics.loop import DeviceLoop, DeviceState, ThrottledLog, WallRate
 from teleteach.haptics.scenario import (
     AT_END_CHOICES,
-    STUDY_PHASES,
     ScenarioBackend,
     SystemState,
     check_clicks,
@@ -50,6 +49,7 @@ from teleteach.haptics.scenario import (
 from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
+from teleteach.study.phase import phase_name
 
 BACKENDS = ("dhd", "scenario", "virtual", "topic")
 
@@ -445,7 +445,7 @@ class RosSystemView:
 
 
 def _study_phase(message: StudyState) -> str:
-    return STUDY_PHASES[message.phase] if message.phase < len(STUDY_PHASES) else str(message.phase)
+    return phase_name(message.phase, str(message.phase))
 
 
 def _running_nodes(message: BehaviourTree) -> frozenset:

@@ -34,13 +34,13 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from teleteach.haptics.click import ClickDetector, ClickParameters, flick_gripper_angle
 from teleteach.haptics.device import DeviceBackend, DeviceSample
+from teleteach.study.phase import PHASE_NAMES
 
 INTERPOLATIONS = ("linear", "smooth")
 AT_END_CHOICES = ("hold", "exit")
 DEFAULT_CLICK_DURATION = 0.2  # [s]
 DEFAULT_WAIT_TIMEOUT = 30.0  # [s] of ROS time
 TABS = ("START", "HIGH_LEVEL", "LOW_LEVEL", "SHARED_CONTROL")  # /teleteach/active_tab 0..3
-STUDY_PHASES = ("PREPARING", "INSTRUCTIONS", "RUNNING", "DONE", "QUESTIONNAIRE", "FINISHED")  # teleteach/StudyState
 _TOP_LEVEL_FIELDS = ("description", "interpolation", "click_duration", "keyframes")
 _KEYFRAME_FIELDS = ("t", "position", "rpy", "gripper", "click", "wait", "timeout")
 _WAIT_FIELDS = ("tab", "tree_running", "recording", "help_request", "study")
@@ -60,7 +60,7 @@ class Wait:
     recording: Optional[bool] = None
     help_request: Optional[bool] = None  # whether a help request must be open
     timeout: float = DEFAULT_WAIT_TIMEOUT  # [s]
-    study: Optional[str] = None  # a user study's phase (STUDY_PHASES) on study/state
+    study: Optional[str] = None  # a user study's phase (PHASE_NAMES) on study/state
 
 
 @dataclasses.dataclass(frozen=True)
@@ -490,8 +490,8 @@ def _parse_wait(raw: Dict[str, Any], field_where: Callable[[str], str]) -> Wait:
         if key in conditions and not isinstance(conditions[key], bool):
             raise ScenarioError(f"{field_where('wait')}: {key} must be true or false, got {conditions[key]!r}")
     study = conditions.get("study")
-    if study is not None and study not in STUDY_PHASES:
-        raise ScenarioError(f"{field_where('wait')}: study must be one of {', '.join(STUDY_PHASES)}, got {study!r}")
+    if study is not None and study not in PHASE_NAMES:
+        raise ScenarioError(f"{field_where('wait')}: study must be one of {', '.join(PHASE_NAMES)}, got {study!r}")
     timeout = raw.get("timeout", DEFAULT_WAIT_TIMEOUT)
     if not _is_number(timeout) or not math.isfinite(timeout) or timeout <= 0.0:
         raise ScenarioError(f"{field_where('timeout')}: must be a positive number of seconds, got {timeout!r}")

@@ -8,25 +8,14 @@ that do not fit the items, are refused with the reason and change nothing.
 """
 
 import dataclasses
-import enum
 import threading
 from typing import Dict, Optional, Sequence, Tuple
 
 from teleteach.study.goals import Judgement
 from teleteach.study.ordering import Step
+from teleteach.study.phase import Phase
 from teleteach.study.questionnaire import AnswerError, Item, check_answers
 from teleteach.study.schema import Study
-
-
-class Phase(enum.IntEnum):
-    """teleteach/StudyState's phases."""
-
-    PREPARING = 0
-    INSTRUCTIONS = 1
-    RUNNING = 2
-    DONE = 3
-    QUESTIONNAIRE = 4
-    FINISHED = 5
 
 
 @dataclasses.dataclass(frozen=True)
