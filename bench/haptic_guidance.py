@@ -842,7 +842,8 @@ def plot(report: dict, path: pathlib.Path) -> None:
         axis.set_xticklabels([f"tremor {t}" for t in tremors])
         axis.set_title(title, fontsize=10)
         axis.grid(axis="y", alpha=0.3)
-    axes[0].legend(fontsize=8, loc="upper center")
+        axis.margins(y=0.12)  # room for the bar labels
+    figure.legend(*axes[0].get_legend_handles_labels(), loc="upper right", fontsize=8, ncol=2)
     figure.suptitle(f"haptic guidance, {report['trials_per_task']} trials per task, tremor level and condition")
     figure.tight_layout()
     figure.savefig(path, dpi=110)
