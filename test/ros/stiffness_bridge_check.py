@@ -20,12 +20,13 @@ class Bridge:
     def __init__(self):
         self.lock = threading.Condition()
         self.received, self.logs = [], []
-        rospy.Subscriber("/stiffness", Float32MultiArray, self._on_stiffness)
-        rospy.Subscriber("/rosout", Log, self._on_log)
+        stiffness = rospy.Subscriber("/stiffness", Float32MultiArray, self._on_stiffness)
+        rosout = rospy.Subscriber("/rosout", Log, self._on_log)
         self.eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=10)
         self.eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=10)
-        for publisher in (self.eigenvalues, self.eigenvectors):
-            while publisher.get_num_connections() == 0 and not rospy.is_shutdown():
+        # both directions connected first: a /stiffness sent before this node hears the bridge would be lost
+        for endpoint in (self.eigenvalues, self.eigenvectors, stiffness, rosout):
+            while endpoint.get_num_connections() == 0 and not rospy.is_shutdown():
                 rospy.sleep(0.05)
 
     def _on_stiffness(self, msg):
