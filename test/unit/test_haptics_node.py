@@ -31,6 +31,11 @@ def params(**values):
     return lambda name, default: values.get(name.lstrip("~").replace("/", "_"), default)
 
 
+def echo_once(topic, env):
+    """One message of topic as ``rostopic echo`` prints it (the CompletedProcess: stdout, and stderr to show)."""
+    return subprocess.run(["rostopic", "echo", "-n", "1", topic], env=env, capture_output=True, text=True, timeout=60)
+
+
 def test_config_reads_every_param():
     config = Sigma7Config.from_params(
         params(
@@ -235,13 +240,7 @@ def test_virtual_backend_publishes_from_its_window(roscore):
         text=True,
     )
     try:
-        echo = subprocess.run(
-            ["rostopic", "echo", "-n", "1", "/sigma7/gripper_angle"],
-            env=roscore,
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
+        echo = echo_once("/sigma7/gripper_angle", roscore)
         assert "data: 0.25" in echo.stdout, echo.stdout + echo.stderr
     finally:
         process.send_signal(signal.SIGINT)
@@ -279,9 +278,7 @@ def test_node_publishes_what_the_dhd_library_reports(roscore, fake_dhd):
         text=True,
     )
     try:
-        echo = subprocess.run(
-            ["rostopic", "echo", "-n", "1", "/sigma7/pose"], env=env, capture_output=True, text=True, timeout=60
-        )
+        echo = echo_once("/sigma7/pose", env)
         assert "x: 0.01\n    y: 0.02\n    z: 0.03" in echo.stdout, echo.stdout + echo.stderr
         assert "z: 0.247403959" in echo.stdout  # sin(0.25): the 0.5 rad yaw of the fake device
     finally:
@@ -377,17 +374,9 @@ def test_the_topic_backend_publishes_another_program_s_input_and_refuses_bad_inp
         publish("/sigma7/input/gripper_angle", "std_msgs/Float64", "{data: -1.0}"),
     ]
     try:
-        echo = subprocess.run(
-            ["rostopic", "echo", "-n", "1", "/sigma7/pose"], env=roscore, capture_output=True, text=True, timeout=60
-        )
+        echo = echo_once("/sigma7/pose", roscore)
         assert "x: 0.03\n    y: 0.0\n    z: 0.0" in echo.stdout, echo.stdout + echo.stderr
-        echo = subprocess.run(
-            ["rostopic", "echo", "-n", "1", "/sigma7/gripper_angle"],
-            env=roscore,
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
+        echo = echo_once("/sigma7/gripper_angle", roscore)
         # Expect the configured resting angle: the negative input angle was refused
         assert "data: 0.25" in echo.stdout, echo.stdout + echo.stderr
     finally:
