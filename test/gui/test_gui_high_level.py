@@ -352,3 +352,47 @@ def test_guidance_switched_off_renders_nothing(qapp, bt_node, device, make_windo
     since = time.monotonic()
     pump_until(qapp, lambda: guidance_log.since(since), 2, "a guidance from this window")
     assert all(list(message.modes) == ["free"] * 6 for message in guidance_log.since(since))
+
+
+def test_every_button_fits_the_visible_width_at_any_window_size(qapp, artifacts_dir):
+    from PyQt5.QtCore import QPoint
+
+    from teleteach.gui.config import GuiConfig
+    from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
+    from teleteach.gui.tabs import HighLevelTab
+
+    leaves = ["LookToShelf", "PickItem", "MoveBase", "DropItem", "MoveBaseToStart", "LookToShelfAgain", "Idle"]
+    nodes = [
+        TreeNode("Root", "PausableSelector", "r", "", ("p", "b"), 3, 2),
+        TreeNode("PauseCondition", "PauseCondition", "p", "r", (), 1, 4),
+        TreeNode("BehaviorExecution", "EditableSequence", "b", "r", tuple(f"l{i}" for i in range(len(leaves))), 2, 2),
+    ]
+    nodes += [TreeNode(name, name, f"l{i}", "b", (), 1, 1) for i, name in enumerate(leaves)]
+    library = [LibrarySkill(name, "builtin", "") for name in [*leaves, "ProductInGap", "DemonstratedPlace_1"]]
+    tab = HighLevelTab(GuiConfig.load())
+    tab.on_tree(TreeSnapshot(nodes))
+    tab.on_library(library)
+    tab.show()
+    viewport = tab.button_scroll.viewport()
+
+    def cut_off():
+        """The buttons that reach past the visible width, or are narrower than their label needs."""
+        qapp.processEvents()
+        return [
+            button.text()
+            for button in tab.buttons
+            if button.mapTo(viewport, QPoint(button.width(), 0)).x() > viewport.width()
+            or button.width() < button.sizeHint().width()
+        ]
+
+    rows = {}
+    for width in (2400, 1400, 1180, 800):  # 1180: the main window's default width
+        tab.resize(width, 700)
+        tab.flow.node_index = len(tab.buttons) - 1  # the selected style is the widest: the last, longest name
+        tab.refresh()
+        assert cut_off() == [], f"with the tab {width} px wide"
+        rows[width] = len({button.y() for button in tab.buttons[1:8]})  # BehaviorExecution's seven buttons
+        tab.grab().save(str(artifacts_dir / f"gui_high_level_{width}px.png"))
+    # Expect six buttons a row when there is room, and more rows as the window narrows
+    assert rows[2400] == 2 and rows[1180] > rows[1400] >= rows[2400] and rows[800] >= rows[1180], rows
+    tab.close()

@@ -8,7 +8,7 @@ import math
 import time
 from typing import Callable, List, Optional, Sequence, Set, Tuple
 
-from PyQt5.QtCore import Qt, QTimer, pyqtSignal
+from PyQt5.QtCore import QEvent, QObject, QSize, Qt, QTimer, pyqtSignal
 from PyQt5.QtGui import QBrush, QColor, QFont
 from PyQt5.QtWidgets import (
     QDial,
@@ -55,6 +55,19 @@ _GROUP = "QGroupBox#step {{ border: {}; border-radius: 4px; margin-top: 1.3em; }
 _TITLE = "QGroupBox#step::title {{ subcontrol-origin: margin; left: 8px; {} }}"
 ACTIVE_STEP_STYLE = _GROUP.format("3px solid #2e7d32") + _TITLE.format("color: #1b5e20; font-weight: bold;")
 STEP_STYLE = _GROUP.format("1px solid #bbb") + _TITLE.format("")
+MAX_COLUMNS = 6  # buttons per row when the window is wide enough
+
+
+def _button_size(names: Sequence[str]) -> QSize:
+    """The size a node button needs for the longest of ``names`` in the selected (bold, bordered) style."""
+    probe = QPushButton()
+    probe.setStyleSheet(SELECTED_STYLE)
+    size = QSize(0, 0)
+    for name in names:
+        probe.setText(name)
+        size = size.expandedTo(probe.sizeHint())
+    probe.deleteLater()
+    return size
 
 
 def _big(label: QLabel, points: int, bold: bool = True) -> QLabel:
@@ -191,6 +204,8 @@ class HighLevelTab(QWidget):
         self.repair_tooltip = ""
         self._layout_signature: Optional[tuple] = None
         self.buttons: List[QPushButton] = []
+        self._groups: List[Tuple[QGridLayout, List[QPushButton]]] = []
+        self._columns = 0
 
         splitter = QSplitter(Qt.Horizontal)
         left = QWidget()
@@ -202,9 +217,10 @@ class HighLevelTab(QWidget):
         self.button_area.setContentsMargins(0, 0, 0, 0)
         self.button_scroll = QScrollArea()  # a long banner or a big tree: scroll, never squeeze the buttons
         self.button_scroll.setWidgetResizable(True)
-        self.button_scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)  # the groups wrap at six buttons
+        self.button_scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)  # the groups wrap to its width
         self.button_scroll.setFrameShape(QFrame.NoFrame)
         self.button_scroll.setWidget(buttons)
+        self.button_scroll.viewport().installEventFilter(self)  # a resized window or splitter: wrap again
         step1.addWidget(self.button_scroll)
         self.node_slider = QSlider(Qt.Horizontal)
         self.node_slider.setTickPosition(QSlider.TicksBelow)  # one tick per button: where the device's detents are
@@ -322,28 +338,33 @@ class HighLevelTab(QWidget):
             old.deleteLater()
         self.buttons = []
         self.unavailable = set()
+        self._groups = []
         names: List[str] = []
+        size = _button_size([name for _, entries in groups for name in entries] + library)
         for title, entries in [*groups, ("Skill library", library)]:
             if not entries:
                 continue
             box = QGroupBox(title)
             grid = QGridLayout(box)
             grid.setSpacing(3)
-            for position, name in enumerate(entries):
+            self._groups.append((grid, []))
+            for name in entries:
                 button = QPushButton(name)
+                button.setMinimumSize(size)  # aligned columns, labels readable however long the banner grows
                 button.setFocusPolicy(Qt.NoFocus)
-                button.setMinimumHeight(26)  # readable however long the help banner above grows
                 if name == REPAIR_CHOICE:
                     button.setToolTip(self.repair_tooltip)
                 if title == "Skill library" and name in problems:
                     button.setEnabled(False)  # greyed: /change_tree refuses it (its file is missing or bad)
                     button.setToolTip(f"unavailable: {problems[name]}")
                     self.unavailable.add(len(self.buttons))
-                grid.addWidget(button, position // 6, position % 6)
+                self._groups[-1][1].append(button)
                 self.buttons.append(button)
                 names.append(name)
             self.button_area.addWidget(box)
         self.button_area.addStretch(1)  # the groups keep their height; the room left stays below them
+        self._columns = 0
+        self._wrap()
         sizes = {}
         if self.tree is not None:
             root = self.tree.root
@@ -356,6 +377,32 @@ class HighLevelTab(QWidget):
         self.node_slider.setRange(0, max(0, len(names) - 1))
         self.dial.setRange(0, self.flow.insert_slots - 1)
         self.refresh()
+
+    def _wrap(self) -> None:
+        """Lay each group's buttons in as many columns (at most six) as fit the visible width: none is cut off."""
+        if not self._groups:
+            return
+        first = self._groups[0][0]
+        box = first.parentWidget()
+        margins = first.contentsMargins().left() + first.contentsMargins().right()
+        margins += box.contentsMargins().left() + box.contentsMargins().right()
+        room = self.button_scroll.viewport().width() - margins
+        step = self.buttons[0].minimumWidth() + first.spacing()
+        columns = max(1, min(MAX_COLUMNS, (room + first.spacing()) // step))
+        if columns == self._columns:
+            return
+        self._columns = columns
+        for grid, buttons in self._groups:
+            for button in buttons:
+                grid.removeWidget(button)
+            for position, button in enumerate(buttons):
+                grid.addWidget(button, position // columns, position % columns)
+
+    def eventFilter(self, watched: QObject, event: QEvent) -> bool:  # noqa: N802 (Qt API)
+        """Wrap the buttons again when their visible width changes (window or splitter resized)."""
+        if event.type() == QEvent.Resize and watched is self.button_scroll.viewport():
+            self._wrap()
+        return False
 
     # device -------------------------------------------------------------------------------------
     def on_device(self, sample: DeviceSample) -> None:
