@@ -94,6 +94,9 @@ class Intention(DeviceBackend):
     def read(self, time):
         return DeviceSample(np.array([self.x, 0.0, 0.0]), np.array([0.0, 0.0, 0.0, 1.0]), 0.3, button=True)
 
+    def missed_gripper(self):
+        return [(0.5, 0.0)]
+
     def close(self):
         self.closed = True
 
@@ -110,6 +113,7 @@ def test_the_backend_wrapper_moves_the_pose_and_passes_the_rest_through():
     # Expect the 3 N push balanced by the hand: 0.02 - 3 / 300 = 0.01 m; gripper and button as the inner ones
     assert sample.position[0] == pytest.approx(0.01, abs=1e-4)
     assert (sample.gripper, sample.button) == (0.3, True)
+    assert backend.missed_gripper() == [(0.5, 0.0)]  # a stall's flick, for the click detector's catch-up
     assert math.isclose(np.linalg.norm(sample.orientation), 1.0)
     assert backend.failure == "waited too long"
     backend.close()

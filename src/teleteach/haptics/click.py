@@ -8,7 +8,7 @@ virtual backends to script a click), so the two always agree.
 import dataclasses
 import enum
 import math
-from typing import Optional
+from typing import Iterable, Optional, Tuple
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,10 +68,29 @@ class ClickDetector:
         self._phase = _Phase.DISARMED
         self._closed_since = 0.0
         self._pressed_until = -math.inf
+        self._queued = 0  # clicks found by catch_up beyond the first: each pressed after the one before
+
+    def catch_up(self, samples: Iterable[Tuple[float, float]], now: float) -> None:
+        """Feeds the (time [s], gripper angle [rad]) samples a stalled loop did not read: a stall delays a click.
+
+        Only a scripted backend knows them; without them, a stall can swallow a click or stretch it into a grip.
+        Clicks found among them are pressed from ``now``, one ``pulse_duration`` pulse each with as long a release
+        between them (a double click stays two clicks, closer together than the GUI's double-click window).
+        """
+        before = self.clicks
+        for time, angle in samples:
+            self.update(time, angle)
+        found = self.clicks - before
+        if found:
+            self._pressed_until = now + self.parameters.pulse_duration
+            self._queued += found - 1
 
     def update(self, time: float, gripper_angle: float) -> bool:
         """Feeds one gripper angle [rad] taken at ``time`` [s]; returns the button state."""
         parameters = self.parameters
+        if self._queued and time >= self._pressed_until + parameters.pulse_duration:
+            self._queued -= 1
+            self._pressed_until = time + parameters.pulse_duration
         if self._phase is _Phase.DISARMED:
             if gripper_angle > parameters.release_threshold:
                 self._phase = _Phase.OPEN

@@ -8,7 +8,7 @@ wrench (``render``). Click emulation, twist estimation, guidance, rate keeping a
 
 import abc
 import dataclasses
-from typing import Optional
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -57,6 +57,13 @@ class DeviceBackend(abc.ABC):
         Raises:
             DeviceReadError: this read failed (the next one may succeed).
         """
+
+    def missed_gripper(self) -> Sequence[Tuple[float, float]]:
+        """(time [s], gripper angle [rad]) samples between the last two reads that a stalled loop did not take.
+
+        Only a backend that knows its past can tell (a scripted scenario); a real device cannot, and gives none.
+        """
+        return ()
 
     def render(self, wrench: Wrench) -> None:  # noqa: B027 (optional hook: only force-feedback devices render)
         """Renders a force on the operator's hand; backends without force feedback ignore it.

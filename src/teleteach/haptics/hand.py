@@ -14,7 +14,7 @@ angles (roll, pitch, yaw) likewise with an inertia, an angular spring and dampin
 
 import dataclasses
 import math
-from typing import Optional
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -131,6 +131,10 @@ class HandModelBackend(DeviceBackend):
             time, np.concatenate([intended.position, quaternion_to_rpy(intended.orientation)]), self._wrench
         )
         return dataclasses.replace(intended, position=pose[:3], orientation=np.asarray(rpy_to_quaternion(*pose[3:])))
+
+    def missed_gripper(self) -> Sequence[Tuple[float, float]]:
+        """The inner backend's: the hand moves the device, not the gripper."""
+        return self.inner.missed_gripper()
 
     def render(self, wrench: Wrench) -> None:
         """The guidance force acts on the modelled device."""

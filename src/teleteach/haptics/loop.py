@@ -169,7 +169,10 @@ class DeviceLoop:
         if self._failing_since is not None:
             self._log_info(f"device reads recovered after {self.failed_reads - self._failing_since + 1} failures")
             self._failing_since = None
-        button = sample.button if sample.button is not None else self._clicks.update(stamp, sample.gripper)
+        button = sample.button
+        if button is None:
+            self._clicks.catch_up(self.backend.missed_gripper(), stamp)
+            button = self._clicks.update(stamp, sample.gripper)
         linear, angular = self._twist.update(stamp, sample.position, sample.orientation)
         self._publish(
             DeviceState(stamp, sample.position, sample.orientation, linear, angular, float(sample.gripper), button)

@@ -272,11 +272,7 @@ class ScenarioTrajectory:
 
     def gripper(self, time: float) -> float:
         """[rad] gripper angle at ``time`` [s] of the scenario, scripted flicks included."""
-        return self._with_flick(time, self.resting_gripper(time))
-
-    def resting_gripper(self, time: float) -> float:
-        """[rad] gripper angle at ``time`` [s] of the scenario without the scripted flicks."""
-        return float(self._values(self._clamped(time))[3])
+        return self._with_flick(time, float(self._values(self._clamped(time))[3]))
 
     def _with_flick(self, time: float, base: float) -> float:
         index = int(np.searchsorted(self._click_times, time, side="right")) - 1
@@ -305,14 +301,11 @@ class ScenarioBackend(DeviceBackend):
     :attr:`finished`. After the last keyframe the device holds its last state; with ``at_end="exit"`` the backend
     then reports :attr:`finished`.
 
-    A stall of the reading loop must not swallow a click: when a read jumps over more than
-    ``late_click_fraction`` of a scripted flick, from before the flick or from its first ``late_click_fraction``
-    (before the gripper has closed), the whole flick is played from that read on instead (late, as an operator would
-    click after a freeze), while the motion goes on as scripted. A stall later in the flick, once the gripper has
-    closed, leaves the flick to the click detector.
+    A stall of the reading loop must not swallow a click: the flick a read jumped over (all of it or a part, before
+    or after the gripper closed) is given by :meth:`missed_gripper`, which the loop's click detector catches up on.
     """
 
-    late_click_fraction = 0.25
+    flick_samples = 20  # per scripted flick, for the catch-up after a stall
 
     def __init__(
         self,
@@ -330,11 +323,8 @@ class ScenarioBackend(DeviceBackend):
         self._system = system
         self._waits = [(index, keyframe) for index, keyframe in enumerate(scenario.keyframes) if keyframe.wait]
         self._next_wait = 0
-        self._clicks = scenario.click_times()
-        self._next_click = 0
-        self._flick: Optional[float] = None  # start of the latest scripted flick reached
-        self._replayed: Optional[float] = None  # start of the latest flick played late
-        self._late_click_at: Optional[float] = None  # reading time from which a skipped flick plays
+        self._clicks = np.array(scenario.click_times())
+        self._missed: List[Tuple[float, float]] = []
         self._held = 0.0
         self._waiting_since: Optional[float] = None
         self._elapsed = 0.0
@@ -363,30 +353,28 @@ class ScenarioBackend(DeviceBackend):
                     f"{keyframe.wait.timeout:g} s for {'; '.join(missing)}"
                 )
             break
-        self._note_skipped_click(time, elapsed)
+        self._missed = self._flicks_between(self._elapsed, elapsed, time)
         self._elapsed = elapsed
-        sample = self._trajectory.sample(elapsed)
-        if self._late_click_at is not None:
-            since = time - self._late_click_at
-            duration = self._scenario.click_duration
-            if since <= duration:
-                resting = self._trajectory.resting_gripper(elapsed)
-                return dataclasses.replace(sample, gripper=flick_gripper_angle(resting, since, duration))
-            self._late_click_at = None
-        return sample
+        return self._trajectory.sample(elapsed)
 
-    def _note_skipped_click(self, time: float, elapsed: float) -> None:
-        """Start a late flick when this read jumped over a good part of a scripted one before its gripper closed."""
-        while self._next_click < len(self._clicks) and self._clicks[self._next_click] <= elapsed:
-            self._flick = self._clicks[self._next_click]
-            self._next_click += 1
-        start = self._flick
-        if start is None or start == self._replayed:
-            return
-        window = self.late_click_fraction * self._scenario.click_duration
-        previous = self._elapsed
-        if previous < start + window and elapsed - max(previous, start) > window:
-            self._late_click_at, self._replayed = time, start
+    def missed_gripper(self) -> List[Tuple[float, float]]:
+        """The scripted flicks' gripper angles between the last two reads, at the loop's times.
+
+        None without a stall: reads closer than a flick's sampling step miss nothing.
+        """
+        return self._missed
+
+    def _flicks_between(self, previous: float, elapsed: float, time: float) -> List[Tuple[float, float]]:
+        duration = self._scenario.click_duration
+        step = duration / self.flick_samples
+        if elapsed - previous <= step:
+            return []
+        missed = []
+        for start in self._clicks[(self._clicks + duration > previous) & (self._clicks < elapsed)]:
+            for moment in np.linspace(start, start + duration, self.flick_samples + 1):
+                if previous < moment < elapsed:
+                    missed.append((time - (elapsed - moment), self._trajectory.gripper(moment)))
+        return missed
 
     @property
     def played(self) -> bool:
