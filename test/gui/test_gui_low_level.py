@@ -141,7 +141,10 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
     scenario = data_root / "hold.yaml"
     keyframe = f"position: {list(position)}, rpy: [0.0, 0.0, 0.0], gripper: 0.25"
     scenario.write_text(f"keyframes:\n  - {{t: 0.0, {keyframe}}}\n  - {{t: 1.0, {keyframe}}}\n")
-    command = [str(ROOT / "nodes" / "sigma7_node"), "_backend:=scenario", f"_scenario:={scenario}", "_rate:=200"]
+    # a name of its own: private parameters another test's device.launch left on the master (the guided hand's
+    # hand/enabled and tremor) would make this held device tremble
+    name = "__name:=sigma7_killed_in_low_level"
+    command = [str(ROOT / "nodes" / "sigma7_node"), name, "_backend:=scenario", f"_scenario:={scenario}", "_rate:=200"]
 
     def start_device(name):
         process = start(command, data_root.parent / f"{name}.log")
@@ -151,16 +154,18 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
     values_log = topic_log("/eigenvalues", Vector3Stamped)
     window = make_window(initial_tab=Tab.LOW_LEVEL, service_timeout=1.0)
     pump_until(qapp, lambda: window.low_level.device_lost_label.isVisible(), 5, "no device yet")
-    device = start_device("first")
     stiffness = expected_stiffness(position)
 
     def holds(message):
         v = message.vector
         return np.allclose([v.x, v.y, v.z], stiffness, rtol=0.01)
 
-    pump_until(qapp, lambda: values_log.last() is not None and holds(values_log.last()), 10, f"stiffness {stiffness}")
-    os.killpg(device.pid, signal.SIGKILL)
-    device.wait(5)
+    device = start_device("first")
+    try:
+        pump_until(qapp, lambda: values_log.last() is not None and holds(values_log.last()), 10, f"{stiffness} N/m")
+    finally:
+        os.killpg(device.pid, signal.SIGKILL)
+        device.wait(5)
     killed = time.monotonic()
     # Expect the LOW-LEVEL tab to say so within about a second (the deadline is generous for a loaded machine)
     pump_until(qapp, lambda: window.low_level.device_lost_label.isVisible(), 5, "DEVICE LOST on screen")
