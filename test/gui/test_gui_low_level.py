@@ -143,12 +143,16 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
     scenario.write_text(f"keyframes:\n  - {{t: 0.0, {keyframe}}}\n  - {{t: 1.0, {keyframe}}}\n")
     # a name of its own: private parameters another test's device.launch left on the master (the guided hand's
     # hand/enabled and tremor) would make this held device tremble
-    name = "__name:=sigma7_killed_in_low_level"
-    command = [str(ROOT / "nodes" / "sigma7_node"), name, "_backend:=scenario", f"_scenario:={scenario}", "_rate:=200"]
+    node = "__name:=sigma7_killed_in_low_level"
+    command = [str(ROOT / "nodes" / "sigma7_node"), node, "_backend:=scenario", f"_scenario:={scenario}", "_rate:=200"]
 
     def start_device(name):
         process = start(command, data_root.parent / f"{name}.log")
-        pump_until(qapp, lambda: not window.low_level.device_lost_label.isVisible(), 30, f"the {name} device")
+        try:
+            pump_until(qapp, lambda: not window.low_level.device_lost_label.isVisible(), 30, f"the {name} device")
+        except AssertionError:
+            stop(process)  # a device that outlived this test would move the next tests' device
+            raise
         return process
 
     values_log = topic_log("/eigenvalues", Vector3Stamped)
