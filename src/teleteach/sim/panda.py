@@ -20,13 +20,15 @@ LOWER_LIMITS = np.array([-2.9671, -1.8326, -2.9671, -3.1416, -2.9671, -0.0873, -
 UPPER_LIMITS = np.array([2.9671, 1.8326, 2.9671, 0.0, 2.9671, 3.8223, 2.9671])  # [rad]
 EFFORT_LIMITS = np.array([87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0])  # [Nm]
 MAX_FINGER_WIDTH = 0.08  # [m] both fingers together
+FINGER_COUPLING_FORCE = 100.0  # [N] the gear between the fingers holds against up to this
 
 
 def load_panda(client, base_position, base_orientation):
     """Load the Panda (fixed base at panda_link0's pose) and make its arm torque-controllable.
 
     The default velocity motors are switched off (a controller must hold the arm), link damping is removed so the
-    impedance law alone shapes the dynamics.
+    impedance law alone shapes the dynamics. The fingers are geared to each other, as the Franka Hand's single drive
+    moves both symmetrically (pybullet ignores the URDF's mimic joint): a grasp centres the product between them.
     """
     robot = pybullet.loadURDF(
         str(PANDA_URDF),
@@ -40,4 +42,16 @@ def load_panda(client, base_position, base_orientation):
     pybullet.setJointMotorControlArray(
         robot, ARM_INDICES, pybullet.VELOCITY_CONTROL, forces=[0.0] * 7, physicsClientId=client
     )
+    coupling = pybullet.createConstraint(
+        robot,
+        FINGER_INDICES[0],
+        robot,
+        FINGER_INDICES[1],
+        pybullet.JOINT_GEAR,
+        [1.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0],
+        physicsClientId=client,
+    )
+    pybullet.changeConstraint(coupling, gearRatio=-1.0, erp=0.1, maxForce=FINGER_COUPLING_FORCE, physicsClientId=client)
     return robot

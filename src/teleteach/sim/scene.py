@@ -14,6 +14,7 @@ from typing import Dict, Iterable, List, Optional, Tuple
 import numpy as np
 import yaml
 
+from teleteach.frames import Transform
 from teleteach.paths import config_file
 from teleteach.rotations import yaw_quaternion
 
@@ -26,17 +27,18 @@ class SceneError(ValueError):
 
 @dataclass(frozen=True)
 class Box:
-    """A static box: centre [m] and full edge lengths [m] in world."""
+    """A static box: centre [m], full edge lengths [m] and yaw about the vertical [rad] in world."""
 
     name: str
     center: Tuple[float, float, float]
     size: Tuple[float, float, float]
     friction: float
+    yaw: float = 0.0
 
 
 @dataclass(frozen=True)
 class Product:
-    """A product: an upright box that physics moves."""
+    """A product: an upright box that physics moves, its vertical edges rounded with corner_radius [m]."""
 
     name: str
     position: Tuple[float, float, float]
@@ -44,6 +46,7 @@ class Product:
     size: Tuple[float, float, float]
     mass: float
     friction: float
+    corner_radius: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -68,6 +71,11 @@ class Gap:
     yaw: float
     width: float
     tolerance: float
+
+    @property
+    def frame(self) -> Transform:
+        """world <- the gap's frame: origin where the placed product's centre belongs, x into the shelf, z up."""
+        return Transform.from_planar(self.position[0], self.position[1], self.yaw, self.position[2])
 
     def distance(self, position) -> Tuple[float, float]:
         """Horizontal [m] and vertical [m] distance of a product centre at ``position`` from the target."""
@@ -225,9 +233,15 @@ def _parse_objects(data):
             size=_triple(item.get("size", defaults["size"])),
             mass=float(item.get("mass", defaults["mass"])),
             friction=float(item.get("friction", defaults["friction"])),
+            corner_radius=float(item.get("corner_radius", defaults.get("corner_radius", 0.0))),
         )
         for item in data["products"]
     ]
+    for product in products:
+        if not 0.0 <= product.corner_radius < min(product.size[:2]) / 2.0:
+            raise ValueError(f"{product.name}: corner_radius {product.corner_radius} m must be in [0, half its width)")
+        if product.mass <= 0.0 or product.friction < 0.0:
+            raise ValueError(f"{product.name}: mass must be > 0 kg and friction >= 0")
     table = data["pick_table"]
     gaps = {
         str(name): Gap(
@@ -250,7 +264,13 @@ def _parse(data):
         base_poses=site.base_poses,
         floor_friction=float(data["floor"]["friction"]),
         shelf=[
-            Box(str(part["name"]), _triple(part["center"]), _triple(part["size"]), shelf_friction)
+            Box(
+                str(part["name"]),
+                _triple(part["center"]),
+                _triple(part["size"]),
+                shelf_friction,
+                float(part.get("yaw", 0.0)),
+            )
             for part in data["shelf"]["parts"]
         ],
         pick_table=objects.pick_table,

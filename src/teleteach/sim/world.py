@@ -1,9 +1,12 @@
 """The pybullet world: the supermarket scene, and the Panda on a kinematic mobile base.
 
 Physics runs at 1 kHz. The arm takes either joint torques or joint position targets (pybullet's motors); the
-fingers are position-controlled; the base is moved kinematically toward a goal at a capped speed. A grasp assist
-fixes a product to the hand while both fingers squeeze it (the pybullet counterpart of Gazebo's grasp fix plugin
-that Gazebo pick-and-place setups use), so products do not slip out while the base drives.
+fingers are position-controlled and coupled like the Franka Hand's (one drive, both fingers symmetric); the base is
+moved kinematically toward a goal at a capped speed. A product is held by the fingers through contact and friction
+alone, with the force of the grasp command: pushed hard enough it slips or turns in the hand (the finger pads' friction
+is in config/controllers.yaml). Only the base's kinematic drive needs help: it moves the arm by resetting its pose, which
+friction cannot follow, so whatever both fingers touch is carried by the same rigid motion (a real base accelerates at
+under 1 m/s^2, far less than a grip that holds the product's weight).
 """
 
 import math
@@ -21,8 +24,30 @@ BASE_LINK_COLOUR = (0.25, 0.25, 0.3, 1.0)
 SHELF_COLOUR = (0.55, 0.4, 0.25, 1.0)
 TABLE_COLOUR = (0.5, 0.5, 0.5, 1.0)
 PRODUCT_COLOUR = (0.8, 0.2, 0.2, 1.0)
+CORNER_SEGMENTS = 4  # straight pieces per rounded corner of a product's outline
+HULL_MARGIN = 0.001  # [m] pybullet's collision margin around a convex mesh
 _ORIGIN = [0.0, 0.0, 0.0]
 _ZEROS9 = [0.0] * 9
+
+
+def rounded_box_vertices(size, radius, segments=CORNER_SEGMENTS) -> np.ndarray:
+    """Vertices of a box of size (x, y, z) [m] whose vertical edges are rounded with radius [m] (a convex hull).
+
+    pybullet wraps a convex hull in a collision margin: the vertices lie that much inside, so that the product
+    collides with its nominal size (and rests on a board at its nominal height).
+    """
+    half_x, half_y, half_z = (value / 2.0 - HULL_MARGIN for value in size)
+    radius = max(radius - HULL_MARGIN, 0.0)
+    outline = []
+    for centre_x, centre_y, start in (
+        (half_x - radius, half_y - radius, 0.0),
+        (-half_x + radius, half_y - radius, 0.5 * math.pi),
+        (-half_x + radius, -half_y + radius, math.pi),
+        (half_x - radius, -half_y + radius, 1.5 * math.pi),
+    ):
+        for angle in np.linspace(start, start + 0.5 * math.pi, segments + 1):
+            outline.append((centre_x + radius * math.cos(angle), centre_y + radius * math.sin(angle)))
+    return np.array([(x, y, z) for z in (-half_z, half_z) for x, y in outline])
 
 
 class SupermarketWorld:
@@ -38,7 +63,10 @@ class SupermarketWorld:
         finger_speed: opening-width rate [m/s] (each finger half of it) when a command gives none.
         base_speed: maximum linear speed of the mobile base [m/s].
         base_turn_rate: maximum yaw rate of the mobile base [rad/s].
-        grasp_assist: fix a squeezed product to the hand.
+        pad_friction: lateral friction coefficient of the finger pads [-] (pybullet multiplies it with the
+            product's).
+        pad_spinning_friction: torsional friction of the finger pads [m]: the torque a pad resists about its contact
+            normal per newton of grip, times the product's friction.
         solver_residual_threshold: pybullet's contact solver stops iterating below this residual [-].
     """
 
@@ -53,7 +81,8 @@ class SupermarketWorld:
         finger_speed=0.2,
         base_speed=0.5,
         base_turn_rate=1.0,
-        grasp_assist=True,
+        pad_friction=1.0,
+        pad_spinning_friction=0.01,
         solver_residual_threshold=1e-4,
     ):
         self.scene = scene
@@ -64,7 +93,6 @@ class SupermarketWorld:
         self.finger_speed = finger_speed
         self.base_speed = base_speed
         self.base_turn_rate = base_turn_rate
-        self.grasp_assist = grasp_assist
         self.client = pybullet.connect(pybullet.GUI if gui else pybullet.DIRECT)
         self._call = {"physicsClientId": self.client}
         pybullet.setGravity(0.0, 0.0, -9.81, **self._call)
@@ -73,13 +101,20 @@ class SupermarketWorld:
         self.floor = pybullet.loadURDF(str(pybullet_data.getDataPath()) + "/plane.urdf", **self._call)
         pybullet.changeDynamics(self.floor, -1, lateralFriction=scene.floor_friction, **self._call)
         self.static_bodies = {
-            part.name: self._add_box(part.center, part.size, 0.0, part.friction, SHELF_COLOUR) for part in scene.shelf
+            part.name: self._add_box(part.center, part.size, 0.0, part.friction, SHELF_COLOUR, part.yaw)
+            for part in scene.shelf
         }
         table = scene.pick_table
         self.static_bodies[table.name] = self._add_box(table.center, table.size, 0.0, table.friction, TABLE_COLOUR)
         self.products = {
             product.name: self._add_box(
-                product.position, product.size, product.mass, product.friction, PRODUCT_COLOUR, product.yaw
+                product.position,
+                product.size,
+                product.mass,
+                product.friction,
+                PRODUCT_COLOUR,
+                product.yaw,
+                product.corner_radius,
             )
             for product in scene.products
         }
@@ -91,14 +126,16 @@ class SupermarketWorld:
         size = scene.robot.base_size
         self.mobile_base = self._add_box((start.x, start.y, size[2] / 2.0), size, 0.0, 0.5, BASE_LINK_COLOUR)
         self.robot = panda.load_panda(self.client, *self._panda_base_pose())
+        for finger in panda.FINGER_INDICES:
+            pybullet.changeDynamics(
+                self.robot, finger, lateralFriction=pad_friction, spinningFriction=pad_spinning_friction, **self._call
+            )
         for index, value in zip(panda.ARM_INDICES, scene.robot.ready_joint_positions):
             pybullet.resetJointState(self.robot, index, value, **self._call)
         self.gripper_width = scene.robot.start_gripper_width
         for index in panda.FINGER_INDICES:
             pybullet.resetJointState(self.robot, index, self.gripper_width / 2.0, **self._call)
         self.set_gripper_width(self.gripper_width)
-        self.grasped = None
-        self._grasp_constraint = None
         self._arm_mode = None
         self._tcp_world = (0.0, 0.0, 0.0)
         self._pending_force = None
@@ -111,15 +148,21 @@ class SupermarketWorld:
             pybullet.disconnect(self.client)
             self.client = None
 
-    def _add_box(self, center, size, mass, friction, colour, yaw=0.0):
+    def _add_box(self, center, size, mass, friction, colour, yaw=0.0, corner_radius=0.0):
         half = [value / 2.0 for value in size]
-        shape = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half, **self._call)
+        if corner_radius > 0.0:
+            vertices = rounded_box_vertices(size, corner_radius).tolist()
+            shape = pybullet.createCollisionShape(pybullet.GEOM_MESH, vertices=vertices, **self._call)
+        else:
+            shape = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half, **self._call)
         visual = pybullet.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=colour, **self._call)
         body = pybullet.createMultiBody(mass, shape, visual, center, yaw_quaternion(yaw), **self._call)
         pybullet.changeDynamics(body, -1, lateralFriction=friction, **self._call)
         if mass > 0.0:
-            # Resting products sleep (a touch wakes them): a shelf full of awake boxes costs 3x the physics time.
+            # Resting products sleep from the start (a touch wakes them): a shelf of awake products costs many times
+            # the physics time of the arm alone.
             pybullet.changeDynamics(body, -1, activationState=pybullet.ACTIVATION_STATE_ENABLE_SLEEPING, **self._call)
+            pybullet.changeDynamics(body, -1, activationState=pybullet.ACTIVATION_STATE_SLEEP, **self._call)
         return body
 
     # ----------------------------------------------------------------------------------------------- base frame
@@ -189,15 +232,15 @@ class SupermarketWorld:
         Summed from pybullet's contact points (the wrench the environment applies), in base_link.
         """
         force, torque = np.zeros(3), np.zeros(3)
+        held = set(self._held_bodies())
         contacts = [
             contact
             for contact in pybullet.getContactPoints(bodyA=self.robot, **self._call)
-            if contact[3] >= panda.HAND_LINK and contact[2] != self.products.get(self.grasped)
+            if contact[3] >= panda.HAND_LINK and contact[2] not in held
         ]
-        if self.grasped is not None:
-            held = self.products[self.grasped]
+        for body in held:
             contacts += [
-                contact for contact in pybullet.getContactPoints(bodyA=held, **self._call) if contact[2] != self.robot
+                contact for contact in pybullet.getContactPoints(bodyA=body, **self._call) if contact[2] != self.robot
             ]
         for contact in contacts:
             contact_force = (
@@ -304,8 +347,6 @@ class SupermarketWorld:
                 **self._call,
             )
             self._pending_force = None
-        if self.grasp_assist and self.ticks % 10 == 0:
-            self._update_grasp()
         pybullet.stepSimulation(**self._call)
 
     def _drive_base(self):
@@ -326,6 +367,7 @@ class SupermarketWorld:
         self._place_base()
 
     def _place_base(self):
+        carried = self._offsets_in_hand()
         x, y, yaw = self.base_pose
         height = self.scene.robot.base_size[2]
         pybullet.resetBasePositionAndOrientation(
@@ -336,52 +378,39 @@ class SupermarketWorld:
         inertial = pybullet.getDynamicsInfo(self.robot, -1, **self._call)
         position, orientation = pybullet.multiplyTransforms(position, orientation, inertial[3], inertial[4])
         pybullet.resetBasePositionAndOrientation(self.robot, position, orientation, **self._call)
-        if self._grasp_constraint is not None:
-            # The held product moves with the hand (the constraint alone would lag behind a teleported arm).
+        if carried:
             hand = pybullet.getLinkState(self.robot, panda.HAND_LINK, computeForwardKinematics=True, **self._call)
-            offset_position, offset_orientation = self._grasp_offset
-            position, orientation = pybullet.multiplyTransforms(hand[0], hand[1], offset_position, offset_orientation)
-            pybullet.resetBasePositionAndOrientation(self.products[self.grasped], position, orientation, **self._call)
+            for body, (offset_position, offset_orientation) in carried.items():
+                position, orientation = pybullet.multiplyTransforms(
+                    hand[4], hand[5], offset_position, offset_orientation
+                )
+                pybullet.resetBasePositionAndOrientation(body, position, orientation, **self._call)
 
-    def _update_grasp(self):
-        if self.grasped is not None:
-            if self.gripper_width > self._grasp_width + 0.005:
-                pybullet.removeConstraint(self._grasp_constraint, **self._call)
-                self.grasped, self._grasp_constraint = None, None
-            return
-        touching = []
-        for finger in panda.FINGER_INDICES:
-            bodies = {
-                contact[2] for contact in pybullet.getContactPoints(bodyA=self.robot, linkIndexA=finger, **self._call)
-            }
-            touching.append(bodies)
-        common = touching[0] & touching[1]
-        for name, body in self.products.items():
-            if body in common and self.gripper_width < min(self.product_sizes[name][:2]):
-                self._attach(name, body)
-                return
+    # -------------------------------------------------------------------------------------------------- grasp
+    def _held_bodies(self):
+        """Product bodies that both fingers touch."""
+        touching = [
+            {contact[2] for contact in pybullet.getContactPoints(bodyA=self.robot, linkIndexA=finger, **self._call)}
+            for finger in panda.FINGER_INDICES
+        ]
+        return [body for body in self.products.values() if body in touching[0] & touching[1]]
 
-    def _attach(self, name, body):
+    @property
+    def grasped(self):
+        """The product both fingers touch (the one in the hand), or None."""
+        held = self._held_bodies()
+        names = {body: name for name, body in self.products.items()}
+        return names[held[0]] if held else None
+
+    def _offsets_in_hand(self):
+        """Each held product's pose in the hand's frame (URDF link frame)."""
+        bodies = self._held_bodies()
+        if not bodies:
+            return {}
         hand = pybullet.getLinkState(self.robot, panda.HAND_LINK, computeForwardKinematics=True, **self._call)
-        product_position, product_orientation = pybullet.getBasePositionAndOrientation(body, **self._call)
-        # Constraint frames are relative to the hand's centre of mass (hand[0], hand[1]).
-        inverse_position, inverse_orientation = pybullet.invertTransform(hand[0], hand[1])
-        self._grasp_offset = pybullet.multiplyTransforms(
-            inverse_position, inverse_orientation, product_position, product_orientation
-        )
-        self._grasp_constraint = pybullet.createConstraint(
-            self.robot,
-            panda.HAND_LINK,
-            body,
-            -1,
-            pybullet.JOINT_FIXED,
-            [0.0, 0.0, 0.0],
-            self._grasp_offset[0],
-            [0.0, 0.0, 0.0],
-            self._grasp_offset[1],
-            [0.0, 0.0, 0.0, 1.0],
-            **self._call,
-        )
-        pybullet.changeConstraint(self._grasp_constraint, maxForce=200.0, **self._call)
-        self.grasped = name
-        self._grasp_width = self.gripper_width
+        inverse_position, inverse_orientation = pybullet.invertTransform(hand[4], hand[5])
+        offsets = {}
+        for body in bodies:
+            position, orientation = pybullet.getBasePositionAndOrientation(body, **self._call)
+            offsets[body] = pybullet.multiplyTransforms(inverse_position, inverse_orientation, position, orientation)
+        return offsets

@@ -72,16 +72,19 @@ class PlaceConfig:
 
     approach_distance: float
     clearance: float
+    release_lift: float
     retreat_distance: float
 
 
 @dataclass(frozen=True)
 class ReplayConfig:
-    """Playback of a demonstrated stiffness skill: rate [Hz], approach tolerance [m], settle time [s]."""
+    """Playback of a demonstrated stiffness skill: rate [Hz], approach tolerance [m], settle time [s], and how far
+    [m] a perceived target may lie from where the taught one would be before the skill refuses to guess."""
 
     rate: float
     approach_tolerance: float
     settle_time: float
+    target_search_radius: float
 
 
 @dataclass(frozen=True)

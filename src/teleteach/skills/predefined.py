@@ -319,7 +319,8 @@ class DropItem(PredefinedSkill):
 def release(
     world: WorldView, product: str, before: Dict[str, np.ndarray], progress: float, only_in_gap: bool = False
 ) -> Placement:
-    """Open the gripper, pull the hand straight back out of the shelf, tuck the arm in, and judge the placement.
+    """Open the gripper, lift the hand clear of the product, pull it straight back out of the shelf, tuck the arm in,
+    and judge the placement.
 
     The product is judged against the gap nearest to the hand when it lets go: the one it was being put into.
 
@@ -327,7 +328,7 @@ def release(
         world: the running skill's view of the world.
         product: the product in the hand.
         before: every product's position [m] before it was placed (for the neighbours).
-        progress: the share of the skill's progress these three phases take.
+        progress: the share of the skill's progress these four phases take.
         only_in_gap: keep the product in the hand unless it already stands in the gap (a placement that missed
             must not drop it in front of the shelf).
 
@@ -340,11 +341,14 @@ def release(
         held = world.placement(product, before, gap.name)
         if held.gap is None:
             raise SkillError(f"{held.problems(gap.name)[0]}; it is still in the hand")
-    motion.execution.phase("release", 0.25 * progress)
+    motion.execution.phase("release", 0.2 * progress)
     motion.gripper(world.config.gripper.release_width)
     tcp, orientation = motion.tcp_pose()
-    motion.execution.phase("retreat", 0.4 * progress)
-    motion.move_linear(tcp - place.retreat_distance * world.into_shelf(gap), orientation)
+    motion.execution.phase("lift", 0.15 * progress)
+    lifted = tcp + up(place.release_lift)
+    motion.move_linear(lifted, orientation)
+    motion.execution.phase("retreat", 0.3 * progress)
+    motion.move_linear(lifted - place.retreat_distance * world.into_shelf(gap), orientation)
     motion.execution.phase("carry posture", 0.35 * progress)
     motion.move_joints(world.config.postures["carry"])
     if world.held_product()[0] == product:
