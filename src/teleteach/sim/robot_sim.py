@@ -15,9 +15,11 @@ from teleteach.control.impedance import CartesianImpedanceController, ImpedanceP
 from teleteach.control.joint_trajectory import JointTrajectoryController
 from teleteach.control.manager import ControllerManager
 from teleteach.paths import config_file
+from teleteach.perception.observed import ObservedScene, observed_from_scene
 from teleteach.sim import panda
 from teleteach.sim.gripper import SimGripper
-from teleteach.sim.scene import Scene, load_scene
+from teleteach.sim.scene import BasePose, Scene, load_scene
+from teleteach.sim.uncertainty import BaseError, PerceptionNoise, UncertaintySettings, streams
 from teleteach.sim.world import SupermarketWorld
 
 DEFAULT_CONTROLLER_FILE = config_file("controllers.yaml")
@@ -54,14 +56,24 @@ def impedance_params(config) -> ImpedanceParams:
 class RobotSim:
     """The Panda on its mobile base in the supermarket, with its controllers.
 
+    The world is the truth; MoveBase goals and the perceived scene carry the errors of ``uncertainty``.
+
     Args:
         scene: the scene (default: config/supermarket.yaml).
         config: controller settings (default: config/controllers.yaml), as load_controller_config() returns.
         gui: pybullet's own window.
+        uncertainty: base error and perception noise (teleteach.sim.uncertainty.load_uncertainty()); default: none,
+            MoveBase exact and perception perfect.
     """
 
-    def __init__(self, scene: Scene = None, config=None, gui=False):
+    def __init__(self, scene: Scene = None, config=None, gui=False, uncertainty: UncertaintySettings = None):
         self.scene = scene or load_scene()
+        self.uncertainty = uncertainty or UncertaintySettings.none()
+        base_stream, perception_stream = streams(self.uncertainty.seed)
+        self.base_error = BaseError(self.uncertainty.base_error, base_stream)
+        self.perception = PerceptionNoise(self.uncertainty.perception, perception_stream)
+        self.base_goal = None
+        self._new_viewpoint = False
         self.config = config or load_controller_config()
         simulation, gripper, base = self.config["simulation"], self.config["gripper"], self.config["base"]
         trajectory = self.config[TRAJECTORY]
@@ -75,7 +87,8 @@ class RobotSim:
             finger_speed=float(gripper["max_speed"]),
             base_speed=float(base["max_speed"]),
             base_turn_rate=float(base["max_turn_rate"]),
-            grasp_assist=bool(simulation["grasp_assist"]),
+            pad_friction=float(gripper["pad_friction"]),
+            pad_spinning_friction=float(gripper["pad_spinning_friction"]),
             solver_residual_threshold=float(simulation["solver_residual_threshold"]),
         )
         self.gripper = SimGripper(
@@ -115,6 +128,9 @@ class RobotSim:
         command = self.manager.update(self.state)
         self.world.step(command)
         self.gripper.update(self.time)
+        if self._new_viewpoint and not self.world.base_moving:
+            self.perception.new_viewpoint()
+            self._new_viewpoint = False
 
     def run(self, seconds):
         """Tick for a simulated duration [s]."""
@@ -158,9 +174,26 @@ class RobotSim:
         self.trajectory.set_trajectory(start, times, positions, velocities, self.time)
 
     def command_base_goal(self, frame_id, position, quaternion, stamp=0.0):
-        """Base goal in world (x, y and yaw of the pose)."""
+        """Base goal in world (x, y and yaw of the pose); the base stops at the goal plus the base error."""
         validation.check_stamp(stamp, self.time, self.max_age)
-        self.world.set_base_goal(*validation.validate_base_goal(frame_id, position, quaternion))
+        self.base_goal = np.array(validation.validate_base_goal(frame_id, position, quaternion))
+        self.world.set_base_goal(*self.base_error.stop_pose(self.base_goal))
+        self._new_viewpoint = True
+
+    def place_base(self, pose: BasePose):
+        """Put the base at a pose at once, where MoveBase would have stopped for it (set-up of benches and tests)."""
+        self.base_goal = np.array([pose.x, pose.y, pose.yaw])
+        x, y, yaw = self.base_error.stop_pose(self.base_goal)
+        self.world.teleport_base(BasePose(x, y, yaw))
+        self.perception.new_viewpoint()
+
+    def true_scene(self) -> ObservedScene:
+        """The world's products as they are, the scene's gaps and table: what judges an outcome."""
+        return observed_from_scene(self.scene, self.world.product_poses(), self.time)
+
+    def perceived_scene(self) -> ObservedScene:
+        """The scene as the robot's perception reports it now (teleteach/scene)."""
+        return self.perception.perceive(self.true_scene())
 
     def stop_base(self):
         """Stop the base where it is."""

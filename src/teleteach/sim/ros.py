@@ -40,12 +40,13 @@ from teleteach.msg import (
     StopAction,
     StopResult,
 )
-from teleteach.perception.observed import WORLD_FRAME, observed_from_scene
+from teleteach.perception.observed import WORLD_FRAME
 from teleteach.perception.ros import box_marker, scene_markers
 from teleteach.rotations import yaw_quaternion
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, ControllerConfigError, RobotSim, load_controller_config
 from teleteach.sim.scene import load_scene
+from teleteach.sim.uncertainty import load_uncertainty
 from teleteach.sim.urdf import robot_description
 from teleteach.sim.world import SHELF_COLOUR
 from teleteach.srv import ListControllers, ListControllersResponse, SwitchController, SwitchControllerResponse
@@ -90,8 +91,10 @@ class RobotSimNode:
 
     ROS Publishers:
         /clock, /joint_states, /cartesian_pose (200 Hz, base_link), /force_torque_ext (100 Hz, base_link, contact
-        wrench on the end effector about the TCP), /teleteach/scene (10 Hz: the world's products, gaps and pick
-        table as teleteach.perception describes them, and the shelf boards for RViz), /diagnostics
+        wrench on the end effector about the TCP), /teleteach/scene (10 Hz: the products, gaps and pick table as the
+        robot's perception reports them, with config/uncertainty.yaml's errors, teleteach.perception's format, and the
+        shelf boards for RViz), /teleteach/true_scene (10 Hz, the same format: the world as it is, for whoever judges
+        an outcome; a real robot has none), /diagnostics
         (1 Hz: real-time factor, step cost, running controller), ~rejected (String: each rejected command), TF
         world -> base_link (100 Hz).
 
@@ -124,6 +127,7 @@ class RobotSimNode:
         self._force_torque = _synchronous_publisher("force_torque_ext", WrenchStamped)
         self._tf = _synchronous_publisher("tf", TFMessage)
         self._scene = rospy.Publisher("teleteach/scene", MarkerArray, queue_size=1, latch=True)
+        self._true_scene = rospy.Publisher("teleteach/true_scene", MarkerArray, queue_size=1, latch=True)
         self._diagnostics = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=1)
         self._rejections = rospy.Publisher("~rejected", String, queue_size=10)
         self._subscribers = [
@@ -176,16 +180,21 @@ class RobotSimNode:
 
         ~gui, ~scene_file, ~controllers_file, ~absent_products (list of product names of the scene file to leave
         out); ~real_time_factor, ~clock_rate, ~clock and ~initial_controller override the controller file's
-        `simulation`.
+        `simulation`; ~uncertainty_file, and ~seed, ~base_error, ~perception_noise overriding it.
         """
         scene = load_scene(rospy.get_param("~scene_file", "") or None)
         scene = scene.without_products(rospy.get_param("~absent_products", None) or [])
+        uncertainty = load_uncertainty(rospy.get_param("~uncertainty_file", "") or None).with_overrides(
+            seed=rospy.get_param("~seed", None),
+            base_error=rospy.get_param("~base_error", None),
+            perception_noise=rospy.get_param("~perception_noise", None),
+        )
         config = load_controller_config(rospy.get_param("~controllers_file", "") or None)
         simulation = config["simulation"]
         for name in ("initial_controller", "real_time_factor", "clock_rate", "clock"):
             if rospy.has_param(f"~{name}"):
                 simulation[name] = rospy.get_param(f"~{name}")
-        sim = RobotSim(scene, config, gui=bool(rospy.get_param("~gui", False)))
+        sim = RobotSim(scene, config, gui=bool(rospy.get_param("~gui", False)), uncertainty=uncertainty)
         if simulation["clock"] not in ("publish", "follow"):
             raise ControllerConfigError(f"simulation clock must be publish or follow, got {simulation['clock']!r}")
         return cls(
@@ -439,14 +448,16 @@ class RobotSimNode:
         self._tf.publish(TFMessage(transforms=[transform]))
 
     def _publish_scene(self):
-        """teleteach/scene: what a perfect perception sees of the world (teleteach.perception), plus the shelf."""
+        """teleteach/scene: the world as perception reports it (teleteach.perception), plus the shelf for RViz;
+        teleteach/true_scene: the world as it is."""
         scene = self.sim.scene
         with self._lock:
-            poses = self.sim.world.product_poses()
-        observed = observed_from_scene(scene, poses, self.sim.time)
+            truth = self.sim.true_scene()
+            perceived = self.sim.perceived_scene()
         header = self._header(WORLD_FRAME)
         shelf = [
-            box_marker(header, "shelf", index, part.center, (0, 0, 0, 1), part.size, SHELF_COLOUR, part.name)
+            box_marker(header, "shelf", index, part.center, yaw_quaternion(part.yaw), part.size, SHELF_COLOUR, part.name)
             for index, part in enumerate(scene.shelf)
         ]
-        self._scene.publish(scene_markers(observed, self.sim.time, shelf))
+        self._scene.publish(scene_markers(perceived, self.sim.time, shelf))
+        self._true_scene.publish(scene_markers(truth, self.sim.time))

@@ -9,7 +9,7 @@ from typing import Sequence, Tuple
 import numpy as np
 
 from teleteach.control.manager import STRICT
-from teleteach.perception.observed import ObservedScene, observed_from_scene
+from teleteach.perception.observed import ObservedScene
 from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import RobotSim
@@ -82,8 +82,8 @@ class SimRobot(Robot):
         return float(x), float(y), float(yaw)
 
     def observed_scene(self) -> ObservedScene:
-        """What robot_sim would publish on teleteach/scene now: the world's products, the scene's gaps and table."""
-        return observed_from_scene(self.sim.scene, self.sim.world.product_poses(), self.sim.time)
+        """What robot_sim would publish on teleteach/scene now: the world as its perception reports it."""
+        return self.sim.perceived_scene()
 
     def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
         """TCP in base_link as the controllers see it."""
