@@ -3,11 +3,17 @@
 A skill file is a numpy ``.npz`` archive (no pickles) with, for N samples:
 
 - ``time`` (N,) [s], strictly increasing, starting anywhere;
-- ``stiffness`` (N, 3, 3) [N/m], translational stiffness K_T in the robot base frame, SPD;
-- ``equilibrium_pose`` (N, 7): commanded reference x_r (x, y, z [m], qx, qy, qz, qw) in the base frame;
+- ``stiffness`` (N, 3, 3) [N/m], translational stiffness K_T in the skill's frame, SPD;
+- ``equilibrium_pose`` (N, 7): commanded reference x_r (x, y, z [m], qx, qy, qz, qw) in the skill's frame;
 - ``cartesian_pose`` (N, 7): measured end-effector pose x_a, same layout;
 - ``meta``: a JSON string with ``name``, ``kind`` (stiffness | shared_control | dmp),
-  ``rotational_stiffness`` [Nm/rad] and free-form provenance.
+  ``rotational_stiffness`` [Nm/rad], ``frame`` and free-form provenance.
+
+The skill's frame (``frame``) is ``target``: the frame of the target it was taught at (a shelf gap: origin where the
+placed product's centre belongs, x into the shelf, z up), with ``target`` = {``name``, ``pose_in_base`` (the target's
+pose in base_link when taught, x y z qx qy qz qw)}; the robot replays it relative to where it perceives a target
+now, and the stiffness turns with it. Or ``base_link``: replayed where it was recorded, relative to the robot's base
+(files written before skills had a target frame have no ``frame``: they are base_link skills).
 
 :func:`load` validates everything, so a file that loads is safe to execute.
 """
@@ -16,17 +22,34 @@ import dataclasses
 import io
 import json
 import pathlib
-from typing import Any, Dict, Union
+from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
 
 from teleteach.datadir import atomic_write_bytes
+from teleteach.frames import Transform
 
 KINDS = ("stiffness", "shared_control", "dmp")
+BASE_FRAME = "base_link"
+TARGET_FRAME = "target"
+FRAMES = (BASE_FRAME, TARGET_FRAME)
 
 
 class SkillFileError(ValueError):
     """A skill file is missing, unreadable or describes something unsafe to execute."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Target:
+    """What a skill in the target frame was taught at: the target's name and its pose in base_link then."""
+
+    name: str
+    pose_in_base: Tuple[float, ...]
+
+    @property
+    def transform(self) -> Transform:
+        """base_link <- target, when taught."""
+        return Transform.from_pose(self.pose_in_base)
 
 
 @dataclasses.dataclass
@@ -41,6 +64,8 @@ class Skill:
     cartesian_pose: np.ndarray
     rotational_stiffness: float = 30.0
     provenance: Dict[str, Any] = dataclasses.field(default_factory=dict)
+    frame: str = BASE_FRAME
+    target: Optional[Target] = None
 
     def __post_init__(self):
         self.time = np.asarray(self.time, dtype=float)
@@ -53,6 +78,33 @@ class Skill:
     def duration(self) -> float:
         """Length of the demonstration [s]."""
         return float(self.time[-1] - self.time[0])
+
+    def relative_to(self, target: str, target_in_base: Transform) -> "Skill":
+        """This base_link skill expressed in the frame of ``target``, whose pose in base_link is target_in_base."""
+        if self.frame != BASE_FRAME:
+            raise SkillFileError(f"skill {self.name} is already relative to {self.target.name}")
+        to_target = target_in_base.inverse()
+        return dataclasses.replace(
+            self,
+            stiffness=to_target.turn_stiffness(self.stiffness),
+            equilibrium_pose=to_target.apply_poses(self.equilibrium_pose),
+            cartesian_pose=to_target.apply_poses(self.cartesian_pose),
+            frame=TARGET_FRAME,
+            target=Target(target, tuple(float(value) for value in target_in_base.as_pose())),
+        )
+
+    def in_base(self, target_in_base: Transform) -> "Skill":
+        """This target-frame skill in base_link for a target at target_in_base (a base_link skill: itself)."""
+        if self.frame == BASE_FRAME:
+            return self
+        return dataclasses.replace(
+            self,
+            stiffness=target_in_base.turn_stiffness(self.stiffness),
+            equilibrium_pose=target_in_base.apply_poses(self.equilibrium_pose),
+            cartesian_pose=target_in_base.apply_poses(self.cartesian_pose),
+            frame=BASE_FRAME,
+            target=None,
+        )
 
 
 def validate(skill: Skill) -> None:
@@ -93,6 +145,22 @@ def validate(skill: Skill) -> None:
             raise SkillFileError(f"{field} quaternion is not unit length at sample {bad[0]} (norm {norms[bad[0]]:.4f})")
     if not (np.isfinite(skill.rotational_stiffness) and skill.rotational_stiffness >= 0):
         raise SkillFileError(f"rotational_stiffness must be finite and >= 0, got {skill.rotational_stiffness}")
+    if skill.frame not in FRAMES:
+        raise SkillFileError(f"unknown frame {skill.frame!r}; expected one of {', '.join(FRAMES)}")
+    if (skill.frame == TARGET_FRAME) != (skill.target is not None):
+        raise SkillFileError("a skill has a target exactly when its frame is 'target'")
+    if skill.target is not None:
+        _validate_target(skill.target)
+
+
+def _validate_target(target: Target) -> None:
+    if not isinstance(target.name, str) or not target.name:
+        raise SkillFileError(f"target name {target.name!r} must be a non-empty string")
+    pose = np.asarray(target.pose_in_base, dtype=float)
+    if pose.shape != (7,) or not np.all(np.isfinite(pose)):
+        raise SkillFileError(f"target pose_in_base must be 7 finite numbers, got {list(target.pose_in_base)}")
+    if abs(np.linalg.norm(pose[3:]) - 1.0) > 1e-3:
+        raise SkillFileError(f"target pose_in_base quaternion is not unit length (norm {np.linalg.norm(pose[3:]):.4f})")
 
 
 def save(skill: Skill, path: Union[str, pathlib.Path]) -> pathlib.Path:
@@ -105,6 +173,8 @@ def save(skill: Skill, path: Union[str, pathlib.Path]) -> pathlib.Path:
         "name": skill.name,
         "kind": skill.kind,
         "rotational_stiffness": skill.rotational_stiffness,
+        "frame": skill.frame,
+        "target": dataclasses.asdict(skill.target) if skill.target else None,
         "provenance": skill.provenance,
     }
     buffer = io.BytesIO()
@@ -137,6 +207,7 @@ def load(path: Union[str, pathlib.Path]) -> Skill:
     if missing:
         raise SkillFileError(f"skill file {path} lacks {', '.join(sorted(missing))}")
     try:
+        target = meta.get("target")
         return Skill(
             name=meta["name"],
             kind=meta["kind"],
@@ -146,8 +217,12 @@ def load(path: Union[str, pathlib.Path]) -> Skill:
             cartesian_pose=arrays["cartesian_pose"],
             rotational_stiffness=float(meta.get("rotational_stiffness", 30.0)),
             provenance=meta.get("provenance", {}),
+            frame=meta.get("frame", BASE_FRAME),
+            target=Target(str(target["name"]), tuple(float(v) for v in target["pose_in_base"])) if target else None,
         )
     except KeyError as error:
         raise SkillFileError(f"skill file {path}: meta lacks {error}") from None
     except SkillFileError as error:
         raise SkillFileError(f"skill file {path}: {error}") from None
+    except (TypeError, ValueError) as error:
+        raise SkillFileError(f"skill file {path}: meta holds a malformed target ({error})") from None

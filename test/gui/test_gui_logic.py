@@ -9,6 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
 from teleteach.bt.editor import EditRequest
+from teleteach.frames import Transform
 from teleteach.gui.config import GuiConfig, GuiConfigError
 from teleteach.gui.device import (
     ClickClassifier,
@@ -328,31 +329,43 @@ def test_trajectory_interpolates_and_holds_the_end():
         Trajectory([0.0, 0.0], [[0, 0, 0]] * 2, [IDENTITY] * 2)
 
 
-@pytest.mark.parametrize(
-    "name, base_pose, gap_name",
-    [
-        ("perpendicular", "place_perpendicular", "gap_1"),
-        ("perpendicular", "place_perpendicular_2", "gap_2"),
-        ("angled_45", "place_45deg", "gap_1"),
-        ("angled_45", "place_45deg_2", "gap_2"),
-    ],
-)
-def test_predefined_trajectories_end_in_the_shelf_gap(name, base_pose, gap_name):
-    """Taught at gap_1, a placing trajectory (recorded in base_link) fits gap_2 unchanged from its base pose."""
+@pytest.mark.parametrize("name", ["perpendicular", "angled_45"])
+def test_predefined_trajectories_place_at_their_gap_over_the_shelf_lip(name):
+    """A placing trajectory is relative to its gap: it ends in the gap, the product carried over the front lip."""
     scene = load_scene()
-    gap = scene.gap(gap_name)
-    base = scene.base_poses[base_pose]
     trajectory = Trajectory.load(name)
-    end = trajectory.sample(trajectory.duration)
-    world = Rotation.from_euler("z", base.yaw).apply(end[:3]) + np.array([base.x, base.y, 0.0])
-    assert np.linalg.norm(world[:2] - np.array(gap.position[:2])) < 1e-3
-    # the product hangs below the TCP by the skills' grasp height: its centre ends at the gap's height
-    held_below = load_motion_config().grasp.height_above_center
-    assert abs(world[2] - held_below - gap.position[2]) < 0.01
-    # the hand keeps the skills' top-down grasp, square to the shelf (fingers closing across world Y)
-    hand = Rotation.from_euler("z", base.yaw) * Rotation.from_quat(end[3:])
+    assert trajectory.frame == "target" and trajectory.target == "gap_1" and trajectory.starts_at_hand
+    gap = scene.gap(trajectory.target)
+    grasp = load_motion_config().grasp
+    end = trajectory.resolve(Transform.identity(), np.array([-0.3, 0.0, 0.16, 1.0, 0.0, 0.0, 0.0]))
+    last = end.sample(end.duration)
+    # the product hangs below the TCP by the skills' grasp height: its centre ends at the gap's origin
+    assert last[:3] == pytest.approx([0.0, 0.0, grasp.height_above_center], abs=1e-6)
+    # the hand points down, turned by the skills' grasp yaw: the fingers close along the gap's x (into the shelf)
+    hand = Rotation.from_quat(last[3:])
     assert hand.apply([0.0, 0.0, 1.0]) == pytest.approx([0.0, 0.0, -1.0], abs=1e-3)
-    assert hand.apply([0.0, 1.0, 0.0]) == pytest.approx([0.0, -1.0, 0.0], abs=1e-3)
+    assert abs(hand.apply([0.0, 1.0, 0.0])[0]) == pytest.approx(1.0, abs=1e-3)
+    assert grasp.yaw == pytest.approx(np.pi / 2, abs=1e-6)
+    # every waypoint before the set-down carries the product's bottom 1 cm or more over the lip
+    lip = next(part for part in scene.shelf if part.name == "lip_high")
+    lip_top = lip.center[2] + lip.size[2] / 2 - gap.position[2]
+    product_height = scene.product("product_pick_1").size[2]
+    bottoms = trajectory.positions[:-1, 2] - grasp.height_above_center - product_height / 2
+    assert bottoms.min() >= lip_top + 0.01
+
+
+def test_a_target_frame_trajectory_is_played_relative_to_the_gap_from_the_hand():
+    trajectory = Trajectory.load("perpendicular")
+    gap_in_base = Transform.from_planar(0.6, 0.02, 0.05, z=0.72)
+    hand = np.array([0.307, 0.0, 0.885, 1.0, 0.0, 0.0, 0.0])
+    played = trajectory.resolve(gap_in_base, hand)
+    assert played.frame == "base_link"
+    np.testing.assert_allclose(played.sample(0.0), hand)
+    np.testing.assert_allclose(played.sample(played.duration)[:3], gap_in_base.apply_point(trajectory.positions[-1]))
+    with pytest.raises(TrajectoryError, match="relative to gap_1: its pose is needed"):
+        trajectory.resolve(None, hand)
+    with pytest.raises(TrajectoryError, match="starts at the hand"):
+        trajectory.sample(1.0)
 
 
 def test_recorder_makes_a_valid_skill_file(tmp_path):

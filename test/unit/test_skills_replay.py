@@ -75,8 +75,16 @@ def test_plan_resamples_at_the_rate_and_keeps_the_recorded_timing():
         ("[1, 2]", "must be yaml {data_file"),
         ("{data_file: a.npz, kind: poem}", "unknown skill kind 'poem'"),
         ("{data_file: [", "not valid yaml"),
+        ("{data_file: a.npz, target: [gap_1]}", "target must be the name of a gap, got \\['gap_1'\\]"),
     ],
 )
 def test_bad_replay_parameters_are_refused(parameters, message):
     with pytest.raises(SkillError, match=message):
         parse_replay_parameters(parameters)
+
+
+def test_replay_parameters_name_the_file_the_kind_and_the_target():
+    request = parse_replay_parameters("{data_file: ~/skills/Place.npz, kind: stiffness, target: gap_3}")
+    assert request.path.name == "Place.npz" and not str(request.path).startswith("~")
+    assert (request.kind, request.target) == ("stiffness", "gap_3")
+    assert parse_replay_parameters("{data_file: Place.npz}").target is None

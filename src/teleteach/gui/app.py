@@ -10,7 +10,7 @@ runs, plays the kinematic trajectory while recording and turns a recording into 
 import math
 import sys
 import time
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 import rospy
 from geometry_msgs.msg import PoseStamped
@@ -20,8 +20,10 @@ from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, Q
 from std_msgs.msg import Bool, Int8
 
 from teleteach import skill_file
+from teleteach.skill_file import TARGET_FRAME
 from teleteach.bt.editor import EditRequest
 from teleteach.datadir import data_dir
+from teleteach.frames import Transform
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
@@ -63,6 +65,7 @@ class MainWindow(QMainWindow):
         self.shared_recorder = StiffnessRecorder()
         self.library_names: List[str] = []
         self.saved_skills: List[str] = []
+        self._teaching_target: Optional[Tuple[str, Transform]] = None  # the gap the recording places at
         self.session = TeachingSession()
         self._tab = -1
 
@@ -337,11 +340,31 @@ class MainWindow(QMainWindow):
         self._carry_out(self.session.toggle_stiffness_recording())
 
     def _start_recording(self) -> None:
+        """Play the trajectory (placed relative to the perceived target, from where the hand is) and record."""
+        self._teaching_target = None
+        trajectory = self.trajectory
+        if trajectory.frame == TARGET_FRAME:
+            target, why = self.worker.target_in_base(trajectory.target)
+            if target is None:
+                self._carry_out(self.session.recording_refused())
+                self.statusBar().showMessage(
+                    f"recording not started: trajectory {trajectory.name} places relative to {trajectory.target}: "
+                    f"{why}",
+                    15000,
+                )
+                return
+            self._teaching_target = (trajectory.target, target)
+        hand = self.worker.hand_pose()
+        if trajectory.starts_at_hand and hand is None:
+            self._carry_out(self.session.recording_refused())
+            self.statusBar().showMessage("recording not started: no /cartesian_pose of the arm yet", 15000)
+            return
         self.recorder.start()
         self._recording_publisher.publish(Bool(True))
-        self.player.start()
+        self.player.start(trajectory.resolve(self._teaching_target and self._teaching_target[1], hand))
         self.low_level.recording_since = time.monotonic()
-        self.statusBar().showMessage(f"recording: playing trajectory {self.trajectory.name}", 5000)
+        where = f" at {trajectory.target}" if trajectory.frame == TARGET_FRAME else ""
+        self.statusBar().showMessage(f"recording: playing trajectory {trajectory.name}{where}", 5000)
 
     def _stop_recording(self) -> None:
         self.recorder.stop()
@@ -350,10 +373,23 @@ class MainWindow(QMainWindow):
         self.low_level.recording_since = None
 
     def _save_stiffness_skill(self) -> None:
-        """The demonstration becomes a new skill of the library (III-E)."""
-        self._save_recording(self.recorder, "stiffness", self.config.skill_prefix, {"trajectory": self.trajectory.name})
+        """The demonstration becomes a new skill of the library (III-E), relative to its target when it had one."""
+        self._save_recording(
+            self.recorder,
+            "stiffness",
+            self.config.skill_prefix,
+            {"trajectory": self.trajectory.name},
+            self._teaching_target,
+        )
 
-    def _save_recording(self, recorder: StiffnessRecorder, kind: str, prefix: str, provenance: dict) -> None:
+    def _save_recording(
+        self,
+        recorder: StiffnessRecorder,
+        kind: str,
+        prefix: str,
+        provenance: dict,
+        target: Optional[Tuple[str, Transform]] = None,
+    ) -> None:
         """A stopped recording -> skill file in data_dir()/skills -> /behaviour_tree/add_skill (failures: status)."""
         name = unique_skill_name(prefix, self.library_names + self.saved_skills, self.skills_dir)
         try:
@@ -363,6 +399,8 @@ class MainWindow(QMainWindow):
                 {"source": "teaching_gui", "recorded": time.time(), **provenance},
                 kind=kind,
             )
+            if target is not None:
+                skill = skill.relative_to(*target)
             path = skill_file.save(skill, self.skills_dir / name)
         except skill_file.SkillFileError as error:
             hint = "" if len(recorder) >= 2 else " (no /cartesian_pose received? is robot_sim running?)"

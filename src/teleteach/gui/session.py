@@ -112,6 +112,11 @@ class TeachingSession:
         self.recording = Recording.STIFFNESS
         return [*actions, Action.START_STIFFNESS_RECORDING]
 
+    def recording_refused(self) -> List[Action]:
+        """The demonstration could not start (its target is not perceived): no recording, the session goes on."""
+        self.recording = None
+        return []
+
     def toggle_shared_recording(self) -> List[Action]:
         """SHARED CONTROL's double click: start recording, or stop and save (the session goes on in the tab)."""
         if self.recording == Recording.SHARED_CONTROL:

@@ -15,11 +15,14 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 import rospy
+import tf2_ros
 from geometry_msgs.msg import PolygonStamped, PoseStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Path
 from PyQt5.QtCore import QObject, Qt, QTimer, pyqtSignal, pyqtSlot
 from std_msgs.msg import Bool, Float64
+from visualization_msgs.msg import MarkerArray
 
+from teleteach.frames import Transform
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
@@ -29,6 +32,7 @@ from teleteach.gui.session import Tab
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.gui.study import StudyStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState
+from teleteach.perception.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
 from teleteach.study.phase import Phase, phase_name
 from teleteach.study.questionnaire import Item
@@ -98,9 +102,12 @@ class TrajectoryPlayer:
         """True while the thread plays (or holds the end pose)."""
         return self._thread is not None and self._thread.is_alive()
 
-    def start(self) -> None:
-        """Start from the first waypoint; after the last one the end pose is held."""
+    def start(self, trajectory: Optional[Trajectory] = None) -> None:
+        """Start from the first waypoint (of ``trajectory``, a base_link one, if given); after the last one the end pose
+        is held."""
         self.stop()
+        if trajectory is not None:
+            self.trajectory = trajectory
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="trajectory_player", daemon=True)
         self._thread.start()
@@ -189,7 +196,8 @@ class RosWorker(QObject):
     ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose,
     /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request, /shared_control/state,
     /shared_control/plan, /shared_control/boundary, /shared_control/obstacle, /equilibrium_pose (recorded in
-    SHARED CONTROL), study/state (a user study's state).
+    SHARED CONTROL), study/state (a user study's state), teleteach/scene (the gap a target-frame trajectory places
+    at); TF world -> base_frame.
     ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL or SHARED CONTROL is active).
     """
 
@@ -242,6 +250,8 @@ class RosWorker(QObject):
         self.device_time = 0.0  # the device's clock: the header stamp of its latest pose [s]
         self._subscribers: Dict[str, rospy.Subscriber] = {}
         self._timers: List[QTimer] = []
+        self._scene: Optional[ObservedScene] = None
+        self._tf_buffer: Optional[tf2_ros.Buffer] = None
 
     @pyqtSlot()
     def start(self) -> None:
@@ -262,7 +272,10 @@ class RosWorker(QObject):
             ("shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
             ("equilibrium_pose", PoseStamped, self._on_equilibrium),
             ("study/state", StudyState, lambda message: self.study_state.emit(study_status(message))),
+            ("teleteach/scene", MarkerArray, self._on_scene),
         ]
+        self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
+        self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
             queue = 2000 if topic in ("sigma7/button", "sigma7/gripper_angle") else 5
@@ -411,6 +424,31 @@ class RosWorker(QObject):
             self.shared_recorder.add(
                 message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self._cartesian
             )
+
+    def _on_scene(self, message: MarkerArray) -> None:
+        scene, _ = observed_from_markers(message.markers)
+        with self._lock:
+            self._scene = scene
+
+    def hand_pose(self) -> Optional[np.ndarray]:
+        """The arm's latest /cartesian_pose (x y z qx qy qz qw, base_link), or None before the first."""
+        return None if self._cartesian is None else self._cartesian.copy()
+
+    def target_in_base(self, gap: str) -> Tuple[Optional[Transform], str]:
+        """base_link <- the perceived gap's frame, or (None, why not): perception must report the gap and TF the base."""
+        with self._lock:
+            scene = self._scene
+        if scene is None:
+            return None, "no perception yet (teleteach/scene)"
+        if gap not in scene.gaps:
+            return None, f"perception reports no {gap} (it reports {', '.join(sorted(scene.gaps)) or 'no gaps'})"
+        try:
+            stamped = self._tf_buffer.lookup_transform(WORLD_FRAME, self.config.base_frame, rospy.Time(0))
+        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as error:
+            return None, f"no transform {WORLD_FRAME} -> {self.config.base_frame}: {error}"
+        t, r = stamped.transform.translation, stamped.transform.rotation
+        base = Transform.from_pose([t.x, t.y, t.z, r.x, r.y, r.z, r.w])
+        return base.inverse() * scene.gaps[gap].frame, ""
 
     # worker thread timers -----------------------------------------------------------------------
     def _publish_stiffness(self) -> None:

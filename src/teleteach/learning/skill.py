@@ -4,7 +4,9 @@ A learned skill is one SPD DMP for the translational stiffness (eqs C.6-C.7) and
 equilibrium pose x_r and the measured pose x_a (eqs C.1-C.5 for the position; the orientation as the rotation
 vector relative to the goal orientation, a Euclidean DMP with goal 0). Reproducing it with a new duration or a new
 goal stiffness gives a :class:`teleteach.skill_file.Skill` of kind ``dmp`` that the robot replays like a
-demonstrated one; the DMPs themselves travel in the file's provenance so the skill can be re-generated.
+demonstrated one; the DMPs themselves travel in the file's provenance so the skill can be re-generated. Learned from a
+skill in a target's frame, the poses and the stiffness are learned in that frame and the learned skill keeps it: its
+goal pose is relative to the target, so replayed at another gap it retargets there.
 """
 
 import dataclasses
@@ -109,6 +111,8 @@ class LearnedSkill:
     learning_time: float = 0.0
     learning_cpu_time: float = 0.0
     source: Dict[str, Any] = dataclasses.field(default_factory=dict)
+    frame: str = skill_file.BASE_FRAME
+    target: Optional[skill_file.Target] = None
 
     def reproduce(
         self,
@@ -171,6 +175,8 @@ class LearnedSkill:
                 cartesian_pose=_normalised(cartesian),
                 rotational_stiffness=self.rotational_stiffness,
                 provenance=provenance,
+                frame=self.frame,
+                target=self.target,
             )
         except skill_file.SkillFileError as error:
             raise LearningError(str(error)) from None
@@ -233,7 +239,8 @@ def learn_skill(skill: skill_file.Skill, name: str, parameters: Optional[Learnin
     """Learn from a recorded skill file (all streams share its ``time``)."""
     poses = {pose: (skill.time, getattr(skill, pose)) for pose in POSE_STREAMS}
     source = {"skill": skill.name, "kind": skill.kind, "samples": int(skill.time.size)}
-    return learn(skill.time, skill.stiffness, poses, name, parameters, skill.rotational_stiffness, source)
+    learned = learn(skill.time, skill.stiffness, poses, name, parameters, skill.rotational_stiffness, source)
+    return dataclasses.replace(learned, frame=skill.frame, target=skill.target)
 
 
 def reproduction_error(sample_times, samples, times, matrices) -> Dict[str, float]:

@@ -14,8 +14,9 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
+from teleteach.frames import Transform
 from teleteach.gui.recording import Trajectory
-from teleteach.skill_file import Skill
+from teleteach.skill_file import TARGET_FRAME, Skill, Target
 
 LOW = 300.0  # [N/m] compliant approach stiffness in X and Y
 HIGH = 1500.0  # [N/m] alignment stiffness in Y
@@ -120,19 +121,33 @@ def placement_demo(
     return skill, times, truth
 
 
-def placement_on_trajectory(name: str = "perpendicular", until: Optional[float] = None, rate: float = 100.0) -> Skill:
+# The carry posture's TCP (base_link (0.307, 0, 0.885), pointing down) seen from gap_1 when the base stands at
+# place_perpendicular (config/supermarket.yaml): where a trajectory that starts at the hand begins.
+CARRY_HAND_IN_GAP = np.array([-0.303, 0.0, 0.165, 1.0, 0.0, 0.0, 0.0])
+GAP_1_FROM_PLACE_PERPENDICULAR = (0.61, 0.0, 0.72, 0.0, 0.0, 0.0, 1.0)  # gap_1's pose in base_link from there
+
+
+def placement_on_trajectory(
+    name: str = "perpendicular", until: Optional[float] = None, rate: float = 100.0, hand=CARRY_HAND_IN_GAP
+) -> Skill:
     """III-C's demonstration, as the GUI records it, on a predefined trajectory.
 
     A compliant approach (X = Y = 400 N/m), Y stiffened to 2100 N/m for the alignment from 3 s, X stiffened to
     2100 N/m for the insertion from 5 s, Z at 2000 N/m; the equilibrium follows config/trajectories/<name>.yaml (its
-    first ``until`` seconds, if given) at ``rate`` [Hz].
+    first ``until`` seconds, if given) at ``rate`` [Hz], from ``hand`` (a pose in the trajectory's frame) when it
+    starts at the hand. A trajectory relative to a gap gives a skill in that gap's frame, taught from
+    place_perpendicular.
     """
-    trajectory = Trajectory.load(name)
+    trajectory = Trajectory.load(name).resolve(Transform.identity(), hand)
+    planned = Trajectory.load(name)
     times = np.arange(0.0, (until or trajectory.duration) + 0.5 / rate, 1.0 / rate)
     poses = np.array([trajectory.sample(time) for time in times])
     diagonal = np.tile([400.0, 400.0, 2000.0], (len(times), 1))
     diagonal[times >= 3.0, 1] = 2100.0
     diagonal[times >= 5.0, 0] = 2100.0
+    target = None
+    if planned.frame == TARGET_FRAME:
+        target = Target(planned.target, GAP_1_FROM_PLACE_PERPENDICULAR)
     return Skill(
         name="DemonstratedPlace_1",
         kind="stiffness",
@@ -141,4 +156,6 @@ def placement_on_trajectory(name: str = "perpendicular", until: Optional[float] 
         equilibrium_pose=poses,
         cartesian_pose=poses,
         provenance={"synthetic": True, "trajectory": name},
+        frame=planned.frame,
+        target=target,
     )

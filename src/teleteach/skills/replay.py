@@ -1,21 +1,28 @@
 """Replay of a demonstrated placing skill on the Cartesian impedance controller, judged by where the product ends.
 
-The recorded stiffness K(t) and kinematic reference x_r(t) (a :class:`teleteach.skill_file.Skill`) are resampled at
-the playback rate (K linearly, which keeps it SPD; positions linearly, orientations by slerp). Each K is sent as its
-eigendecomposition, the way the GUI commands it: principal stiffnesses on /eigenvalues and the right-handed rotation
-of the principal axes on /eigenvectors. The axes are matched to the previous sample's (order, sign, quaternion
-sign), so the controller sees a continuous ellipsoid even when two principal stiffnesses cross.
+A skill taught relative to a target (a shelf gap) is replayed relative to the gap the robot perceives now: its
+reference poses and stiffness, stored in the target's frame, are composed with the perceived gap's pose in base_link
+(T_base^ee = T_base^gap T_gap^ee, K_base = R K_gap R^T), so a profile compliant across the gap stays compliant across
+the gap. A base_link skill (an older file) is replayed where it was recorded. The recorded stiffness K(t) and
+kinematic reference x_r(t) are resampled at the playback rate (K linearly, which keeps it SPD; positions linearly,
+orientations by slerp). Each K is sent as its eigendecomposition, the way the GUI commands it: principal stiffnesses
+on /eigenvalues and the right-handed rotation of the principal axes on /eigenvectors. The axes are matched to the
+previous sample's (order, sign, quaternion sign), so the controller sees a continuous ellipsoid even when two
+principal stiffnesses cross.
 """
 
 import itertools
 import pathlib
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation, Slerp
 
 from teleteach import skill_file
+from teleteach.frames import Transform, continuous_quaternions
+from teleteach.sim.scene import Gap
 from teleteach.skills.motion import Motion
 from teleteach.skills.predefined import WorldView, release
 from teleteach.skills.robot import SkillError
@@ -85,25 +92,74 @@ def plan_replay(skill: skill_file.Skill, rate: float) -> ReplayPlan:
     for index in range(len(times)):
         eigenvalues[index], previous = _match(all_values[index], all_axes[index], previous)
         rotations[index] = previous
-    eigenvectors = Rotation.from_matrix(rotations).as_quat()
-    # q and -q are the same rotation: keep each quaternion on the side of the previous one
-    flips = np.cumprod(np.where(np.einsum("ij,ij->i", eigenvectors[1:], eigenvectors[:-1]) < 0.0, -1.0, 1.0))
-    eigenvectors[1:] *= flips[:, None]
+    eigenvectors = continuous_quaternions(Rotation.from_matrix(rotations).as_quat())
     return ReplayPlan(skill.name, times, eigenvalues, eigenvectors, positions, orientations)
 
 
-def parse_replay_parameters(parameters: str):
-    """The goal's yaml {data_file, kind}: (path, kind or None); SkillError when it is not that."""
+@dataclass(frozen=True)
+class ReplayRequest:
+    """A ReplaySkill goal: the skill file, the kind it must be (or None), the target to replay at (or None: the
+    perceived gap where the taught one would be)."""
+
+    path: pathlib.Path
+    kind: Optional[str]
+    target: Optional[str]
+
+
+def parse_replay_parameters(parameters: str) -> ReplayRequest:
+    """The goal's yaml {data_file, kind, target}; SkillError when it is not that."""
     try:
         values = yaml.safe_load(parameters or "")
     except yaml.YAMLError as error:
         raise SkillError(f"ReplaySkill parameters are not valid yaml: {error}") from None
     if not isinstance(values, dict) or not isinstance(values.get("data_file"), str) or not values["data_file"]:
-        raise SkillError("ReplaySkill parameters must be yaml {data_file: <path of the skill file>, kind: stiffness}")
+        raise SkillError(
+            "ReplaySkill parameters must be yaml {data_file: <path of the skill file>, kind: stiffness, "
+            "target: <gap, optional>}"
+        )
     kind = values.get("kind")
     if kind is not None and kind not in skill_file.KINDS:
         raise SkillError(f"unknown skill kind '{kind}'; expected one of {', '.join(skill_file.KINDS)}")
-    return pathlib.Path(values["data_file"]).expanduser(), kind
+    target = values.get("target")
+    if target is not None and (not isinstance(target, str) or not target):
+        raise SkillError(f"ReplaySkill target must be the name of a gap, got {target!r}")
+    return ReplayRequest(pathlib.Path(values["data_file"]).expanduser(), kind, target)
+
+
+def replay_target(world: WorldView, skill: skill_file.Skill, requested: Optional[str]) -> Gap:
+    """The perceived gap a target-frame skill is replayed at: the requested one, or the one where the taught gap
+    would be from the base's pose now (within replay.target_search_radius).
+
+    Raises:
+        SkillError: naming the skill and the target, when perception reports no such gap.
+    """
+    scene = world.perceived()
+    taught = skill.target.name
+    if requested is not None:
+        if requested not in scene.gaps:
+            raise SkillError(
+                f"{skill.name} (taught at {taught}) cannot be replayed at {requested}: perception reports no "
+                f"{requested} (it reports {', '.join(sorted(scene.gaps)) or 'no gaps'})"
+            )
+        return scene.gaps[requested]
+    base = Transform.from_planar(*world.motion.robot.base_pose())
+    expected = (base * skill.target.transform).position
+    if not scene.gaps:
+        raise SkillError(f"{skill.name} places relative to a gap like {taught}, but perception reports no gaps")
+    nearest = scene.nearest_gap(expected)
+    distance = nearest.distance(expected)[0]
+    if distance > world.config.replay.target_search_radius:
+        raise SkillError(
+            f"{skill.name} places relative to a gap like {taught}, but perception reports none within "
+            f"{world.config.replay.target_search_radius:.2f} m of where it would be from here (nearest: "
+            f"{nearest.name}, {distance:.2f} m away); name the target: {{target: <gap>}}"
+        )
+    return nearest
+
+
+def gap_in_base(world: WorldView, gap: Gap) -> Transform:
+    """base_link <- the gap's frame (origin at the placed product's centre, x into the shelf, z up)."""
+    return Transform.from_planar(*world.motion.robot.base_pose()).inverse() * gap.frame
 
 
 class StiffnessReplay:
@@ -117,13 +173,23 @@ class StiffnessReplay:
 
     def run(self, world: WorldView, parameters: str) -> str:
         """Replay the skill the goal names; returns the success message saying where the product ended."""
-        path, kind = parse_replay_parameters(parameters)
+        request = parse_replay_parameters(parameters)
         try:
-            skill = skill_file.load(path)
+            skill = skill_file.load(request.path)
         except skill_file.SkillFileError as error:
             raise SkillError(str(error)) from None
-        if kind is not None and kind != skill.kind:
-            raise SkillError(f"skill file {path} holds a '{skill.kind}' skill, the goal asked for '{kind}'")
+        if request.kind is not None and request.kind != skill.kind:
+            raise SkillError(
+                f"skill file {request.path} holds a '{skill.kind}' skill, the goal asked for '{request.kind}'"
+            )
+        if skill.frame == skill_file.TARGET_FRAME:
+            gap = replay_target(world, skill, request.target)
+            where = f"relative to {gap.name} (taught at {skill.target.name})"
+            skill = skill.in_base(gap_in_base(world, gap))
+        elif request.target is not None:
+            raise SkillError(f"{skill.name} is a base_link skill (no target frame): it cannot be replayed at a target")
+        else:
+            where = "in base_link where it was recorded (a skill without a target frame)"
         product, _ = world.product_in_hand()
         if product is None:
             width = world.motion.robot.gripper_width()
@@ -163,7 +229,7 @@ class StiffnessReplay:
         robot.switch_controllers([config.position_controller], [config.impedance_controller])
         placed = release(world, product, before, progress=0.15, only_in_gap=True)
         return (
-            f"replayed {skill.name} ({skill.kind}): {len(plan.times)} samples over {plan.duration:.2f} s, "
+            f"replayed {skill.name} ({skill.kind}) {where}: {len(plan.times)} samples over {plan.duration:.2f} s, "
             f"final end-effector error {1000.0 * error:.1f} mm; {product} released upright in {placed.gap}, "
             f"{1000.0 * placed.distance_m:.1f} mm from its centre"
         )
