@@ -54,8 +54,11 @@ class Transform:
         return self.position + self.rotation.apply(np.asarray(point, dtype=float))
 
     def apply_poses(self, poses: np.ndarray) -> np.ndarray:
-        """Poses (N, 7) given in B, expressed in A; each quaternion on the side of the one before (q and -q are the
-        same rotation: a sequence that flips between them would make an interpolation turn the long way)."""
+        """Poses (N, 7) given in B, expressed in A; each quaternion on the side of the one before.
+
+        q and -q are the same rotation: a sequence that flips between them would make an interpolation turn the long
+        way.
+        """
         poses = np.asarray(poses, dtype=float)
         positions = self.position + self.rotation.apply(poses[:, :3])
         quaternions = (self.rotation * Rotation.from_quat(poses[:, 3:7])).as_quat()

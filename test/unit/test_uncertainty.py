@@ -20,6 +20,7 @@ from teleteach.sim.uncertainty import (
     streams,
 )
 
+
 def with_value(path, value):
     """The default settings with one field (a dotted path) replaced."""
     values = yaml.safe_load(DEFAULT_UNCERTAINTY_FILE.read_text())

@@ -20,7 +20,6 @@ from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, Q
 from std_msgs.msg import Bool, Int8
 
 from teleteach import skill_file
-from teleteach.skill_file import TARGET_FRAME
 from teleteach.bt.editor import EditRequest
 from teleteach.datadir import data_dir
 from teleteach.frames import Transform
@@ -38,6 +37,7 @@ from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, Trajecto
 from teleteach.haptics.guidance import Guidance
 from teleteach.msg import HapticGuidance, Selection
 from teleteach.node import init_node
+from teleteach.skill_file import TARGET_FRAME
 from teleteach.srv import (
     AddSkill,
     AddSkillRequest,

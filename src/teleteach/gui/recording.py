@@ -87,9 +87,11 @@ class Trajectory:
         return np.concatenate([position, self._slerp([t]).as_quat()[0]])
 
     def resolve(self, target_in_base: Optional[Transform], hand: Optional[np.ndarray]) -> "Trajectory":
-        """The trajectory to play: its waypoints composed with the target's pose in base_link (a target-frame
-        trajectory; the identity keeps it in the target's frame), after the hand's pose (x y z qx qy qz qw, in the
-        frame played in) when it starts at the hand."""
+        """The trajectory to play, from the hand when it starts at the hand.
+
+        Its waypoints are composed with the target's pose in base_link (a target-frame trajectory; the identity keeps
+        it in the target's frame), after the hand's pose (x y z qx qy qz qw, in the frame played in).
+        """
         poses = np.hstack([self.positions, self.quaternions])
         if self.frame == TARGET_FRAME:
             if target_in_base is None:

@@ -103,8 +103,7 @@ class TrajectoryPlayer:
         return self._thread is not None and self._thread.is_alive()
 
     def start(self, trajectory: Optional[Trajectory] = None) -> None:
-        """Start from the first waypoint (of ``trajectory``, a base_link one, if given); after the last one the end pose
-        is held."""
+        """Start from the first waypoint (of ``trajectory``, a base_link one, if given); then hold the end pose."""
         self.stop()
         if trajectory is not None:
             self.trajectory = trajectory
@@ -435,7 +434,7 @@ class RosWorker(QObject):
         return None if self._cartesian is None else self._cartesian.copy()
 
     def target_in_base(self, gap: str) -> Tuple[Optional[Transform], str]:
-        """base_link <- the perceived gap's frame, or (None, why not): perception must report the gap and TF the base."""
+        """base_link <- the perceived gap's frame, or (None, why not): needs the gap perceived and the base in TF."""
         with self._lock:
             scene = self._scene
         if scene is None:

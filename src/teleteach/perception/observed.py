@@ -28,6 +28,8 @@ from teleteach.rotations import yaw_quaternion
 from teleteach.sim.scene import Gap, GapLookup, Scene
 
 WORLD_FRAME = "world"
+SCENE_TOPIC = "teleteach/scene"  # what the robot's perception reports: what the skills act on
+TRUE_SCENE_TOPIC = "teleteach/true_scene"  # the world as it is (a simulation's): what judges an outcome
 PRODUCTS = "products"
 GAPS = "gaps"
 TABLES = "tables"

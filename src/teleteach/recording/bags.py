@@ -30,8 +30,11 @@ TEACHING_TOPICS = (
     "tf_static",
     "force_torque_ext",
     "teleteach/scene",
+    "teleteach/true_scene",
+    "robot_sim/base_error",
 )
-"""Everything a session bag records (the scene too, so that a visual replay shows the shelf and the products).
+"""Everything a session bag records (the scene too, so that a visual replay shows the shelf and the products; in a
+simulation the true scene and the base's errors, so that the run is judged from the world).
 
 Relative names: the recorder records them in its namespace (``/eigenvalues`` at the root, where the offline
 readers, teleteach.recording.session and teleteach.learning.bag, expect them).

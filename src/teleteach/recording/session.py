@@ -1,7 +1,9 @@
 """A recorded teaching session read offline from its bag with the ``rosbags`` library (no ROS master).
 
 Only what the report and the run's checks need is deserialised: device pose, gripper and button, active tab,
-eigenvalues and eigenvectors, end-effector position, the tree log and the products' poses on /teleteach/scene.
+eigenvalues and eigenvectors, end-effector position, the tree log, the products' poses (from /teleteach/true_scene,
+the world as it is, when a simulation recorded it; else from /teleteach/scene, what perception reported), the gaps as
+perceived and as they are, and robot_sim's MoveBase errors (/robot_sim/base_error).
 Times are seconds since the bag's first message (the bag's receive time, so topics without a header line up with
 the others).
 """
@@ -16,7 +18,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from teleteach.control.validation import InvalidCommandError, validate_eigenvalues, validate_quaternion
-from teleteach.perception.observed import product_poses
+from teleteach.perception.observed import SCENE_TOPIC, TRUE_SCENE_TOPIC, observed_from_markers
 from teleteach.recording.bags import BagError, check_bag
 
 RUNNING, SUCCESS = 2, 3  # teleteach/Behaviour statuses (the message module needs the catkin build, this does not)
@@ -83,6 +85,27 @@ class Session:
     trees: List[TreeSnapshot] = dataclasses.field(default_factory=list)
     products: Dict[str, Series] = dataclasses.field(default_factory=dict)
     rejected: Dict[str, int] = dataclasses.field(default_factory=dict)
+    products_from: str = ""
+    perceived_gaps: Dict[str, Series] = dataclasses.field(default_factory=dict)
+    true_gaps: Dict[str, Series] = dataclasses.field(default_factory=dict)
+    base_errors: Optional[Series] = None
+
+    def gap_perception_error(self, gap: str, time: float) -> Optional[np.ndarray]:
+        """How far off perception saw ``gap`` at time [s], in the true gap's frame; None without both views of it.
+
+        Returns (depth, across, height [m], yaw [rad]).
+        """
+        if gap not in self.perceived_gaps or gap not in self.true_gaps:
+            return None
+        seen, truth = self.perceived_gaps[gap].at(time), self.true_gaps[gap].at(time)
+        offset = Rotation.from_euler("z", truth[3]).inv().apply(seen[:3] - truth[:3])
+        return np.array([*offset, np.arctan2(np.sin(seen[3] - truth[3]), np.cos(seen[3] - truth[3]))])
+
+    def base_error(self, time: float) -> Optional[np.ndarray]:
+        """Where the last MoveBase before time [s] stopped in its goal's frame (x, y [m], yaw [rad]); None: none."""
+        if self.base_errors is None or not len(self.base_errors) or self.base_errors.times[0] > time:
+            return None
+        return self.base_errors.at(time)
 
 
 def yaw_of(quaternions_xyzw: np.ndarray) -> np.ndarray:
@@ -168,7 +191,9 @@ _READ = {
     "/eigenvectors": "geometry_msgs/msg/QuaternionStamped",
     "/cartesian_pose": "geometry_msgs/msg/PoseStamped",
     "/behaviour_tree/log/tree": "teleteach/msg/BehaviourTree",
-    "/teleteach/scene": "visualization_msgs/msg/MarkerArray",
+    f"/{SCENE_TOPIC}": "visualization_msgs/msg/MarkerArray",
+    f"/{TRUE_SCENE_TOPIC}": "visualization_msgs/msg/MarkerArray",
+    "/robot_sim/base_error": "geometry_msgs/msg/PoseStamped",
 }
 """Topics the report reads, with the type it expects on each (others are counted, not read)."""
 
@@ -182,6 +207,9 @@ def _row(topic: str, message) -> tuple:
     if topic == "/eigenvectors":
         q = message.quaternion
         return (q.x, q.y, q.z, q.w)
+    if topic == "/robot_sim/base_error":
+        p, q = message.pose.position, message.pose.orientation
+        return (p.x, p.y, Rotation.from_quat([q.x, q.y, q.z, q.w]).as_euler("ZYX")[0])
     return (float(message.data),)
 
 
@@ -244,7 +272,7 @@ def _read(reader, path: pathlib.Path) -> Session:
     times: Dict[str, List[float]] = {topic: [] for topic in _READ}
     rows: Dict[str, List[tuple]] = {topic: [] for topic in _READ}
     trees: List[TreeSnapshot] = []
-    poses: Dict[str, Tuple[List[float], List[tuple]]] = {}
+    scenes = {f"/{SCENE_TOPIC}": _SceneSeries(), f"/{TRUE_SCENE_TOPIC}": _SceneSeries()}
     for connection, timestamp, raw in reader.messages(connections=wanted):
         message = reader.deserialize(raw, connection.msgtype)
         time = (timestamp - start) / 1e9
@@ -252,11 +280,8 @@ def _read(reader, path: pathlib.Path) -> Session:
             names, children = tree_structure(message.behaviours)
             types = {behaviour.name: behaviour.type for behaviour in message.behaviours}
             trees.append(TreeSnapshot(time, names, children, running_leaves(message.behaviours), types))
-        elif connection.topic == "/teleteach/scene":
-            for name, (position, quaternion) in product_poses(message.markers).items():
-                poses.setdefault(name, ([], []))
-                poses[name][0].append(time)
-                poses[name][1].append((*position, *quaternion))
+        elif connection.topic in scenes:
+            scenes[connection.topic].add(time, message.markers)
         else:
             times[connection.topic].append(time)
             rows[connection.topic].append(_row(connection.topic, message))
@@ -269,6 +294,8 @@ def _read(reader, path: pathlib.Path) -> Session:
         )
         eigenvalues = eigenvalues if len(eigenvalues) else None
         eigenvectors = eigenvectors if len(eigenvectors) else None
+    truth, perceived = scenes[f"/{TRUE_SCENE_TOPIC}"], scenes[f"/{SCENE_TOPIC}"]
+    judged = truth if truth.products else perceived
     device = _series(times["/sigma7/pose"], rows["/sigma7/pose"])
     cartesian = _series(times["/cartesian_pose"], rows["/cartesian_pose"])
     button = _series(times["/sigma7/button"], rows["/sigma7/button"])
@@ -286,6 +313,35 @@ def _read(reader, path: pathlib.Path) -> Session:
         eigenvectors=eigenvectors,
         cartesian_position=Series(cartesian.times, cartesian.values[:, :3]) if cartesian else None,
         trees=trees,
-        products={name: _series(*samples) for name, samples in poses.items()},
+        products=judged.products_series(),
         rejected={topic: count for topic, count in rejected.items() if count},
+        products_from=(TRUE_SCENE_TOPIC if judged is truth else SCENE_TOPIC) if judged.products else "",
+        perceived_gaps=perceived.gaps_series(),
+        true_gaps=truth.gaps_series(),
+        base_errors=_series(times["/robot_sim/base_error"], rows["/robot_sim/base_error"]),
     )
+
+
+class _SceneSeries:
+    """Products' poses (x y z qx qy qz qw) and gaps' poses (x y z yaw) over time, from one scene topic."""
+
+    def __init__(self):
+        self.products: Dict[str, Tuple[List[float], List[tuple]]] = {}
+        self.gaps: Dict[str, Tuple[List[float], List[tuple]]] = {}
+
+    def add(self, time: float, markers) -> None:
+        scene, _ = observed_from_markers(markers)
+        for name, box in scene.products.items():
+            self.products.setdefault(name, ([], []))
+            self.products[name][0].append(time)
+            self.products[name][1].append((*box.position, *box.quaternion))
+        for name, gap in scene.gaps.items():
+            self.gaps.setdefault(name, ([], []))
+            self.gaps[name][0].append(time)
+            self.gaps[name][1].append((*gap.position, gap.yaw))
+
+    def products_series(self) -> Dict[str, Series]:
+        return {name: _series(*samples) for name, samples in self.products.items()}
+
+    def gaps_series(self) -> Dict[str, Series]:
+        return {name: _series(*samples) for name, samples in self.gaps.items()}

@@ -99,13 +99,16 @@ def placements(session: Session, scene: Scene) -> List[dict]:
     Each entry: product, gap (None when in none), distance_m from the nearest gap's target, upright,
     neighbours_max_move_m, and by_skill: who put it where it ended, i.e. the tree leaf running when it came to rest
     there (it stays put once let go), or LOW-LEVEL teaching when the operator's demonstration set it down (the tree
-    paused).
+    paused); judged_from: the scene topic the judgement read (the true scene when the bag has it); base_error: where
+    the last MoveBase before then stopped off its goal (x, y [m], yaw [deg], in the goal's frame), and
+    perception_error: how far off perception saw the gap then (depth, across, height [m], yaw [deg]), each None when
+    the bag does not say.
     """
-    return [_entry(result, by_skill) for result, by_skill in _placed(session, scene)]
+    return [_entry(session, *found) for found in _placed(session, scene)]
 
 
-def _placed(session: Session, scene: Scene) -> List[Tuple[placement.Placement, Optional[str]]]:
-    """The judged placements of the products that ended on a shelf, each with who set it down."""
+def _placed(session: Session, scene: Scene) -> List[Tuple[placement.Placement, Optional[str], float]]:
+    """The judged placements of the products that ended on a shelf, each with who set it down and when."""
     initial = {name: series.values[0, :3] for name, series in session.products.items()}
     final = {name: (series.values[-1, :3], series.values[-1, 3:]) for name, series in session.products.items()}
     found = []
@@ -113,11 +116,13 @@ def _placed(session: Session, scene: Scene) -> List[Tuple[placement.Placement, O
         series = session.products[result.product]
         away = np.flatnonzero(np.linalg.norm(series.values[:, :3] - series.values[-1, :3], axis=1) > REST)
         rest = series.times[away[-1] + 1] if away.size and away[-1] + 1 < len(series) else series.times[0]
-        found.append((result, _set_down_by(session, rest)))
+        found.append((result, _set_down_by(session, rest), float(rest)))
     return found
 
 
-def _entry(result: placement.Placement, by_skill: Optional[str]) -> dict:
+def _entry(session: Session, result: placement.Placement, by_skill: Optional[str], rest: float) -> dict:
+    base = session.base_error(rest)
+    seen = session.gap_perception_error(result.gap or result.nearest_gap, rest)
     return {
         "product": result.product,
         "gap": result.gap,
@@ -125,6 +130,19 @@ def _entry(result: placement.Placement, by_skill: Optional[str]) -> dict:
         "upright": result.upright,
         "by_skill": by_skill,
         "neighbours_max_move_m": round(result.neighbours_max_move_m, 4),
+        "judged_from": session.products_from,
+        "base_error": None
+        if base is None
+        else {"x_m": round(base[0], 4), "y_m": round(base[1], 4), "yaw_deg": round(float(np.degrees(base[2])), 2)},
+        "perception_error": None
+        if seen is None
+        else {
+            "gap": result.gap or result.nearest_gap,
+            "depth_m": round(seen[0], 4),
+            "across_m": round(seen[1], 4),
+            "height_m": round(seen[2], 4),
+            "yaw_deg": round(float(np.degrees(seen[3])), 2),
+        },
     }
 
 
@@ -235,17 +253,35 @@ def check_placements(
 
     Returns the problems (the placement's own, teleteach.placement, and who set it down) and the summary's entries.
     """
-    found = {result.product: (result, by_skill) for result, by_skill in _placed(session, scene)}
+    found = {result.product: (result, by_skill, rest) for result, by_skill, rest in _placed(session, scene)}
     problems = []
     for product, (gap, expected_by) in expected.items():
         if product not in found:
             problems.append(f"{product} did not end on the shelf (expected in {gap})")
             continue
-        result, by_skill = found[product]
+        result, by_skill, _ = found[product]
         problems += result.problems(gap)
         if expected_by is not None and by_skill != expected_by:
             problems.append(f"{product} was set down by {by_skill}, not by {expected_by}")
-    return problems, [_entry(result, by_skill) for result, by_skill in found.values()]
+    return problems, [_entry(session, *entry) for entry in found.values()]
+
+
+def _uncertainty_met(entry: dict) -> str:
+    """The errors a placement met, in words (empty when the bag does not say)."""
+    said = []
+    base = entry.get("base_error")
+    if base:
+        said.append(
+            f"the base stood ({1000 * base['x_m']:+.1f}, {1000 * base['y_m']:+.1f}) mm, {base['yaw_deg']:+.2f} deg "
+            "off its goal"
+        )
+    seen = entry.get("perception_error")
+    if seen:
+        said.append(
+            f"perception saw {seen['gap']} {1000 * seen['depth_m']:+.1f} mm deep, {1000 * seen['across_m']:+.1f} mm "
+            f"across, {1000 * seen['height_m']:+.1f} mm high, {seen['yaw_deg']:+.2f} deg off"
+        )
+    return f"; {' and '.join(said)}" if said else ""
 
 
 @dataclasses.dataclass
@@ -317,7 +353,8 @@ class RunSummary:
             lines.append(
                 f"- product {entry['product']}: on the shelf {where}, {upright}, {100 * entry['distance_m']:.1f} cm "
                 f"from the nearest gap's centre, put there by {entry['by_skill'] or 'nobody known'}; its neighbours "
-                f"moved at most {1000 * entry['neighbours_max_move_m']:.1f} mm"
+                f"moved at most {1000 * entry['neighbours_max_move_m']:.1f} mm; judged from "
+                f"{entry['judged_from'] or 'nothing'}{_uncertainty_met(entry)}"
             )
         if not self.placements:
             lines.append("- products: none ended on the shelf")

@@ -26,7 +26,7 @@ from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.gui.session import Tab
 from teleteach.haptics.scenario import load_scenario
 from teleteach.paths import config_file, share_dir
-from teleteach.perception.observed import product_positions
+from teleteach.perception.observed import TRUE_SCENE_TOPIC, product_positions
 from teleteach.recording.report import make_report
 from teleteach.recording.session import SessionError, read_session
 from teleteach.run import outcome
@@ -118,7 +118,7 @@ class Monitor:
             rospy.Subscriber("behaviour_tree/ascii/tree", String, self._ascii, queue_size=5),
             rospy.Subscriber("behaviour_tree/skill_library", SkillLibrary, self._library, queue_size=5),
             rospy.Subscriber("behaviour_tree/help_request", HelpRequest, self._help, queue_size=5),
-            rospy.Subscriber("teleteach/scene", MarkerArray, self._scene, queue_size=1),
+            rospy.Subscriber(TRUE_SCENE_TOPIC, MarkerArray, self._scene, queue_size=1),  # judged from the truth
             rospy.Subscriber("teleteach/active_tab", Int8, self._tab, queue_size=5),
         ]
         self._now = rospy.get_time

@@ -14,6 +14,7 @@ from teleteach.control import validation
 from teleteach.control.impedance import CartesianImpedanceController, ImpedanceParams
 from teleteach.control.joint_trajectory import JointTrajectoryController
 from teleteach.control.manager import ControllerManager
+from teleteach.frames import Transform
 from teleteach.paths import config_file
 from teleteach.perception.observed import ObservedScene, observed_from_scene
 from teleteach.sim import panda
@@ -179,6 +180,11 @@ class RobotSim:
         self.base_goal = np.array(validation.validate_base_goal(frame_id, position, quaternion))
         self.world.set_base_goal(*self.base_error.stop_pose(self.base_goal))
         self._new_viewpoint = True
+
+    def base_stop_in_goal(self) -> np.ndarray:
+        """Where the base stops (stops: its last goal's stop pose) in the frame of its last goal: x [m], y [m], yaw."""
+        goal = Transform.from_planar(*self.base_goal)
+        return (goal.inverse() * Transform.from_planar(*self.world.base_goal)).planar()
 
     def place_base(self, pose: BasePose):
         """Put the base at a pose at once, where MoveBase would have stopped for it (set-up of benches and tests)."""

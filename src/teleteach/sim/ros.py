@@ -52,6 +52,7 @@ from teleteach.sim.world import SHELF_COLOUR
 from teleteach.srv import ListControllers, ListControllersResponse, SwitchController, SwitchControllerResponse
 
 JOINT_NAMES = list(panda.ARM_JOINTS + panda.FINGER_JOINTS)
+BASE_ERROR_FRAME = "move_base_goal"  # ~base_error's poses are where the base stops, in the frame of its goal
 ACTION_POLL = 0.002  # [s] wall time between two looks at a running gripper or base command
 FEEDBACK_PERIOD = 0.1  # [s] wall time between move_base feedback messages
 
@@ -95,8 +96,9 @@ class RobotSimNode:
         robot's perception reports them, with config/uncertainty.yaml's errors, teleteach.perception's format, and the
         shelf boards for RViz), /teleteach/true_scene (10 Hz, the same format: the world as it is, for whoever judges
         an outcome; a real robot has none), /diagnostics
-        (1 Hz: real-time factor, step cost, running controller), ~rejected (String: each rejected command), TF
-        world -> base_link (100 Hz).
+        (1 Hz: real-time factor, step cost, running controller), ~rejected (String: each rejected command),
+        ~base_error (latched PoseStamped in frame ``move_base_goal``, per MoveBase goal: where the base will stop,
+        in its goal's frame: the truth a real robot does not have), TF world -> base_link (100 Hz).
 
     ROS Subscribers:
         /eigenvalues, /eigenvectors, /equilibrium_pose, /equilibrium_twist (x_dot_r of eq 5),
@@ -130,6 +132,7 @@ class RobotSimNode:
         self._true_scene = rospy.Publisher("teleteach/true_scene", MarkerArray, queue_size=1, latch=True)
         self._diagnostics = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=1)
         self._rejections = rospy.Publisher("~rejected", String, queue_size=10)
+        self._base_error = rospy.Publisher("~base_error", PoseStamped, queue_size=5, latch=True)
         self._subscribers = [
             rospy.Subscriber("eigenvalues", Vector3Stamped, self._guard("eigenvalues", self._on_eigenvalues)),
             rospy.Subscriber("eigenvectors", QuaternionStamped, self._guard("eigenvectors", self._on_eigenvectors)),
@@ -276,10 +279,16 @@ class RobotSimNode:
                 self.sim.command_base_goal(
                     target.header.frame_id, _xyz(target.pose.position), _xyzw(target.pose.orientation)
                 )
+                error = self.sim.base_stop_in_goal()
         except (InvalidCommandError, ValueError, TypeError) as error:
             self._reject("move_base", error)
             server.set_aborted(MoveBaseResult(), str(error))
             return
+        message = PoseStamped(header=self._header(BASE_ERROR_FRAME))
+        message.pose.position.x, message.pose.position.y = error[0], error[1]
+        orientation = message.pose.orientation
+        orientation.x, orientation.y, orientation.z, orientation.w = yaw_quaternion(error[2])
+        self._base_error.publish(message)
         last_feedback = 0.0
         while not rospy.is_shutdown():
             with self._lock:
@@ -448,15 +457,16 @@ class RobotSimNode:
         self._tf.publish(TFMessage(transforms=[transform]))
 
     def _publish_scene(self):
-        """teleteach/scene: the world as perception reports it (teleteach.perception), plus the shelf for RViz;
-        teleteach/true_scene: the world as it is."""
+        """Publish teleteach/scene as perception reports it (with the shelf for RViz) and teleteach/true_scene."""
         scene = self.sim.scene
         with self._lock:
             truth = self.sim.true_scene()
             perceived = self.sim.perceived_scene()
         header = self._header(WORLD_FRAME)
         shelf = [
-            box_marker(header, "shelf", index, part.center, yaw_quaternion(part.yaw), part.size, SHELF_COLOUR, part.name)
+            box_marker(
+                header, "shelf", index, part.center, yaw_quaternion(part.yaw), part.size, SHELF_COLOUR, part.name
+            )
             for index, part in enumerate(scene.shelf)
         ]
         self._scene.publish(scene_markers(perceived, self.sim.time, shelf))

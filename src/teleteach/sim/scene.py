@@ -74,7 +74,7 @@ class Gap:
 
     @property
     def frame(self) -> Transform:
-        """world <- the gap's frame: origin where the placed product's centre belongs, x into the shelf, z up."""
+        """The gap's frame in world: origin where the placed product's centre belongs, x into the shelf, z up."""
         return Transform.from_planar(self.position[0], self.position[1], self.yaw, self.position[2])
 
     def distance(self, position) -> Tuple[float, float]:

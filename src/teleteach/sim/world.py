@@ -1,10 +1,10 @@
 """The pybullet world: the supermarket scene, and the Panda on a kinematic mobile base.
 
-Physics runs at 1 kHz. The arm takes either joint torques or joint position targets (pybullet's motors); the
-fingers are position-controlled and coupled like the Franka Hand's (one drive, both fingers symmetric); the base is
-moved kinematically toward a goal at a capped speed. A product is held by the fingers through contact and friction
-alone, with the force of the grasp command: pushed hard enough it slips or turns in the hand (the finger pads' friction
-is in config/controllers.yaml). Only the base's kinematic drive needs help: it moves the arm by resetting its pose, which
+Physics runs at 1 kHz. The arm takes either joint torques or joint position targets (pybullet's motors); the fingers are
+position-controlled and coupled like the Franka Hand's (one drive, both fingers symmetric); the base is moved
+kinematically toward a goal at a capped speed. A product is held by the fingers through contact and friction alone, with
+the force of the grasp command: pushed hard enough it slips or turns in the hand (the finger pads' friction is in
+config/controllers.yaml). Only the base's kinematic drive needs help: it moves the arm by resetting its pose, which
 friction cannot follow, so whatever both fingers touch is carried by the same rigid motion (a real base accelerates at
 under 1 m/s^2, far less than a grip that holds the product's weight).
 """

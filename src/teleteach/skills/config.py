@@ -78,8 +78,11 @@ class PlaceConfig:
 
 @dataclass(frozen=True)
 class ReplayConfig:
-    """Playback of a demonstrated stiffness skill: rate [Hz], approach tolerance [m], settle time [s], and how far
-    [m] a perceived target may lie from where the taught one would be before the skill refuses to guess."""
+    """Playback of a demonstrated stiffness skill: rate [Hz], approach tolerance [m], settle time [s], target search.
+
+    target_search_radius [m]: how far a perceived gap may lie from where the taught one would be before the skill
+    refuses to guess.
+    """
 
     rate: float
     approach_tolerance: float

@@ -319,10 +319,10 @@ class DropItem(PredefinedSkill):
 def release(
     world: WorldView, product: str, before: Dict[str, np.ndarray], progress: float, only_in_gap: bool = False
 ) -> Placement:
-    """Open the gripper, lift the hand clear of the product, pull it straight back out of the shelf, tuck the arm in,
-    and judge the placement.
+    """Let the product go, pull the hand clear of it and out of the shelf, tuck the arm in, and judge the placement.
 
-    The product is judged against the gap nearest to the hand when it lets go: the one it was being put into.
+    The gripper opens, the hand lifts clear of the product, pulls straight back and tucks in. The product is judged
+    against the gap nearest to the hand when it lets go: the one it was being put into.
 
     Args:
         world: the running skill's view of the world.

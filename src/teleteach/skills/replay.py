@@ -98,8 +98,10 @@ def plan_replay(skill: skill_file.Skill, rate: float) -> ReplayPlan:
 
 @dataclass(frozen=True)
 class ReplayRequest:
-    """A ReplaySkill goal: the skill file, the kind it must be (or None), the target to replay at (or None: the
-    perceived gap where the taught one would be)."""
+    """A ReplaySkill goal: the skill file, the kind it must be (or None), the target to replay at.
+
+    With no target, the skill takes the perceived gap where the taught one would be.
+    """
 
     path: pathlib.Path
     kind: Optional[str]
@@ -127,8 +129,10 @@ def parse_replay_parameters(parameters: str) -> ReplayRequest:
 
 
 def replay_target(world: WorldView, skill: skill_file.Skill, requested: Optional[str]) -> Gap:
-    """The perceived gap a target-frame skill is replayed at: the requested one, or the one where the taught gap
-    would be from the base's pose now (within replay.target_search_radius).
+    """The perceived gap a target-frame skill is replayed at.
+
+    The requested one, or the one where the taught gap would be from the base's pose now (within
+    replay.target_search_radius).
 
     Raises:
         SkillError: naming the skill and the target, when perception reports no such gap.

@@ -5,8 +5,8 @@ Three kinds, any of which a task may combine (all must hold at once):
 - ``tree``: nodes absent from or present in the tree, or a composite's children in order, judged on the tree the
   behaviour tree node publishes (``/behaviour_tree/log/tree``);
 - ``stiffness``: the principal stiffnesses on ``/eigenvalues`` within per-axis bounds [N/m], held for ``hold`` s;
-- ``placement``: a product upright in a gap with no neighbour pushed (:func:`teleteach.placement.judge` on the scene
-  ``/teleteach/scene`` shows), held for ``hold`` s.
+- ``placement``: a product upright in a gap with no neighbour pushed (:func:`teleteach.placement.judge` on the world
+  as it is, ``/teleteach/true_scene``, not as the robot perceives it), held for ``hold`` s.
 
 Plain data in, no ROS: the study's ROS layer feeds the judge what it hears, with the time it heard it.
 """

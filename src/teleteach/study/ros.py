@@ -12,10 +12,10 @@ ROS Services:
         outside their phase or when they do not fit).
 
 ROS Subscribers:
-    behaviour_tree/log/tree (teleteach/BehaviourTree), eigenvalues (geometry_msgs/Vector3Stamped), teleteach/scene
-    (visualization_msgs/MarkerArray): what the goals judge; teleteach/selection (teleteach/Selection),
-    behaviour_tree/help_request (teleteach/HelpRequest), force_torque_ext (geometry_msgs/WrenchStamped): what the
-    trial measures while it runs.
+    behaviour_tree/log/tree (teleteach/BehaviourTree), eigenvalues (geometry_msgs/Vector3Stamped), teleteach/true_scene
+    (visualization_msgs/MarkerArray: the simulated world as it is): what the goals judge; teleteach/selection
+    (teleteach/Selection), behaviour_tree/help_request (teleteach/HelpRequest), force_torque_ext
+    (geometry_msgs/WrenchStamped): what the trial measures while it runs.
 """
 
 import threading
@@ -29,7 +29,7 @@ from std_msgs.msg import Bool
 from visualization_msgs.msg import MarkerArray
 
 from teleteach.msg import BehaviourTree, HelpRequest, Selection, StudyState
-from teleteach.perception.observed import product_poses
+from teleteach.perception.observed import TRUE_SCENE_TOPIC, product_poses
 from teleteach.sim.scene import Scene
 from teleteach.srv import StudyInput, StudyInputResponse
 from teleteach.study.goals import Goal, GoalJudge, Judgement, TreeView
@@ -93,7 +93,7 @@ class StudyRos:
         self._subscribers = [
             rospy.Subscriber("behaviour_tree/log/tree", BehaviourTree, self._on_tree, queue_size=5),
             rospy.Subscriber("eigenvalues", Vector3Stamped, self._on_eigenvalues, queue_size=100),
-            rospy.Subscriber("teleteach/scene", MarkerArray, self._on_scene, queue_size=1),
+            rospy.Subscriber(TRUE_SCENE_TOPIC, MarkerArray, self._on_scene, queue_size=1),  # judged from the truth
             rospy.Subscriber("teleteach/selection", Selection, self._on_selection, queue_size=50),
             rospy.Subscriber("behaviour_tree/help_request", HelpRequest, self._on_help, queue_size=10),
             rospy.Subscriber("force_torque_ext", WrenchStamped, self._on_wrench, queue_size=100),
