@@ -30,24 +30,29 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
-import dataclasses
 import json
-import multiprocessing
 import pathlib
 import tempfile
 import time
-from typing import Dict, List, Tuple
+from typing import Dict, List
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from teleteach import skill_file
-from teleteach.run.outcome import PHASES
-from teleteach.run.trials import TrialSetup, bootstrap_median_interval, run_trial, wilson_interval
-from teleteach.sim.kinematics import PandaKinematics
+from teleteach.run.ablation import (
+    HIGH_STIFFNESS,
+    INSERTION_START,
+    PROFILES,
+    SWEEP,
+    goals,
+    insertion_stiffness,
+    stiffness_profiles,
+    sweep_name,
+)
+from teleteach.run.trials import TrialJob, TrialSetup, run_trials, summarise
 from teleteach.sim.scene import load_scene
-from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
-from teleteach.skills.config import load_motion_config
+from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 
 BENCH = pathlib.Path(__file__).resolve().parent
 SKILL_FILE = BENCH / "data" / "DemonstratedPlace_1.npz"
@@ -56,156 +61,20 @@ RESULTS = BENCH / "results" / "stiffness_ablation.json"
 PRODUCT = "product_pick_1"
 GAP = "gap_1"
 BASE_POSE = "place_perpendicular"  # where the skill was taught from
-HIGH_STIFFNESS = 3000.0  # [N/m] the controller's max_stiffness (config/controllers.yaml)
-INSERTION_START = PHASES["perpendicular"][2][0]  # [s] thesis III-C's phase 3 on the teaching trajectory
-SWEEP = (150.0, 500.0, 1500.0, 3000.0)  # [N/m] insertion stiffness along and across, each
-PROFILES = ("constant_low", "constant_high", "taught")
 REPORTED_SEEDS = 1000  # trial k uses seed REPORTED_SEEDS + k (held out); --tuning: seed k
 DEFAULT_TRIALS = 30
 
 
-def stiffness_profiles(taught: skill_file.Skill, sweep=SWEEP) -> Dict[str, skill_file.Skill]:
-    """The skills compared, by cell name: the taught trajectory with its stiffness replaced.
-
-    Only the translational stiffness differs: times, poses and the rotational stiffness are the taught ones. The
-    stiffness is in the skill's frame (gap_1's: x along the insertion, y across the gap). Sweep cells are named
-    ``sweep_<along>_<across>`` and keep the taught stiffness before INSERTION_START and its vertical stiffness after.
-    """
-    count = len(taught.time)
-    stiffness = {
-        "constant_low": np.repeat(taught.stiffness[:1], count, axis=0),
-        "constant_high": np.tile(HIGH_STIFFNESS * np.eye(3), (count, 1, 1)),
-        "taught": taught.stiffness,
-    }
-    insertion = taught.time - taught.time[0] >= INSERTION_START
-    for along in sweep:
-        for across in sweep:
-            profile = taught.stiffness.copy()
-            profile[insertion] = [np.diag([along, across, matrix[2, 2]]) for matrix in taught.stiffness[insertion]]
-            stiffness[sweep_name(along, across)] = profile
-    return {
-        name: dataclasses.replace(taught, name=f"{taught.name}_{name}", stiffness=matrices)
-        for name, matrices in stiffness.items()
-    }
-
-
-def sweep_name(along: float, across: float) -> str:
-    """The cell of the sweep with these insertion stiffnesses [N/m]."""
-    return f"sweep_{along:.0f}_{across:.0f}"
-
-
-def insertion_stiffness(skill: skill_file.Skill) -> Tuple[float, float]:
-    """Median stiffness along (x) and across (y) the gap [N/m] in the insertion phase of a skill in the gap's frame."""
-    insertion = skill.time - skill.time[0] >= INSERTION_START
-    return float(np.median(skill.stiffness[insertion, 0, 0])), float(np.median(skill.stiffness[insertion, 1, 1]))
-
-
-def summarise(trials: List[dict], seed: int = 0) -> dict:
-    """One cell's figures over its trials."""
-    count = len(trials)
-    successes = sum(trial["success"] for trial in trials)
-    peaks = [trial["peak_force_n"] for trial in trials]
-    moves = [trial["neighbour_max_move_m"] for trial in trials]
-    return {
-        "trials": count,
-        "success_rate": successes / count,
-        "success_interval": list(wilson_interval(successes, count)),
-        "skill_success_rate": sum(trial["skill_success"] for trial in trials) / count,
-        "verdicts_disagree": sum(trial["success"] != trial["skill_success"] for trial in trials),
-        "peak_force_n": max(peaks),
-        "median_peak_force_n": float(np.median(peaks)),
-        "median_peak_force_interval": list(bootstrap_median_interval(peaks, seed)),
-        "peak_neighbour_force_n": max(trial["peak_neighbour_force_n"] for trial in trials),
-        "neighbour_max_move_m": max(moves),
-        "median_neighbour_move_m": float(np.median(moves)),
-        "median_time_s": float(np.median([trial["sim_s"] for trial in trials])),
-        "sim_s": sum(trial["sim_s"] for trial in trials),
-        "wall_s": sum(trial["wall_s"] for trial in trials),
-    }
-
-
-_worker = {}
-
-
-def _start_worker():
-    scene = load_scene()
-    _worker.update(
-        scene=scene,
-        config=load_motion_config(),
-        uncertainty=load_uncertainty(),
-        kinematics=PandaKinematics(scene.robot.mount_height),
-    )
-
-
-def _trial(job):
-    cell, path, seed = job
-    setup = TrialSetup(PRODUCT, GAP, BASE_POSE, seed)
-    result = run_trial(
-        _worker["scene"], _worker["config"], _worker["kinematics"], _worker["uncertainty"], setup, path, GAP
-    )
-    return cell, result
-
-
 def run_cells(skills: Dict[str, skill_file.Skill], seeds: List[int], processes: int) -> Dict[str, List[dict]]:
     """Every cell's trials (one per seed), spread over processes; prints progress."""
-    trials: Dict[str, List[dict]] = {name: [] for name in skills}
     with tempfile.TemporaryDirectory() as folder:
         paths = {name: skill_file.save(skill, pathlib.Path(folder) / skill.name) for name, skill in skills.items()}
-        jobs = [(name, str(paths[name]), seed) for seed in seeds for name in skills]
-        with multiprocessing.get_context("spawn").Pool(processes, initializer=_start_worker) as pool:
-            for done, (name, result) in enumerate(pool.imap_unordered(_trial, jobs), start=1):
-                trials[name].append(result)
-                if done % max(1, len(jobs) // 40) == 0 or done == len(jobs):
-                    print(f"  {done}/{len(jobs)} trials", flush=True)
-    for results in trials.values():
-        results.sort(key=lambda trial: trial["seed"])
-    return trials
-
-
-def goals(results: dict) -> List[str]:
-    """Issue 28's two ablation goals, each judged from the figures: met / not met and why."""
-    cells = {**results["profiles"], **results["sweep"]["cells"]}
-    lines = []
-    apart = []
-    for first in cells:
-        for second in cells:
-            a, b = cells[first], cells[second]
-            if first >= second:
-                continue
-            rate = abs(a["success_rate"] - b["success_rate"]) >= 0.2 and (
-                a["success_interval"][0] > b["success_interval"][1]
-                or b["success_interval"][0] > a["success_interval"][1]
-            )
-            low, high = sorted((a, b), key=lambda cell: cell["median_peak_force_n"])
-            force = (
-                high["median_peak_force_n"] >= 2.0 * low["median_peak_force_n"]
-                and high["median_peak_force_interval"][0] > low["median_peak_force_interval"][1]
-            )
-            if rate or force:
-                apart.append((first, second, "success" if rate else "peak force"))
-    profile_pairs = [pair for pair in apart if pair[0] in PROFILES and pair[1] in PROFILES]
-    shown = profile_pairs or apart
-    lines.append(
-        ("met" if apart else "not met")
-        + f": the world tells profiles apart ({len(apart)} pairs differ by >= 20 points of success or 2x median peak "
-        + "force with non-overlapping intervals"
-        + (f"; e.g. {', '.join(f'{a} vs {b} ({what})' for a, b, what in shown[:3])})" if shown else ")")
-    )
-    high = results["profiles"]["constant_high"]["median_peak_force_n"]
-    best = max(
-        ((name, cell) for name, cell in cells.items() if name not in ("constant_low", "constant_high")),
-        key=lambda item: (item[1]["success_rate"], -item[1]["median_peak_force_n"]),
-    )
-    taught = results["profiles"]["taught"]
-    for name, cell in (("taught", taught), best):
-        ok = cell["success_rate"] >= 0.9 and cell["median_peak_force_n"] <= 0.5 * high
-        lines.append(
-            f"{'met' if ok else 'not met'}: {name} places at {100 * cell['success_rate']:.0f} % "
-            f"[{100 * cell['success_interval'][0]:.0f}, {100 * cell['success_interval'][1]:.0f}] with median peak "
-            f"force {cell['median_peak_force_n']:.1f} N = {100 * cell['median_peak_force_n'] / high:.0f} % of constant "
-            f"high's {high:.1f} N (goal: >= 90 %, <= 50 %)"
-        )
-    return lines
+        jobs = [
+            TrialJob(name, TrialSetup(PRODUCT, GAP, BASE_POSE, seed), str(paths[name]), GAP)
+            for seed in seeds
+            for name in skills
+        ]
+        return run_trials(jobs, processes, lambda line: print(line, flush=True))
 
 
 def plot(results: dict, path: pathlib.Path) -> None:

@@ -65,7 +65,7 @@ class TaughtSkillsDoTheJob(unittest.TestCase):
         self.assertEqual(view.status("PlaceLearned"), "SUCCESS", message)
         self.assertIn("replayed PlaceLearned (dmp)", message)
         self.assertIn("product_pick_2 released upright in gap_2", message)
-        # Expect, from /teleteach/scene: product_pick_2 in gap_2, and no product that stood on the shelf moved
+        # Expect, from /teleteach/true_scene: product_pick_2 in gap_2, and no product that stood on the shelf moved
         self.assertTrue(*robot.in_gap("product_pick_2", "gap_2"))
         for name, position in before.items():
             if name.startswith("product_shelf") or name.startswith("product_low"):

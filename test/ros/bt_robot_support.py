@@ -1,5 +1,6 @@
 """Helpers for the behaviour-tree rostests on the real robot (robot_sim + skill_server): where the products are
-(/teleteach/scene), and which skill goals were sent (each server's goal topic), in order."""
+(/teleteach/true_scene: the world as it is, not as the robot perceives it), and which skill goals were sent (each
+server's goal topic), in order."""
 
 import threading
 import time
@@ -23,7 +24,7 @@ class RobotView:
         self.lock = threading.Lock()
         self.products = {}
         self.goals = []
-        rospy.Subscriber("/teleteach/scene", MarkerArray, self._on_scene, queue_size=1)
+        rospy.Subscriber("/teleteach/true_scene", MarkerArray, self._on_scene, queue_size=1)
         goal_topics = [
             rospy.Subscriber(f"/skills/{name}/goal", ExecuteSkillActionGoal, self._on_goal, queue_size=10)
             for name in (*PREDEFINED_SKILLS, *CONDITIONS)
@@ -61,7 +62,7 @@ class RobotView:
                 if self.products:
                     return set(self.products)
             time.sleep(0.05)
-        raise AssertionError("no products on /teleteach/scene")
+        raise AssertionError("no products on /teleteach/true_scene")
 
     def product(self, name):
         # the scene is published at 10 Hz of sim time: wait for one published after the tree finished

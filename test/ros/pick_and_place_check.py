@@ -34,7 +34,7 @@ class PickAndPlaceTest(unittest.TestCase):
         cls.lock = threading.Lock()
         cls.products = {}
         cls.clients = {}
-        rospy.Subscriber("/teleteach/scene", MarkerArray, cls.on_scene, queue_size=1)
+        rospy.Subscriber("/teleteach/true_scene", MarkerArray, cls.on_scene, queue_size=1)  # the world, as it is
 
     @classmethod
     def on_scene(cls, msg):

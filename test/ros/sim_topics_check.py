@@ -29,6 +29,7 @@ from teleteach.msg import (
     StopGoal,
 )
 from teleteach.perception.observed import observed_from_markers
+from teleteach.sim.scene import load_scene
 
 
 def client(name, action):
@@ -76,6 +77,8 @@ class SimTopics(unittest.TestCase):
         pose = Latest("/cartesian_pose", PoseStamped)
         joints = Latest("/joint_states", JointState)
         scene = Latest("/teleteach/scene", MarkerArray)
+        truth = Latest("/teleteach/true_scene", MarkerArray)
+        base_error = Latest("/robot_sim/base_error", PoseStamped)
         wrench = Latest("/force_torque_ext", WrenchStamped)
         diagnostics = Latest("/diagnostics", DiagnosticArray)
         tf_buffer = tf2_ros.Buffer()
@@ -114,8 +117,17 @@ class SimTopics(unittest.TestCase):
         perceived, rejected = observed_from_markers(markers)
         self.assertEqual(rejected, [])
         self.assertEqual(set(perceived.products), products)
-        self.assertEqual(sorted(perceived.gaps), ["gap_1", "gap_2"])
+        file_scene = load_scene()
+        self.assertEqual(sorted(perceived.gaps), sorted(file_scene.gaps))
         self.assertEqual(list(perceived.tables), ["pick_table"])
+        # ... with perception's errors (config/uncertainty.yaml), while /teleteach/true_scene has the world as it is
+        actual, rejected = observed_from_markers(truth.wait().markers)
+        self.assertEqual(rejected, [])
+        self.assertEqual(set(actual.products), products)
+        for name, gap in file_scene.gaps.items():
+            self.assertEqual(actual.gaps[name].position, gap.position)
+            offset = np.linalg.norm(np.subtract(perceived.gaps[name].position, gap.position))
+            self.assertTrue(0.0 < offset < 0.02, f"{name} perceived {1000 * offset:.1f} mm off")
         self.assertEqual(wrench.wait().header.frame_id, "base_link")
         status = diagnostics.wait().status[0]
         self.assertEqual(status.name, "robot_sim")
@@ -141,7 +153,12 @@ class SimTopics(unittest.TestCase):
         self.assertEqual(move_base.get_state(), GoalStatus.SUCCEEDED)
         rospy.sleep(0.3)  # TF reaches this listener a little after the result
         arrived = tf_buffer.lookup_transform("world", "base_link", rospy.Time(0), rospy.Duration(5.0))
-        self.assertAlmostEqual(arrived.transform.translation.x, 1.0, places=3)
+        # Expect: it stopped near the goal, off by the error robot_sim drew and announced (config/uncertainty.yaml)
+        error = base_error.wait().pose.position
+        self.assertEqual(base_error.message.header.frame_id, "move_base_goal")
+        self.assertTrue(0.0 < math.hypot(error.x, error.y) <= 0.03, (error.x, error.y))
+        self.assertAlmostEqual(arrived.transform.translation.x, 1.0 + error.x, places=3)
+        self.assertAlmostEqual(arrived.transform.translation.y, error.y, places=3)
         self.assertTrue(feedback and all(0.0 <= f.pose.position.x <= 1.0 for f in feedback), feedback[-1:])
         self.assertEqual(feedback[-1].header.frame_id, "world")
         # cancelled on the way back, the base stops where it is; a goal in another frame is aborted, saying why

@@ -1,72 +1,128 @@
-"""The logic of bench/stiffness_ablation.py: the sampled base errors and the three stiffness profiles it compares."""
-
-import importlib.util
-import math
-import pathlib
+"""The stiffness ablation's question (teleteach.run.ablation) and its statistics (teleteach.run.trials)."""
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from teleteach import skill_file
-from teleteach.sim.scene import BasePose
-
-BENCH_FILE = pathlib.Path(__file__).resolve().parents[2] / "bench" / "stiffness_ablation.py"
-
-
-@pytest.fixture(scope="module")
-def ablation():
-    spec = importlib.util.spec_from_file_location("stiffness_ablation", BENCH_FILE)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from teleteach.frames import Transform
+from teleteach.run.ablation import (
+    HIGH_STIFFNESS,
+    INSERTION_START,
+    SWEEP,
+    goals,
+    insertion_stiffness,
+    stiffness_profiles,
+    sweep_name,
+)
+from teleteach.run.trials import bootstrap_median_interval, summarise, wilson_interval
 
 
 def taught_skill():
-    """Compliant start, then Y and X stiffened: a variable profile like a demonstration's."""
-    count = 30
-    diagonal = np.tile([400.0, 430.0, 2000.0], (count, 1))
-    diagonal[10:, 1] = 1900.0
-    diagonal[20:, 0] = 1900.0
-    poses = np.tile([0.3, 0.0, 0.88, 1.0, 0.0, 0.0, 0.0], (count, 1))
-    poses[:, 0] = np.linspace(0.3, 0.61, count)
+    """Compliant start, then Y and X stiffened: a variable profile like a demonstration's, in a gap's frame."""
+    times = np.linspace(0.0, 11.0, 45)
+    diagonal = np.tile([400.0, 430.0, 2000.0], (len(times), 1))
+    diagonal[times >= 3.0, 1] = 1900.0
+    diagonal[times >= 5.0, 0] = 1900.0
+    poses = np.tile([-0.3, 0.0, 0.1, 1.0, 0.0, 0.0, 0.0], (len(times), 1))
+    poses[:, 0] = np.linspace(-0.3, 0.0, len(times))
     stiffness = np.array([np.diag(row) for row in diagonal])
-    return skill_file.Skill("DemonstratedPlace_1", "stiffness", np.linspace(0.0, 11.0, count), stiffness, poses, poses)
+    base = skill_file.Skill("DemonstratedPlace_1", "stiffness", times, stiffness, poses, poses)
+    return base.relative_to("gap_1", Transform.identity())
 
 
-def test_errors_are_reproducible_and_within_the_limits(ablation):
-    errors = ablation.base_pose_errors(200, seed=3)
-    np.testing.assert_array_equal(errors, ablation.base_pose_errors(200, seed=3))
-    assert np.abs(errors[:, :2]).max() <= 0.01 and np.abs(errors[:, 2]).max() <= math.radians(2.0)
-    # Expect: both signs and most of the range used on every axis
-    assert (errors.min(axis=0) < -0.8 * errors.max(axis=0)).all()
-
-
-def test_the_profiles_change_only_the_stiffness(ablation):
+def test_the_profiles_change_only_the_stiffness_and_the_sweep_only_the_insertion():
     taught = taught_skill()
-    profiles = ablation.stiffness_profiles(taught)
-    assert list(profiles) == ["constant_low", "constant_high", "taught"]
+    profiles = stiffness_profiles(taught)
+    assert list(profiles)[:3] == ["constant_low", "constant_high", "taught"]
+    assert len(profiles) == 3 + len(SWEEP) ** 2
     for name, skill in profiles.items():
         skill_file.validate(skill)
         assert skill.name == f"DemonstratedPlace_1_{name}"
         np.testing.assert_array_equal(skill.time, taught.time)
         np.testing.assert_array_equal(skill.equilibrium_pose, taught.equilibrium_pose)
-        assert skill.rotational_stiffness == taught.rotational_stiffness
+        assert skill.target == taught.target and skill.rotational_stiffness == taught.rotational_stiffness
     # Expect: low = the approach preset throughout, high = 3000 N/m on every axis, taught unchanged
     np.testing.assert_array_equal(
-        profiles["constant_low"].stiffness, np.tile(np.diag([400.0, 430.0, 2000.0]), (30, 1, 1))
+        profiles["constant_low"].stiffness, np.tile(np.diag([400.0, 430.0, 2000.0]), (45, 1, 1))
     )
-    np.testing.assert_array_equal(profiles["constant_high"].stiffness, np.tile(3000.0 * np.eye(3), (30, 1, 1)))
+    np.testing.assert_array_equal(profiles["constant_high"].stiffness, np.tile(HIGH_STIFFNESS * np.eye(3), (45, 1, 1)))
     np.testing.assert_array_equal(profiles["taught"].stiffness, taught.stiffness)
+    # Expect: a sweep cell is the taught profile before the insertion, (along, across, taught z) from it on
+    cell = profiles[sweep_name(150.0, 3000.0)]
+    before = taught.time < INSERTION_START
+    np.testing.assert_array_equal(cell.stiffness[before], taught.stiffness[before])
+    np.testing.assert_array_equal(
+        cell.stiffness[~before], np.tile(np.diag([150.0, 3000.0, 2000.0]), ((~before).sum(), 1, 1))
+    )
+    assert insertion_stiffness(cell) == (150.0, 3000.0)
+    assert insertion_stiffness(taught) == (1900.0, 1900.0)
 
 
-def test_aim_offset_is_the_end_of_the_trajectory_seen_from_the_gap(ablation):
-    scene = ablation.load_scene(str(ablation.SCENE_FILE))
-    taught = scene.base_poses["place_perpendicular"]
-    end = [0.61, 0.0, 0.755]  # the recorded skill's last reference in base_link: gap_1's target below the TCP
-    np.testing.assert_allclose(ablation.aim_offset(taught, scene, end), [0.0, 0.0], atol=1e-9)
-    shifted = BasePose(taught.x - 0.004, taught.y + 0.01, taught.yaw)
-    np.testing.assert_allclose(ablation.aim_offset(shifted, scene, end), [-0.004, 0.01], atol=1e-9)
-    # 2 degrees of yaw swing the end 0.61 m ahead sideways by 0.61 sin(2 deg)
-    turned = BasePose(taught.x, taught.y, taught.yaw + math.radians(2.0))
-    lateral = ablation.aim_offset(turned, scene, end)[1]
-    assert lateral == pytest.approx(0.61 * math.sin(math.radians(2.0)))
+@pytest.mark.parametrize("successes, trials", [(0, 30), (3, 30), (27, 30), (30, 30), (12, 19)])
+def test_the_wilson_interval_is_the_score_test_s(successes, trials):
+    low, high = wilson_interval(successes, trials)
+    rate = successes / trials
+    # Expect: the bounds are the rates at which the score statistic is exactly 1.96 (an independent root-finding)
+    for bound in (low, high):
+        if 1e-9 < bound < 1 - 1e-9:
+            score = abs(rate - bound) / np.sqrt(bound * (1 - bound) / trials)
+            assert score == pytest.approx(stats.norm.ppf(0.975), rel=1e-6)
+    assert low <= rate <= high
+    if successes in (0, trials):
+        assert (low, high)[successes == trials] == pytest.approx(float(successes == trials))
+
+
+def test_the_bootstrap_interval_covers_the_median_and_narrows_with_more_trials():
+    rng = np.random.default_rng(4)
+    few, many = rng.normal(10.0, 2.0, 12), rng.normal(10.0, 2.0, 400)
+    low_few, high_few = bootstrap_median_interval(few, seed=1)
+    low_many, high_many = bootstrap_median_interval(many, seed=1)
+    assert low_few <= np.median(few) <= high_few and low_many <= np.median(many) <= high_many
+    assert high_many - low_many < 0.5 * (high_few - low_few)
+
+
+def trial(success, peak, skill_success=None, move=0.0):
+    return {
+        "seed": 0,
+        "success": success,
+        "skill_success": success if skill_success is None else skill_success,
+        "peak_force_n": peak,
+        "peak_neighbour_force_n": peak / 2,
+        "neighbour_max_move_m": move,
+        "sim_s": 18.0,
+        "wall_s": 3.0,
+    }
+
+
+def test_a_summary_counts_the_world_s_verdict_and_where_the_skill_disagrees():
+    trials = [trial(True, 10.0), trial(True, 12.0, skill_success=False), trial(False, 40.0, move=0.02)]
+    summary = summarise(trials)
+    assert summary["success_rate"] == pytest.approx(2 / 3)
+    assert summary["skill_success_rate"] == pytest.approx(1 / 3)
+    assert summary["verdicts_disagree"] == 1
+    assert summary["median_peak_force_n"] == 12.0 and summary["peak_force_n"] == 40.0
+    assert summary["neighbour_max_move_m"] == 0.02
+    assert summary["success_interval"] == pytest.approx(list(wilson_interval(2, 3)))
+
+
+def results_with(cells):
+    """Ablation results whose cells are summaries of the given (successes, peak force) per trial."""
+    summaries = {name: summarise([trial(ok, peak) for ok, peak in rows]) for name, rows in cells.items()}
+    profiles = {name: summaries.pop(name) for name in ("constant_low", "constant_high", "taught")}
+    return {"profiles": profiles, "sweep": {"cells": summaries}}
+
+
+def test_the_goals_are_judged_from_the_figures():
+    rng = np.random.default_rng(0)
+    compliant = [(True, peak) for peak in rng.normal(8.0, 1.0, 30)]
+    stiff = [(index % 2 == 0, peak) for index, peak in enumerate(rng.normal(40.0, 3.0, 30))]
+    cells = {"constant_low": compliant, "constant_high": stiff, "taught": compliant, "sweep_a": stiff}
+    lines = goals(results_with(cells))
+    assert lines[0].startswith("met: the world tells profiles apart")
+    assert "constant_high vs constant_low (success)" in lines[0]
+    assert lines[1].startswith("met: taught places at 100 %")
+    same = [(True, peak) for peak in rng.normal(20.0, 1.0, 30)]
+    lines = goals(results_with({"constant_low": same, "constant_high": same, "taught": same, "sweep_a": same}))
+    assert lines[0].startswith("not met: the world tells profiles apart (0 pairs")
+    assert lines[1].startswith("not met: taught places at 100 %")  # its force is constant high's, not half of it

@@ -15,9 +15,10 @@ its perceived scene).
 import collections
 import dataclasses
 import math
+import multiprocessing
 import pathlib
 import time
-from typing import Dict, Optional
+from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 import pybullet
@@ -25,10 +26,11 @@ from scipy.spatial.transform import Rotation
 
 from teleteach import placement
 from teleteach.sim import panda
+from teleteach.sim.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import TRAJECTORY, RobotSim
-from teleteach.sim.scene import Scene
-from teleteach.sim.uncertainty import UncertaintySettings
-from teleteach.skills.config import MotionConfig
+from teleteach.sim.scene import Scene, load_scene
+from teleteach.sim.uncertainty import UncertaintySettings, load_uncertainty
+from teleteach.skills.config import MotionConfig, load_motion_config
 from teleteach.skills.motion import TOP_DOWN
 from teleteach.skills.runner import REPLAY_SKILL, SkillRunner
 from teleteach.skills.sim_robot import SimRobot
@@ -229,3 +231,85 @@ def bootstrap_median_interval(values, seed: int = 0, resamples: int = 2000, leve
     medians = np.median(rng.choice(values, size=(resamples, values.size), replace=True), axis=1)
     tail = (1.0 - level) / 2.0
     return (float(np.quantile(medians, tail)), float(np.quantile(medians, 1.0 - tail)))
+
+
+def summarise(trials: List[dict], seed: int = 0) -> dict:
+    """One group of trials' figures.
+
+    Success (the world's verdict) with its Wilson interval, the skill's own verdict, the peak contact force's median
+    with its bootstrap interval, neighbour displacement, time.
+    """
+    count = len(trials)
+    successes = sum(trial["success"] for trial in trials)
+    peaks = [trial["peak_force_n"] for trial in trials]
+    moves = [trial["neighbour_max_move_m"] for trial in trials]
+    return {
+        "trials": count,
+        "success_rate": successes / count,
+        "success_interval": list(wilson_interval(successes, count)),
+        "skill_success_rate": sum(trial["skill_success"] for trial in trials) / count,
+        "verdicts_disagree": sum(trial["success"] != trial["skill_success"] for trial in trials),
+        "peak_force_n": max(peaks),
+        "median_peak_force_n": float(np.median(peaks)),
+        "median_peak_force_interval": list(bootstrap_median_interval(peaks, seed)),
+        "peak_neighbour_force_n": max(trial["peak_neighbour_force_n"] for trial in trials),
+        "neighbour_max_move_m": max(moves),
+        "median_neighbour_move_m": float(np.median(moves)),
+        "median_time_s": float(np.median([trial["sim_s"] for trial in trials])),
+        "sim_s": sum(trial["sim_s"] for trial in trials),
+        "wall_s": sum(trial["wall_s"] for trial in trials),
+    }
+
+
+@dataclasses.dataclass(frozen=True)
+class TrialJob:
+    """One trial to run: the group it counts for, what it places where, the skill file, the target it names."""
+
+    group: str
+    setup: TrialSetup
+    skill_path: str
+    target: Optional[str] = None
+
+
+_process: dict = {}
+
+
+def _start_process() -> None:
+    scene = load_scene()
+    _process.update(
+        scene=scene,
+        config=load_motion_config(),
+        uncertainty=load_uncertainty(),
+        kinematics=PandaKinematics(scene.robot.mount_height),
+    )
+
+
+def _run_job(job: TrialJob):
+    process = _process
+    result = run_trial(
+        process["scene"],
+        process["config"],
+        process["kinematics"],
+        process["uncertainty"],
+        job.setup,
+        pathlib.Path(job.skill_path),
+        job.target,
+    )
+    return job.group, result
+
+
+def run_trials(jobs: Sequence[TrialJob], processes: int, progress: Callable[[str], None] = print) -> Dict[str, list]:
+    """Run every job on ``processes`` parallel simulations; returns each group's results, ordered by seed.
+
+    Each process loads the default scene, motion configuration and uncertainty once.
+    """
+    results: Dict[str, List[dict]] = {job.group: [] for job in jobs}
+    step = max(1, len(jobs) // 20)
+    with multiprocessing.get_context("spawn").Pool(processes, initializer=_start_process) as pool:
+        for done, (group, result) in enumerate(pool.imap_unordered(_run_job, jobs), start=1):
+            results[group].append(result)
+            if done % step == 0 or done == len(jobs):
+                progress(f"  {done}/{len(jobs)} trials")
+    for group in results.values():
+        group.sort(key=lambda trial: trial["seed"])
+    return results

@@ -1,0 +1,108 @@
+"""The stiffness ablation's question (bench/stiffness_ablation.py): profiles, and whether the world tells them apart.
+
+A profile replaces the translational stiffness of a taught skill (in its target's frame: x along the insertion, y
+across the gap) and keeps everything else: constant low (the skill's first sample, the operator's approach preset,
+throughout), constant high (the controller's maximum on every axis), the taught profile, and a sweep of the insertion
+phase (thesis III-C's phase 3) over the stiffness along and across the gap.
+"""
+
+import dataclasses
+from typing import Dict, List, Tuple
+
+import numpy as np
+
+from teleteach import skill_file
+from teleteach.run.outcome import PHASES
+
+HIGH_STIFFNESS = 3000.0  # [N/m] the controller's max_stiffness (config/controllers.yaml)
+INSERTION_START = PHASES["perpendicular"][2][0]  # [s] thesis III-C's phase 3 on the teaching trajectory
+SWEEP = (150.0, 500.0, 1500.0, 3000.0)  # [N/m] insertion stiffness along and across, each
+PROFILES = ("constant_low", "constant_high", "taught")
+# Two cells differ when their success rates lie SUCCESS_APART apart, or one's median peak force is FORCE_APART times
+# the other's, with non-overlapping intervals either way (issue 28's bar).
+SUCCESS_APART = 0.2
+FORCE_APART = 2.0
+GOAL_SUCCESS = 0.9  # the best taught profile places at least this often ...
+GOAL_FORCE_SHARE = 0.5  # ... with a median peak force of at most this share of constant high's
+
+
+def stiffness_profiles(taught: skill_file.Skill, sweep=SWEEP) -> Dict[str, skill_file.Skill]:
+    """The skills compared, by cell name: the taught trajectory with its stiffness replaced.
+
+    Only the translational stiffness differs: times, poses and the rotational stiffness are the taught ones. The
+    stiffness is in the skill's frame (gap_1's: x along the insertion, y across the gap). Sweep cells are named
+    ``sweep_<along>_<across>`` and keep the taught stiffness before INSERTION_START and its vertical stiffness after.
+    """
+    count = len(taught.time)
+    stiffness = {
+        "constant_low": np.repeat(taught.stiffness[:1], count, axis=0),
+        "constant_high": np.tile(HIGH_STIFFNESS * np.eye(3), (count, 1, 1)),
+        "taught": taught.stiffness,
+    }
+    insertion = taught.time - taught.time[0] >= INSERTION_START
+    for along in sweep:
+        for across in sweep:
+            profile = taught.stiffness.copy()
+            profile[insertion] = [np.diag([along, across, matrix[2, 2]]) for matrix in taught.stiffness[insertion]]
+            stiffness[sweep_name(along, across)] = profile
+    return {
+        name: dataclasses.replace(taught, name=f"{taught.name}_{name}", stiffness=matrices)
+        for name, matrices in stiffness.items()
+    }
+
+
+def sweep_name(along: float, across: float) -> str:
+    """The cell of the sweep with these insertion stiffnesses [N/m]."""
+    return f"sweep_{along:.0f}_{across:.0f}"
+
+
+def insertion_stiffness(skill: skill_file.Skill) -> Tuple[float, float]:
+    """Median stiffness along (x) and across (y) the gap [N/m] in the insertion phase of a skill in the gap's frame."""
+    insertion = skill.time - skill.time[0] >= INSERTION_START
+    return float(np.median(skill.stiffness[insertion, 0, 0])), float(np.median(skill.stiffness[insertion, 1, 1]))
+
+
+def goals(results: dict) -> List[str]:
+    """Issue 28's two ablation goals, each judged from the figures: met / not met and why."""
+    cells = {**results["profiles"], **results["sweep"]["cells"]}
+    lines = []
+    apart = []
+    for first in cells:
+        for second in cells:
+            a, b = cells[first], cells[second]
+            if first >= second:
+                continue
+            rate = abs(a["success_rate"] - b["success_rate"]) >= 0.2 and (
+                a["success_interval"][0] > b["success_interval"][1]
+                or b["success_interval"][0] > a["success_interval"][1]
+            )
+            low, high = sorted((a, b), key=lambda cell: cell["median_peak_force_n"])
+            force = (
+                high["median_peak_force_n"] >= FORCE_APART * low["median_peak_force_n"]
+                and high["median_peak_force_interval"][0] > low["median_peak_force_interval"][1]
+            )
+            if rate or force:
+                apart.append((first, second, "success" if rate else "peak force"))
+    profile_pairs = [pair for pair in apart if pair[0] in PROFILES and pair[1] in PROFILES]
+    shown = profile_pairs or apart
+    lines.append(
+        ("met" if apart else "not met")
+        + f": the world tells profiles apart ({len(apart)} pairs differ by >= 20 points of success or 2x median peak "
+        + "force with non-overlapping intervals"
+        + (f"; e.g. {', '.join(f'{a} vs {b} ({what})' for a, b, what in shown[:3])})" if shown else ")")
+    )
+    high = results["profiles"]["constant_high"]["median_peak_force_n"]
+    best = max(
+        ((name, cell) for name, cell in cells.items() if name not in ("constant_low", "constant_high")),
+        key=lambda item: (item[1]["success_rate"], -item[1]["median_peak_force_n"]),
+    )
+    taught = results["profiles"]["taught"]
+    for name, cell in (("taught", taught), best):
+        ok = cell["success_rate"] >= GOAL_SUCCESS and cell["median_peak_force_n"] <= GOAL_FORCE_SHARE * high
+        lines.append(
+            f"{'met' if ok else 'not met'}: {name} places at {100 * cell['success_rate']:.0f} % "
+            f"[{100 * cell['success_interval'][0]:.0f}, {100 * cell['success_interval'][1]:.0f}] with median peak "
+            f"force {cell['median_peak_force_n']:.1f} N = {100 * cell['median_peak_force_n'] / high:.0f} % of constant "
+            f"high's {high:.1f} N (goal: >= 90 %, <= 50 %)"
+        )
+    return lines
