@@ -5,6 +5,7 @@ import xml.etree.ElementTree as ElementTree
 import numpy as np
 import pytest
 from conftest import ROOT
+from scipy.spatial.transform import Rotation
 from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module
 
 from teleteach.paths import share_dir
@@ -29,28 +30,35 @@ def kinematics():
     model.close()
 
 
-def test_scene_has_two_levels_two_gaps_between_close_products_and_a_pick_table():
+def test_the_scene_has_tight_gaps_between_real_products_behind_a_lip_and_held_out_places():
     scene = load_scene()
-    boards = [part for part in scene.shelf if part.name.startswith("board")]
-    assert len(boards) >= 2
-    assert list(scene.gaps) == ["gap_1", "gap_2"]
-    board_tops = [part.center[2] + part.size[2] / 2 for part in boards]
-    product_height = scene.product("product_shelf_3").size[2]
-    level = scene.gap("gap_1").position[2]
-    same_level = sorted(
-        (p for p in scene.products if abs(p.position[2] - level) < 1e-9 and p.position[0] > 1.5),
-        key=lambda p: p.position[1],
-    )
-    ys = [p.position[1] for p in same_level]
-    width = same_level[0].size[1]
-    # Expect neighbours 1 cm apart, and exactly one free slot at each gap's y, as wide as the gap says
-    assert np.sum(np.diff(ys) > width + 0.02) == len(scene.gaps)
+    boards = {part.name: part for part in scene.shelf if "board" in part.name}
+    assert {"board_low", "board_high", "endcap_board"} <= set(boards)
+    assert list(scene.gaps) == [f"gap_{number}" for number in range(1, 8)]
+    product = scene.product("product_pick_1")
+    clearances = {}
     for gap in scene.gaps.values():
-        assert gap.position[2] == level
-        assert min(abs(gap.position[2] - product_height / 2 - top) for top in board_tops) < 1e-9
-        left = max(y for y in ys if y < gap.position[1])
-        right = min(y for y in ys if y > gap.position[1])
-        assert right - left - width == pytest.approx(gap.width)
+        # Expect: the gap stands on a board, a lip 2 cm high in front of it, a neighbour at each edge of its width
+        board = min(boards.values(), key=lambda part: abs(part.center[2] + part.size[2] / 2 - gap.position[2] + 0.07))
+        top = board.center[2] + board.size[2] / 2
+        assert gap.position[2] - product.size[2] / 2 == pytest.approx(top, abs=1e-9)
+        lip = next(part for part in scene.shelf if "lip" in part.name and abs(part.center[2] - top - 0.01) < 1e-9)
+        assert lip.size[2] == pytest.approx(0.02)
+        inward = Rotation.from_euler("z", gap.yaw)
+        sides = []
+        for other in scene.products:
+            local = inward.inv().apply(np.array(other.position) - np.array(gap.position))
+            if abs(local[0]) < 0.01 and abs(local[2]) < 0.01 and 0.0 < abs(local[1]) < 0.1:
+                sides.append(abs(local[1]) - other.size[1] / 2)
+        assert len(sides) == 2 and sides[0] == pytest.approx(gap.width / 2, abs=1e-3) == sides[1]
+        clearances[gap.name] = (gap.width - product.size[1]) / 2
+        assert gap.tolerance == pytest.approx(0.01)
+        assert f"place_{gap.name}" in scene.base_poses or gap.name in ("gap_1", "gap_2")
+    assert min(clearances.values()) == pytest.approx(0.002) and max(clearances.values()) == pytest.approx(0.010)
+    assert clearances["gap_1"] == pytest.approx(0.005)
+    masses = [item.mass for item in scene.products]
+    assert 0.2 <= min(masses) and max(masses) <= 1.0 and len(set(masses)) > 4
+    assert all(item.corner_radius > 0.0 for item in scene.products)
     assert len([p for p in scene.products if p.name.startswith("product_pick")]) >= 2
     assert {"pick", "place_perpendicular", "place_45deg", "place_perpendicular_2", "place_45deg_2"} <= set(
         scene.base_poses
@@ -58,7 +66,7 @@ def test_scene_has_two_levels_two_gaps_between_close_products_and_a_pick_table()
 
 
 def test_an_unknown_gap_is_a_clear_error():
-    with pytest.raises(SceneError, match="no gap 'gap_9' \\(it has gap_1, gap_2\\)"):
+    with pytest.raises(SceneError, match="no gap 'gap_9' \\(it has gap_1, gap_2, gap_3, gap_4, gap_5, gap_6, gap_7\\)"):
         load_scene().gap("gap_9")
 
 

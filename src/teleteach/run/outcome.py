@@ -354,7 +354,7 @@ class RunSummary:
                 f"- product {entry['product']}: on the shelf {where}, {upright}, {100 * entry['distance_m']:.1f} cm "
                 f"from the nearest gap's centre, put there by {entry['by_skill'] or 'nobody known'}; its neighbours "
                 f"moved at most {1000 * entry['neighbours_max_move_m']:.1f} mm; judged from "
-                f"{entry['judged_from'] or 'nothing'}{_uncertainty_met(entry)}"
+                f"{entry.get('judged_from') or 'nothing'}{_uncertainty_met(entry)}"
             )
         if not self.placements:
             lines.append("- products: none ended on the shelf")

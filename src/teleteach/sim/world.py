@@ -170,12 +170,6 @@ class SupermarketWorld:
         x, y, yaw = self.base_pose
         return [x, y, self.scene.robot.mount_height], yaw_quaternion(yaw)
 
-    def base_to_world(self, position):
-        """A point [m] in base_link expressed in world."""
-        x, y, yaw = self.base_pose
-        c, s = math.cos(yaw), math.sin(yaw)
-        return np.array([x + c * position[0] - s * position[1], y + s * position[0] + c * position[1], position[2]])
-
     def _rotation_base(self):
         yaw = self.base_pose[2]
         c, s = math.cos(yaw), math.sin(yaw)

@@ -10,6 +10,7 @@ from typing import Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from teleteach.frames import Transform
 from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.skills import trajectory
@@ -21,15 +22,13 @@ TOP_DOWN = Rotation.from_euler("x", math.pi)  # TCP z axis pointing down, finger
 
 
 def base_to_world(base_pose, position):
-    """A point [m] given in base_link, in world."""
-    x, y, yaw = base_pose
-    return np.array([x, y, 0.0]) + yaw_rotation(yaw).apply(np.asarray(position, dtype=float))
+    """A point [m] given in base_link, in world (base_pose: x [m], y [m], yaw [rad] of base_link)."""
+    return Transform.from_planar(*base_pose).apply_point(position)
 
 
 def world_to_base(base_pose, position):
-    """A point [m] given in world, in base_link."""
-    x, y, yaw = base_pose
-    return yaw_rotation(yaw).inv().apply(np.asarray(position, dtype=float) - np.array([x, y, 0.0]))
+    """A point [m] given in world, in base_link (base_pose: x [m], y [m], yaw [rad] of base_link)."""
+    return Transform.from_planar(*base_pose).inverse().apply_point(position)
 
 
 def angle_difference(a, b):
