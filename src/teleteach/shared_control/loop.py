@@ -58,6 +58,8 @@ class SharedControlConfig:
         curvature_weight: always-on penalty on phi / scale in estimation [-].
         optimisation_weights: W_TO on (curvature, heading, speed, skill) of theta / scale [-].
         margin: back-off from every constraint inside the optimisation [m].
+        constraint_penalty: cost of each millimetre by which the plan violates the margin (exact penalty on the
+            trajectory optimisation's slack), against W_TO's cost on theta / scale [1/mm].
         solver: "compiled" (cached shared libraries), "fast" (casadi virtual machine) or "ipopt" (plain baseline).
         skip_feasible_optimisation: take theta* = theta_hat without solving eq. 9 when theta_hat's plan already
             keeps the margin (it is then the exact minimiser); False solves eq. 9 every cycle.
@@ -101,6 +103,7 @@ class SharedControlConfig:
     curvature_weight: float = 1e-3
     optimisation_weights: Tuple[float, float, float, float] = (1e-2, 0.0, 1.0, 10.0)
     margin: float = 0.005
+    constraint_penalty: float = 1000.0
     solver: str = "compiled"
     skip_feasible_optimisation: bool = True
     max_iterations_estimation: int = 10
@@ -286,7 +289,13 @@ class SharedControl:
                 cfg.recency_half_life,
             )
             self.optimisations[name] = TrajectoryOptimisation(
-                to, cfg.n_horizon, cfg.dt, cfg.solver, cfg.max_iterations_optimisation, cfg.cache_dir
+                to,
+                cfg.n_horizon,
+                cfg.dt,
+                cfg.solver,
+                cfg.max_iterations_optimisation,
+                cfg.constraint_penalty,
+                cfg.cache_dir,
             )
         self.box = UNBOUNDED
         self.obstacle: Optional[StraightEdge] = None
@@ -474,26 +483,39 @@ class SharedControl:
         report.optimisation_time, report.iterations = result.time, (estimation_iterations, result.iterations)
         plan = None
         if np.all(np.isfinite(result.theta)):
-            plan, headings = optimisation.states(result.theta, self.state)
-        worst = math.inf if plan is None else constraints.violation(plan[:, 1:], self.box, self.obstacle)
-        if plan is None or worst > 0.0 or not np.all(np.isfinite(plan)):
-            notes.append(
-                f"trajectory optimisation {result.status} after {result.iterations} iterations, "
-                f"plan violates constraints by {worst:.3g} m"
-            )
+            plan, _ = optimisation.states(result.theta, self.state)
+        if plan is None or not np.all(np.isfinite(plan)):
+            notes.append(f"trajectory optimisation {result.status} after {result.iterations} iterations: no finite plan")
             self.skill = None
             return self._fallback(report)
         message = f"shared control: {skill}"
         if not result.success:
-            message += f" (optimisation {result.status} after {result.iterations} iterations; plan feasible)"
+            message += f" (optimisation {result.status} after {result.iterations} iterations: its last iterate)"
+        if result.slack > 0.0:
+            message += f"; no plan keeps the {1e3 * cfg.margin:.0f} mm margin: {1e3 * result.slack:.1f} mm into it"
+        planned, planned_velocity = plan[:, 1], plan_velocity(plan, cfg.dt, 1)
+        if constraints.violation(planned, self.box, self.obstacle) > 0.0:
+            # The plan's step leaves the constraints (only possible with slack): the nearest free point instead.
+            safe = self._safe_state(planned)
+            if safe is None:
+                notes.append("no free state exists (obstacle covers the boundary)")
+                self.skill = None
+                return self._fallback(report)
+            planned, planned_velocity = safe, (safe - self.state) / cfg.dt
+            message += "; step stopped at the constraint"
         self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
         authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
-        state, velocity = self._blend(plan, command, authority)
+        state, velocity = self._blend(planned, planned_velocity, command, authority)
         # The stored plan passes through the executed state, so a fallback continues from where the robot is.
         self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
         self.state = state
-        self.alpha_c = float(headings[1])
         self._advance(results, result.theta)
+        # The operator's heading, from the identified skill's own estimate at the next s_c: the plan's heading bends
+        # away from a boundary the operator pushes into, and feeding that back (the paper's alpha_c = alpha*_prev)
+        # turned the estimation away from the operator's commands (issue 31: the wave identified as a cycloid at
+        # the boundary).
+        estimate = self.estimates[skill]
+        self.alpha_c = None if estimate is None else float(estimate[self.estimation_layouts[skill].i_alpha])
         mode = SHARED if authority > 0.0 else UNKNOWN
         if authority < 1.0:
             message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
@@ -513,20 +535,19 @@ class SharedControl:
         )
         return fit * margin
 
-    def _blend(self, plan: np.ndarray, command: np.ndarray, authority: float) -> Tuple[np.ndarray, np.ndarray]:
+    def _blend(self, planned, planned_velocity, command, authority: float) -> Tuple[np.ndarray, np.ndarray]:
         """Executed state and velocity: authority x the plan's next state + the rest x the operator's direct step.
 
         A blend that leaves the constraints moves to the nearest free point (the plan's step never leaves them).
         """
         dt = self.config.dt
-        planned, planned_velocity = plan[:, 1], plan_velocity(plan, dt, 1)
         if authority >= 1.0:
-            return planned.copy(), planned_velocity
+            return np.array(planned, dtype=float), np.asarray(planned_velocity, dtype=float)
         state = authority * planned + (1.0 - authority) * (self.state + command * dt)
         velocity = authority * planned_velocity + (1.0 - authority) * command
         if constraints.violation(state, self.box, self.obstacle) > 0.0:
             safe = self._safe_state(state)
-            state = planned.copy() if safe is None else safe
+            state = np.array(planned, dtype=float) if safe is None else safe
             velocity = (state - self.state) / dt
         return state, velocity
 
@@ -558,8 +579,7 @@ class SharedControl:
         if constraints.violation(plan[:, 1:], self.box, self.obstacle, self.config.margin) > 0.0:
             return None
         elapsed, cpu = time.perf_counter() - start, time.thread_time() - cpu_start
-        n = optimisation.layout.n
-        return SolveResult(theta_hat.copy(), 0.0, True, "Estimate_Feasible", 0, elapsed, np.zeros(n), None, cpu)
+        return SolveResult(theta_hat.copy(), 0.0, True, "Estimate_Feasible", 0, elapsed, None, None, cpu)
 
     def _estimate(self, name: str, commands: np.ndarray) -> SolveResult:
         cfg = self.config
