@@ -58,6 +58,8 @@ class SharedControlConfig:
         curvature_weight: always-on penalty on phi / scale in estimation [-].
         optimisation_weights: W_TO on (curvature, heading, speed, skill) of theta / scale [-].
         margin: back-off from every constraint inside the optimisation [m].
+        recovery_speed: a state outside the free region (an obstacle moved onto it, a boundary that excludes it)
+            moves to the nearest free state at most this fast: the equilibrium never jumps [m/s].
         constraint_penalty: cost of each millimetre by which the plan violates the margin (exact penalty on the
             trajectory optimisation's slack), against W_TO's cost on theta / scale [1/mm].
         solver: "compiled" (cached shared libraries), "fast" (casadi virtual machine) or "ipopt" (plain baseline).
@@ -103,11 +105,12 @@ class SharedControlConfig:
     curvature_weight: float = 1e-3
     optimisation_weights: Tuple[float, float, float, float] = (1e-2, 0.0, 1.0, 10.0)
     margin: float = 0.005
+    recovery_speed: float = 0.05
     constraint_penalty: float = 1000.0
     solver: str = "compiled"
     skip_feasible_optimisation: bool = True
     max_iterations_estimation: int = 10
-    max_iterations_optimisation: int = 10
+    max_iterations_optimisation: int = 3
     cache_dir: Optional[str] = None
     switch_confidence: float = 0.08
     switch_hold: float = 0.04
@@ -174,6 +177,8 @@ class SharedControlRecord:
             (the impedance controller's x_dot_r, so the arm follows a moving reference without lag).
         confidence: ``identification_confidence`` of this cycle's fitting errors [-] (0 in direct control).
         authority: weight of the plan in the executed step (1: the plan, 0: the operator's direct step) [-].
+        cycle: cycles since the controller was enabled (set by the node's ``CycleSchedule``).
+        late_cycles: of these, cycles whose state was ready after the cycle's period (set by the node).
     """
 
     mode: int
@@ -192,6 +197,8 @@ class SharedControlRecord:
     velocity: Tuple[float, float] = (0.0, 0.0)
     confidence: float = 0.0
     authority: float = 0.0
+    cycle: int = 0
+    late_cycles: int = 0
 
 
 def identification_confidence(errors: Sequence[float]) -> float:
@@ -342,18 +349,6 @@ class SharedControl:
         self._candidate: Optional[str] = None
         self._candidate_cycles = 0
 
-    def adopt(self, other: "SharedControl") -> None:
-        """Take over ``other``'s state, window, environment and plan (e.g. when compiled solvers become ready).
-
-        The estimates restart as on a first iteration, so the two controllers need not share a solver.
-        """
-        if other.skills != self.skills or other.config.n_window != self.config.n_window:
-            raise ValueError("can only adopt a controller with the same skills and window")
-        self.reset(other.state)
-        self.window.extend(other.window)
-        self.box, self.obstacle = other.box, other.obstacle
-        self.plan, self.plan_index = other.plan, other.plan_index
-
     def step(self, command: Sequence[float]) -> SharedControlRecord:
         """One cycle: take the operator command h^r [m/s], return the record of the executed state."""
         cfg = self.config
@@ -369,6 +364,8 @@ class SharedControl:
             self._forget_identification()
             self.plan, self.plan_index = np.zeros((2, 0)), 0
             notes.append("operator idle: estimation restarts")
+        if constraints.violation(self.state, self.box, self.obstacle) > 0.0:
+            return self._recover(CycleReport(command, notes))
         if len(self.window) < cfg.n_window:
             return self._direct(command, notes)
         try:
@@ -376,6 +373,39 @@ class SharedControl:
         except Exception as error:  # the loop must keep the robot safe whatever a solver does
             self._forget()
             return self._fallback(CycleReport(command, [*notes, f"shared control error: {error}"]))
+
+    def coast(self, command: Sequence[float]) -> SharedControlRecord:
+        """A cycle without solving, for a loop that has fallen behind (the node's catch-up).
+
+        The command joins the window, the state follows the previous plan (direct control while the window fills),
+        and the estimates move on with it: the executed state keeps its speed and the window stays on the time grid
+        however long a solve took.
+        """
+        command, notes = self._sanitise(command)
+        self.window.append(command)
+        if constraints.violation(self.state, self.box, self.obstacle) > 0.0:
+            return self._recover(CycleReport(command, notes))
+        if len(self.window) < self.config.n_window:
+            return self._direct(command, notes)
+        if self.skill is None:
+            return self._fallback(CycleReport(command, [*notes, "late cycle: no plan to follow"]))
+        if self.plan_index + 1 >= self.plan.shape[1]:
+            return self._fallback(CycleReport(command, [*notes, "late cycle: the previous plan has ended"]))
+        candidate = self.plan[:, self.plan_index + 1]
+        if constraints.violation(candidate, self.box, self.obstacle) > 0.0:
+            return self._fallback(CycleReport(command, [*notes, "late cycle: the previous plan is no longer free"]))
+        self.plan_index += 1
+        self.state = candidate.copy()
+        velocity = plan_velocity(self.plan, self.config.dt, self.plan_index)
+        self._advance({name: self._coasted(name) for name in self.skills}, self.theta_star)
+        report = CycleReport(command, notes, skill=self.skill)
+        message = "; ".join([*notes, f"late cycle: following the previous plan ({self.skill})"])
+        return self._record(SHARED, report, message, self.plan, velocity, 1.0)
+
+    def _coasted(self, name: str) -> SolveResult:
+        """The estimate of ``name`` as it stands, as if estimated again (it is shifted to the next s_c by _advance)."""
+        theta = self.estimates[name]
+        return SolveResult(theta, 0.0, theta is not None, "Coasted", 0, 0.0, None, None)
 
     def _trim_idle_start(self) -> None:
         """Drop the rest before the operator's first move, so the first estimate sees motion only.
@@ -485,7 +515,7 @@ class SharedControl:
         if np.all(np.isfinite(result.theta)):
             plan, _ = optimisation.states(result.theta, self.state)
         if plan is None or not np.all(np.isfinite(plan)):
-            notes.append(f"trajectory optimisation {result.status} after {result.iterations} iterations: no finite plan")
+            notes.append(f"trajectory optimisation {result.status} after {result.iterations} iterations: no plan")
             self.skill = None
             return self._fallback(report)
         message = f"shared control: {skill}"
@@ -498,7 +528,7 @@ class SharedControl:
             # The plan's step leaves the constraints (only possible with slack): the nearest free point instead.
             safe = self._safe_state(planned)
             if safe is None:
-                notes.append("no free state exists (obstacle covers the boundary)")
+                notes.append("no free state exists within the margin")
                 self.skill = None
                 return self._fallback(report)
             planned, planned_velocity = safe, (safe - self.state) / cfg.dt
@@ -510,12 +540,6 @@ class SharedControl:
         self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
         self.state = state
         self._advance(results, result.theta)
-        # The operator's heading, from the identified skill's own estimate at the next s_c: the plan's heading bends
-        # away from a boundary the operator pushes into, and feeding that back (the paper's alpha_c = alpha*_prev)
-        # turned the estimation away from the operator's commands (issue 31: the wave identified as a cycloid at
-        # the boundary).
-        estimate = self.estimates[skill]
-        self.alpha_c = None if estimate is None else float(estimate[self.estimation_layouts[skill].i_alpha])
         mode = SHARED if authority > 0.0 else UNKNOWN
         if authority < 1.0:
             message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
@@ -662,7 +686,12 @@ class SharedControl:
         return candidates[int(np.argmin(errors))]
 
     def _advance(self, results: Dict[str, SolveResult], theta_star: np.ndarray) -> None:
-        """Move every estimate to the next cycle's s_c (each with its own v0)."""
+        """Move every estimate to the next cycle's s_c (each with its own v0), and alpha_c with the followed skill's.
+
+        alpha_c is the operator's heading, from the followed skill's own estimate: the plan's heading bends away
+        from a boundary the operator pushes into, and feeding that back (the paper's alpha_c = alpha*_prev) turned
+        the estimation away from the operator's commands (issue 31: a wave identified as a cycloid at the boundary).
+        """
         cfg = self.config
         for name, result in results.items():
             layout = self.estimation_layouts[name]
@@ -675,6 +704,8 @@ class SharedControl:
         layout = self.optimisation_layouts[self.skill]
         ds = theta_star[layout.i_v0] * cfg.dt
         self.theta_star = layout.shift(theta_star, ds, theta_star[layout.i_v0] * cfg.horizon_time)
+        estimate = self.estimates[self.skill]
+        self.alpha_c = None if estimate is None else float(estimate[self.estimation_layouts[self.skill].i_alpha])
 
     def _forget(self) -> None:
         """After a failure, restart the estimation as on the first iteration (regularisation and alpha_c relaxed)."""
@@ -685,7 +716,7 @@ class SharedControl:
         self.lam = (None, None)
 
     def _fallback(self, report: CycleReport) -> SharedControlRecord:
-        """Safe output: the previous plan's next state, else hold, else the nearest free state."""
+        """Safe output from a free state: the previous plan's next state, else hold."""
         report.skills = list(self.skills)
         notes = report.notes
         for name in self.skills:
@@ -700,16 +731,33 @@ class SharedControl:
                 velocity = plan_velocity(self.plan, self.config.dt, self.plan_index)
                 return self._record(FALLBACK, report, "; ".join(notes), self.plan, velocity)
         self.plan = np.zeros((2, 0))
-        if constraints.violation(self.state, self.box, self.obstacle) == 0.0:
-            notes.append("fallback: holding the current state")
-        else:
-            safe = self._safe_state(self.state)
-            if safe is None:
-                notes.append("fallback: no free state exists (obstacle covers the boundary); holding")
-            else:
-                self.state = safe
-                notes.append("fallback: current state not free (obstacle covers it); moved to the nearest free state")
+        notes.append("fallback: holding the current state")
         return self._record(FALLBACK, report, "; ".join(notes))
+
+    def _recover(self, report: CycleReport) -> SharedControlRecord:
+        """Recovery of a state that is not free (an obstacle moved onto it, a boundary excludes it).
+
+        No plan meanwhile; the state moves to the nearest free state at most ``recovery_speed``, never a jump.
+        """
+        self._forget()
+        self.plan, self.plan_index = np.zeros((2, 0)), 0
+        report.skills = list(self.skills)
+        safe = self._safe_state(self.state)
+        if safe is None:
+            report.notes.append("no free state exists (the obstacle covers the boundary): holding")
+            return self._record(FALLBACK, report, "; ".join(report.notes))
+        offset = safe - self.state
+        distance = float(np.linalg.norm(offset))
+        speed = self.config.recovery_speed
+        step = min(distance, speed * self.config.dt)
+        self.state = self.state + offset * (step / distance)
+        report.notes.append(
+            f"state {1e3 * distance:.1f} mm from the free region (obstacle on it or boundary around it): moving there "
+            f"at {speed:.3g} m/s"
+        )
+        return self._record(
+            FALLBACK, report, "; ".join(report.notes), velocity=offset * (step / distance) / self.config.dt
+        )
 
     def _safe_state(self, point) -> Optional[np.ndarray]:
         return constraints.nearest_free_point(point, self.box, self.obstacle, self.config.margin)
