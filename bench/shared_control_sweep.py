@@ -10,9 +10,9 @@ Cells (each: one pattern, then a switch to the other, the hand blending over 0.2
 - ``push``: the issue's operator (wave 0.7 Hz / 1.5 cm, then cycloid 1.1 Hz / 1.2 cm, 0.8 cm/s noise, 5 cm/s) heading
   into the boundary, meeting it after 3-5 s and pushing 20 s before switching, and the reverse order.
 - ``lasa-tuned`` and ``lasa-held-out``: the same patterns drawn around a human handwriting stroke of the LASA data
-  set (``operators.lasa_path``: scaled to 20 cm, its longer side along x, mean speed 5 cm/s, the human speed profile
-  and curvature kept). Development looked at the shapes in ``TUNED_SHAPES`` only; the held-out cells are every other
-  shape (first demonstration), and they are what the README reports.
+  set (``operators.lasa_path``: scaled to fill the boundary from the start, 3 cm inside it, mean speed 5 cm/s, the
+  human speed profile and curvature kept). Development looked at the shapes in ``TUNED_SHAPES`` only; the held-out
+  cells are every other shape (first demonstration), and they are what the README reports.
 - ``minimum-jerk``: the patterns around overlapping minimum-jerk reaches to random targets (seeded).
 
 Per cell it prints the figures, and it ends with one line per goal (met / not met over every cell). ``--busy`` runs
@@ -34,7 +34,7 @@ import sys
 import tempfile
 import threading
 import time
-from typing import List, Optional
+from typing import List
 
 import numpy as np
 import yaml
@@ -42,7 +42,13 @@ import yaml
 from teleteach.shared_control.constraints import Box, violation
 from teleteach.shared_control.loop import FALLBACK, SHARED, UNKNOWN, SharedControl, SharedControlConfig
 from teleteach.shared_control.models import synthetic_commands
-from teleteach.shared_control.operators import commands_around_path, lasa_path, lasa_shapes, reaching_path
+from teleteach.shared_control.operators import (
+    commands_around_path,
+    lasa_path,
+    lasa_shapes,
+    reaching_path,
+    retime,
+)
 from teleteach.shared_control.timeline import CommandTimeline
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -53,6 +59,7 @@ WAVE = ("wave", (0.015, 0.7 / SPEED, 0.0))  # 0.7 Hz at 5 cm/s, 1.5 cm (issue 31
 CYCLOID = ("cycloid", (0.012, 1.1 / SPEED, 0.0))  # 1.1 Hz, 1.2 cm
 HUMAN_NOISE = 0.008  # [m/s] per axis
 TUNED_SHAPES = ("Sine", "Worm", "GShape")
+CLEARANCE = 0.03  # human paths are fitted this far inside the boundary (pattern amplitude and margin) [m]
 PUSH_SECONDS = 20.0  # pushing into the boundary before the switch [s]
 AFTER_SWITCH = 8.0  # [s]
 GOALS = {
@@ -90,8 +97,16 @@ def synthetic_cells() -> List[Cell]:
             commands = np.vstack(
                 [synthetic_commands(skill, rho, heading, SPEED, times, 0.01, rng) for skill in (first, second)]
             )
-            cells.append(Cell("synthetic", f"{first}->{second} A {amplitude} f {frequency:.0f}", commands, first, second,
-                              len(times)))  # fmt: skip
+            cells.append(
+                Cell(
+                    "synthetic",
+                    f"{first}->{second} A {amplitude} f {frequency:.0f}",
+                    commands,
+                    first,
+                    second,
+                    len(times),
+                )
+            )
     return cells
 
 
@@ -99,23 +114,39 @@ def push_cells(box: Box) -> List[Cell]:
     """The issue's operator heading into the boundary from the origin, pushing PUSH_SECONDS before switching."""
     rng = np.random.default_rng(31)
     cells = []
-    for heading, (first, second) in ((math.pi, (WAVE, CYCLOID)), (-math.pi / 2, (CYCLOID, WAVE)),
-                                     (math.pi + 0.5, (WAVE, CYCLOID))):  # fmt: skip
+    for heading, (first, second) in (
+        (math.pi, (WAVE, CYCLOID)),
+        (-math.pi / 2, (CYCLOID, WAVE)),
+        (math.pi + 0.5, (WAVE, CYCLOID)),
+    ):
         # Time to the boundary along the heading, then the push.
-        reach = min(
-            (box.x_min / math.cos(heading)) if math.cos(heading) < -1e-9 else math.inf,
-            (box.x_max / math.cos(heading)) if math.cos(heading) > 1e-9 else math.inf,
-            (box.y_min / math.sin(heading)) if math.sin(heading) < -1e-9 else math.inf,
-            (box.y_max / math.sin(heading)) if math.sin(heading) > 1e-9 else math.inf,
-        ) / SPEED
+        reach = (
+            min(
+                (box.x_min / math.cos(heading)) if math.cos(heading) < -1e-9 else math.inf,
+                (box.x_max / math.cos(heading)) if math.cos(heading) > 1e-9 else math.inf,
+                (box.y_min / math.sin(heading)) if math.sin(heading) < -1e-9 else math.inf,
+                (box.y_max / math.sin(heading)) if math.sin(heading) > 1e-9 else math.inf,
+            )
+            / SPEED
+        )
         before = np.arange(0.0, reach + PUSH_SECONDS, DT)
         after = np.arange(0.0, AFTER_SWITCH, DT)
-        commands = np.vstack([
-            synthetic_commands(first[0], first[1], heading, SPEED, before, HUMAN_NOISE, rng),
-            synthetic_commands(second[0], second[1], heading, SPEED, after, HUMAN_NOISE, rng),
-        ])  # fmt: skip
-        cells.append(Cell("push", f"{first[0]}->{second[0]} heading {heading:.2f} rad, boundary after {reach:.1f} s",
-                          commands, first[0], second[0], len(before)))  # fmt: skip
+        commands = np.vstack(
+            [
+                synthetic_commands(first[0], first[1], heading, SPEED, before, HUMAN_NOISE, rng),
+                synthetic_commands(second[0], second[1], heading, SPEED, after, HUMAN_NOISE, rng),
+            ]
+        )
+        cells.append(
+            Cell(
+                "push",
+                f"{first[0]}->{second[0]} heading {heading:.2f} rad, boundary after {reach:.1f} s",
+                commands,
+                first[0],
+                second[0],
+                len(before),
+            )
+        )
     return cells
 
 
@@ -127,29 +158,48 @@ def around(group: str, name: str, path: np.ndarray, order: int, rng) -> Cell:
     return Cell(group, name, commands, first[0], second[0], switch)
 
 
-def lasa_cells(held_out: bool) -> List[Cell]:
+def fit_in_box(path: np.ndarray, box: Box, clearance: float) -> np.ndarray:
+    """The path turned (quarter turns, mirrored) and shrunk to fit, from the origin, ``clearance`` inside the box.
+
+    The node starts at the origin; a path that left the box would add a boundary push to the cell.
+    """
+    low = np.array([box.x_min, box.y_min]) + clearance
+    high = np.array([box.x_max, box.y_max]) - clearance
+    best, best_scale = path, 0.0
+    for swap in (False, True):
+        for signs in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+            candidate = (path[:, ::-1] if swap else path) * np.array(signs)
+            upper, lower = candidate.max(axis=0), candidate.min(axis=0)
+            scale = min(
+                min(h / u for h, u in zip(high, upper) if u > 1e-9) if np.any(upper > 1e-9) else np.inf,
+                min(lo / lw for lo, lw in zip(low, lower) if lw < -1e-9) if np.any(lower < -1e-9) else np.inf,
+            )
+            if scale > best_scale:
+                best, best_scale = candidate, scale
+    return best * min(best_scale, 1.0)
+
+
+def lasa_cells(held_out: bool, box: Box) -> List[Cell]:
     rng = np.random.default_rng(2011)
     shapes = [s for s in lasa_shapes() if (s not in TUNED_SHAPES) == held_out]
     cells = []
     for index, shape in enumerate(shapes):
-        path = lasa_path(shape, 0, DT, 0.2, SPEED)
-        # Its longer side along x, the boundary's longer side.
-        extent = np.ptp(path, axis=0)
-        if extent[1] > extent[0]:
-            path = path[:, ::-1]
+        path = retime(fit_in_box(lasa_path(shape, 0, DT, 1.0, SPEED), box, CLEARANCE), DT, DT, SPEED)
         group = "lasa-held-out" if held_out else "lasa-tuned"
         cells.append(around(group, shape, path, index % 2, rng))
     return cells
 
 
-def minimum_jerk_cells() -> List[Cell]:
+def minimum_jerk_cells(box: Box) -> List[Cell]:
+    """Five reaches of 6-10 cm, each turning up to 0.5 rad from the last, 1.2-2.4 s each, 40 % overlapping."""
     rng = np.random.default_rng(1985)
     cells = []
     for index in range(3):
-        targets = np.cumsum(rng.uniform([-0.08, -0.05], [0.08, 0.05], (6, 2)), axis=0)
-        durations = rng.uniform(1.5, 3.0, len(targets))
-        path = reaching_path(targets, durations, 0.4, DT)
-        cells.append(around("minimum-jerk", f"6 reaches, seed 1985 #{index}", path, index % 2, rng))
+        headings = rng.uniform(-math.pi, math.pi) + np.cumsum(rng.uniform(-0.5, 0.5, 5))
+        steps = rng.uniform(0.06, 0.1, 5)[:, None] * np.column_stack([np.cos(headings), np.sin(headings)])
+        path = reaching_path(np.cumsum(steps, axis=0), rng.uniform(1.2, 2.4, 5), 0.4, DT)
+        path = retime(fit_in_box(path, box, CLEARANCE), DT, DT, SPEED)
+        cells.append(around("minimum-jerk", f"5 reaches, seed 1985 #{index}", path, index % 2, rng))
     return cells
 
 
@@ -225,8 +275,18 @@ class InProcess:
                 received += 1
             record = self.controller.step(timeline.sample(cycle_time - self.params["command_delay"]))
             solve = record.cpu_times[0] + record.cpu_times[1] if record.fitting_errors else 0.0
-            states.append({"time": cycle_time, "mode": record.mode, "skill": record.skill, "x": record.state[0],
-                           "y": record.state[1], "solve": solve, "cycle": k, "late": 0})  # fmt: skip
+            states.append(
+                {
+                    "time": cycle_time,
+                    "mode": record.mode,
+                    "skill": record.skill,
+                    "x": record.state[0],
+                    "y": record.state[1],
+                    "solve": solve,
+                    "cycle": k,
+                    "late": 0,
+                }
+            )
         return states, cell.switch * DT, len(cell.commands) * DT
 
     def close(self):
@@ -250,10 +310,21 @@ class OverRos:
         config = ROOT / "config" / "shared_control.yaml"
         if overrides:
             config = log_dir / "shared_control.yaml"
-            config.write_text(yaml.safe_dump({**yaml.safe_load((ROOT / "config" / "shared_control.yaml").read_text()),
-                                              **overrides}))  # fmt: skip
-        self.processes.start("shared_control", ["roslaunch", "teleteach", "shared_control.launch", "enabled:=false",
-                                                "solver:=compiled", f"config:={config}"], log)  # fmt: skip
+            config.write_text(
+                yaml.safe_dump({**yaml.safe_load((ROOT / "config" / "shared_control.yaml").read_text()), **overrides})
+            )
+        self.processes.start(
+            "shared_control",
+            [
+                "roslaunch",
+                "teleteach",
+                "shared_control.launch",
+                "enabled:=false",
+                "solver:=compiled",
+                f"config:={config}",
+            ],
+            log,
+        )
         import rospy
         from geometry_msgs.msg import Vector3Stamped
         from std_msgs.msg import Bool
@@ -276,11 +347,18 @@ class OverRos:
 
     def _on_state(self, message):
         with self.lock:
-            self.states.append({
-                "time": message.header.stamp.to_sec(), "mode": message.mode, "skill": message.skill,
-                "x": message.state.x, "y": message.state.y, "solve": message.estimation_time + message.optimisation_time
-                if message.fitting_errors else 0.0, "cycle": message.cycle, "late": message.late_cycles,
-            })  # fmt: skip
+            self.states.append(
+                {
+                    "time": message.header.stamp.to_sec(),
+                    "mode": message.mode,
+                    "skill": message.skill,
+                    "x": message.state.x,
+                    "y": message.state.y,
+                    "solve": message.estimation_time + message.optimisation_time if message.fitting_errors else 0.0,
+                    "cycle": message.cycle,
+                    "late": message.late_cycles,
+                }
+            )
 
     def run(self, cell: Cell, rng) -> tuple:
         from std_msgs.msg import Bool
@@ -323,14 +401,17 @@ def sweep(runner, cells, box, measured_rate) -> list:
         row = score(states, cell, box, switch_time, duration)
         row["meets"] = meets(row, measured_rate)
         rows.append(row)
+        missed = [goal for goal, met in row["meets"].items() if not met]
         delay = "none" if row["switch_delay_s"] is None else f"{row['switch_delay_s']:.2f} s"
         solve = "-" if row["solve_p99_ms"] is None else f"{row['solve_p99_ms']:.2f}"
-        print(f"{row['group']:>13} {row['cell'][:46]:<46} misid {row['misidentified']:3d}/{row['judged']:4d} "
-              f"flicker {row['flicker']} delay {delay:>6} {row['rate_hz']:5.1f} Hz late "
-              f"{100 * row['late_fraction']:4.1f} % FALLBACK {100 * row['fallback_fraction']:4.1f} % "
-              f"viol {1e3 * row['violation_m']:.1f} mm solve p99 {solve} ms "
-              f"{'ok' if all(row['meets'].values()) else 'MISSES ' + ','.join(k for k, v in row['meets'].items() if not v)}",
-              flush=True)  # fmt: skip
+        print(
+            f"{row['group']:>13} {row['cell'][:46]:<46} misid {row['misidentified']:3d}/{row['judged']:4d} "
+            f"flicker {row['flicker']} delay {delay:>6} {row['rate_hz']:5.1f} Hz late "
+            f"{100 * row['late_fraction']:4.1f} % FALLBACK {100 * row['fallback_fraction']:4.1f} % "
+            f"viol {1e3 * row['violation_m']:.1f} mm solve p99 {solve} ms "
+            f"{'ok' if not missed else 'MISSES ' + ','.join(missed)}",
+            flush=True,
+        )
     return rows
 
 
@@ -362,8 +443,13 @@ def main():
     overrides = {name: yaml.safe_load(value) for name, value in (item.split("=", 1) for item in args.set)}
     params.update(overrides)
     box = Box(*params["boundary"])
-    makers = {"synthetic": synthetic_cells, "push": lambda: push_cells(box), "lasa-tuned": lambda: lasa_cells(False),
-              "lasa-held-out": lambda: lasa_cells(True), "minimum-jerk": minimum_jerk_cells}  # fmt: skip
+    makers = {
+        "synthetic": synthetic_cells,
+        "push": lambda: push_cells(box),
+        "lasa-tuned": lambda: lasa_cells(False, box),
+        "lasa-held-out": lambda: lasa_cells(True, box),
+        "minimum-jerk": lambda: minimum_jerk_cells(box),
+    }
     cells = [cell for group in args.groups for cell in makers[group]()]
     runs = {"idle": None}
     if args.busy:
@@ -391,8 +477,10 @@ def main():
             lines = goal_lines(rows, not args.in_process)
             held_out = [r for r in rows if r["group"] == "lasa-held-out"]
             if held_out:
-                lines.append(f"held-out LASA shapes: {sum(all(r['meets'].values()) for r in held_out)} of "
-                             f"{len(held_out)} cells meet every goal")  # fmt: skip
+                lines.append(
+                    f"held-out LASA shapes: {sum(all(r['meets'].values()) for r in held_out)} of "
+                    f"{len(held_out)} cells meet every goal"
+                )
             result[name] = {"load_average": [load, os.getloadavg()[0]], "cells": rows, "goals": lines}
             print(f"{name}:", *lines, sep="\n  ", flush=True)
     finally:

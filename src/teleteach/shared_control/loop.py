@@ -377,9 +377,10 @@ class SharedControl:
     def coast(self, command: Sequence[float]) -> SharedControlRecord:
         """A cycle without solving, for a loop that has fallen behind (the node's catch-up).
 
-        The command joins the window, the state follows the previous plan (direct control while the window fills),
-        and the estimates move on with it: the executed state keeps its speed and the window stays on the time grid
-        however long a solve took.
+        The command joins the window, the state follows the previous plan (stopped at the constraints, as a solved
+        step is; direct control while the window fills), and the estimates move on with it: the executed state keeps
+        its speed and the window stays on the time grid however long a solve took. The estimates are kept, so the
+        next solve goes on from them.
         """
         command, notes = self._sanitise(command)
         self.window.append(command)
@@ -387,18 +388,20 @@ class SharedControl:
             return self._recover(CycleReport(command, notes))
         if len(self.window) < self.config.n_window:
             return self._direct(command, notes)
-        if self.skill is None:
-            return self._fallback(CycleReport(command, [*notes, "late cycle: no plan to follow"]))
-        if self.plan_index + 1 >= self.plan.shape[1]:
-            return self._fallback(CycleReport(command, [*notes, "late cycle: the previous plan has ended"]))
-        candidate = self.plan[:, self.plan_index + 1]
-        if constraints.violation(candidate, self.box, self.obstacle) > 0.0:
-            return self._fallback(CycleReport(command, [*notes, "late cycle: the previous plan is no longer free"]))
+        report = CycleReport(command, notes, list(self.skills), skill=self.skill or "")
+        if self.skill is None or self.plan_index + 1 >= self.plan.shape[1]:
+            notes.append("late cycle: no plan to follow, holding")
+            return self._record(FALLBACK, report, "; ".join(notes))
         self.plan_index += 1
-        self.state = candidate.copy()
+        candidate = self.plan[:, self.plan_index]
         velocity = plan_velocity(self.plan, self.config.dt, self.plan_index)
+        if constraints.violation(candidate, self.box, self.obstacle) > 0.0:
+            safe = self._safe_state(candidate)
+            candidate = self.state if safe is None else safe
+            velocity = (candidate - self.state) / self.config.dt
+            notes.append("step stopped at the constraint")
+        self.state = np.array(candidate, dtype=float)
         self._advance({name: self._coasted(name) for name in self.skills}, self.theta_star)
-        report = CycleReport(command, notes, skill=self.skill)
         message = "; ".join([*notes, f"late cycle: following the previous plan ({self.skill})"])
         return self._record(SHARED, report, message, self.plan, velocity, 1.0)
 

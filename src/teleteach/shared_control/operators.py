@@ -99,11 +99,18 @@ def lasa_path(shape: str, demo: int, dt: float, size: float, mean_speed: float, 
     drawing = np.flatnonzero(speed >= moving * speed.max())
     positions, times = positions[drawing[0] : drawing[-1] + 1], times[drawing[0] : drawing[-1] + 1]
     positions = (positions - positions[0]) * (size / np.ptp(positions, axis=0).max())
-    length = float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1)))
-    duration = length / mean_speed
-    times = (times - times[0]) * (duration / (times[-1] - times[0]))
-    grid = np.arange(0.0, duration, dt)
-    return np.column_stack([np.interp(grid, times, positions[:, k]) for k in range(2)])
+    grid = np.arange(times[0], times[-1], dt / 4)  # the recording's own clock, finer than dt
+    resampled = np.column_stack([np.interp(grid, times, positions[:, k]) for k in range(2)])
+    return retime(resampled, dt / 4, dt, mean_speed)
+
+
+def retime(path: np.ndarray, path_dt: float, dt: float, mean_speed: float) -> np.ndarray:
+    """``path`` (sampled every path_dt) slowed or sped up uniformly to a mean speed of ``mean_speed``, every dt."""
+    path = np.asarray(path, dtype=float)
+    length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+    times = path_dt * np.arange(len(path)) * (length / mean_speed) / (path_dt * (len(path) - 1))
+    grid = np.arange(0.0, times[-1], dt)
+    return np.column_stack([np.interp(grid, times, path[:, k]) for k in range(2)])
 
 
 def minimum_jerk(t: np.ndarray) -> np.ndarray:

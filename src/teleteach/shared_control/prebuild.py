@@ -3,8 +3,8 @@
 The node's ``compiled`` solvers are shared libraries that gcc builds from the code casadi generates for the
 configuration (``cache.py``): minutes of CPU on two cores. Built here, a user's first session starts on them
 instead of waiting (or, before issue 31, running on the slower virtual machine while they were built). A stamp in
-the cache (a hash of this package's shared-control code, the yaml and the casadi version) makes a second run
-return at once; a deleted cache takes its stamp with it.
+the cache (named by a hash of this package's shared-control code, the yaml and the casadi version) makes a second run
+return at once; a deleted cache takes its stamp with it, and checkouts of other versions keep stamps of their own.
 
     python -m teleteach.shared_control.prebuild [--config FILE]
 """
@@ -21,8 +21,6 @@ import yaml
 
 from teleteach.paths import config_file
 from teleteach.shared_control import cache
-
-STAMP = ".prebuilt.sha256"
 
 
 def stamp(config_path: pathlib.Path) -> str:
@@ -54,9 +52,8 @@ def main(argv=None) -> int:
     parser.add_argument("--config", help="parameter file (default: the package's config/shared_control.yaml)")
     args = parser.parse_args(argv)
     path = pathlib.Path(args.config or config_file("shared_control.yaml"))
-    stamp_file = cache.cache_dir() / STAMP
-    expected = stamp(path)
-    if stamp_file.is_file() and stamp_file.read_text().strip() == expected:
+    stamp_file = cache.cache_dir() / f".prebuilt-{stamp(path)[:16]}"
+    if stamp_file.is_file():
         print(f"shared-control solvers for {path}: cached ({cache.cache_dir()})")
         return 0
     from teleteach.shared_control.loop import SharedControlConfig
@@ -65,7 +62,7 @@ def main(argv=None) -> int:
     started = time.monotonic()
     compiled = build(config)
     what = f"compiled in {time.monotonic() - started:.0f} s" if compiled else "already cached"
-    stamp_file.write_text(expected + "\n")
+    stamp_file.touch()
     print(f"shared-control solvers for {path}: {what} ({cache.cache_dir()})")
     return 0
 

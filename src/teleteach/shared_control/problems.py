@@ -208,11 +208,14 @@ class SkillEstimation:
         velocity = v0 * self.control.map(n_window)(s_window, z)
         root_recency = np.sqrt(recency_weights(n_window, dt, recency_half_life))
         fit_residuals = ca.vec((velocity - commands) * ca.repmat(ca.DM(root_recency).T, 2, 1)) / np.sqrt(n_window)
-        self.fit = ca.Function("fit", [z, commands], [ca.sumsqr(fit_residuals)], ["z", "h"], ["fit"])
+        name = f"estimation_{layout.skill.name}_{n_window}"
+        self.fit = ca.Function(f"{name}_fit", [z, commands], [ca.sumsqr(fit_residuals)], ["z", "h"], ["fit"])
+        if solver == "compiled":
+            # The seeds' grid search maps it over hundreds of candidates (on the virtual machine: ~6 ms a grid).
+            self.fit = cache.compiled_function(self.fit, cache_dir)
         self._mapped_fits = {}
         residuals = ca.vertcat(fit_residuals / speed_scale, root_weights * (z - z_prev))
         p = ca.vertcat(ca.vec(commands), z_prev, root_weights)
-        name = f"estimation_{layout.skill.name}_{n_window}"
         if solver == "ipopt":
             nlp = {"x": z, "p": p, "f": ca.sumsqr(residuals)}
             self.solver = _make_solver(name, nlp, solver, max_iter, cache_dir)
