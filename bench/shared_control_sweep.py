@@ -307,6 +307,13 @@ class OverRos:
             return self.processes.start("roscore", ["roscore", "-p", str(port)], log)
 
         own_master(start_roscore, self.processes.stop, host="127.0.0.1")
+        try:
+            self._start(log_dir, overrides, log)
+        except BaseException:
+            self.processes.stop_all()
+            raise
+
+    def _start(self, log_dir: pathlib.Path, overrides: dict, log: pathlib.Path) -> None:
         config = ROOT / "config" / "shared_control.yaml"
         if overrides:
             config = log_dir / "shared_control.yaml"
@@ -339,11 +346,16 @@ class OverRos:
         self.lock = threading.Lock()
         self.states = []
         rospy.Subscriber("/shared_control/state", SharedControlState, self._on_state, queue_size=1000)
-        deadline = time.monotonic() + 600  # a first start without the cache compiles (minutes)
-        while self.command.get_num_connections() == 0 or self.enable.get_num_connections() == 0:
+        self.log = log
+        # A first start without the cache compiles (minutes); the node reads commands only while enabled.
+        self._wait(lambda: self.enable.get_num_connections() > 0, 600.0, "the node")
+
+    def _wait(self, condition, timeout: float, what: str) -> None:
+        deadline = time.monotonic() + timeout
+        while not condition():
             if time.monotonic() > deadline:
-                raise RuntimeError(f"the node did not come up (see {log})")
-            time.sleep(0.1)
+                raise RuntimeError(f"{what} did not come up (see {self.log})")
+            time.sleep(0.05)
 
     def _on_state(self, message):
         with self.lock:
@@ -367,6 +379,7 @@ class OverRos:
         self.enable.publish(Bool(False))
         time.sleep(0.3)
         self.enable.publish(Bool(True))
+        self._wait(lambda: self.command.get_num_connections() > 0, 30.0, "the node's command subscriber")
         time.sleep(1.0)  # the node waits up to 0.5 s for an arm pose, then starts at initial_state
         with self.lock:
             self.states = []
@@ -463,6 +476,7 @@ def main():
     }
     log_dir = pathlib.Path(tempfile.mkdtemp(prefix="sweep_"))
     runner = InProcess(params, box) if args.in_process else OverRos(log_dir, overrides)
+    print(f"logs in {log_dir}", flush=True)
     try:
         for name, busy_command in runs.items():
             load = os.getloadavg()[0]

@@ -349,6 +349,12 @@ class SharedControl:
         self._candidate: Optional[str] = None
         self._candidate_cycles = 0
 
+    def measure(self, state: Sequence[float]) -> None:
+        """Take the robot's measured state [m] as x_c of the next cycle (ignored, not raised, when not finite)."""
+        state = np.asarray(state, dtype=float).reshape(2)
+        if np.all(np.isfinite(state)):
+            self.state = state
+
     def step(self, command: Sequence[float]) -> SharedControlRecord:
         """One cycle: take the operator command h^r [m/s], return the record of the executed state."""
         cfg = self.config
