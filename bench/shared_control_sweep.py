@@ -23,6 +23,7 @@ the sweep again with a busy loop on one core; ``--in-process`` runs the node's c
 """
 
 import argparse
+import collections
 import dataclasses
 import json
 import math
@@ -236,6 +237,9 @@ def score(states, cell: Cell, box: Box, switch_time: float, duration: float) -> 
         "switch_delay_s": None if detected is None else detected - switch_time,
         "violation_m": max((violation(np.array([s["x"], s["y"]]), box, None) for s in states), default=0.0),
         "solve_p99_ms": float(np.percentile(solves, 99)) if solves else None,
+        "fallback_reasons": collections.Counter(
+            s["message"].split("; ")[-1] for s in states if s["mode"] == FALLBACK
+        ).most_common(3),
     }
 
 
@@ -284,6 +288,7 @@ class InProcess:
                     "y": record.state[1],
                     "solve": solve,
                     "cycle": k,
+                    "message": record.message,
                     "late": 0,
                 }
             )
@@ -368,6 +373,7 @@ class OverRos:
                     "y": message.state.y,
                     "solve": message.estimation_time + message.optimisation_time if message.fitting_errors else 0.0,
                     "cycle": message.cycle,
+                    "message": message.message,
                     "late": message.late_cycles,
                 }
             )

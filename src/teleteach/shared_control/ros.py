@@ -29,6 +29,8 @@ from teleteach.shared_control.timeline import CommandTimeline
 INPUTS = ("operator_command", "twist", "joy")
 # Lag behind the 50 Hz grid after which the cycles in between are skipped (counted late) rather than caught up [s].
 MAX_LAG = 1.0
+# Cycles in a row that catch up by following the plan before one solves again, however late [-].
+MAX_COASTS = 4
 # Seconds between the node's cycle reports in its log (rate, late cycles, modes, solve times) [s].
 REPORT_PERIOD = 10.0
 # How long enabling waits for the arm's pose on /cartesian_pose before starting at initial_state [s].
@@ -262,6 +264,7 @@ class SharedControlNode:
         self._arm_time = -math.inf  # when the last /cartesian_pose came [s]
         self.state_from_arm = state_from_arm
         self._rejected = ""  # why the newest bad message since the last cycle was rejected
+        self._coasts = 0  # cycles coasted in a row
         self._approach: Optional[Tuple[Approach, float]] = None  # (the move, its start time) while it runs
         self.controller = self._build(config, box, initial_state)
         self.pose_publisher = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=1)
@@ -477,10 +480,14 @@ class SharedControlNode:
         self.controller.set_obstacle(obstacle)
         if self.state_from_arm and self._arm is not None and now - self._arm_time <= self.command_timeout:
             self.controller.measure(self.plane.to_plane(self._arm[0]))
-        if schedule.behind(now):
+        # Catch up by coasting on the plan, but solve at least every MAX_COASTS + 1 cycles and whenever there is no
+        # plan to follow: a machine that never lets the loop catch up must not freeze the identification.
+        if schedule.behind(now) and self.controller.skill is not None and self._coasts < MAX_COASTS:
             record = self.controller.coast(command)
+            self._coasts += 1
         else:
             record = self.controller.step(command)
+            self._coasts = 0
         late = schedule.finish(self._rospy.get_time())
         record.cycle, record.late_cycles = schedule.cycles, schedule.late
         if self._rejected:
