@@ -347,7 +347,7 @@ def test_authority_follows_confidence_and_the_paper_switch_restores_the_plan_alw
     assert np.mean([r.authority for r in records if r.mode != DIRECT]) > 0.6  # a known wave is mostly the plan's
 
 
-def test_unknown_pattern_executes_the_operators_step_inside_the_constraints():
+def test_unknown_pattern_executes_the_operators_step_keeping_the_margin():
     box = Box(-0.25, -0.15, 0.25, 0.06)
     # Residual bounds so strict that nothing counts as known: every estimation cycle is UNKNOWN.
     config = SharedControlConfig.paper(solver="fast", blend_authority=True, authority_residual=(1e-9, 2e-9))
@@ -358,7 +358,7 @@ def test_unknown_pattern_executes_the_operators_step_inside_the_constraints():
     assert len(unknown) > 150
     for k in unknown:
         step = np.array(records[k - 1].state) + commands[k] * DT
-        expected = step if violation(step, box, None) == 0.0 else None
+        expected = step if violation(step, box, None, config.margin) == 0.0 else None
         if expected is not None:
             assert np.allclose(records[k].state, expected)
         assert records[k].authority == 0.0

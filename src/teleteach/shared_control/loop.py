@@ -401,7 +401,7 @@ class SharedControl:
         self.plan_index += 1
         candidate = self.plan[:, self.plan_index]
         velocity = plan_velocity(self.plan, self.config.dt, self.plan_index)
-        if constraints.violation(candidate, self.box, self.obstacle) > 0.0:
+        if constraints.violation(candidate, self.box, self.obstacle, self.config.margin) > 0.0:
             safe = self._safe_state(candidate)
             candidate = self.state if safe is None else safe
             velocity = (candidate - self.state) / self.config.dt
@@ -533,8 +533,9 @@ class SharedControl:
         if result.slack > 0.0:
             message += f"; no plan keeps the {1e3 * cfg.margin:.0f} mm margin: {1e3 * result.slack:.1f} mm into it"
         planned, planned_velocity = plan[:, 1], plan_velocity(plan, cfg.dt, 1)
-        if constraints.violation(planned, self.box, self.obstacle) > 0.0:
-            # The plan's step leaves the constraints (only possible with slack): the nearest free point instead.
+        if constraints.violation(planned, self.box, self.obstacle, cfg.margin) > 0.0:
+            # The plan's step enters the margin (only possible with slack): the nearest point that keeps it instead,
+            # so every executed state keeps the margin the arm needs to lag without crossing.
             safe = self._safe_state(planned)
             if safe is None:
                 notes.append("no free state exists within the margin")
@@ -571,14 +572,14 @@ class SharedControl:
     def _blend(self, planned, planned_velocity, command, authority: float) -> Tuple[np.ndarray, np.ndarray]:
         """Executed state and velocity: authority x the plan's next state + the rest x the operator's direct step.
 
-        A blend that leaves the constraints moves to the nearest free point (the plan's step never leaves them).
+        A blend that enters the margin moves to the nearest point that keeps it (as the plan's step does).
         """
         dt = self.config.dt
         if authority >= 1.0:
             return np.array(planned, dtype=float), np.asarray(planned_velocity, dtype=float)
         state = authority * planned + (1.0 - authority) * (self.state + command * dt)
         velocity = authority * planned_velocity + (1.0 - authority) * command
-        if constraints.violation(state, self.box, self.obstacle) > 0.0:
+        if constraints.violation(state, self.box, self.obstacle, self.config.margin) > 0.0:
             safe = self._safe_state(state)
             state = np.array(planned, dtype=float) if safe is None else safe
             velocity = (state - self.state) / dt
