@@ -53,9 +53,11 @@ class BoundaryPush(unittest.TestCase):
         switch = start + len(before) * DT
         time.sleep(0.3)
         states = [s for s in self.states[first:] if start <= s.header.stamp.to_sec() <= end]
-        # Expect: a state every cycle (no cycle number missing), few of them late, the boundary kept.
+        # Expect: a state every cycle, or a missing cycle counted late (the node skips only after 1 s behind the
+        # grid, and says so), few of them late, the boundary kept.
         cycles = [s.cycle for s in states]
-        self.assertEqual(cycles, list(range(cycles[0], cycles[0] + len(cycles))), "a cycle without a state")
+        for before, after in zip(states, states[1:]):
+            self.assertGreaterEqual(after.late_cycles - before.late_cycles, after.cycle - before.cycle - 1)
         self.assertGreater(len(states) / (end - start), 45.0)
         # Late cycles are counted, never more than the cycles; the share is the bench's goal (0.5 %), here only a
         # bound that a working machine keeps (59 % were late under a load average of 20 on two cores).
