@@ -5,6 +5,7 @@ ROS Publishers (relative names, ``/sigma7/...`` in the root namespace):
     sigma7/twist (geometry_msgs/TwistStamped): filtered velocity [m/s, rad/s], same frame.
     sigma7/gripper_angle (std_msgs/Float64): [rad], 0 = closed.
     sigma7/button (std_msgs/Bool): emulated click state; one rising edge per click.
+    These four at ``~publish_rate``, a share of the loop's ``~rate`` cycles, and in the cycle the button changes.
     sigma7/force (geometry_msgs/WrenchStamped): the guidance force [N] and torque [Nm] rendered (~force_rate).
 
 ROS Subscribers:
@@ -38,7 +39,7 @@ from teleteach.haptics.guidance import (
     Wrench,
 )
 from teleteach.haptics.hand import HandModelBackend, HandParameters
-from teleteach.haptics.loop import DeviceLoop, DeviceState, ThrottledLog, WallRate
+from teleteach.haptics.loop import Decimated, DeviceLoop, DeviceState, ThrottledLog, WallRate
 from teleteach.haptics.scenario import (
     AT_END_CHOICES,
     ScenarioBackend,
@@ -62,6 +63,7 @@ class Sigma7Config:
     scenario: str = ""
     at_end: str = "hold"
     rate: float = 1000.0
+    publish_rate: float = 200.0
     max_catch_up: float = 1.0
     frame_id: str = "sigma7"
     click: ClickParameters = dataclasses.field(default_factory=ClickParameters)
@@ -90,6 +92,8 @@ class Sigma7Config:
             raise ValueError(
                 "~hand/enabled models a hand for the scenario, virtual and topic backends; a real device has one"
             )
+        if not 0.0 < self.publish_rate <= self.rate:
+            raise ValueError(f"~publish_rate must be in (0, ~rate], got {self.publish_rate}")
         if not 0.0 < self.force_rate <= self.rate:
             raise ValueError(f"~force_rate must be in (0, ~rate], got {self.force_rate}")
 
@@ -107,6 +111,7 @@ class Sigma7Config:
             scenario=param("~scenario", "scenario"),
             at_end=param("~at_end", "at_end"),
             rate=float(param("~rate", "rate")),
+            publish_rate=float(param("~publish_rate", "publish_rate")),
             max_catch_up=float(param("~max_catch_up", "max_catch_up")),
             frame_id=param("~frame_id", "frame_id"),
             click=ClickParameters(
@@ -253,7 +258,7 @@ class Sigma7Node:
         self.guidance = GuidanceRenderer(config.guidance, click_below=config.click.release_threshold)
         self.loop = DeviceLoop(
             self.backend,
-            Sigma7Publisher(config.frame_id),
+            Decimated(Sigma7Publisher(config.frame_id), round(config.rate / config.publish_rate)),
             clock=lambda: rospy.get_rostime().to_sec(),
             click_detector=ClickDetector(config.click),
             twist_estimator=TwistEstimator(config.twist_cutoff),
