@@ -42,6 +42,7 @@ from teleteach.msg import (
 )
 from teleteach.perception.observed import WORLD_FRAME, observed_from_scene
 from teleteach.perception.ros import box_marker, scene_markers
+from teleteach.ros_actions import WallStatusTimer
 from teleteach.rotations import yaw_quaternion
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, ControllerConfigError, RobotSim, load_controller_config
@@ -169,6 +170,7 @@ class RobotSimNode:
         ]
         for server in self._action_servers:
             server.start()
+        self._status = WallStatusTimer(self._action_servers)
 
     @classmethod
     def from_params(cls):
