@@ -2,10 +2,10 @@
 
 rospy callbacks never touch a widget: they update thread-safe state or emit class-level signals, which Qt delivers
 queued in the GUI thread. The worker also publishes /eigenvalues and /eigenvectors from its own thread at
-``publish_rate`` while LOW-LEVEL is active, independent of the repaint rate (the thesis tied stiffness to the GUI
-refresh and recorded it too sparsely, Appendix C.2), and samples the recording at the same instants; a device
-sample that changes the ellipsoid is sent at once from the subscriber's thread, so the latency does not include
-waiting for the next tick.
+``publish_rate`` while LOW-LEVEL (or SHARED CONTROL) is active, its timer stopped in the other tabs, independent of
+the repaint rate (the thesis tied stiffness to the GUI refresh and recorded it too sparsely, Appendix C.2), and
+samples the recording at the same instants; a device sample that changes the ellipsoid is sent at once from the
+subscriber's thread, so the latency does not include waiting for the next tick.
 """
 
 import math
@@ -206,6 +206,7 @@ class RosWorker(QObject):
     shared_obstacle = pyqtSignal(object)  # (x, y, yaw) in the task plane
     shared_arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
     study_state = pyqtSignal(object)  # StudyStatus of a user study (study/state)
+    _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
 
     def __init__(
         self,
@@ -223,7 +224,9 @@ class RosWorker(QObject):
         self._plane_checked = -1e9
         self._plane_lock = threading.Lock()
         self._arm_stamp = -math.inf
-        self.active_tab = 0
+        self._active_tab = 0
+        self._publish_timer: Optional[QTimer] = None
+        self._tab_changed.connect(self._start_or_stop_publishing, Qt.QueuedConnection)
         self.equilibrium: Callable[[], Optional[np.ndarray]] = lambda: None
         self._filter = DeviceFilter(config)
         self._button = EdgeDetector(0.5, 0.5)
@@ -232,6 +235,7 @@ class RosWorker(QObject):
         self._sample = None
         self._sample_seq = 0
         self._emitted_seq = 0
+        self._emitted: Optional[object] = None  # the DeviceSample last sent to the widgets
         self._cartesian: Optional[np.ndarray] = None
         self._publish_lock = threading.Lock()
         self._last_publish = -1.0
@@ -277,8 +281,33 @@ class RosWorker(QObject):
             timer = QTimer(self)
             timer.setTimerType(Qt.PreciseTimer)
             timer.timeout.connect(slot)
-            timer.start(max(1, int(round(1000.0 / rate))))
+            timer.setInterval(max(1, int(round(1000.0 / rate))))
             self._timers.append(timer)
+        self._publish_timer = self._timers[0]
+        for timer in self._timers[1:]:
+            timer.start()
+        self._start_or_stop_publishing()
+
+    @property
+    def active_tab(self) -> int:
+        """The GUI's tab (teleteach.gui.session.Tab); set from the GUI thread."""
+        return self._active_tab
+
+    @active_tab.setter
+    def active_tab(self, tab: int) -> None:
+        self._active_tab = tab
+        self._tab_changed.emit()
+
+    @pyqtSlot()
+    def _start_or_stop_publishing(self) -> None:
+        """The stiffness stream's timer runs only in the tabs that command a stiffness (worker thread)."""
+        if self._publish_timer is None:
+            return  # not started yet: start() looks at the tab
+        if self._active_tab in (Tab.LOW_LEVEL, Tab.SHARED_CONTROL):
+            if not self._publish_timer.isActive():
+                self._publish_timer.start()
+        else:
+            self._publish_timer.stop()
 
     @pyqtSlot()
     def stop(self) -> None:
@@ -290,9 +319,10 @@ class RosWorker(QObject):
         self._subscribers.clear()
 
     def reset_device_filter(self) -> None:
-        """Take the next device sample as it is (a new tab starts from where the device is)."""
+        """Take the next device sample as it is (a new tab starts from where the device is, told even when still)."""
         with self._lock:
             self._filter.reset()
+            self._emitted = None
 
     # rospy threads ---------------------------------------------------------------------------
     def _on_pose(self, message: PoseStamped) -> None:
@@ -450,11 +480,12 @@ class RosWorker(QObject):
         return stamp
 
     def _emit_device(self) -> None:
+        """The latest device sample to the widgets, unless the last one sent was the same (a device at rest is free)."""
         with self._lock:
-            if self._sample_seq == self._emitted_seq:
+            if self._sample_seq == self._emitted_seq or self._sample == self._emitted:
                 return
             self._emitted_seq = self._sample_seq
-            sample = self._sample
+            sample = self._emitted = self._sample
         self.device_changed.emit(sample)
 
     def _check_health(self) -> None:
