@@ -5,7 +5,8 @@ ROS Publishers (relative names, ``/sigma7/...`` in the root namespace):
     sigma7/twist (geometry_msgs/TwistStamped): filtered velocity [m/s, rad/s], same frame.
     sigma7/gripper_angle (std_msgs/Float64): [rad], 0 = closed.
     sigma7/button (std_msgs/Bool): emulated click state; one rising edge per click.
-    These four at ``~publish_rate``, a share of the loop's ``~rate`` cycles, and in the cycle the button changes.
+    These four at ``~publish_rate``, a share of the loop's ``~rate`` cycles (every cycle when the loop is slower), and
+    in the cycle the button changes.
     sigma7/force (geometry_msgs/WrenchStamped): the guidance force [N] and torque [Nm] rendered (~force_rate).
 
 ROS Subscribers:
@@ -92,8 +93,8 @@ class Sigma7Config:
             raise ValueError(
                 "~hand/enabled models a hand for the scenario, virtual and topic backends; a real device has one"
             )
-        if not 0.0 < self.publish_rate <= self.rate:
-            raise ValueError(f"~publish_rate must be in (0, ~rate], got {self.publish_rate}")
+        if not self.publish_rate > 0.0:
+            raise ValueError(f"~publish_rate must be a positive number of Hz, got {self.publish_rate}")
         if not 0.0 < self.force_rate <= self.rate:
             raise ValueError(f"~force_rate must be in (0, ~rate], got {self.force_rate}")
 
@@ -308,7 +309,7 @@ class Sigma7Node:
             backend = ScenarioBackend(scenario, start_time, config.at_end, system=RosSystemView())
         else:
             backend = ScenarioBackend(scenario, start_time, config.at_end)
-        self._played_timer = rospy.Timer(rospy.Duration(0.1), lambda _: self._note_played(backend))
+        threading.Thread(target=self._note_played, args=(backend,), name="scenario_played", daemon=True).start()
         return backend
 
     def _subscribe_input(self) -> TopicInput:
@@ -338,14 +339,17 @@ class Sigma7Node:
         rospy.loginfo("sigma7_node: reading the device from sigma7/input/pose and sigma7/input/gripper_angle")
         return device
 
-    def _note_played(self, backend: ScenarioBackend) -> None:
-        """Set ~scenario_played once the last keyframe has been played.
+    @staticmethod
+    def _note_played(backend: ScenarioBackend) -> None:
+        """Set ~scenario_played once the last keyframe has been played (looked at 10 times a second of wall time).
 
-        With waits, nobody can tell the end from the start time and the duration; the main job waits for this.
+        With waits, nobody can tell the end from the start time and the duration; the main job waits for this. A
+        plain thread, not a rospy.Timer: under /use_sim_time that would wake at every /clock message.
         """
+        while not backend.played and not rospy.is_shutdown():
+            wall_time.sleep(0.1)
         if backend.played:
             rospy.set_param("~scenario_played", True)
-            self._played_timer.shutdown()
 
     @staticmethod
     def _wait_for_ros_time() -> float:
