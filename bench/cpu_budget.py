@@ -28,7 +28,8 @@ The table compares each figure with its goal and, with ``--baseline FILE`` (an e
 
 Writes bench/results/cpu_budget.json: {phase: {node: percent_of_one_core, "total": ...}} and, beside the phases,
 "context" (per phase: window, load average, real-time factor) and "outside" (per phase: the processes that are no
-ROS node of the system: roslaunch, rosmaster, Xvfb).
+node of the system: roslaunch, rosmaster, Xvfb, and ``floor``: a rospy node that does nothing on the same master,
+i.e. what any rospy node pays for /clock under /use_sim_time).
 
     source build/env.sh && python bench/cpu_budget.py [--runs virtual teaching thesis] [--window 20]
         [--baseline bench/results/cpu_budget_before.json]
@@ -66,6 +67,7 @@ GOALS = {
     "thesis": {"total": 100.0},
 }
 PHASES = ("tree_running", "idle", "low_level", "shared_control", "thesis")
+FLOOR = "import rospy; rospy.init_node('cpu_budget_floor'); rospy.spin()"
 
 
 def cpu_seconds(pid):
@@ -205,6 +207,14 @@ class System:
         self.port, self.launch = own_master(start, self.processes.stop)
         self.master_uri = f"http://localhost:{self.port}"
         self.log = log
+        self.floor = None
+
+    def start_floor(self):
+        """The do-nothing node, once roslaunch has set /use_sim_time (rospy reads it when the node starts)."""
+        from teleteach.run.processes import ros_environment
+
+        env = ros_environment(self.master_uri, self.display, self.data)
+        self.floor = self.processes.start("floor", [sys.executable, "-c", FLOOR], env=env)
 
     def master_pid(self):
         from teleteach.run.processes import master_pid
@@ -217,8 +227,8 @@ class System:
 
 def measure(system, watcher, seconds, phase, until=None):
     """CPU of every node (and of roslaunch, rosmaster, Xvfb) over ``seconds`` of wall time, or until ``until()``."""
-    pids = node_pids(system.master_uri)
-    outside = {"roslaunch": system.launch.pid, "rosmaster": system.master_pid()}
+    pids = {node: pid for node, pid in node_pids(system.master_uri).items() if pid != system.floor.pid}
+    outside = {"roslaunch": system.launch.pid, "rosmaster": system.master_pid(), "floor": system.floor.pid}
     if system.xvfb_pid is not None:
         outside["Xvfb"] = system.xvfb_pid
     processes = {**{short_name(node): pid for node, pid in pids.items()}, **outside}
@@ -268,6 +278,10 @@ def start_system(name, launch_args, log_folder):
     system = System(name, launch_args, log_folder)
     os.environ["ROS_MASTER_URI"] = system.master_uri  # rospy reads it in init_node: one run per process
     init_node("cpu_budget_bench", anonymous=True, disable_signals=True)
+    import rospy
+
+    wait_for(system, lambda: rospy.has_param("/use_sim_time"), 60, "/use_sim_time")
+    system.start_floor()
     return system, Watcher()
 
 
