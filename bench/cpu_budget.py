@@ -25,6 +25,7 @@ Runs (``--runs``, all three by default):
 Goals (issue 33): idle: total <= 60 %; skill_server, behaviour_tree, shared_control and ellipsoid_marker <= 2 %
 each; teaching_gui <= 10 %; sigma7_node <= 15 %; robot_sim <= 30 % (at real-time factor 1). thesis: total <= 100 %.
 The table compares each figure with its goal and, with ``--baseline FILE`` (an earlier cpu_budget.json), with that.
+``--launch-args`` adds full.launch arguments to every run (e.g. ``clock_rate:=100``: what a coarser clock would save).
 
 Writes bench/results/cpu_budget.json: {phase: {node: percent_of_one_core, "total": ...}} and, beside the phases,
 "context" (per phase: window, load average, real-time factor) and "outside" (per phase: the processes that are no
@@ -285,9 +286,9 @@ def start_system(name, launch_args, log_folder):
     return system, Watcher()
 
 
-def run_virtual(window, log_folder):
+def run_virtual(window, log_folder, extra):
     """tree_running and idle, with the virtual device."""
-    system, watcher = start_system("virtual", ["device:=virtual", "rviz:=false"], log_folder)
+    system, watcher = start_system("virtual", ["device:=virtual", "rviz:=false", *extra], log_folder)
     try:
         wait_for(system, lambda: watcher.running - {EXECUTION, "Root", "PauseCondition"}, 120, "running skill")
         time.sleep(3.0)  # the nodes' start-up is over
@@ -301,9 +302,9 @@ def run_virtual(window, log_folder):
         system.stop()
 
 
-def run_teaching(window, log_folder):
+def run_teaching(window, log_folder, extra):
     """low_level and shared_control, with the scripted operator of bench/data/cpu_budget_operator.yaml."""
-    args = ["device:=scenario", f"scenario:={OPERATOR}", "rviz:=false"]
+    args = ["device:=scenario", f"scenario:={OPERATOR}", "rviz:=false", *extra]
     system, watcher = start_system("teaching", args, log_folder)
     try:
         recording = lambda: watcher.tab == LOW_LEVEL and watcher.recording  # noqa: E731
@@ -320,11 +321,11 @@ def run_teaching(window, log_folder):
         system.stop()
 
 
-def run_thesis(window, log_folder):
+def run_thesis(window, log_folder, extra):
     """The main job's launch; one window from the scenario's start to the end of the scenario and the tree."""
     import rospy
 
-    args = ["headless:=true", "device:=scenario", f"scenario:={THESIS}", "record:=true", "rviz:=false"]
+    args = ["headless:=true", "device:=scenario", f"scenario:={THESIS}", "record:=true", "rviz:=false", *extra]
     system, watcher = start_system("thesis", args, log_folder)
     try:
         wait_for(system, lambda: rospy.has_param("/sigma7_node/scenario_start"), 120, "scenario start")
@@ -369,10 +370,10 @@ def table(results, baseline):
     return "\n".join(lines)
 
 
-def run_one(name, window, output):
+def run_one(name, window, output, extra):
     """One run in this process (rospy talks to one master per process): its phases into ``output``."""
     results = {"context": {}, "outside": {}}
-    for phase, (nodes, outside, context) in RUNS[name](window, output.parent).items():
+    for phase, (nodes, outside, context) in RUNS[name](window, output.parent, extra).items():
         results[phase] = nodes
         results["outside"][phase] = outside
         results["context"][phase] = context
@@ -388,16 +389,18 @@ def main(argv=None):
     parser.add_argument("--window", type=float, default=20.0, help="[s] wall time of each window but thesis'")
     parser.add_argument("--baseline", type=pathlib.Path, help="an earlier cpu_budget.json to compare with")
     parser.add_argument("--output", type=pathlib.Path, default=RESULTS / "cpu_budget.json")
+    parser.add_argument("--launch-args", nargs="*", default=[], help="more full.launch arguments, e.g. clock_rate:=100")
     parser.add_argument("--one", choices=sorted(RUNS), help=argparse.SUPPRESS)  # a child: one run, to --output
     options = parser.parse_args(argv)
     if options.one:
-        run_one(options.one, options.window, options.output)
+        run_one(options.one, options.window, options.output, options.launch_args)
         return 0
     options.output.parent.mkdir(parents=True, exist_ok=True)
     results = {"context": {}, "outside": {}}
     for name in options.runs:
         part = options.output.parent / f"cpu_budget_{name}.json"
         command = [sys.executable, __file__, "--one", name, "--window", str(options.window), "--output", str(part)]
+        command += ["--launch-args", *options.launch_args]
         subprocess.run(command, check=True)
         for key, value in json.loads(part.read_text()).items():
             if key in results:
@@ -406,6 +409,7 @@ def main(argv=None):
                 results[key] = value
     baseline = json.loads(options.baseline.read_text()) if options.baseline else None
     print(table(results, baseline))
+    results["launch_args"] = options.launch_args
     options.output.write_text(json.dumps(results, indent=2) + "\n")
     print(f"cpu_budget: wrote {options.output}")
     return 0
