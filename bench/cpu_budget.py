@@ -186,7 +186,7 @@ class Watcher:
 class System:
     """One full.launch on its own master (and Xvfb when there is no display), stopped in reverse order."""
 
-    def __init__(self, name, launch_args, log_folder):
+    def __init__(self, name, launch_args, log):
         from teleteach.run.processes import Processes, own_master, ros_environment, start_xvfb
 
         self.name = name
@@ -197,7 +197,6 @@ class System:
         if not self.display:
             self.display = start_xvfb(self.processes)
             self.xvfb_pid = next(pid for pid in children(os.getpid()) if process_name(pid) == "Xvfb")
-        log = log_folder / f"cpu_budget_{name}.log"
         log.unlink(missing_ok=True)
 
         def start(port):
@@ -272,11 +271,11 @@ def wait_for(system, condition, timeout, what):
         time.sleep(0.2)
 
 
-def start_system(name, launch_args, log_folder):
+def start_system(name, launch_args, log):
     """The system, rospy initialised against its master, and a watcher."""
     from teleteach.node import init_node
 
-    system = System(name, launch_args, log_folder)
+    system = System(name, launch_args, log)
     os.environ["ROS_MASTER_URI"] = system.master_uri  # rospy reads it in init_node: one run per process
     init_node("cpu_budget_bench", anonymous=True, disable_signals=True)
     import rospy
@@ -286,9 +285,9 @@ def start_system(name, launch_args, log_folder):
     return system, Watcher()
 
 
-def run_virtual(window, log_folder, extra):
+def run_virtual(window, log, extra):
     """tree_running and idle, with the virtual device."""
-    system, watcher = start_system("virtual", ["device:=virtual", "rviz:=false", *extra], log_folder)
+    system, watcher = start_system("virtual", ["device:=virtual", "rviz:=false", *extra], log)
     try:
         wait_for(system, lambda: watcher.running - {EXECUTION, "Root", "PauseCondition"}, 120, "running skill")
         time.sleep(3.0)  # the nodes' start-up is over
@@ -302,10 +301,10 @@ def run_virtual(window, log_folder, extra):
         system.stop()
 
 
-def run_teaching(window, log_folder, extra):
+def run_teaching(window, log, extra):
     """low_level and shared_control, with the scripted operator of bench/data/cpu_budget_operator.yaml."""
     args = ["device:=scenario", f"scenario:={OPERATOR}", "rviz:=false", *extra]
-    system, watcher = start_system("teaching", args, log_folder)
+    system, watcher = start_system("teaching", args, log)
     try:
         recording = lambda: watcher.tab == LOW_LEVEL and watcher.recording  # noqa: E731
         wait_for(system, recording, 400, "LOW-LEVEL recording")
@@ -321,12 +320,12 @@ def run_teaching(window, log_folder, extra):
         system.stop()
 
 
-def run_thesis(window, log_folder, extra):
+def run_thesis(window, log, extra):
     """The main job's launch; one window from the scenario's start to the end of the scenario and the tree."""
     import rospy
 
     args = ["headless:=true", "device:=scenario", f"scenario:={THESIS}", "record:=true", "rviz:=false", *extra]
-    system, watcher = start_system("thesis", args, log_folder)
+    system, watcher = start_system("thesis", args, log)
     try:
         wait_for(system, lambda: rospy.has_param("/sigma7_node/scenario_start"), 120, "scenario start")
         played = lambda: rospy.get_param("/sigma7_node/scenario_played", False) and watcher.finished  # noqa: E731
@@ -373,7 +372,7 @@ def table(results, baseline):
 def run_one(name, window, output, extra):
     """One run in this process (rospy talks to one master per process): its phases into ``output``."""
     results = {"context": {}, "outside": {}}
-    for phase, (nodes, outside, context) in RUNS[name](window, output.parent, extra).items():
+    for phase, (nodes, outside, context) in RUNS[name](window, output.with_suffix(".log"), extra).items():
         results[phase] = nodes
         results["outside"][phase] = outside
         results["context"][phase] = context
@@ -398,10 +397,13 @@ def main(argv=None):
     options.output.parent.mkdir(parents=True, exist_ok=True)
     results = {"context": {}, "outside": {}}
     for name in options.runs:
-        part = options.output.parent / f"cpu_budget_{name}.json"
+        part = options.output.parent / f"{options.output.stem}_{name}.json"
         command = [sys.executable, __file__, "--one", name, "--window", str(options.window), "--output", str(part)]
         command += ["--launch-args", *options.launch_args]
-        subprocess.run(command, check=True)
+        part.unlink(missing_ok=True)
+        if subprocess.run(command, check=False).returncode != 0 or not part.exists():
+            print(f"cpu_budget: the {name} run failed (its log: {part.with_suffix('.log')})")
+            continue
         for key, value in json.loads(part.read_text()).items():
             if key in results:
                 results[key].update(value)
