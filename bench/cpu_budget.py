@@ -310,7 +310,7 @@ def run_teaching(window, log, extra):
         wait_for(system, recording, 400, "LOW-LEVEL recording")
         time.sleep(2.0)  # the controller switch and the trajectory's start
         phases = {"low_level": measure(system, watcher, window, "low_level", until=lambda: not watcher.recording)}
-        wait_for(system, lambda: watcher.tab == SHARED_CONTROL, 120, "SHARED CONTROL tab")
+        wait_for(system, lambda: watcher.tab == SHARED_CONTROL, 400, "SHARED CONTROL tab")
         time.sleep(4.0)  # the reference reaches the task plane, the wave begins
         shared = measure(system, watcher, window, "shared_control", until=lambda: watcher.tab != SHARED_CONTROL)
         phases["shared_control"] = shared
