@@ -3,8 +3,11 @@
 1. Cost of one cycle of the library loop (scenario read + click emulation + twist), no publishing: mean and p99 [us].
 2. The wall-clock rate keeper at 1 kHz for 5 s with that loop: achieved rate [Hz], interval p50/p99/max [ms].
 3. Over ROS: the sigma7 node (example scenario, its own roscore on a free port) for 8 s, a subscriber counting
-   /sigma7/pose by header stamp: publication rate [Hz], stamp interval p99/max [ms], node CPU [% of one core].
-Target: 1000 Hz +- 10 %, a cycle well under 1 ms. Prints and writes bench/results/sigma7.json.
+   /sigma7/pose by header stamp: publication rate [Hz], stamp interval p99/max [ms], node CPU [% of one core]; and
+   the loop's rate, from /sigma7/force (published every force_rate-th share of the cycles, counted by arrival).
+   Twice: publishing every cycle (``publish_rate`` 1000 Hz, ``over_ros``) and at config/device.yaml's publish_rate
+   (``over_ros_default``: what the system runs).
+Target: the loop at 1000 Hz +- 10 %, a cycle well under 1 ms. Prints and writes bench/results/sigma7.json.
 
     source build/env.sh && python bench/sigma7.py
 """
@@ -19,6 +22,7 @@ import time
 
 import numpy as np
 import roslib.packages
+import yaml
 
 from teleteach.haptics.click import ClickDetector
 from teleteach.haptics.loop import DeviceLoop, WallRate
@@ -63,16 +67,19 @@ def rate_keeping(seconds=5.0):
 
 SUBSCRIBER = """
 import sys, time, rospy
-from geometry_msgs.msg import PoseStamped
-stamps = []
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+stamps, forces = [], []
 rospy.init_node("bench_sigma7_sub")
 rospy.Subscriber("/sigma7/pose", PoseStamped, lambda msg: stamps.append(msg.header.stamp.to_sec()))
+rospy.Subscriber("/sigma7/force", WrenchStamped, lambda msg: forces.append(time.monotonic()))
 time.sleep(float(sys.argv[1]))
 print(" ".join(repr(stamp) for stamp in stamps))
+print(" ".join(repr(stamp) for stamp in forces))
 """
+DEVICE = yaml.safe_load((ROOT / "config" / "device.yaml").read_text())
 
 
-def over_ros(seconds=8.0):
+def over_ros(seconds=8.0, publish_rate=1000.0):
     env = dict(os.environ)
 
     def start_roscore(port):
@@ -85,7 +92,7 @@ def over_ros(seconds=8.0):
     try:
         executable = roslib.packages.find_node("teleteach", "sigma7_node")[0]
         node = subprocess.Popen(
-            [executable, "_backend:=scenario", f"_scenario:={SCENARIO}"],
+            [executable, "_backend:=scenario", f"_scenario:={SCENARIO}", f"_publish_rate:={publish_rate}"],
             env=env,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -101,10 +108,16 @@ def over_ros(seconds=8.0):
         for process in (node, core):
             if process is not None:
                 _stop(process)
-    stamps = np.array([float(value) for value in result.stdout.split()])
+    poses, forces = result.stdout.splitlines()[-2:]
+    stamps = np.array([float(value) for value in poses.split()])
     stamps = stamps[stamps > stamps[0] + 1.0]  # skip the connection's first second
+    arrivals = np.array([float(value) for value in forces.split()])
+    arrivals = arrivals[arrivals > arrivals[0] + 1.0]
+    cycles_per_force = round(DEVICE["rate"] / DEVICE["force_rate"])
     intervals = np.diff(stamps) * 1e3
     return {
+        "publish_rate_hz": publish_rate,
+        "loop_hz": float(cycles_per_force * (len(arrivals) - 1) / (arrivals[-1] - arrivals[0])),
         "publication_hz": float((len(stamps) - 1) / (stamps[-1] - stamps[0])),
         "stamp_interval_p99_ms": float(np.percentile(intervals, 99)),
         "stamp_interval_max_ms": float(intervals.max()),
@@ -123,7 +136,12 @@ def _cpu_seconds(pid):
 
 
 def main():
-    results = {"cycle": cycle_cost(), "rate_keeping": rate_keeping(), "over_ros": over_ros()}
+    results = {
+        "cycle": cycle_cost(),
+        "rate_keeping": rate_keeping(),
+        "over_ros": over_ros(),
+        "over_ros_default": over_ros(publish_rate=DEVICE["publish_rate"]),
+    }
     results["load_average_1min"] = os.getloadavg()[0]
     print(json.dumps(results, indent=2))
     out = ROOT / "bench" / "results"

@@ -1,4 +1,7 @@
-"""Whether an actionlib server is connected, asked without waiting (the bt leaves and the skills' robot share it).
+"""actionlib helpers: a server's connection asked without waiting, and servers' status published on wall time.
+
+:func:`server_ready` is shared by the bt leaves and the skills' robot; :class:`WallStatusTimer` by the skill server and
+robot_sim.
 
 ``ActionClient.wait_for_server`` waits on ROS time: under /use_sim_time a stopped clock (a dead simulator) never ends
 its timeout. This is its test, done once: the last status message names the server node, and the goal and cancel
@@ -19,3 +22,40 @@ def server_ready(client) -> bool:
     result = any(c.callerid_pub == server_id for c in client.result_sub.impl.connections)
     feedback = any(c.callerid_pub == server_id for c in client.feedback_sub.impl.connections)
     return result and feedback
+
+
+class WallStatusTimer:
+    """Publishes the status of several actionlib servers from one thread that sleeps on wall time.
+
+    actionlib gives each server a ``rospy.Timer`` for its status (5 Hz by default). Under /use_sim_time that timer
+    sleeps on ROS time, and rospy wakes every thread sleeping on ROS time at each /clock message (250 Hz here): the
+    skill server's 13 servers woke 3250 times a second to send 65 messages. This thread sends the same messages
+    (``ActionServer.publish_status_async``, at the servers' own ``status_frequency``) on wall time; the servers'
+    timers are shut down. Status changes are still published by the servers themselves, at once, and latched.
+
+    Args:
+        servers: started ``actionlib.ActionServer`` or ``SimpleActionServer`` objects.
+    """
+
+    def __init__(self, servers) -> None:
+        import threading
+
+        self._servers = [getattr(server, "action_server", server) for server in servers]
+        frequencies = [server.status_frequency for server in self._servers if server.status_timer is not None]
+        for server in self._servers:
+            if server.status_timer is not None:
+                server.status_timer.shutdown()  # kept: ActionServer.stop() shuts it down again
+        self._period = 1.0 / max(frequencies) if frequencies else None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="action_status", daemon=True)
+        if self._period is not None:
+            self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self._period):
+            for server in self._servers:
+                server.publish_status_async(None)
+
+    def shutdown(self) -> None:
+        """Stop publishing (the servers keep running)."""
+        self._stop.set()

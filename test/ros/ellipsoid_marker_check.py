@@ -66,9 +66,10 @@ class EllipsoidMarkerNode(unittest.TestCase):
         self.send(values=(float("nan"), 100.0, 100.0))
         self.send(values=(100.0, -5.0, 100.0), quaternion=(0.0, 0.0, 0.0, 0.0), position=(float("nan"), 0.0, 0.0))
         self.send(quaternion=(0.0, 0.0, 0.5, 0.5))
+        # Expect the last good ellipsoid, unchanged: nothing new is drawn (the node looks at it 30 times a second)
         count = len(self.markers)
-        self.wait_for(lambda: len(self.markers) > count + 10, "markers after the bad messages")
-        # Expect the last good ellipsoid, unchanged
+        time.sleep(1.0)
+        self.assertEqual(len(self.markers), count, "a marker was published although nothing good changed")
         marker = self.markers[-1]
         self.assertEqual(self.latest_scale(), (0.1, 0.2, 0.5))
         self.assertAlmostEqual(marker.pose.orientation.z, math.sin(math.pi / 8))
@@ -77,6 +78,16 @@ class EllipsoidMarkerNode(unittest.TestCase):
         self.send(values=(250.0, 250.0, 250.0), position=(0.6, 0.0, 0.5))
         self.wait_for(lambda: self.latest_scale() == (0.05, 0.05, 0.05), "the marker to follow good input again")
         self.wait_for(lambda: self.markers[-1].pose.position.x == 0.6, "the marker to follow the end effector")
+
+    def test_a_display_that_starts_later_gets_the_marker(self):
+        self.send((500.0, 500.0, 500.0), (0.0, 0.0, 0.0, 1.0), (0.4, 0.0, 0.6))
+        self.wait_for(lambda: self.markers and self.markers[-1].pose.position.x == 0.4, "a marker")
+        # Expect the latched marker for a new subscriber, without any change of the input
+        late = []
+        subscriber = rospy.Subscriber("/visualization_marker", Marker, late.append)
+        self.wait_for(lambda: late, "the marker for the late subscriber", timeout=5.0)
+        self.assertEqual(late[-1].pose.position.x, 0.4)
+        subscriber.unregister()
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 from visualization_msgs.msg import Marker
 
 from teleteach.control.validation import InvalidCommandError
-from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder, EllipsoidScale
+from teleteach.viz.ellipsoid import DRAWN_RESOLUTION, EllipsoidMarkerBuilder, EllipsoidScale, drawn_as
 
 
 def eigenvalues(x, y, z, frame="base_link"):
@@ -52,6 +52,19 @@ def test_no_marker_until_every_input_arrived():
     assert builder.marker() is None
     builder.set_eigenvectors(eigenvectors(0.0, 0.0, 0.0, 1.0))
     assert builder.marker() is not None
+
+
+def test_a_marker_is_drawn_anew_only_for_a_change_a_display_shows():
+    builder = ready_builder()
+    shown = drawn_as(builder.marker())
+    # Expect the same picture for the arm holding still (micrometres) and a new one for a millimetre or a new stiffness
+    builder.set_pose(pose(0.5 + 0.1 * DRAWN_RESOLUTION, -0.1, 0.7))
+    assert drawn_as(builder.marker()) == shown
+    builder.set_pose(pose(0.501, -0.1, 0.7))
+    assert drawn_as(builder.marker()) != shown
+    builder.set_pose(pose(0.5, -0.1, 0.7))
+    builder.set_eigenvalues(eigenvalues(500.0, 1500.0, 2990.0))
+    assert drawn_as(builder.marker()) != shown
 
 
 def test_marker_is_a_sphere_at_the_end_effector_scaled_and_oriented_as_the_stiffness():

@@ -7,7 +7,7 @@ import pytest
 from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.device import DeviceBackend, DeviceReadError, DeviceSample
 from teleteach.haptics.guidance import AxisGuidance, Guidance, GuidanceLimits, GuidanceRenderer
-from teleteach.haptics.loop import DeviceLoop, ThrottledLog, WallRate
+from teleteach.haptics.loop import Decimated, DeviceLoop, DeviceState, ThrottledLog, WallRate
 from teleteach.haptics.scenario import ScenarioBackend, parse_scenario
 from teleteach.haptics.twist import TwistEstimator
 
@@ -63,6 +63,21 @@ def test_each_step_publishes_a_stamped_state():
     assert published[-1].linear_velocity[0] == pytest.approx(0.02, rel=0.01)
     assert published[-1].button is False
     assert loop.achieved_rate == pytest.approx(1000.0)
+
+
+def test_decimated_publishing_passes_every_nth_cycle_and_each_button_change_at_once():
+    published = []
+    decimated = Decimated(published.append, 5)
+    pressed = set(range(12, 14))  # a click's pulse of two cycles, between two published cycles
+    for cycle in range(1, 21):
+        decimated(
+            DeviceState(
+                cycle * 0.001, np.zeros(3), np.array([0, 0, 0, 1.0]), np.zeros(3), np.zeros(3), 0.25, cycle in pressed
+            )
+        )
+    # Expect the first cycle (the button's first state), every fifth, the press and the release
+    assert [round(state.stamp * 1000) for state in published] == [1, 5, 10, 12, 14, 15, 20]
+    assert [state.button for state in published] == [False, False, False, True, False, False, False]
 
 
 def test_read_errors_stop_publishing_are_logged_once_per_second_and_the_loop_recovers():

@@ -63,6 +63,7 @@ def test_config_reads_every_param():
         ({"backend": "dhd", "hand_enabled": True}, "~hand/enabled models a hand for the scenario, virtual and topic"),
         ({"scenario": "x.yaml", "hand_enabled": True, "hand_mass": -1.0}, "hand mass must be a positive number"),
         ({"scenario": "x.yaml", "force_rate": 2000.0}, r"~force_rate must be in \(0, ~rate\]"),
+        ({"scenario": "x.yaml", "publish_rate": 0.0}, "~publish_rate must be a positive number"),
     ],
 )
 def test_config_refuses_bad_params(values, expected):

@@ -98,7 +98,7 @@ def test_compiled_problems_are_cached_and_reused(tmp_path):
     )
     first = SharedControl(config, (0.0, 0.0))
     libraries = sorted(tmp_path.glob("*.so"))
-    assert len(libraries) == 4  # estimation, trajectory optimisation, its Hessian and its plan
+    assert len(libraries) == 6  # estimation and its fit, trajectory optimisation, its Hessian, plan and violation
     stamps = {path: os.stat(path).st_mtime_ns for path in libraries}
     second = SharedControl(config, (0.0, 0.0))
     assert sorted(tmp_path.glob("*.so")) == libraries

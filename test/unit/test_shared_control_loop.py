@@ -88,7 +88,7 @@ def test_non_finite_huge_and_malformed_commands_are_replaced_and_reported(contro
         assert all(math.isfinite(v) for v in record.state)
 
 
-def test_obstacle_covering_the_robot_moves_it_to_the_nearest_free_state(controller):
+def test_obstacle_covering_the_robot_moves_it_out_without_a_jump(controller):
     box = Box(-1.0, -0.5, 1.0, 0.5)
     controller.reset((0.0, 0.0))
     controller.set_boundary(box)
@@ -98,11 +98,22 @@ def test_obstacle_covering_the_robot_moves_it_to_the_nearest_free_state(controll
     x, y = controller.state
     edge = StraightEdge(x, y + 0.05, math.pi / 2)  # free side starts 5 cm above the robot: it is covered
     controller.set_obstacle(edge)
-    record = controller.step(wave(0.02)[0])
-    assert record.mode == FALLBACK
-    assert "obstacle covers" in record.message or "fallback" in record.message
+    step = controller.config.recovery_speed * DT
+    previous = np.array([x, y])
+    # Expect: FALLBACK, saying why, moving straight up (towards the nearest point that keeps the margin) by at most
+    # recovery_speed x dt each cycle until free: at the edge, 5 cm up.
+    cycles = 0
+    while violation(previous, box, edge) > 0.0:
+        record = controller.step(wave(0.02)[0])
+        assert record.mode == FALLBACK
+        assert "moving there" in record.message
+        assert np.linalg.norm(np.array(record.state) - previous) <= step + 1e-12
+        assert record.state[0] == pytest.approx(x, abs=1e-9)
+        previous = np.array(record.state)
+        cycles += 1
+    assert cycles == math.ceil(0.05 / step - 1e-9)
+    assert record.state[1] == pytest.approx(y + 0.05, abs=1e-9)
     assert violation(np.array(record.state), box, edge) <= TOLERANCE
-    assert record.state[1] == pytest.approx(y + 0.05 + controller.config.margin, abs=1e-9)
     # The loop carries on from there and stays free.
     for command in wave(1.0, seed=2):
         record = controller.step(command)
@@ -122,23 +133,59 @@ def test_obstacle_covering_the_whole_workspace_holds_and_says_so(controller):
     controller.set_obstacle(None)
 
 
-def test_infeasible_plan_falls_back_without_leaving_the_constraints(controller):
+def test_a_boundary_tighter_than_the_margin_is_kept_and_the_margin_said_lost(controller):
     controller.reset((0.0, 0.0))
     controller.set_boundary(Box(-1.0, -0.5, 1.0, 0.5))
     controller.set_obstacle(None)
     for command in wave(1.5):
         controller.step(command)
     x, y = controller.state
-    # A boundary tighter than the optimisation's margin around the robot: no plan is feasible, holding still is.
+    # A boundary tighter than the optimisation's margin around the robot: no plan keeps the margin.
     half = controller.config.margin / 2
     box = Box(x - half, y - half, x + half, y + half)
     controller.set_boundary(box)
-    record = controller.step(wave(0.02)[0])
-    assert record.mode == FALLBACK
-    assert "trajectory optimisation" in record.message
-    assert "holding" in record.message
-    assert record.state == (x, y)
-    assert violation(np.array(record.state), box, None) <= TOLERANCE
+    for command in wave(1.0, seed=4):
+        record = controller.step(command)
+        assert record.mode in (SHARED, UNKNOWN, FALLBACK)
+        assert "mm margin" in record.message or "no free state exists within the margin" in record.message
+        assert violation(np.array(record.state), box, None) <= TOLERANCE
+
+
+def test_operator_pushing_into_the_boundary_stays_shared_and_slides_along_it():
+    # The operator waves towards -x at 5 cm/s and keeps pushing 10 s after meeting the boundary at x = -0.1 m.
+    controller = SharedControl(SharedControlConfig(solver="fast"), (0.0, 0.0), Box(-0.1, -0.15, 0.25, 0.15))
+    commands = synthetic_commands(
+        "wave", (0.015, 14.0, 0.0), math.pi, 0.05, np.arange(0, 12.0, DT), 0.008, np.random.default_rng(3)
+    )
+    records = [controller.step(command) for command in commands]
+    pushing = records[int(3.0 / DT) :]
+    # Expect: never outside the boundary, no FALLBACK, the wave kept, the plan's step stopped at the constraint.
+    assert max(violation(np.array(r.state), controller.box, None) for r in records) <= TOLERANCE
+    assert sum(r.mode == FALLBACK for r in pushing) == 0
+    identified = [r.skill for r in pushing if r.mode in (SHARED, UNKNOWN)]
+    assert identified.count("wave") >= 0.99 * len(pushing)
+    assert min(r.state[0] for r in pushing) < -0.1 + 0.006
+    assert any("no plan keeps the 5 mm margin" in r.message for r in pushing)
+
+
+def test_coasting_follows_the_previous_plan_and_keeps_the_window_on_the_grid():
+    controller = SharedControl(SharedControlConfig(solver="fast"), (0.0, 0.0))
+    commands = wave(3.0)
+    for command in commands[:100]:
+        record = controller.step(command)
+    assert record.mode == SHARED
+    plan, index = controller.plan.copy(), controller.plan_index
+    coasted = [controller.coast(command) for command in commands[100:105]]
+    # Expect: the next five states of the previous plan, SHARED, said so; the window took the five commands.
+    for k, record in enumerate(coasted):
+        assert record.mode == SHARED
+        assert "late cycle: following the previous plan" in record.message
+        assert np.allclose(record.state, plan[:, index + k + 1])
+    assert np.allclose(controller.window[-1], commands[104])
+    # Solving again carries on from there, still the wave.
+    record = controller.step(commands[105])
+    assert record.mode == SHARED and record.skill == "wave"
+    assert np.linalg.norm(np.array(record.state) - coasted[-1].state) < 0.01
 
 
 def test_record_has_the_state_message_fields(controller):
@@ -300,7 +347,7 @@ def test_authority_follows_confidence_and_the_paper_switch_restores_the_plan_alw
     assert np.mean([r.authority for r in records if r.mode != DIRECT]) > 0.6  # a known wave is mostly the plan's
 
 
-def test_unknown_pattern_executes_the_operators_step_inside_the_constraints():
+def test_unknown_pattern_executes_the_operators_step_keeping_the_margin():
     box = Box(-0.25, -0.15, 0.25, 0.06)
     # Residual bounds so strict that nothing counts as known: every estimation cycle is UNKNOWN.
     config = SharedControlConfig.paper(solver="fast", blend_authority=True, authority_residual=(1e-9, 2e-9))
@@ -311,7 +358,7 @@ def test_unknown_pattern_executes_the_operators_step_inside_the_constraints():
     assert len(unknown) > 150
     for k in unknown:
         step = np.array(records[k - 1].state) + commands[k] * DT
-        expected = step if violation(step, box, None) == 0.0 else None
+        expected = step if violation(step, box, None, config.margin) == 0.0 else None
         if expected is not None:
             assert np.allclose(records[k].state, expected)
         assert records[k].authority == 0.0

@@ -20,6 +20,7 @@ from PyQt5.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import ClickClassifier
+from teleteach.gui.tabs import restyle
 from teleteach.shared_control.loop import DIRECT, FALLBACK, MODE_NAMES, SHARED, UNKNOWN
 
 MODE_COLOURS = {DIRECT: "#1565c0", SHARED: "#2e7d32", FALLBACK: "#d22828", UNKNOWN: "#6a1b9a"}
@@ -239,8 +240,8 @@ class SharedControlTab(QWidget):
             self.message_label.setText(status.message)
         if self.recording_since is None:
             self.recording_label.setText("not recording")
-            self.recording_label.setStyleSheet("")
+            restyle(self.recording_label, "")
         else:
             elapsed = time.monotonic() - self.recording_since
             self.recording_label.setText(f"\u25cf RECORDING {elapsed:.1f} s, {self.recorded_samples()} samples")
-            self.recording_label.setStyleSheet("color: #d22828; font-size: 14pt; font-weight: bold;")
+            restyle(self.recording_label, "color: #d22828; font-size: 14pt; font-weight: bold;")

@@ -58,6 +58,12 @@ STEP_STYLE = _GROUP.format("1px solid #bbb") + _TITLE.format("")
 MAX_COLUMNS = 6  # buttons per row when the window is wide enough
 
 
+def restyle(widget: QWidget, style: str) -> None:
+    """Set a style sheet only when it differs: Qt re-polishes a widget (and its children) on every setStyleSheet."""
+    if widget.styleSheet() != style:
+        widget.setStyleSheet(style)
+
+
 def _button_size(names: Sequence[str]) -> QSize:
     """The size a node button needs for the longest of ``names`` in the selected (bold, bordered) style."""
     probe = QPushButton()
@@ -445,14 +451,14 @@ class HighLevelTab(QWidget):
         ):
             box.setObjectName("step")  # the style applies to the step boxes, not to the button groups inside
             box.setEnabled(flow.step in steps)
-            box.setStyleSheet(ACTIVE_STEP_STYLE if flow.step in steps else STEP_STYLE)
+            restyle(box, ACTIVE_STEP_STYLE if flow.step in steps else STEP_STYLE)
         if 0 <= flow.node_index < len(self.buttons):
             self.button_scroll.ensureWidgetVisible(self.buttons[flow.node_index])
         for index, button in enumerate(self.buttons):
             style = UNAVAILABLE_STYLE if index in self.unavailable else BUTTON_STYLE
             if button.text() == REPAIR_CHOICE:
                 style = REPAIR_STYLE
-            button.setStyleSheet(SELECTED_STYLE if index == flow.node_index else style)
+            restyle(button, SELECTED_STYLE if index == flow.node_index else style)
         self.node_slider.setValue(flow.node_index)
         operations = flow.operations
         self.operation_slider.setRange(0, len(operations) - 1)
@@ -464,7 +470,7 @@ class HighLevelTab(QWidget):
             if position < len(shown):
                 label.setText(shown[position])
                 chosen = shown[position] == flow.selected_operation
-                label.setStyleSheet("font-weight: bold; color: #e65100;" if chosen else "color: #555;")
+                restyle(label, "font-weight: bold; color: #e65100;" if chosen else "color: #555;")
         if flow.step is Step.PARAMETER:
             values = flow.parameter_values
             self.dial.setRange(0, len(values) - 1)
@@ -491,7 +497,7 @@ class HighLevelTab(QWidget):
         self.selected_label.setText(step_text if flow.choices else "waiting for the behaviour tree...")
         if flow.answer and flow.step is not Step.WAITING:
             colour = "#1e9632" if flow.answer.startswith("done") else "#d22828"
-            self.answer_label.setStyleSheet(f"color: {colour};")
+            restyle(self.answer_label, f"color: {colour};")
             self.answer_label.setText(flow.answer)
 
 
@@ -504,7 +510,7 @@ class LowLevelTab(QWidget):
         super().__init__()
         self.config = config
         self.command = command
-        self.active = False
+        self._active = False
         self.recording_since: Optional[float] = None
         self.recorded_samples = lambda: 0
         self.clicks = ClickClassifier(config.double_click_window)
@@ -551,10 +557,23 @@ class LowLevelTab(QWidget):
         panel_widget.setMaximumWidth(330)
         layout.addWidget(panel_widget, 1)
 
-        self._repaint = QTimer(self)
+        self._repaint = QTimer(self)  # runs while the tab is active: the other tabs' time costs nothing here
         self._repaint.timeout.connect(self._tick)
-        self._repaint.start(max(1, int(round(1000.0 / config.repaint_rate))))
+        self._repaint.setInterval(max(1, int(round(1000.0 / config.repaint_rate))))
         self._refresh_labels()
+
+    @property
+    def active(self) -> bool:
+        """Whether this is the tab shown (set by the window)."""
+        return self._active
+
+    @active.setter
+    def active(self, active: bool) -> None:
+        self._active = active
+        if active:
+            self._repaint.start()
+        else:
+            self._repaint.stop()
 
     def on_click(self, stamp: float) -> None:
         """Clicks are classified: single -> next mode (after the double-click window), double -> recording."""
@@ -600,15 +619,15 @@ class LowLevelTab(QWidget):
         )
         for axis, label in enumerate(self.axis_labels):
             live = mode in ("ALL", AXIS_NAMES[axis])
-            label.setStyleSheet("" if live else "color: #999;")
+            restyle(label, "" if live else "color: #999;")
             label.setText(
                 f"{AXIS_NAMES[axis]}: {lengths[axis] * gain:6.0f} N/m, "
                 f"{ANGLE_NAMES[axis]} {angles[axis] * 57.29578:5.1f}\N{DEGREE SIGN}"
             )
         if self.recording_since is None:
-            self.recording_label.setStyleSheet("color: #555;")
+            restyle(self.recording_label, "color: #555;")
             self.recording_label.setText("not recording")
         else:
             elapsed = time.monotonic() - self.recording_since
-            self.recording_label.setStyleSheet("color: #d22828;")
+            restyle(self.recording_label, "color: #d22828;")
             self.recording_label.setText(f"\u25cf REC {elapsed:.1f} s\n{self.recorded_samples()} samples")

@@ -2,10 +2,10 @@
 
 rospy callbacks never touch a widget: they update thread-safe state or emit class-level signals, which Qt delivers
 queued in the GUI thread. The worker also publishes /eigenvalues and /eigenvectors from its own thread at
-``publish_rate`` while LOW-LEVEL is active, independent of the repaint rate (the thesis tied stiffness to the GUI
-refresh and recorded it too sparsely, Appendix C.2), and samples the recording at the same instants; a device
-sample that changes the ellipsoid is sent at once from the subscriber's thread, so the latency does not include
-waiting for the next tick.
+``publish_rate`` while LOW-LEVEL (or SHARED CONTROL) is active, its timer stopped in the other tabs, independent of
+the repaint rate (the thesis tied stiffness to the GUI refresh and recorded it too sparsely, Appendix C.2), and
+samples the recording at the same instants; a device sample that changes the ellipsoid is sent at once from the
+subscriber's thread, so the latency does not include waiting for the next tick.
 """
 
 import math
@@ -192,11 +192,11 @@ class ServiceCaller(QObject):
 class RosWorker(QObject):
     """Owns the subscribers and the stiffness publishers; lives in its own QThread (thesis Fig. A.1, orange block).
 
-    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose,
-    /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request, /shared_control/state,
-    /shared_control/plan, /shared_control/boundary, /shared_control/obstacle, /equilibrium_pose (recorded in
-    SHARED CONTROL), study/state (a user study's state), teleteach/scene (the gap a target-frame trajectory places
-    at); TF world -> base_frame.
+    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose (in LOW-LEVEL and SHARED
+    CONTROL), /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request,
+    /shared_control/state, /shared_control/plan, /shared_control/boundary, /shared_control/obstacle,
+    /equilibrium_pose (recorded in SHARED CONTROL), study/state (a user study's state); in LOW-LEVEL,
+    teleteach/scene and TF world -> base_frame (the gap a target-frame trajectory places at).
     ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL or SHARED CONTROL is active).
     """
 
@@ -213,6 +213,7 @@ class RosWorker(QObject):
     shared_obstacle = pyqtSignal(object)  # (x, y, yaw) in the task plane
     shared_arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
     study_state = pyqtSignal(object)  # StudyStatus of a user study (study/state)
+    _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
 
     def __init__(
         self,
@@ -230,7 +231,9 @@ class RosWorker(QObject):
         self._plane_checked = -1e9
         self._plane_lock = threading.Lock()
         self._arm_stamp = -math.inf
-        self.active_tab = 0
+        self._active_tab = 0
+        self._publish_timer: Optional[QTimer] = None
+        self._tab_changed.connect(self._follow_tab, Qt.QueuedConnection)
         self.equilibrium: Callable[[], Optional[np.ndarray]] = lambda: None
         self._filter = DeviceFilter(config)
         self._button = EdgeDetector(0.5, 0.5)
@@ -239,6 +242,8 @@ class RosWorker(QObject):
         self._sample = None
         self._sample_seq = 0
         self._emitted_seq = 0
+        self._emitted: Optional[object] = None  # the DeviceSample last sent to the widgets
+        self._pose: Optional[tuple] = None  # the newest /sigma7/pose not yet parsed: (position, quaternion)
         self._cartesian: Optional[np.ndarray] = None
         self._publish_lock = threading.Lock()
         self._last_publish = -1.0
@@ -251,6 +256,7 @@ class RosWorker(QObject):
         self._timers: List[QTimer] = []
         self._scene: Optional[ObservedScene] = None
         self._tf_buffer: Optional[tf2_ros.Buffer] = None
+        self._tf_listener: Optional[tf2_ros.TransformListener] = None
 
     @pyqtSlot()
     def start(self) -> None:
@@ -261,7 +267,6 @@ class RosWorker(QObject):
             ("sigma7/pose", PoseStamped, self._on_pose),
             ("sigma7/button", Bool, self._on_button),
             ("sigma7/gripper_angle", Float64, self._on_gripper),
-            ("cartesian_pose", PoseStamped, self._on_cartesian),
             ("behaviour_tree/log/tree", BehaviourTree, self._on_tree),
             ("behaviour_tree/skill_library", SkillLibrary, self._on_library),
             ("behaviour_tree/help_request", HelpRequest, self._on_help),
@@ -271,10 +276,7 @@ class RosWorker(QObject):
             ("shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
             ("equilibrium_pose", PoseStamped, self._on_equilibrium),
             ("study/state", StudyState, lambda message: self.study_state.emit(study_status(message))),
-            ("teleteach/scene", MarkerArray, self._on_scene),
         ]
-        self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
-        self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
             queue = 2000 if topic in ("sigma7/button", "sigma7/gripper_angle") else 5
@@ -289,8 +291,60 @@ class RosWorker(QObject):
             timer = QTimer(self)
             timer.setTimerType(Qt.PreciseTimer)
             timer.timeout.connect(slot)
-            timer.start(max(1, int(round(1000.0 / rate))))
+            timer.setInterval(max(1, int(round(1000.0 / rate))))
             self._timers.append(timer)
+        self._publish_timer = self._timers[0]
+        for timer in self._timers[1:]:
+            timer.start()
+        self._follow_tab()
+
+    @property
+    def active_tab(self) -> int:
+        """The GUI's tab (teleteach.gui.session.Tab); set from the GUI thread."""
+        return self._active_tab
+
+    @active_tab.setter
+    def active_tab(self, tab: int) -> None:
+        self._active_tab = tab
+        self._tab_changed.emit()
+
+    @pyqtSlot()
+    def _follow_tab(self) -> None:
+        """Run the stiffness stream and hear /cartesian_pose only in the tabs that command a stiffness (worker thread).
+
+        /cartesian_pose (200 Hz) is recorded with the stiffness and drawn as the arm's trail in SHARED CONTROL.
+        """
+        if self._publish_timer is None:
+            return  # not started yet: start() looks at the tab
+        if self._active_tab in (Tab.LOW_LEVEL, Tab.SHARED_CONTROL):
+            if not self._publish_timer.isActive():
+                self._publish_timer.start()
+            if "cartesian_pose" not in self._subscribers:
+                self._subscribers["cartesian_pose"] = rospy.Subscriber(
+                    "cartesian_pose", PoseStamped, self._on_cartesian, queue_size=5, tcp_nodelay=True
+                )
+        else:
+            self._publish_timer.stop()
+            subscriber = self._subscribers.pop("cartesian_pose", None)
+            if subscriber is not None:
+                subscriber.unregister()
+                self._cartesian = None  # a recording must not start from where the arm was in another tab
+        self._follow_target(self._active_tab == Tab.LOW_LEVEL)
+
+    def _follow_target(self, teaching: bool) -> None:
+        """Hear the perceived scene and TF only in LOW-LEVEL, where a recording may need the gap it places at."""
+        if teaching and "teleteach/scene" not in self._subscribers:
+            self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
+            self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
+            self._subscribers["teleteach/scene"] = rospy.Subscriber(
+                "teleteach/scene", MarkerArray, self._on_scene, queue_size=1
+            )
+        elif not teaching and "teleteach/scene" in self._subscribers:
+            self._subscribers.pop("teleteach/scene").unregister()
+            self._tf_listener.unregister()
+            self._tf_buffer = self._tf_listener = None
+            with self._lock:
+                self._scene = None
 
     @pyqtSlot()
     def stop(self) -> None:
@@ -302,26 +356,38 @@ class RosWorker(QObject):
         self._subscribers.clear()
 
     def reset_device_filter(self) -> None:
-        """Take the next device sample as it is (a new tab starts from where the device is)."""
+        """Take the next device sample as it is (a new tab starts from where the device is, told even when still)."""
         with self._lock:
             self._filter.reset()
+            self._emitted = None
 
     # rospy threads ---------------------------------------------------------------------------
     def _on_pose(self, message: PoseStamped) -> None:
+        """Keep the pose; LOW-LEVEL turns it into a stiffness at once, the other tabs take it at device_ui_rate."""
         p, q = message.pose.position, message.pose.orientation
-        raw = parse_pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w), self.config)
         self._last_seen["sigma7/pose"] = time.monotonic()
         self.device_time = message.header.stamp.to_sec() or self.device_time
-        if raw is None:
-            self._rejected += 1
-            rospy.logwarn_throttle(5.0, f"teaching_gui: ignored {self._rejected} NaN or out-of-range device poses")
-            return
         with self._lock:
-            sample = self._filter.apply(raw)
-            self._sample = sample
-            self._sample_seq += 1
-        if self.active_tab == Tab.LOW_LEVEL and self.command.device(sample):
-            self._publish(urgent=True)
+            self._pose = ((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+        if self.active_tab == Tab.LOW_LEVEL:
+            sample = self._take_sample()
+            if sample is not None and self.command.device(sample):
+                self._publish(urgent=True)
+
+    def _take_sample(self) -> Optional[object]:
+        """The newest pose as a filtered DeviceSample (parsed once), or None when it is NaN or out of range."""
+        with self._lock:
+            pose, self._pose = self._pose, None
+            if pose is None:
+                return self._sample
+            raw = parse_pose(*pose, self.config)
+            if raw is not None:
+                self._sample = self._filter.apply(raw)
+                self._sample_seq += 1
+                return self._sample
+        self._rejected += 1
+        rospy.logwarn_throttle(5.0, f"teaching_gui: ignored {self._rejected} NaN or out-of-range device poses")
+        return None
 
     def _on_button(self, message: Bool) -> None:
         if self._button.update(1.0 if message.data else 0.0):
@@ -441,8 +507,11 @@ class RosWorker(QObject):
             return None, "no perception yet (teleteach/scene)"
         if gap not in scene.gaps:
             return None, f"perception reports no {gap} (it reports {', '.join(sorted(scene.gaps)) or 'no gaps'})"
+        buffer = self._tf_buffer
+        if buffer is None:
+            return None, "not in LOW-LEVEL"
         try:
-            stamped = self._tf_buffer.lookup_transform(WORLD_FRAME, self.config.base_frame, rospy.Time(0))
+            stamped = buffer.lookup_transform(WORLD_FRAME, self.config.base_frame, rospy.Time(0))
         except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as error:
             return None, f"no transform {WORLD_FRAME} -> {self.config.base_frame}: {error}"
         t, r = stamped.transform.translation, stamped.transform.rotation
@@ -487,11 +556,13 @@ class RosWorker(QObject):
         return stamp
 
     def _emit_device(self) -> None:
+        """The latest device sample to the widgets, unless the last one sent was the same (a device at rest is free)."""
+        self._take_sample()
         with self._lock:
-            if self._sample_seq == self._emitted_seq:
+            if self._sample_seq == self._emitted_seq or self._sample == self._emitted:
                 return
             self._emitted_seq = self._sample_seq
-            sample = self._sample
+            sample = self._emitted = self._sample
         self.device_changed.emit(sample)
 
     def _check_health(self) -> None:

@@ -75,6 +75,28 @@ class WallRate:
             self._deadline = self._clock()
 
 
+class Decimated:
+    """Passes every ``every``-th device state on to ``publish``, and at once each one whose button changed.
+
+    The loop runs at its rate (1 kHz) for what needs it: the click emulation, the twist estimate and the guidance
+    force. Its readers need far less (the GUI shows 60 Hz, the shared controller cycles at 50 Hz), and each message
+    costs the node and every subscriber; a button edge is never held back, so a click reaches them in its cycle.
+    """
+
+    def __init__(self, publish: Callable[[DeviceState], None], every: int) -> None:
+        self._publish = publish
+        self._every = max(1, every)
+        self._count = 0
+        self._button: Optional[bool] = None
+
+    def __call__(self, state: DeviceState) -> None:
+        """Publishes ``state`` when it is this cycle's turn or its button changed."""
+        self._count += 1
+        if self._count % self._every == 0 or state.button != self._button:
+            self._button = state.button
+            self._publish(state)
+
+
 class ThrottledLog:
     """Reports a repeating problem at most once per ``period`` [s] of wall time, with how often it happened."""
 

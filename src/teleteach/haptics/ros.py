@@ -5,6 +5,8 @@ ROS Publishers (relative names, ``/sigma7/...`` in the root namespace):
     sigma7/twist (geometry_msgs/TwistStamped): filtered velocity [m/s, rad/s], same frame.
     sigma7/gripper_angle (std_msgs/Float64): [rad], 0 = closed.
     sigma7/button (std_msgs/Bool): emulated click state; one rising edge per click.
+    These four at ``~publish_rate``, a share of the loop's ``~rate`` cycles (every cycle when the loop is slower), and
+    in the cycle the button changes.
     sigma7/force (geometry_msgs/WrenchStamped): the guidance force [N] and torque [Nm] rendered (~force_rate).
 
 ROS Subscribers:
@@ -38,7 +40,7 @@ from teleteach.haptics.guidance import (
     Wrench,
 )
 from teleteach.haptics.hand import HandModelBackend, HandParameters
-from teleteach.haptics.loop import DeviceLoop, DeviceState, ThrottledLog, WallRate
+from teleteach.haptics.loop import Decimated, DeviceLoop, DeviceState, ThrottledLog, WallRate
 from teleteach.haptics.scenario import (
     AT_END_CHOICES,
     ScenarioBackend,
@@ -62,6 +64,7 @@ class Sigma7Config:
     scenario: str = ""
     at_end: str = "hold"
     rate: float = 1000.0
+    publish_rate: float = 200.0
     max_catch_up: float = 1.0
     frame_id: str = "sigma7"
     click: ClickParameters = dataclasses.field(default_factory=ClickParameters)
@@ -90,6 +93,8 @@ class Sigma7Config:
             raise ValueError(
                 "~hand/enabled models a hand for the scenario, virtual and topic backends; a real device has one"
             )
+        if not self.publish_rate > 0.0:
+            raise ValueError(f"~publish_rate must be a positive number of Hz, got {self.publish_rate}")
         if not 0.0 < self.force_rate <= self.rate:
             raise ValueError(f"~force_rate must be in (0, ~rate], got {self.force_rate}")
 
@@ -107,6 +112,7 @@ class Sigma7Config:
             scenario=param("~scenario", "scenario"),
             at_end=param("~at_end", "at_end"),
             rate=float(param("~rate", "rate")),
+            publish_rate=float(param("~publish_rate", "publish_rate")),
             max_catch_up=float(param("~max_catch_up", "max_catch_up")),
             frame_id=param("~frame_id", "frame_id"),
             click=ClickParameters(
@@ -253,7 +259,7 @@ class Sigma7Node:
         self.guidance = GuidanceRenderer(config.guidance, click_below=config.click.release_threshold)
         self.loop = DeviceLoop(
             self.backend,
-            Sigma7Publisher(config.frame_id),
+            Decimated(Sigma7Publisher(config.frame_id), round(config.rate / config.publish_rate)),
             clock=lambda: rospy.get_rostime().to_sec(),
             click_detector=ClickDetector(config.click),
             twist_estimator=TwistEstimator(config.twist_cutoff),
@@ -303,7 +309,7 @@ class Sigma7Node:
             backend = ScenarioBackend(scenario, start_time, config.at_end, system=RosSystemView())
         else:
             backend = ScenarioBackend(scenario, start_time, config.at_end)
-        self._played_timer = rospy.Timer(rospy.Duration(0.1), lambda _: self._note_played(backend))
+        threading.Thread(target=self._note_played, args=(backend,), name="scenario_played", daemon=True).start()
         return backend
 
     def _subscribe_input(self) -> TopicInput:
@@ -333,14 +339,17 @@ class Sigma7Node:
         rospy.loginfo("sigma7_node: reading the device from sigma7/input/pose and sigma7/input/gripper_angle")
         return device
 
-    def _note_played(self, backend: ScenarioBackend) -> None:
-        """Set ~scenario_played once the last keyframe has been played.
+    @staticmethod
+    def _note_played(backend: ScenarioBackend) -> None:
+        """Set ~scenario_played once the last keyframe has been played (looked at 10 times a second of wall time).
 
-        With waits, nobody can tell the end from the start time and the duration; the main job waits for this.
+        With waits, nobody can tell the end from the start time and the duration; the main job waits for this. A
+        plain thread, not a rospy.Timer: under /use_sim_time that would wake at every /clock message.
         """
+        while not backend.played and not rospy.is_shutdown():
+            wall_time.sleep(0.1)
         if backend.played:
             rospy.set_param("~scenario_played", True)
-            self._played_timer.shutdown()
 
     @staticmethod
     def _wait_for_ros_time() -> float:

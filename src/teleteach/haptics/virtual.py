@@ -37,6 +37,7 @@ class VirtualDevice(DeviceBackend):
         self._click_duration = click_duration
         self._position = np.zeros(3)
         self._rpy = np.zeros(3)
+        self._quaternion = np.array([0.0, 0.0, 0.0, 1.0])  # of _rpy, made when it changes, not in each 1 kHz read
         self._held_open = False
         self._click_started = -float("inf")
         self._closed = False
@@ -50,6 +51,7 @@ class VirtualDevice(DeviceBackend):
         """Turns roll/pitch/yaw by [rad], each clamped to +-ANGLE_LIMIT."""
         with self._lock:
             self._rpy = np.clip(self._rpy + np.array([droll, dpitch, dyaw]), -ANGLE_LIMIT, ANGLE_LIMIT)
+            self._quaternion = Rotation.from_euler("xyz", self._rpy).as_quat()
 
     def click(self) -> None:
         """Starts a quick close-and-back of the gripper (ignored while one is under way)."""
@@ -77,8 +79,10 @@ class VirtualDevice(DeviceBackend):
 
     def read(self, time: float) -> DeviceSample:
         """The current state as a device sample (the flick is timed by the device's own wall clock)."""
-        position, rpy, gripper = self.state()
-        return DeviceSample(position, Rotation.from_euler("xyz", rpy).as_quat(), gripper)
+        position, _, gripper = self.state()
+        with self._lock:
+            quaternion = self._quaternion.copy()
+        return DeviceSample(position, quaternion, gripper)
 
     @property
     def finished(self) -> bool:

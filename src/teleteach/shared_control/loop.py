@@ -58,6 +58,10 @@ class SharedControlConfig:
         curvature_weight: always-on penalty on phi / scale in estimation [-].
         optimisation_weights: W_TO on (curvature, heading, speed, skill) of theta / scale [-].
         margin: back-off from every constraint inside the optimisation [m].
+        recovery_speed: a state outside the free region (an obstacle moved onto it, a boundary that excludes it)
+            moves to the nearest free state at most this fast: the equilibrium never jumps [m/s].
+        constraint_penalty: cost of each millimetre by which the plan violates the margin (exact penalty on the
+            trajectory optimisation's slack), against W_TO's cost on theta / scale [1/mm].
         solver: "compiled" (cached shared libraries), "fast" (casadi virtual machine) or "ipopt" (plain baseline).
         skip_feasible_optimisation: take theta* = theta_hat without solving eq. 9 when theta_hat's plan already
             keeps the margin (it is then the exact minimiser); False solves eq. 9 every cycle.
@@ -101,10 +105,12 @@ class SharedControlConfig:
     curvature_weight: float = 1e-3
     optimisation_weights: Tuple[float, float, float, float] = (1e-2, 0.0, 1.0, 10.0)
     margin: float = 0.005
+    recovery_speed: float = 0.05
+    constraint_penalty: float = 1000.0
     solver: str = "compiled"
     skip_feasible_optimisation: bool = True
     max_iterations_estimation: int = 10
-    max_iterations_optimisation: int = 10
+    max_iterations_optimisation: int = 3
     cache_dir: Optional[str] = None
     switch_confidence: float = 0.08
     switch_hold: float = 0.04
@@ -171,6 +177,8 @@ class SharedControlRecord:
             (the impedance controller's x_dot_r, so the arm follows a moving reference without lag).
         confidence: ``identification_confidence`` of this cycle's fitting errors [-] (0 in direct control).
         authority: weight of the plan in the executed step (1: the plan, 0: the operator's direct step) [-].
+        cycle: cycles since the controller was enabled (set by the node's ``CycleSchedule``).
+        late_cycles: of these, cycles whose state was ready after the cycle's period (set by the node).
     """
 
     mode: int
@@ -189,6 +197,8 @@ class SharedControlRecord:
     velocity: Tuple[float, float] = (0.0, 0.0)
     confidence: float = 0.0
     authority: float = 0.0
+    cycle: int = 0
+    late_cycles: int = 0
 
 
 def identification_confidence(errors: Sequence[float]) -> float:
@@ -286,7 +296,13 @@ class SharedControl:
                 cfg.recency_half_life,
             )
             self.optimisations[name] = TrajectoryOptimisation(
-                to, cfg.n_horizon, cfg.dt, cfg.solver, cfg.max_iterations_optimisation, cfg.cache_dir
+                to,
+                cfg.n_horizon,
+                cfg.dt,
+                cfg.solver,
+                cfg.max_iterations_optimisation,
+                cfg.constraint_penalty,
+                cfg.cache_dir,
             )
         self.box = UNBOUNDED
         self.obstacle: Optional[StraightEdge] = None
@@ -333,17 +349,11 @@ class SharedControl:
         self._candidate: Optional[str] = None
         self._candidate_cycles = 0
 
-    def adopt(self, other: "SharedControl") -> None:
-        """Take over ``other``'s state, window, environment and plan (e.g. when compiled solvers become ready).
-
-        The estimates restart as on a first iteration, so the two controllers need not share a solver.
-        """
-        if other.skills != self.skills or other.config.n_window != self.config.n_window:
-            raise ValueError("can only adopt a controller with the same skills and window")
-        self.reset(other.state)
-        self.window.extend(other.window)
-        self.box, self.obstacle = other.box, other.obstacle
-        self.plan, self.plan_index = other.plan, other.plan_index
+    def measure(self, state: Sequence[float]) -> None:
+        """Take the robot's measured state [m] as x_c of the next cycle (ignored, not raised, when not finite)."""
+        state = np.asarray(state, dtype=float).reshape(2)
+        if np.all(np.isfinite(state)):
+            self.state = state
 
     def step(self, command: Sequence[float]) -> SharedControlRecord:
         """One cycle: take the operator command h^r [m/s], return the record of the executed state."""
@@ -360,6 +370,8 @@ class SharedControl:
             self._forget_identification()
             self.plan, self.plan_index = np.zeros((2, 0)), 0
             notes.append("operator idle: estimation restarts")
+        if constraints.violation(self.state, self.box, self.obstacle) > 0.0:
+            return self._recover(CycleReport(command, notes))
         if len(self.window) < cfg.n_window:
             return self._direct(command, notes)
         try:
@@ -367,6 +379,42 @@ class SharedControl:
         except Exception as error:  # the loop must keep the robot safe whatever a solver does
             self._forget()
             return self._fallback(CycleReport(command, [*notes, f"shared control error: {error}"]))
+
+    def coast(self, command: Sequence[float]) -> SharedControlRecord:
+        """A cycle without solving, for a loop that has fallen behind (the node's catch-up).
+
+        The command joins the window, the state follows the previous plan (stopped at the constraints, as a solved
+        step is; direct control while the window fills), and the estimates move on with it: the executed state keeps
+        its speed and the window stays on the time grid however long a solve took. The estimates are kept, so the
+        next solve goes on from them.
+        """
+        command, notes = self._sanitise(command)
+        self.window.append(command)
+        if constraints.violation(self.state, self.box, self.obstacle) > 0.0:
+            return self._recover(CycleReport(command, notes))
+        if len(self.window) < self.config.n_window:
+            return self._direct(command, notes)
+        report = CycleReport(command, notes, list(self.skills), skill=self.skill or "")
+        if self.skill is None or self.plan_index + 1 >= self.plan.shape[1]:
+            notes.append("late cycle: no plan to follow, holding")
+            return self._record(FALLBACK, report, "; ".join(notes))
+        self.plan_index += 1
+        candidate = self.plan[:, self.plan_index]
+        velocity = plan_velocity(self.plan, self.config.dt, self.plan_index)
+        if constraints.violation(candidate, self.box, self.obstacle, self.config.margin) > 0.0:
+            safe = self._safe_state(candidate)
+            candidate = self.state if safe is None else safe
+            velocity = (candidate - self.state) / self.config.dt
+            notes.append("step stopped at the constraint")
+        self.state = np.array(candidate, dtype=float)
+        self._advance({name: self._coasted(name) for name in self.skills}, self.theta_star)
+        message = "; ".join([*notes, f"late cycle: following the previous plan ({self.skill})"])
+        return self._record(SHARED, report, message, self.plan, velocity, 1.0)
+
+    def _coasted(self, name: str) -> SolveResult:
+        """The estimate of ``name`` as it stands, as if estimated again (it is shifted to the next s_c by _advance)."""
+        theta = self.estimates[name]
+        return SolveResult(theta, 0.0, theta is not None, "Coasted", 0, 0.0, None, None)
 
     def _trim_idle_start(self) -> None:
         """Drop the rest before the operator's first move, so the first estimate sees motion only.
@@ -474,25 +522,33 @@ class SharedControl:
         report.optimisation_time, report.iterations = result.time, (estimation_iterations, result.iterations)
         plan = None
         if np.all(np.isfinite(result.theta)):
-            plan, headings = optimisation.states(result.theta, self.state)
-        worst = math.inf if plan is None else constraints.violation(plan[:, 1:], self.box, self.obstacle)
-        if plan is None or worst > 0.0 or not np.all(np.isfinite(plan)):
-            notes.append(
-                f"trajectory optimisation {result.status} after {result.iterations} iterations, "
-                f"plan violates constraints by {worst:.3g} m"
-            )
+            plan, _ = optimisation.states(result.theta, self.state)
+        if plan is None or not np.all(np.isfinite(plan)):
+            notes.append(f"trajectory optimisation {result.status} after {result.iterations} iterations: no plan")
             self.skill = None
             return self._fallback(report)
         message = f"shared control: {skill}"
         if not result.success:
-            message += f" (optimisation {result.status} after {result.iterations} iterations; plan feasible)"
+            message += f" (optimisation {result.status} after {result.iterations} iterations: its last iterate)"
+        if result.slack > 0.0:
+            message += f"; no plan keeps the {1e3 * cfg.margin:.0f} mm margin: {1e3 * result.slack:.1f} mm into it"
+        planned, planned_velocity = plan[:, 1], plan_velocity(plan, cfg.dt, 1)
+        if constraints.violation(planned, self.box, self.obstacle, cfg.margin) > 0.0:
+            # The plan's step enters the margin (only possible with slack): the nearest point that keeps it instead,
+            # so every executed state keeps the margin the arm needs to lag without crossing.
+            safe = self._safe_state(planned)
+            if safe is None:
+                notes.append("no free state exists within the margin")
+                self.skill = None
+                return self._fallback(report)
+            planned, planned_velocity = safe, (safe - self.state) / cfg.dt
+            message += "; step stopped at the constraint"
         self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
         authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
-        state, velocity = self._blend(plan, command, authority)
+        state, velocity = self._blend(planned, planned_velocity, command, authority)
         # The stored plan passes through the executed state, so a fallback continues from where the robot is.
         self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
         self.state = state
-        self.alpha_c = float(headings[1])
         self._advance(results, result.theta)
         mode = SHARED if authority > 0.0 else UNKNOWN
         if authority < 1.0:
@@ -513,20 +569,19 @@ class SharedControl:
         )
         return fit * margin
 
-    def _blend(self, plan: np.ndarray, command: np.ndarray, authority: float) -> Tuple[np.ndarray, np.ndarray]:
+    def _blend(self, planned, planned_velocity, command, authority: float) -> Tuple[np.ndarray, np.ndarray]:
         """Executed state and velocity: authority x the plan's next state + the rest x the operator's direct step.
 
-        A blend that leaves the constraints moves to the nearest free point (the plan's step never leaves them).
+        A blend that enters the margin moves to the nearest point that keeps it (as the plan's step does).
         """
         dt = self.config.dt
-        planned, planned_velocity = plan[:, 1], plan_velocity(plan, dt, 1)
         if authority >= 1.0:
-            return planned.copy(), planned_velocity
+            return np.array(planned, dtype=float), np.asarray(planned_velocity, dtype=float)
         state = authority * planned + (1.0 - authority) * (self.state + command * dt)
         velocity = authority * planned_velocity + (1.0 - authority) * command
-        if constraints.violation(state, self.box, self.obstacle) > 0.0:
+        if constraints.violation(state, self.box, self.obstacle, self.config.margin) > 0.0:
             safe = self._safe_state(state)
-            state = planned.copy() if safe is None else safe
+            state = np.array(planned, dtype=float) if safe is None else safe
             velocity = (state - self.state) / dt
         return state, velocity
 
@@ -558,8 +613,7 @@ class SharedControl:
         if constraints.violation(plan[:, 1:], self.box, self.obstacle, self.config.margin) > 0.0:
             return None
         elapsed, cpu = time.perf_counter() - start, time.thread_time() - cpu_start
-        n = optimisation.layout.n
-        return SolveResult(theta_hat.copy(), 0.0, True, "Estimate_Feasible", 0, elapsed, np.zeros(n), None, cpu)
+        return SolveResult(theta_hat.copy(), 0.0, True, "Estimate_Feasible", 0, elapsed, None, None, cpu)
 
     def _estimate(self, name: str, commands: np.ndarray) -> SolveResult:
         cfg = self.config
@@ -642,7 +696,12 @@ class SharedControl:
         return candidates[int(np.argmin(errors))]
 
     def _advance(self, results: Dict[str, SolveResult], theta_star: np.ndarray) -> None:
-        """Move every estimate to the next cycle's s_c (each with its own v0)."""
+        """Move every estimate to the next cycle's s_c (each with its own v0), and alpha_c with the followed skill's.
+
+        alpha_c is the operator's heading, from the followed skill's own estimate: the plan's heading bends away
+        from a boundary the operator pushes into, and feeding that back (the paper's alpha_c = alpha*_prev) turned
+        the estimation away from the operator's commands (issue 31: a wave identified as a cycloid at the boundary).
+        """
         cfg = self.config
         for name, result in results.items():
             layout = self.estimation_layouts[name]
@@ -655,6 +714,8 @@ class SharedControl:
         layout = self.optimisation_layouts[self.skill]
         ds = theta_star[layout.i_v0] * cfg.dt
         self.theta_star = layout.shift(theta_star, ds, theta_star[layout.i_v0] * cfg.horizon_time)
+        estimate = self.estimates[self.skill]
+        self.alpha_c = None if estimate is None else float(estimate[self.estimation_layouts[self.skill].i_alpha])
 
     def _forget(self) -> None:
         """After a failure, restart the estimation as on the first iteration (regularisation and alpha_c relaxed)."""
@@ -665,7 +726,7 @@ class SharedControl:
         self.lam = (None, None)
 
     def _fallback(self, report: CycleReport) -> SharedControlRecord:
-        """Safe output: the previous plan's next state, else hold, else the nearest free state."""
+        """Safe output from a free state: the previous plan's next state, else hold."""
         report.skills = list(self.skills)
         notes = report.notes
         for name in self.skills:
@@ -680,16 +741,33 @@ class SharedControl:
                 velocity = plan_velocity(self.plan, self.config.dt, self.plan_index)
                 return self._record(FALLBACK, report, "; ".join(notes), self.plan, velocity)
         self.plan = np.zeros((2, 0))
-        if constraints.violation(self.state, self.box, self.obstacle) == 0.0:
-            notes.append("fallback: holding the current state")
-        else:
-            safe = self._safe_state(self.state)
-            if safe is None:
-                notes.append("fallback: no free state exists (obstacle covers the boundary); holding")
-            else:
-                self.state = safe
-                notes.append("fallback: current state not free (obstacle covers it); moved to the nearest free state")
+        notes.append("fallback: holding the current state")
         return self._record(FALLBACK, report, "; ".join(notes))
+
+    def _recover(self, report: CycleReport) -> SharedControlRecord:
+        """Recovery of a state that is not free (an obstacle moved onto it, a boundary excludes it).
+
+        No plan meanwhile; the state moves to the nearest free state at most ``recovery_speed``, never a jump.
+        """
+        self._forget()
+        self.plan, self.plan_index = np.zeros((2, 0)), 0
+        report.skills = list(self.skills)
+        safe = self._safe_state(self.state)
+        if safe is None:
+            report.notes.append("no free state exists (the obstacle covers the boundary): holding")
+            return self._record(FALLBACK, report, "; ".join(report.notes))
+        offset = safe - self.state
+        distance = float(np.linalg.norm(offset))
+        speed = self.config.recovery_speed
+        step = min(distance, speed * self.config.dt)
+        self.state = self.state + offset * (step / distance)
+        report.notes.append(
+            f"state {1e3 * distance:.1f} mm from the free region (obstacle on it or boundary around it): moving there "
+            f"at {speed:.3g} m/s"
+        )
+        return self._record(
+            FALLBACK, report, "; ".join(report.notes), velocity=offset * (step / distance) / self.config.dt
+        )
 
     def _safe_state(self, point) -> Optional[np.ndarray]:
         return constraints.nearest_free_point(point, self.box, self.obstacle, self.config.margin)

@@ -17,6 +17,7 @@ Decision variables are theta / scale (scales from ``ParameterLayout``), so all a
 
 import contextlib
 import dataclasses
+import math
 import os
 import sys
 import time
@@ -29,6 +30,8 @@ from teleteach.shared_control import cache
 from teleteach.shared_control.models import ParameterLayout, skill_state_and_control, state_trajectory
 
 SOLVERS = ("fast", "compiled", "ipopt")
+# Unit of the trajectory optimisation's slack variable [m], so that it is of order one like theta / scale.
+SLACK_UNIT = 1e-3
 
 
 @dataclasses.dataclass
@@ -42,9 +45,10 @@ class SolveResult:
         status: solver return status (or our reason for rejecting the solution).
         iterations: solver iterations.
         time: wall time of the solve [s].
-        lam_x: multipliers of the bounds (warm start of the next solve).
-        lam_g: multipliers of the constraints (warm start of the next solve).
+        lam_x: multipliers of the bounds (warm start of the next solve; None: no solver ran).
+        lam_g: multipliers of the constraints (warm start of the next solve; None: no solver ran).
         cpu_time: CPU time of this thread during the solve [s] (what the paper reports; robust to machine load).
+        slack: the trajectory optimisation's largest violation of its constraints [m] (0: eq. 9 was feasible).
     """
 
     theta: np.ndarray
@@ -53,9 +57,10 @@ class SolveResult:
     status: str
     iterations: int
     time: float
-    lam_x: np.ndarray
-    lam_g: np.ndarray
+    lam_x: Optional[np.ndarray]
+    lam_g: Optional[np.ndarray]
     cpu_time: float = 0.0
+    slack: float = 0.0
 
 
 @contextlib.contextmanager
@@ -203,11 +208,14 @@ class SkillEstimation:
         velocity = v0 * self.control.map(n_window)(s_window, z)
         root_recency = np.sqrt(recency_weights(n_window, dt, recency_half_life))
         fit_residuals = ca.vec((velocity - commands) * ca.repmat(ca.DM(root_recency).T, 2, 1)) / np.sqrt(n_window)
-        self.fit = ca.Function("fit", [z, commands], [ca.sumsqr(fit_residuals)], ["z", "h"], ["fit"])
+        name = f"estimation_{layout.skill.name}_{n_window}"
+        self.fit = ca.Function(f"{name}_fit", [z, commands], [ca.sumsqr(fit_residuals)], ["z", "h"], ["fit"])
+        if solver == "compiled":
+            # The seeds' grid search maps it over hundreds of candidates (on the virtual machine: ~6 ms a grid).
+            self.fit = cache.compiled_function(self.fit, cache_dir)
         self._mapped_fits = {}
         residuals = ca.vertcat(fit_residuals / speed_scale, root_weights * (z - z_prev))
         p = ca.vertcat(ca.vec(commands), z_prev, root_weights)
-        name = f"estimation_{layout.skill.name}_{n_window}"
         if solver == "ipopt":
             nlp = {"x": z, "p": p, "f": ca.sumsqr(residuals)}
             self.solver = _make_solver(name, nlp, solver, max_iter, cache_dir)
@@ -342,18 +350,26 @@ class SkillEstimation:
 
 
 class TrajectoryOptimisation:
-    """Trajectory optimisation for one skill (eqs 9-10) over a horizon of n_horizon cycles.
+    """Trajectory optimisation for one skill (eqs 9-10) over a horizon of n_horizon cycles, with soft constraints.
 
-    min ||theta - theta_hat||^2_W s.t. x(s_j; theta) in the box shrunk by ``margin`` and on the free side of the
-    straight edge, j = 1..n_horizon, with x(s_c) = x_c; s_j = j v0 dt. The obstacle is a line through (px, py)
-    whose free side is along [cos yaw, sin yaw]; d(x) = (x - p) . [cos yaw, sin yaw] >= margin when active.
+    min ||theta - theta_hat||^2_W + penalty t + t^2 s.t. g_j(theta) + t >= 0, t >= 0, where g_j >= 0 keeps x(s_j;
+    theta) in the box shrunk by ``margin`` and on the free side of the straight edge, j = 1..n_horizon, with x(s_c)
+    = x_c; s_j = j v0 dt. The obstacle is a line through (px, py) whose free side is along [cos yaw, sin yaw];
+    d(x) = (x - p) . [cos yaw, sin yaw] >= margin when active.
+
+    The one slack t [m] (in units of ``SLACK_UNIT``) is an exact L-infinity penalty: when a plan that keeps every
+    constraint exists and ``penalty`` exceeds the constraints' multipliers, t = 0 and the solution is eq. 9's;
+    when none exists (an operator pushing into the boundary, heading fixed into it), the problem stays feasible
+    and returns the plan that violates least instead of exhausting its iterations (issue 31: 60 % FALLBACK at the
+    boundary). Every warm start is feasible: t starts at the guess's own violation.
 
     Args:
         layout: parameter layout of the skill (Theta^TO bounds).
         n_horizon: number of horizon points after the current one.
         dt: cycle period [s].
         solver: one of ``SOLVERS``.
-        max_iter: iteration cap of the SQP.
+        max_iter: iteration cap of the SQP (real-time iteration: the last iterate is used when it is reached).
+        penalty: cost of a violation of one ``SLACK_UNIT`` [-], against W_TO's cost on theta / scale.
         cache_dir: folder of compiled code (``sqp_compiled``).
     """
 
@@ -364,13 +380,17 @@ class TrajectoryOptimisation:
         dt: float,
         solver: str = "fast",
         max_iter: int = 15,
+        penalty: float = 1e3,
         cache_dir: Optional[str] = None,
     ):
         self.layout = layout
         self.n_horizon = n_horizon
         self.dt = dt
+        self.penalty = penalty
         n = layout.n
+        # theta / scale, then the slack t / SLACK_UNIT
         z = ca.SX.sym("z", n)
+        slack = ca.SX.sym("slack")
         theta_hat = ca.SX.sym("theta_hat", n)
         weights = ca.SX.sym("w_to", n)
         x_c = ca.SX.sym("x_c", 2)
@@ -387,22 +407,28 @@ class TrajectoryOptimisation:
         future = states[:, 1:]
         normal = ca.vertcat(ca.cos(obstacle[2]), ca.sin(obstacle[2]))
         distance = normal.T @ (future - obstacle[0:2])
-        constraints = ca.vertcat(
+        hard = ca.vertcat(
             ca.vec(future - box[0:2] - margin),
             ca.vec(box[2:4] - future - margin),
             ca.vec(obstacle[3] * (distance - margin)),
         )
-        objective = ca.dot(weights, (z - theta_hat / ca.DM(layout.scale)) ** 2)
-        p = ca.vertcat(theta_hat, weights, x_c, box, obstacle, margin)
+        self.violation = ca.Function(f"{name}_violation", [z, x_c, box, obstacle, margin], [ca.fmax(-ca.mmin(hard), 0)])
+        if solver == "compiled":
+            self.violation = cache.compiled_function(self.violation, cache_dir)
+        constraints = hard + slack * SLACK_UNIT
+        penalty_parameter = ca.SX.sym("penalty")
+        objective = ca.dot(weights, (z - theta_hat / ca.DM(layout.scale)) ** 2) + penalty_parameter * slack + slack**2
+        p = ca.vertcat(theta_hat, weights, x_c, box, obstacle, margin, penalty_parameter)
         self.n_constraints = constraints.numel()
-        nlp = {"x": z, "p": p, "f": objective, "g": constraints}
+        variables = ca.vertcat(z, slack)
+        nlp = {"x": variables, "p": p, "f": objective, "g": constraints}
         # Hessian of the objective only (constraint curvature left out): every QP is convex and qpOASES is reliable.
         lam_f = ca.SX.sym("lam_f")
         lam_g = ca.SX.sym("lam_g", self.n_constraints)
         hessian = ca.Function(
             f"{name}_hessian",
-            [z, p, lam_f, lam_g],
-            [2 * lam_f * ca.diag(weights) + 1e-8 * ca.SX.eye(n) + 0 * ca.sum1(lam_g)],
+            [variables, p, lam_f, lam_g],
+            [2 * lam_f * ca.diag(ca.vertcat(weights, 1)) + 1e-8 * ca.SX.eye(n + 1) + 0 * ca.sum1(lam_g)],
             ["x", "p", "lam_f", "lam_g"],
             ["hess_gamma_x_x"],
         )
@@ -432,15 +458,27 @@ class TrajectoryOptimisation:
             guess: warm start (previous solution shifted, or theta_hat).
             lam_x0: bound multipliers of the previous solve.
             lam_g0: constraint multipliers of the previous solve.
+
+        Returns:
+            The result; ``slack`` is the plan's largest violation of the margin [m] (0 when eq. 9 was feasible).
         """
         layout = self.layout
         lower, upper = layout.lower.copy(), layout.upper.copy()
         lower[layout.i_alpha] = upper[layout.i_alpha] = theta_hat[layout.i_alpha]
-        x0 = np.clip(guess, lower, upper)
-        p = np.concatenate([theta_hat, weights, x_c, box, obstacle, [margin]])
+        guess = np.clip(guess, lower, upper)
+        # The warm start made feasible: its slack is its own violation.
+        slack = float(self.violation(guess / layout.scale, x_c, box, obstacle, margin))
+        x0 = np.append(guess, slack)
+        scale = np.append(layout.scale, SLACK_UNIT)
+        p = np.concatenate([theta_hat, weights, x_c, box, obstacle, [margin, self.penalty]])
         lbg = np.zeros(self.n_constraints)
         ubg = np.full(self.n_constraints, np.inf)
-        return _solve(self.solver, layout.scale, x0, lower, upper, p, lbg, ubg, lam_x0, lam_g0)
+        result = _solve(
+            self.solver, scale, x0, np.append(lower, 0.0), np.append(upper, np.inf), p, lbg, ubg, lam_x0, lam_g0
+        )
+        result.slack = float(result.theta[-1]) if np.isfinite(result.theta[-1]) else math.inf
+        result.theta = result.theta[:-1]
+        return result
 
     def states(self, theta: np.ndarray, x_c: np.ndarray):
         """Planned states (2 x (n_horizon + 1)) and headings of U for ``theta`` from ``x_c``."""

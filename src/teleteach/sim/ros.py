@@ -7,6 +7,7 @@ message is logged (throttled) and announced on ~rejected; the last good command 
 import threading
 import time
 import warnings
+from typing import Dict
 
 import actionlib
 import rospy
@@ -42,6 +43,7 @@ from teleteach.msg import (
 )
 from teleteach.perception.observed import WORLD_FRAME
 from teleteach.perception.ros import box_marker, scene_markers
+from teleteach.ros_actions import WallStatusTimer
 from teleteach.rotations import yaw_quaternion
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, ControllerConfigError, RobotSim, load_controller_config
@@ -86,19 +88,19 @@ class RobotSimNode:
     Args:
         sim: the simulation.
         real_time_factor: simulated seconds per wall-clock second; 0 runs as fast as possible.
-        clock_rate: /clock publication rate [Hz of simulated time].
+        rates: [Hz of simulated time] of /clock (``clock``), /cartesian_pose (``cartesian_pose``), /joint_states with
+            /force_torque_ext and TF (``state``) and /teleteach/scene (``scene``): config/controllers.yaml says why.
         follow_clock: publish no /clock; step the world up to the /clock another robot_sim publishes (ROS has one
             clock per master: a second simulated robot on the same master follows the first one's).
 
-    ROS Publishers:
-        /clock, /joint_states, /cartesian_pose (200 Hz, base_link), /force_torque_ext (100 Hz, base_link, contact
-        wrench on the end effector about the TCP), /teleteach/scene (10 Hz: the products, gaps and pick table as the
-        robot's perception reports them, with config/uncertainty.yaml's errors, teleteach.perception's format, and the
-        shelf boards for RViz), /teleteach/true_scene (10 Hz, the same format: the world as it is, for whoever judges
-        an outcome; a real robot has none), /diagnostics
-        (1 Hz: real-time factor, step cost, running controller), ~rejected (String: each rejected command),
-        ~base_error (latched PoseStamped in frame ``move_base_goal``, per MoveBase goal: where the base will stop,
-        in its goal's frame: the truth a real robot does not have), TF world -> base_link (100 Hz).
+    ROS Publishers (at ``rates``):
+        /clock, /joint_states, /cartesian_pose (base_link), /force_torque_ext (base_link, contact wrench on the end
+        effector about the TCP), /teleteach/scene (the products, gaps and pick table as the robot's perception reports
+        them, with config/uncertainty.yaml's errors, teleteach.perception's format, and the shelf boards for RViz),
+        /teleteach/true_scene (the same format: the world as it is, for whoever judges an outcome; a real robot has
+        none), /diagnostics (1 Hz: real-time factor, step cost, running controller), ~rejected (String: each rejected
+        command), ~base_error (latched PoseStamped in frame ``move_base_goal``, per MoveBase goal: where the base will
+        stop, in its goal's frame: the truth a real robot does not have), TF world -> base_link.
 
     ROS Subscribers:
         /eigenvalues, /eigenvectors, /equilibrium_pose, /equilibrium_twist (x_dot_r of eq 5),
@@ -113,11 +115,11 @@ class RobotSimNode:
         reason in ``error``), /move_base (move_base_msgs/MoveBaseAction: target_pose in world, feedback base_position).
     """
 
-    def __init__(self, sim: RobotSim, real_time_factor=1.0, clock_rate=250.0, follow_clock=False):
+    def __init__(self, sim: RobotSim, real_time_factor: float, rates: Dict[str, float], follow_clock=False):
         self.sim = sim
         self.real_time_factor = float(real_time_factor)
         dt = sim.world.time_step
-        self._clock_every = max(1, int(round(1.0 / (clock_rate * dt))))
+        self._every = {name: max(1, int(round(1.0 / (float(rate) * dt)))) for name, rate in rates.items()}  # [ticks]
         self._lock = threading.Lock()
         self._step_seconds = 0.0
         self._steps = 0
@@ -176,14 +178,16 @@ class RobotSimNode:
         ]
         for server in self._action_servers:
             server.start()
+        self._status = WallStatusTimer(self._action_servers)
 
     @classmethod
     def from_params(cls):
         """Build the node from its private parameters.
 
         ~gui, ~scene_file, ~controllers_file, ~absent_products (list of product names of the scene file to leave
-        out); ~real_time_factor, ~clock_rate, ~clock and ~initial_controller override the controller file's
-        `simulation`; ~uncertainty_file, and ~seed, ~base_error, ~perception_noise overriding it.
+        out); ~real_time_factor, ~clock, ~initial_controller and the rates (~clock_rate, ~cartesian_pose_rate,
+        ~state_rate, ~scene_rate) override the controller file's `simulation`; ~uncertainty_file, and ~seed,
+        ~base_error, ~perception_noise overriding it.
         """
         scene = load_scene(rospy.get_param("~scene_file", "") or None)
         scene = scene.without_products(rospy.get_param("~absent_products", None) or [])
@@ -194,7 +198,8 @@ class RobotSimNode:
         )
         config = load_controller_config(rospy.get_param("~controllers_file", "") or None)
         simulation = config["simulation"]
-        for name in ("initial_controller", "real_time_factor", "clock_rate", "clock"):
+        rates = ("clock_rate", "cartesian_pose_rate", "state_rate", "scene_rate")
+        for name in ("initial_controller", "real_time_factor", "clock", *rates):
             if rospy.has_param(f"~{name}"):
                 simulation[name] = rospy.get_param(f"~{name}")
         sim = RobotSim(scene, config, gui=bool(rospy.get_param("~gui", False)), uncertainty=uncertainty)
@@ -203,7 +208,7 @@ class RobotSimNode:
         return cls(
             sim,
             float(simulation["real_time_factor"]),
-            float(simulation["clock_rate"]),
+            {name.replace("_rate", ""): simulation[name] for name in rates},
             follow_clock=simulation["clock"] == "follow",
         )
 
@@ -421,16 +426,17 @@ class RobotSimNode:
         return msg
 
     def _publish(self, tick):
-        if self._clock is not None and tick % self._clock_every == 0:
+        every = self._every
+        if self._clock is not None and tick % every["clock"] == 0:
             self._clock.publish(Clock(clock=rospy.Time.from_sec(self.sim.time)))
-        if tick % 5 == 0:
+        if tick % every["cartesian_pose"] == 0:
             state = self.sim.state
             pose = PoseStamped(header=self._header(BASE_FRAME))
             pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = state.position
             orientation = pose.pose.orientation
             orientation.x, orientation.y, orientation.z, orientation.w = state.quaternion
             self._cartesian_pose.publish(pose)
-        if tick % 10 == 0:
+        if tick % every["state"] == 0:
             with self._lock:
                 positions, velocities, efforts = self.sim.world.joint_states()
                 force, torque = self.sim.world.external_wrench()
@@ -445,7 +451,7 @@ class RobotSimNode:
             wrench.wrench.torque.x, wrench.wrench.torque.y, wrench.wrench.torque.z = torque
             self._force_torque.publish(wrench)
             self._publish_base_tf(base)
-        if tick % 100 == 0:
+        if tick % every["scene"] == 0:
             self._publish_scene()
 
     def _publish_base_tf(self, base):

@@ -33,7 +33,7 @@ from teleteach.msg import (
     MoveGoal,
 )
 from teleteach.perception.observed import ObservedScene, observed_from_markers
-from teleteach.ros_actions import server_ready
+from teleteach.ros_actions import WallStatusTimer, server_ready
 from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.skills.robot import Execution, Robot, RobotGoal, SkillError
@@ -90,8 +90,11 @@ class RosRobot(Robot):
     (move_base_msgs/MoveBaseAction, target_pose in world).
     """
 
-    def __init__(self, position_controller: str):
-        """position_controller: the joint trajectory controller's name; its trajectories go to <name>/command."""
+    def __init__(self, position_controller: str, idle_after: float):
+        """position_controller: the joint trajectory controller's name; its trajectories go to <name>/command.
+
+        idle_after: [s] wall time without a skill after which the robot's state is no longer listened to (:meth:`rest`).
+        """
         self._lock = threading.Condition()
         self._joints = None
         self._fingers = None
@@ -99,7 +102,9 @@ class RosRobot(Robot):
         self._scene_stamp = -1.0
         self._cartesian = None
         self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
-        self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
+        self._listeners = []
+        self._skills = 0
+        self._idle_after = idle_after
         self._trajectory = rospy.Publisher(f"{position_controller}/command", JointTrajectory, queue_size=1)
         self._gripper_move = actionlib.SimpleActionClient("franka_gripper/move", MoveAction)
         self._gripper_grasp = actionlib.SimpleActionClient("franka_gripper/grasp", GraspAction)
@@ -109,9 +114,44 @@ class RosRobot(Robot):
         self._equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
         self._switch = rospy.ServiceProxy("controller_manager/switch_controller", SwitchController)
         self._list = rospy.ServiceProxy("controller_manager/list_controllers", ListControllers)
-        rospy.Subscriber("joint_states", JointState, self._on_joint_states, queue_size=1)
-        rospy.Subscriber("teleteach/scene", MarkerArray, self._on_scene, queue_size=1)
-        rospy.Subscriber("cartesian_pose", PoseStamped, self._on_cartesian_pose, queue_size=1)
+        self.listen()
+        self.rest()  # the first skill may come at once (robot_sim starting), or not for a long time
+
+    # ------------------------------------------------------------------------------------------- listening
+    def listen(self) -> None:
+        """Listen to the robot's state (joint states, scene, pose, TF) from now on: a skill is about to run."""
+        with self._lock:
+            self._skills += 1
+            if self._listeners:
+                return
+            self._listeners = [
+                rospy.Subscriber("joint_states", JointState, self._on_joint_states, queue_size=1),
+                rospy.Subscriber("teleteach/scene", MarkerArray, self._on_scene, queue_size=1),
+                rospy.Subscriber("cartesian_pose", PoseStamped, self._on_cartesian_pose, queue_size=1),
+                tf2_ros.TransformListener(self._tf_buffer),
+            ]
+
+    def rest(self) -> None:
+        """Stop listening ``idle_after`` seconds (wall time) from now, unless a skill starts before.
+
+        Between skills nothing reads the robot's state, some 600 messages a second (joint states, pose, TF, scene).
+        What was heard is forgotten with it: the next skill waits for fresh state (its first messages arrive within a
+        few milliseconds of subscribing) instead of using values from before the rest.
+        """
+        timer = threading.Timer(self._idle_after, self._stop_listening, args=(self._skills,))
+        timer.daemon = True
+        timer.start()
+
+    def _stop_listening(self, skills: int) -> None:
+        with self._lock:
+            if skills != self._skills or not self._listeners:
+                return  # a skill started after the rest was asked for
+            for listener in self._listeners:
+                listener.unregister()
+            self._listeners = []
+            self._joints = self._fingers = self._cartesian = None
+            self._scene_stamp = -1.0
+            self._tf_buffer.clear()
 
     # ------------------------------------------------------------------------------------------- callbacks
     def _on_joint_states(self, msg):
@@ -123,27 +163,31 @@ class RosRobot(Robot):
         fingers = sum(positions.get(name, 0.0) for name in panda.FINGER_JOINTS)
         if np.all(np.isfinite(joints)):
             with self._lock:
-                self._joints, self._fingers = joints, float(fingers)
-                self._lock.notify_all()
+                if self._listeners:  # not a message that was under way when the subscriber went
+                    self._joints, self._fingers = joints, float(fingers)
+                    self._lock.notify_all()
 
     def _on_scene(self, msg):
         scene, rejected = observed_from_markers(msg.markers)
         if rejected:
             rospy.logwarn_throttle(5.0, f"skill_server: left out of teleteach/scene: {'; '.join(rejected)}")
         with self._lock:
-            self._scene = scene
-            self._scene_stamp = scene.stamp if scene.products or scene.gaps else rospy.get_time()
-            self._lock.notify_all()
+            if self._listeners:
+                self._scene = scene
+                self._scene_stamp = scene.stamp if scene.products or scene.gaps else rospy.get_time()
+                self._lock.notify_all()
 
     def _on_cartesian_pose(self, msg):
         if msg.header.frame_id.lstrip("/") != BASE_FRAME:
             return
         position, orientation = msg.pose.position, msg.pose.orientation
         with self._lock:
-            self._cartesian = (
-                np.array([position.x, position.y, position.z]),
-                np.array([orientation.x, orientation.y, orientation.z, orientation.w]),
-            )
+            if self._listeners:
+                self._cartesian = (
+                    np.array([position.x, position.y, position.z]),
+                    np.array([orientation.x, orientation.y, orientation.z, orientation.w]),
+                )
+                self._lock.notify_all()
 
     # ----------------------------------------------------------------------------------------------- state
     def now(self) -> float:
@@ -208,10 +252,11 @@ class RosRobot(Robot):
             return self._scene
 
     def cartesian_pose(self) -> Tuple[np.ndarray, np.ndarray]:
-        """Latest /cartesian_pose (TCP in base_link)."""
+        """Latest /cartesian_pose (TCP in base_link), the first one waited for (STATE_WAIT)."""
         with self._lock:
+            self._lock.wait_for(lambda: self._cartesian is not None or rospy.is_shutdown(), timeout=STATE_WAIT)
             if self._cartesian is None:
-                raise SkillError("no /cartesian_pose received yet: is robot_sim running?")
+                raise SkillError(f"no /cartesian_pose received in {STATE_WAIT:.0f} s: is robot_sim running?")
             return self._cartesian[0].copy(), self._cartesian[1].copy()
 
     # ------------------------------------------------------------------------------------------ controllers
@@ -326,7 +371,7 @@ class SkillServer:
     """One SimpleActionServer per skill, all executing through one SkillRunner (one skill at a time).
 
     Args:
-        runner: executes the skills on the robot.
+        runner: executes the skills on a :class:`RosRobot`, which listens to the robot's state only around them.
         namespace: where the servers live (/skills/<Name>).
 
     ROS Action Servers: /skills/<Name> for each predefined skill and /skills/ReplaySkill (teleteach/ExecuteSkill).
@@ -345,6 +390,7 @@ class SkillServer:
             self.servers[name] = server
         for server in self.servers.values():
             server.start()
+        self._status = WallStatusTimer(self.servers.values())
         rospy.loginfo(f"skill_server: serving {', '.join(f'{namespace}/{name}' for name in SKILL_NAMES)}")
 
     def _execute(self, name, goal):
@@ -359,7 +405,11 @@ class SkillServer:
 
         label = f"{name} ({goal.skill})" if name == REPLAY_SKILL and goal.skill else name
         rospy.loginfo(f"skill_server: {label} started")
-        outcome = self.runner.execute(name, goal.parameters, Execution(server.is_preempt_requested, feedback))
+        self.runner.robot.listen()
+        try:
+            outcome = self.runner.execute(name, goal.parameters, Execution(server.is_preempt_requested, feedback))
+        finally:
+            self.runner.robot.rest()
         result = ExecuteSkillResult(success=outcome.success, message=outcome.message)
         if outcome.success:
             feedback(1.0, "done")  # a skill may finish its last phase between two throttled feedbacks

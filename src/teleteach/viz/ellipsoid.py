@@ -27,6 +27,29 @@ from teleteach.control.validation import (
     validate_quaternion,
 )
 
+DRAWN_RESOLUTION = 1e-4  # [m] of position and diameter, [-] of quaternion component: a smaller change looks the same
+
+
+def drawn_as(marker: Marker) -> Tuple[float, ...]:
+    """What RViz draws of the ellipsoid marker, to DRAWN_RESOLUTION: equal for markers that look the same.
+
+    The simulated arm holding still still moves by micrometres each tick; such a marker is not sent again.
+    """
+    pose, scale = marker.pose, marker.scale
+    values = (
+        pose.position.x,
+        pose.position.y,
+        pose.position.z,
+        pose.orientation.x,
+        pose.orientation.y,
+        pose.orientation.z,
+        pose.orientation.w,
+        scale.x,
+        scale.y,
+        scale.z,
+    )
+    return tuple(round(value / DRAWN_RESOLUTION) for value in values)
+
 
 @dataclass(frozen=True)
 class EllipsoidScale:
