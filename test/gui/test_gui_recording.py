@@ -17,14 +17,17 @@ from teleteach.srv import ListControllers
 pytestmark = pytest.mark.gui
 IMPEDANCE = "cartesian_impedance_controller"
 POSITION = "position_joint_trajectory_controller"
+REAL_TIME_FACTOR = 0.5  # simulated seconds per wall second of these tests' robot_sim
 
 
 @pytest.fixture
 def robot_sim(ros_master, data_root):
-    """sim.launch (robot_sim + robot_state_publisher), without the skill servers."""
+    """sim.launch (robot_sim + robot_state_publisher), without the skill servers, at half real time: the GUI must play
+    and record on the robot's (simulated) clock, not on the wall's."""
     import rospy
 
-    process = start(["roslaunch", "teleteach", "sim.launch", "skills:=false"], data_root.parent / "sim.log")
+    command = ["roslaunch", "teleteach", "sim.launch", "skills:=false", f"real_time_factor:={REAL_TIME_FACTOR}"]
+    process = start(command, data_root.parent / "sim.log")
     rospy.wait_for_service("/controller_manager/switch_controller", timeout=90)
     rospy.wait_for_message("/cartesian_pose", PoseStamped, timeout=30)
     yield process
@@ -75,9 +78,9 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     pump(qapp, 0.3)
     double_click(device)
     pump_until(qapp, lambda: window.recorder.active, 5, "recording after a double click")
-    pump(qapp, 1.5)
+    pump(qapp, 1.5 / REAL_TIME_FACTOR)
     device.move(-0.08, 0.08, 0.05)
-    pump(qapp, 1.5)
+    pump(qapp, 1.5 / REAL_TIME_FACTOR)
     window.screenshot().save(str(artifacts_dir / "gui_low_level_recording.png"))
     double_click(device)
     pump_until(qapp, lambda: not window.recorder.active, 5, "the recording to stop")
@@ -105,8 +108,16 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     stiffness_y = skill.stiffness[:, 1, 1]
     assert stiffness_y[0] == pytest.approx(50.0 + 0.02 / 0.2 * 2950.0, rel=0.01)  # y = -0.08 m
     assert stiffness_y[-1] == pytest.approx(50.0 + 0.18 / 0.2 * 2950.0, rel=0.01)  # y = +0.08 m
-    start = window.trajectory.sample(0.0)
-    assert np.allclose(skill.equilibrium_pose[0, :3], start[:3], atol=0.02)
+    # Expect: stored relative to gap_1, as perceived when the recording started; played from where the hand was, on
+    # the simulated clock (at half real time, a player on the wall's clock would be twice as far along)
+    assert skill.frame == "target" and skill.target.name == "gap_1"
+    played = skill.in_base(skill.target.transform)
+    planned = window.trajectory.resolve(skill.target.transform, played.cartesian_pose[0])
+    assert np.allclose(played.equilibrium_pose[0, :3], played.cartesian_pose[0, :3], atol=0.01)
+    times = played.time - played.time[0]
+    for index in np.linspace(0, len(times) - 1, 8).astype(int):
+        expected = planned.sample(times[index])[:3]
+        assert np.linalg.norm(played.equilibrium_pose[index, :3] - expected) < 0.005, (times[index], expected)
     assert equilibrium_log.messages and equilibrium_log.last().header.frame_id == "base_link"
     assert np.all(np.isfinite(skill.cartesian_pose))
 

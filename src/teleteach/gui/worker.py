@@ -81,7 +81,7 @@ def study_status(message: StudyState) -> StudyStatus:
 
 
 class TrajectoryPlayer:
-    """Plays the predefined kinematic trajectory on /equilibrium_pose from its own thread (thesis A.2.2)."""
+    """Plays the predefined kinematic trajectory on /equilibrium_pose from its own thread on ROS time (A.2.2)."""
 
     def __init__(self, trajectory: Trajectory, rate: float, publisher: rospy.Publisher):
         self.trajectory = trajectory
@@ -119,11 +119,14 @@ class TrajectoryPlayer:
         self._thread = None
 
     def _run(self) -> None:
-        start = time.monotonic()
+        # The trajectory's times are the robot's (ROS time: simulated time on a simulation): on wall time it would
+        # play too fast whenever the simulation runs slower than real time, and run the product into the shelf.
+        start = rospy.get_time()
         while not self._stop.is_set() and not rospy.is_shutdown():
-            pose = self.trajectory.sample(time.monotonic() - start)
+            now = rospy.get_time()
+            pose = self.trajectory.sample(now - start)
             message = PoseStamped()
-            message.header.stamp = rospy.Time.now()
+            message.header.stamp = rospy.Time.from_sec(now)
             message.header.frame_id = self.trajectory.frame
             p, q = message.pose.position, message.pose.orientation
             p.x, p.y, p.z, q.x, q.y, q.z, q.w = (float(value) for value in pose)
