@@ -16,8 +16,8 @@ from teleteach.sim.uncertainty import (
     PerceptionNoise,
     UncertaintyError,
     UncertaintySettings,
+    base_stream,
     load_uncertainty,
-    streams,
 )
 
 
@@ -65,8 +65,8 @@ def test_the_file_s_path_is_named_too(tmp_path):
 
 def test_base_errors_are_seeded_normal_and_never_beyond_the_limits():
     settings = load_uncertainty().base_error
-    first = BaseError(settings, streams(3)[0]).draw()
-    draws = BaseError(settings, streams(3)[0])
+    first = BaseError(settings, base_stream(3)).draw()
+    draws = BaseError(settings, base_stream(3))
     errors = np.array([draws.draw() for _ in range(4000)])
     # Expect: the same seed, the same first error; the spread of the settings; nothing beyond the limits
     np.testing.assert_array_equal(first, errors[0])
@@ -97,7 +97,7 @@ def test_switching_perception_off_leaves_the_base_s_draws_as_they_were():
 def test_perception_errs_by_a_bias_per_viewpoint_plus_noise_and_the_truth_stays_true():
     scene = load_scene()
     truth = observed_from_scene(scene)
-    noise = PerceptionNoise(load_uncertainty().perception, streams(0)[1])
+    noise = PerceptionNoise(load_uncertainty().perception, 0)
     views = [noise.perceive(truth) for _ in range(400)]
     true_gap = np.array(truth.gaps["gap_1"].position)
     offsets = np.array([view.gaps["gap_1"].position for view in views]) - true_gap
@@ -113,4 +113,19 @@ def test_perception_errs_by_a_bias_per_viewpoint_plus_noise_and_the_truth_stays_
 def test_perception_off_reports_the_truth_itself():
     truth = observed_from_scene(load_scene())
     settings = load_uncertainty().with_overrides(perception_noise=False)
-    assert PerceptionNoise(settings.perception, streams(0)[1]).perceive(truth) is truth
+    assert PerceptionNoise(settings.perception, 0).perceive(truth) is truth
+
+
+def test_a_bias_depends_on_the_seed_the_viewpoint_and_the_object_not_on_how_many_messages_came_before():
+    truth = observed_from_scene(load_scene())
+    settings = load_uncertainty().perception
+    quiet, busy = PerceptionNoise(settings, 7), PerceptionNoise(settings, 7)
+    for _ in range(25):
+        busy.perceive(truth)  # messages published before the robot arrived
+    for noise in (quiet, busy):
+        noise.new_viewpoint()
+    np.testing.assert_array_equal(quiet.bias("gaps", "gap_1").position, busy.bias("gaps", "gap_1").position)
+    assert not np.allclose(quiet.bias("gaps", "gap_1").position, quiet.bias("gaps", "gap_2").position)
+    assert not np.allclose(
+        quiet.bias("gaps", "gap_1").position, PerceptionNoise(settings, 8).bias("gaps", "gap_1").position
+    )

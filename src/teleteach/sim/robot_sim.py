@@ -20,7 +20,7 @@ from teleteach.perception.observed import ObservedScene, observed_from_scene
 from teleteach.sim import panda
 from teleteach.sim.gripper import SimGripper
 from teleteach.sim.scene import BasePose, Scene, load_scene
-from teleteach.sim.uncertainty import BaseError, PerceptionNoise, UncertaintySettings, streams
+from teleteach.sim.uncertainty import BaseError, PerceptionNoise, UncertaintySettings, base_stream
 from teleteach.sim.world import SupermarketWorld
 
 DEFAULT_CONTROLLER_FILE = config_file("controllers.yaml")
@@ -70,9 +70,8 @@ class RobotSim:
     def __init__(self, scene: Scene = None, config=None, gui=False, uncertainty: UncertaintySettings = None):
         self.scene = scene or load_scene()
         self.uncertainty = uncertainty or UncertaintySettings.none()
-        base_stream, perception_stream = streams(self.uncertainty.seed)
-        self.base_error = BaseError(self.uncertainty.base_error, base_stream)
-        self.perception = PerceptionNoise(self.uncertainty.perception, perception_stream)
+        self.base_error = BaseError(self.uncertainty.base_error, base_stream(self.uncertainty.seed))
+        self.perception = PerceptionNoise(self.uncertainty.perception, self.uncertainty.seed)
         self.base_goal = None
         self._new_viewpoint = False
         self.config = config or load_controller_config()

@@ -1,13 +1,14 @@
 """What the simulated robot gets wrong (config/uncertainty.yaml): where MoveBase stops, and what perception reports.
 
 robot_sim keeps the truth; :class:`BaseError` turns a MoveBase goal into where the base really stops, and
-:class:`PerceptionNoise` turns the true scene into the one the skills see. Both draw from their own stream of one
+:class:`PerceptionNoise` turns the true scene into the one the skills see. Both draw from their own streams of one
 seed, so a run is reproducible and switching one off leaves the other's draws unchanged.
 """
 
 import dataclasses
 import math
 import pathlib
+import zlib
 from typing import Any, Dict, Mapping, Optional, Tuple
 
 import numpy as np
@@ -22,6 +23,7 @@ DEFAULT_UNCERTAINTY_FILE = config_file("uncertainty.yaml")
 MAX_POSITION = 0.5  # [m] a standard deviation or limit above this is a mistake, not an uncertainty
 MAX_ANGLE = math.pi / 2.0  # [rad] the same for angles
 MAX_DRAWS = 1000  # a truncated draw gives up (and takes the limit) after this many tries
+BASE_STREAM, BIAS_STREAM, NOISE_STREAM = 0, 1, 2  # the separate streams of one seed
 
 
 class UncertaintyError(ValueError):
@@ -182,10 +184,9 @@ def load_uncertainty(path: Optional[str] = None) -> UncertaintySettings:
         raise UncertaintyError(f"{path}: {error}") from None
 
 
-def streams(seed: int) -> Tuple[np.random.Generator, np.random.Generator]:
-    """Two independent generators of one seed: the base's and perception's."""
-    base, perception = np.random.SeedSequence(seed).spawn(2)
-    return np.random.default_rng(base), np.random.default_rng(perception)
+def base_stream(seed: int) -> np.random.Generator:
+    """The base error's generator of a seed (perception draws from others: switching one off leaves the other)."""
+    return np.random.default_rng([seed, BASE_STREAM])
 
 
 class BaseError:
@@ -245,27 +246,34 @@ class PoseError:
 class PerceptionNoise:
     """The scene as an imperfect perception reports it: a bias per object and viewpoint, noise per message.
 
+    An object's bias at the n-th viewpoint is drawn from a generator of (seed, n, the object), so it is the same in
+    every run with this seed, however many messages were published before; the per-message noise comes from one stream.
+
     Args:
         settings: the ``perception`` settings.
-        rng: the generator to draw from.
+        seed: the seed of every draw.
     """
 
-    def __init__(self, settings: PerceptionSettings, rng: np.random.Generator):
+    def __init__(self, settings: PerceptionSettings, seed: int):
         self.settings = settings
-        self.rng = rng
+        self.seed = seed
+        self.viewpoint = 0
+        self.rng = np.random.default_rng([seed, NOISE_STREAM])
         self._biases: Dict[Tuple[str, str], PoseError] = {}
 
     def new_viewpoint(self) -> None:
         """The robot stopped somewhere new: every object's bias is drawn again when next seen."""
+        self.viewpoint += 1
         self._biases.clear()
 
     def bias(self, kind: str, name: str) -> PoseError:
-        """The bias of object name of kind products | gaps at this viewpoint (drawn when first asked for)."""
+        """The bias of object name of kind products | gaps at this viewpoint."""
         key = (kind, name)
         if key not in self._biases:
             noise = getattr(self.settings, kind)
+            rng = np.random.default_rng([self.seed, BIAS_STREAM, self.viewpoint, zlib.crc32(f"{kind}/{name}".encode())])
             self._biases[key] = PoseError(
-                self.rng.normal(0.0, 1.0, 3) * noise.position_bias_std, float(self.rng.normal(0.0, noise.yaw_bias_std))
+                rng.normal(0.0, 1.0, 3) * noise.position_bias_std, float(rng.normal(0.0, noise.yaw_bias_std))
             )
         return self._biases[key]
 
