@@ -59,6 +59,12 @@ class Bridge:
             self.lock.wait_for(lambda: len(getattr(self, what)) >= count, timeout=timeout)
             return list(getattr(self, what))
 
+    def wait_for_log(self, text, timeout=10.0):
+        """Wait up to timeout [s] until a log line contains text; return all lines (none with it: too late)."""
+        with self.lock:
+            self.lock.wait_for(lambda: any(text in line for line in self.logs), timeout=timeout)
+            return list(self.logs)
+
 
 class StiffnessBridgeTest(unittest.TestCase):
     def test_stiffness_reaches_the_controller_and_bad_messages_do_not(self):
@@ -95,8 +101,9 @@ class StiffnessBridgeTest(unittest.TestCase):
         bridge.send_vectors(0.0, 0.0, math.sin(math.pi / 8), math.cos(math.pi / 8))
         received = bridge.wait("received", 3)
         np.testing.assert_allclose(received[2][:3], [550.0, 550.0, 700.0], atol=1e-3)
-        logs = bridge.wait("logs", len(logs) + 1)
+        logs = bridge.wait_for_log("50 N/m off the diagonal")
         self.assertTrue(any("50 N/m off the diagonal" in line for line in logs), logs)
+        self.assertFalse(any("bad callback" in line for line in logs), logs)
         self.assertTrue(all(len(values) == 7 for values in received))
 
 

@@ -3,8 +3,6 @@
 robot_sim's controllers have their own node (teleteach.sim.ros).
 """
 
-import contextlib
-
 import rospy
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from std_msgs.msg import Float32MultiArray, MultiArrayDimension
@@ -54,25 +52,33 @@ class StiffnessBridgeNode:
 
     def _on_eigenvalues(self, message):
         vector = message.vector
-        with self._guard("eigenvalues", message.header.frame_id):
-            self.eigenvalues = validate_eigenvalues((vector.x, vector.y, vector.z), self.max_stiffness)
+        eigenvalues = self._accepted(
+            "eigenvalues",
+            message.header.frame_id,
+            lambda: validate_eigenvalues((vector.x, vector.y, vector.z), self.max_stiffness),
+        )
+        if eigenvalues is not None:
+            self.eigenvalues = eigenvalues
             self._publish()
 
     def _on_eigenvectors(self, message):
         q = message.quaternion
-        with self._guard("eigenvectors", message.header.frame_id):
-            self.eigenvectors = validate_quaternion((q.x, q.y, q.z, q.w), "eigenvectors")
+        eigenvectors = self._accepted(
+            "eigenvectors", message.header.frame_id, lambda: validate_quaternion((q.x, q.y, q.z, q.w), "eigenvectors")
+        )
+        if eigenvectors is not None:
+            self.eigenvectors = eigenvectors
             self._publish()
 
-    @contextlib.contextmanager
-    def _guard(self, topic, frame_id):
-        """Check the frame, then run the update; a rejected message is logged and changes nothing."""
+    def _accepted(self, topic, frame_id, validate):
+        """The message's checked value, or None when it is rejected (logged; the bridge keeps the last good one)."""
         try:
             if frame_id:
                 check_frame(frame_id, self.frame)
-            yield
+            return validate()
         except InvalidCommandError as error:
             rospy.logwarn_throttle(WARN_PERIOD, f"stiffness_bridge rejected a message on {topic}: {error}")
+            return None
 
     def _publish(self):
         if self.eigenvalues is None or self.eigenvectors is None:
