@@ -90,8 +90,12 @@ def test_recorded_stiffness_shows_the_three_phases_of_iii_c(run):
     # alignment: Y at least 3x the approach's; insertion: X at least 3x the approach's
     assert ky[alignment].max() >= 3.0 * np.median(ky[approach])
     assert kx[insertion].max() >= 3.0 * np.median(kx[approach])
-    # the equilibrium followed the perpendicular trajectory into the gap
-    assert skill.equilibrium_pose[-1, :3] == pytest.approx([0.61, 0.0, 0.755], abs=1e-3)
+    # the equilibrium followed the perpendicular trajectory into the gap: stored in the frame of gap_1 as perception
+    # saw it (config/trajectories/perpendicular.yaml's last waypoint), which stood where gap_1 is, give or take
+    # perception's error, in front of the base at place_perpendicular
+    assert (skill.frame, skill.target.name) == (skill_file.TARGET_FRAME, "gap_1")
+    assert skill.equilibrium_pose[-1, :3] == pytest.approx([0.0, 0.0, 0.035], abs=1e-3)
+    assert skill.target.pose_in_base[:3] == pytest.approx([0.61, 0.0, 0.72], abs=0.03)
 
 
 def test_both_products_end_upright_in_their_gaps_and_the_neighbours_stay(run):
@@ -152,6 +156,10 @@ def test_thesis_iii_d_turns_the_ellipsoid_places_at_45_degrees_and_reuses_it(tmp
     folder = next((tmp_path / "runs").iterdir())
     skill = skill_file.load(next((folder / "skills").glob("*.npz")))
     time = skill.time - skill.time[0]
+    # stored in gap_1's frame, where the shelf runs along y: the ellipsoid's long axis lies along it
+    values, vectors = np.linalg.eigh(skill.stiffness[np.searchsorted(time, 6.9)][:2, :2])
+    assert abs(vectors[1, np.argmax(values)]) > np.cos(np.radians(5.0)), vectors
+    skill = skill.in_base(skill.target.transform)
     # Expect: after the alignment (3-7 s of angled_45) the stiffest horizontal axis lies along the shelf, i.e. the
     # ellipsoid turned 45 degrees about Z in the rotated base frame; during the approach it was round in X-Y
     values, vectors = np.linalg.eigh(skill.stiffness[np.searchsorted(time, 6.9)][:2, :2])

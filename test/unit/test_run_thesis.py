@@ -29,6 +29,7 @@ from teleteach.run.processes import (
     start_xvfb,
 )
 from teleteach.run.thesis import options_for
+from teleteach.frames import Transform
 from teleteach.skill_file import Skill, save
 
 SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full", "remembered_repair"]
@@ -76,6 +77,22 @@ def test_alignment_axis_yaw_follows_the_turned_ellipsoid():
     pose = skill.equilibrium_pose
     skill = Skill(skill.name, skill.kind, skill.time, turned, pose, pose)
     assert outcome.alignment_axis_yaw(skill, "angled_45") == pytest.approx(45.0)  # III-D: principal Y turned
+
+
+def test_a_skill_in_its_targets_frame_is_read_in_the_base_it_was_taught_from(tmp_path):
+    # III-D stored relative to gap_1, which stood turned -45 degrees in front of the base: the ellipsoid stiffened
+    # along the shelf is along the gap's Y in the file, and at 45 degrees in the base the operator taught in
+    base = recorded_skill()
+    turn = Rotation.from_euler("z", -45.0, degrees=True).as_matrix()
+    turned = np.array([turn @ k @ turn.T for k in base.stiffness])
+    skill = Skill(base.name, base.kind, base.time, turned, base.equilibrium_pose, base.equilibrium_pose)
+    gap_in_base = (0.6, 0.1, 0.72, *Rotation.from_euler("z", -45.0, degrees=True).as_quat())
+    stored = skill.relative_to("gap_1", Transform.from_pose(gap_in_base))
+    assert outcome.alignment_axis_yaw(stored, "angled_45") != pytest.approx(45.0, abs=5.0)
+    assert outcome.alignment_axis_yaw(outcome.as_taught(stored), "angled_45") == pytest.approx(45.0)
+    path = save(stored, tmp_path / "DemonstratedPlace_1")
+    problems, seen = outcome.check_iii_c(str(path), "angled_45", stiffer_insertion=False)
+    assert seen["alignment_axis_yaw_deg"] == pytest.approx(45.0)
 
 
 def test_one_check_per_experiment_says_what_is_missing(tmp_path):

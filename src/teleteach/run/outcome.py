@@ -58,8 +58,20 @@ class StiffnessPhases:
         return problems
 
 
+def as_taught(skill: Skill) -> Skill:
+    """The skill in base_link as the operator taught it: the thesis' X and Y are the base's axes of that moment.
+
+    A skill stored in its target's frame is turned back by the target's pose when it was taught (III-D's ellipsoid
+    turned 45 degrees from the base is along the shelf, i.e. along the gap's Y, in the target's frame).
+    """
+    return skill if skill.target is None else skill.in_base(skill.target.transform)
+
+
 def stiffness_phases(skill: Skill, trajectory: str = "perpendicular") -> StiffnessPhases:
-    """Median stiffness in the approach, peak Y in alignment and peak X in insertion, from the diagonal of K."""
+    """Median stiffness in the approach, peak Y in alignment and peak X in insertion, from the diagonal of K.
+
+    K is read in the skill's own frame: pass :func:`as_taught` for the base's axes.
+    """
     times = skill.time - skill.time[0]
     kx, ky = skill.stiffness[:, 0, 0], skill.stiffness[:, 1, 1]
     approach_window, alignment_window, insertion_window = PHASES[trajectory]
@@ -205,7 +217,7 @@ def check_iii_c(skill_path: Optional[str], trajectory: str, stiffer_insertion: b
     if skill_path is None:
         return ["no skill was taught (III-C)"], seen
     try:
-        skill = load_skill(skill_path)
+        skill = as_taught(load_skill(skill_path))
         phases = stiffness_phases(skill, trajectory)
         yaw = alignment_axis_yaw(skill, trajectory)
     except (SkillFileError, ValueError) as error:
