@@ -22,7 +22,7 @@ Prints a table, the two goals of issue 28 (met / not met), writes bench/results/
 Tuned on, held out: the trial seeds are 1000 + k. Seeds 0-99 (--tuning) are the ones the world, the trajectory and the
 bench were developed on; the figures reported in the README come from the held-out seeds 1000 and up.
 
-    source build/env.sh && python bench/stiffness_ablation.py [--trials 30] [--processes 2] [--tuning]
+    source build/env.sh && python bench/stiffness_ablation.py [--trials 30] [--processes 2] [--tuning] [--sweep 150 3000]
 """
 
 import os
@@ -159,6 +159,14 @@ def main():
     parser.add_argument(
         "--tuning", action="store_true", help="run on the tuning seeds 0.. instead of the held-out ones"
     )
+    parser.add_argument(
+        "--sweep",
+        type=float,
+        nargs="+",
+        default=list(SWEEP),
+        metavar="N_PER_M",
+        help=f"insertion stiffnesses swept along and across the gap (default {' '.join(f'{v:g}' for v in SWEEP)})",
+    )
     parser.add_argument("--skill", type=pathlib.Path, default=SKILL_FILE, help="the taught skill (in gap_1's frame)")
     options = parser.parse_args()
     started = time.perf_counter()
@@ -166,7 +174,7 @@ def main():
     taught = skill_file.load(options.skill)
     if taught.frame != skill_file.TARGET_FRAME:
         raise SystemExit(f"{options.skill}: a skill taught relative to a gap is needed (this one is in base_link)")
-    skills = stiffness_profiles(taught)
+    skills = stiffness_profiles(taught, sorted(options.sweep))
     first = 0 if options.tuning else REPORTED_SEEDS
     seeds = list(range(first, first + options.trials))
     print(f"{len(skills)} cells x {options.trials} trials on {options.processes} processes", flush=True)
@@ -177,7 +185,7 @@ def main():
     results = {
         "profiles": {name: summarise(trials[name]) for name in PROFILES},
         "sweep": {
-            "stiffness_n_per_m": list(SWEEP),
+            "stiffness_n_per_m": sorted(options.sweep),
             "cells": {name: summarise(cell) for name, cell in trials.items() if name not in PROFILES},
         },
         "profile_insertion_stiffness": {name: insertion_stiffness(skills[name]) for name in PROFILES},

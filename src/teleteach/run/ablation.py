@@ -72,7 +72,7 @@ def goals(results: dict) -> List[str]:
             a, b = cells[first], cells[second]
             if first >= second:
                 continue
-            rate = abs(a["success_rate"] - b["success_rate"]) >= 0.2 and (
+            rate = abs(a["success_rate"] - b["success_rate"]) >= SUCCESS_APART and (
                 a["success_interval"][0] > b["success_interval"][1]
                 or b["success_interval"][0] > a["success_interval"][1]
             )
