@@ -22,7 +22,7 @@ Prints a table, the two goals of issue 28 (met / not met), writes bench/results/
 Tuned on, held out: the trial seeds are 1000 + k. Seeds 0-99 (--tuning) are the ones the world, the trajectory and the
 bench were developed on; the figures reported in the README come from the held-out seeds 1000 and up.
 
-    source build/env.sh && python bench/stiffness_ablation.py [--trials 30] [--processes 2] [--tuning] [--sweep 150 3000]
+    source build/env.sh && python bench/stiffness_ablation.py [--trials 30] [--processes 2] [--tuning] [--sweep 150 ...]
 """
 
 import os

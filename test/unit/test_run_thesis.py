@@ -13,6 +13,7 @@ from conftest import ROOT
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
+from teleteach.frames import Transform
 from teleteach.gui.device import scale_to_index
 from teleteach.gui.selection import OPERATIONS
 from teleteach.haptics.click import ClickParameters
@@ -29,7 +30,6 @@ from teleteach.run.processes import (
     start_xvfb,
 )
 from teleteach.run.thesis import options_for
-from teleteach.frames import Transform
 from teleteach.skill_file import Skill, save
 
 SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full", "remembered_repair"]
