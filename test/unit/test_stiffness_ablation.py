@@ -59,7 +59,7 @@ def test_the_profiles_change_only_the_stiffness_and_the_sweep_only_the_insertion
     assert insertion_stiffness(taught) == (1900.0, 1900.0)
 
 
-@pytest.mark.parametrize("successes, trials", [(0, 30), (3, 30), (27, 30), (30, 30), (12, 19)])
+@pytest.mark.parametrize("successes, trials", [(0, 30), (3, 30), (27, 30), (30, 30), (10, 10), (0, 7), (12, 19)])
 def test_the_wilson_interval_is_the_score_test_s(successes, trials):
     low, high = wilson_interval(successes, trials)
     rate = successes / trials

@@ -212,14 +212,17 @@ def run_trial(
 
 
 def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple:
-    """Wilson score interval of a success rate (95 % by default): (low, high)."""
+    """Wilson score interval of a success rate (95 % by default): (low, high), always holding the rate itself.
+
+    At 0 or all successes the formula's bound equals the rate only up to rounding (1 - 1e-16): clamped to it.
+    """
     if trials == 0:
         return (0.0, 1.0)
     rate = successes / trials
     denominator = 1.0 + z * z / trials
     centre = (rate + z * z / (2.0 * trials)) / denominator
     half = z * math.sqrt(rate * (1.0 - rate) / trials + z * z / (4.0 * trials * trials)) / denominator
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    return (max(0.0, min(rate, centre - half)), min(1.0, max(rate, centre + half)))
 
 
 def bootstrap_median_interval(values, seed: int = 0, resamples: int = 2000, level: float = 0.95) -> tuple:
