@@ -92,7 +92,7 @@ def plot(results: dict, path: pathlib.Path) -> None:
         figure.colorbar(image, ax=axes, shrink=0.8)
         for row in range(len(values)):
             for column in range(len(values)):
-                axes.text(column, row, fmt.format(grid[row, column]), ha="center", va="center", color="white")
+                axes.text(column, row, fmt.format(grid[row, column]), ha="center", va="center", color="black")
         axes.set_xticks(range(len(values)), [f"{value:.0f}" for value in values])
         axes.set_yticks(range(len(values)), [f"{value:.0f}" for value in values])
         axes.set_xlabel("insertion stiffness along the gap (x) [N/m]")
@@ -125,6 +125,7 @@ def plot(results: dict, path: pathlib.Path) -> None:
     forces = profile_axes.twinx()
     forces.plot(names, [results["profiles"][name]["median_peak_force_n"] for name in names], "ko-")
     forces.set_ylabel("median peak contact force [N] (dots)")
+    forces.set_ylim(bottom=0.0)
     profile_axes.set_ylim(0.0, 1.05)
     profile_axes.set_ylabel("success rate, Wilson 95 %")
     profile_axes.set_title(f"the three profiles ({results['settings']['trials']} trials each)")
