@@ -170,15 +170,34 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     pump_until(qapp, inserted, 15, f"{name} at index 4 of BehaviorExecution")
 
 
-class RobotPoseStandIn:
-    """Publishes a still /cartesian_pose at 100 Hz, what the recorder samples beside the commanded stiffness."""
+class RobotStandIn:
+    """What the GUI needs to record a placement at gap_1, without robot_sim: a still /cartesian_pose at 100 Hz, the
+    scene as perception reports it (teleteach/scene, once a second) and the base at place_perpendicular in TF."""
 
     def __init__(self):
         import threading
 
         import rospy
+        import tf2_ros
+        from geometry_msgs.msg import TransformStamped
+        from visualization_msgs.msg import MarkerArray
 
-        self._publisher = rospy.Publisher("/cartesian_pose", PoseStamped, queue_size=10)
+        from teleteach.perception.observed import SCENE_TOPIC, WORLD_FRAME, observed_from_scene
+        from teleteach.sim.scene import load_scene
+
+        scene = load_scene()
+        self._observed = observed_from_scene(scene)
+        self._pose = rospy.Publisher("/cartesian_pose", PoseStamped, queue_size=10)
+        self._scene = rospy.Publisher("/" + SCENE_TOPIC, MarkerArray, queue_size=1, latch=True)
+        base = TransformStamped()
+        base.header.stamp = rospy.Time.now()
+        base.header.frame_id, base.child_frame_id = WORLD_FRAME, "base_link"
+        pose = scene.base_poses["place_perpendicular"]
+        base.transform.translation.x, base.transform.translation.y = pose.x, pose.y
+        rotation = base.transform.rotation
+        rotation.x, rotation.y, rotation.z, rotation.w = pose.quaternion()
+        self._tf = tf2_ros.StaticTransformBroadcaster()
+        self._tf.sendTransform(base)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
@@ -186,12 +205,18 @@ class RobotPoseStandIn:
     def _run(self):
         import rospy
 
+        from teleteach.perception.ros import scene_markers
+
         message = PoseStamped()
         message.header.frame_id = "base_link"
         message.pose.position.x, message.pose.position.z, message.pose.orientation.w = 0.5, 0.4, 1.0
+        tick = 0
         while not self._stop.wait(0.01):
             message.header.stamp = rospy.Time.now()
-            self._publisher.publish(message)
+            self._pose.publish(message)
+            if tick % 100 == 0:
+                self._scene.publish(scene_markers(self._observed, message.header.stamp.to_sec()))
+            tick += 1
 
     def close(self):
         self._stop.set()
@@ -200,7 +225,7 @@ class RobotPoseStandIn:
 
 def test_gui_killed_while_recording_leaves_no_skill_file(qapp, bt_node, device, topic_log, data_root):
     """SIGKILL of the real teaching_gui process in the middle of a recording: no skill file (whole or partial) in the
-    data directory, and the behaviour tree's library unchanged. The robot is a stand-in publishing /cartesian_pose:
+    data directory, and the behaviour tree's library unchanged. The robot is a stand-in (pose, perceived scene, base):
     the recording is what matters here, and robot_sim would cost a core."""
     import os
     import signal
@@ -212,7 +237,7 @@ def test_gui_killed_while_recording_leaves_no_skill_file(qapp, bt_node, device, 
     equilibrium_log = topic_log("/equilibrium_pose", PoseStamped)
     pump_until(qapp, lambda: library_log.last() is not None, 20, "the skill library")
     before = list(library_log.last().names)
-    robot = RobotPoseStandIn()
+    robot = RobotStandIn()
     with open(data_root.parent / "teaching_gui.log", "w") as log:
         gui = subprocess.Popen(
             [str(ROOT / "nodes" / "teaching_gui"), "_initial_tab:=2", "_repaint_rate:=5", "_service_timeout:=1.0"],

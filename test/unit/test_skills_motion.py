@@ -84,6 +84,18 @@ def test_execution_progress_spans_the_phases():
     assert reports == [(0.0, "a"), (0.25, "a"), (0.25, "b"), (0.625, "b"), (1.0, "done")]
 
 
+def test_execution_progress_never_goes_back_within_a_phase():
+    # a grasp's progress is how far the fingers have closed: on a product they give a little and spring back
+    reports = []
+    execution = Execution(feedback=lambda progress, phase: reports.append(round(progress, 6)))
+    execution.phase("grasp", 0.5)
+    for fraction in (0.4, 0.9, 0.85, 0.95):
+        execution.report(fraction)
+    execution.phase("lift", 0.5)
+    execution.report(0.2)
+    assert reports == [0.0, 0.2, 0.45, 0.45, 0.475, 0.5, 0.6]
+
+
 def test_motion_config_loads_and_rejects_bad_values(tmp_path):
     config = load_motion_config()
     assert config.replay.rate >= 100.0

@@ -138,6 +138,7 @@ class Execution:
         self._phase = ""
         self._start = 0.0
         self._weight = 0.0
+        self._fraction = 0.0
         self.progress = 0.0
 
     def check(self) -> None:
@@ -148,15 +149,17 @@ class Execution:
     def phase(self, name: str, weight: float) -> None:
         """Start the next phase, which covers the following weight (0..1) of the overall progress."""
         self._start = min(1.0, self._start + self._weight) if self._phase else 0.0
-        self._phase, self._weight = name, weight
+        self._phase, self._weight, self._fraction = name, weight, 0.0
         self.report(0.0)
 
     def report(self, fraction: float) -> None:
-        """Progress within the current phase (0..1)."""
-        self.progress = min(1.0, self._start + self._weight * min(max(fraction, 0.0), 1.0))
+        """Progress within the current phase (0..1); it never goes back within a phase (fingers closing on a product
+        give a little and spring back: the grasp was still that far)."""
+        self._fraction = max(self._fraction, min(max(fraction, 0.0), 1.0))
+        self.progress = min(1.0, self._start + self._weight * self._fraction)
         self._feedback(self.progress, self._phase)
 
     def complete(self, phase: str) -> None:
         """The whole skill is done."""
-        self._phase, self._start, self._weight = phase, 1.0, 0.0
+        self._phase, self._start, self._weight, self._fraction = phase, 1.0, 0.0, 0.0
         self.report(1.0)
