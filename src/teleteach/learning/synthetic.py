@@ -138,8 +138,8 @@ def placement_on_trajectory(
     starts at the hand. A trajectory relative to a gap gives a skill in that gap's frame, taught from
     place_perpendicular.
     """
-    trajectory = Trajectory.load(name).resolve(Transform.identity(), hand)
     planned = Trajectory.load(name)
+    trajectory = planned.resolve(Transform.identity(), hand)
     times = np.arange(0.0, (until or trajectory.duration) + 0.5 / rate, 1.0 / rate)
     poses = np.array([trajectory.sample(time) for time in times])
     diagonal = np.tile([400.0, 400.0, 2000.0], (len(times), 1))
