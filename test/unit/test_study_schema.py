@@ -134,7 +134,8 @@ def test_defaults_of_a_minimal_study(tmp_path):
         (
             "      tree: {absent: [PlaceItem]}",
             "      placement: {product: product_pick_1, gap: gap_9}",
-            "study.yaml:12: tasks.remove.goal.placement: the scene has no gap 'gap_9' (it has gap_1, gap_2, gap_3, gap_4, gap_5, gap_6, gap_7)",
+            "study.yaml:12: tasks.remove.goal.placement: the scene has no gap 'gap_9' "
+            "(it has gap_1, gap_2, gap_3, gap_4, gap_5, gap_6, gap_7)",
         ),
         (
             "      tree: {absent: [PlaceItem]}",

@@ -153,8 +153,11 @@ class Execution:
         self.report(0.0)
 
     def report(self, fraction: float) -> None:
-        """Progress within the current phase (0..1); it never goes back within a phase (fingers closing on a product
-        give a little and spring back: the grasp was still that far)."""
+        """Progress within the current phase (0..1).
+
+        It never goes back within a phase: fingers closing on a product give a little and spring back, and the grasp
+        was still that far.
+        """
         self._fraction = max(self._fraction, min(max(fraction, 0.0), 1.0))
         self.progress = min(1.0, self._start + self._weight * self._fraction)
         self._feedback(self.progress, self._phase)
