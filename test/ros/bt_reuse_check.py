@@ -44,10 +44,11 @@ class TaughtSkillsDoTheJob(unittest.TestCase):
         self.assertEqual(learned.returncode, 0, learned.stdout + learned.stderr)
         view.wait_for(lambda: "PlaceLearned" in (view.library.names if view.library else []), 10, "PlaceLearned")
 
-        # 1. a placing skill where the hand is empty: it fails before moving, the tree asks for help
+        # 1. a placing skill taught at a gap, run at the start pose with the hand empty: it finds no gap where it
+        #    would place, fails before moving, the tree asks for help
         self.edit(view, ("PlaceLearned", "insert", 2), ("DropItem", "remove"))
         self.ask_for_help(
-            view, "PlaceLearned", "PlaceLearned places a product, but there is none in the hand: pick one first"
+            view, "PlaceLearned", "PlaceLearned places relative to a gap like gap_1, but perception reports none within"
         )
 
         # 2. the demonstration's first 5 s after the move to gap_2: it stops in front of the shelf, so the product

@@ -186,6 +186,14 @@ class StiffnessReplay:
             raise SkillError(
                 f"skill file {request.path} holds a '{skill.kind}' skill, the goal asked for '{request.kind}'"
             )
+        if skill.frame == skill_file.TARGET_FRAME:
+            gap = replay_target(world, skill, request.target)
+            where = f"relative to {gap.name} (taught at {skill.target.name})"
+            skill = skill.in_base(gap_in_base(world, gap))
+        elif request.target is not None:
+            raise SkillError(f"{skill.name} is a base_link skill (no target frame): it cannot be replayed at a target")
+        else:
+            where = "in base_link where it was recorded (a skill without a target frame)"
         product, _ = world.product_in_hand()
         if product is None:
             width = world.motion.robot.gripper_width()
@@ -197,14 +205,6 @@ class StiffnessReplay:
                 f"{skill.name} places a product, but there is none in the hand: pick one first "
                 f"({seen}, the gripper {1000 * width:.0f} mm open)"
             )
-        if skill.frame == skill_file.TARGET_FRAME:
-            gap = replay_target(world, skill, request.target)
-            where = f"relative to {gap.name} (taught at {skill.target.name})"
-            skill = skill.in_base(gap_in_base(world, gap))
-        elif request.target is not None:
-            raise SkillError(f"{skill.name} is a base_link skill (no target frame): it cannot be replayed at a target")
-        else:
-            where = "in base_link where it was recorded (a skill without a target frame)"
         motion = world.motion
         config = motion.config
         plan = plan_replay(skill, config.replay.rate)
