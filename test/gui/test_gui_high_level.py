@@ -5,8 +5,8 @@ import time
 import pytest
 from conftest import pump_until, start_bt, stop
 
+from teleteach.active_tab import Tab
 from teleteach.gui.selection import MORE_OPERATIONS, OPERATIONS, REPAIR_CHOICE, Step
-from teleteach.gui.session import Tab
 from teleteach.msg import BehaviourTree
 
 pytestmark = pytest.mark.gui

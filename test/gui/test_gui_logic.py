@@ -21,7 +21,7 @@ from teleteach.gui.device import (
 )
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose
-from teleteach.gui.recording import StiffnessRecorder, Trajectory, TrajectoryError, unique_skill_name
+from teleteach.gui.recording import StiffnessRecorder, unique_skill_name
 from teleteach.gui.selection import (
     MORE_OPERATIONS,
     OPERATIONS,
@@ -34,6 +34,7 @@ from teleteach.gui.selection import (
 from teleteach.rotations import quaternion_to_rpy, rpy_to_matrix, rpy_to_quaternion
 from teleteach.sim.scene import load_scene
 from teleteach.skills.config import load_motion_config
+from teleteach.trajectories import Trajectory, TrajectoryError
 
 CONFIG = GuiConfig.load()
 IDENTITY = (0.0, 0.0, 0.0, 1.0)

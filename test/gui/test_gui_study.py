@@ -9,7 +9,7 @@ import time
 import pytest
 from conftest import ROOT, pump, pump_until
 
-from teleteach.gui.session import Tab
+from teleteach.active_tab import Tab
 
 pytestmark = pytest.mark.gui
 EXAMPLE = ROOT / "config" / "studies" / "example.yaml"

@@ -2,7 +2,8 @@
 
 import pytest
 
-from teleteach.gui.session import Action, Recording, Tab, TeachingSession
+from teleteach.active_tab import Tab
+from teleteach.gui.session import Action, Recording, TeachingSession
 
 A = Action
 

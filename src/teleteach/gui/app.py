@@ -20,15 +20,16 @@ from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, Q
 from std_msgs.msg import Bool, Int8
 
 from teleteach import skill_file
+from teleteach.active_tab import Tab
 from teleteach.bt.editor import EditRequest
 from teleteach.datadir import data_dir
 from teleteach.frames import Transform
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
-from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_name
+from teleteach.gui.recording import StiffnessRecorder, unique_skill_name
 from teleteach.gui.selection import REPAIR_CHOICE
-from teleteach.gui.session import Action, Tab, TeachingSession
+from teleteach.gui.session import Action, TeachingSession
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.study import Page, StudyScreen, StudyStatus
 from teleteach.gui.study_page import StudyPage
@@ -48,6 +49,7 @@ from teleteach.srv import (
     SwitchController,
     SwitchControllerRequest,
 )
+from teleteach.trajectories import Trajectory
 
 SWITCH_SERVICE = "controller_manager/switch_controller"
 

@@ -18,20 +18,7 @@ recorders and the ROS calls, so every rule below is tested without a display (te
 import enum
 from typing import List, Optional
 
-
-class Tab(enum.IntEnum):
-    """The GUI's tabs, as published on /teleteach/active_tab (thesis A.2.1)."""
-
-    START = 0
-    HIGH_LEVEL = 1
-    LOW_LEVEL = 2
-    SHARED_CONTROL = 3
-
-    @property
-    def title(self) -> str:
-        """The tab's title as the operator reads it (START, HIGH-LEVEL, LOW-LEVEL, SHARED CONTROL)."""
-        return self.name.replace("_LEVEL", "-LEVEL").replace("_", " ")
-
+from teleteach.active_tab import Tab
 
 TEACHING_TABS = (Tab.LOW_LEVEL, Tab.SHARED_CONTROL)  # the tree pauses and the impedance controller drives the arm
 

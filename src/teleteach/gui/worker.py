@@ -22,13 +22,13 @@ from PyQt5.QtCore import QObject, Qt, QTimer, pyqtSignal, pyqtSlot
 from std_msgs.msg import Bool, Float64
 from visualization_msgs.msg import MarkerArray
 
+from teleteach.active_tab import Tab
 from teleteach.frames import Transform
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
-from teleteach.gui.recording import StiffnessRecorder, Trajectory
+from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
-from teleteach.gui.session import Tab
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.gui.study import StudyStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState
@@ -36,6 +36,7 @@ from teleteach.perception.observed import WORLD_FRAME, ObservedScene, observed_f
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
 from teleteach.study.phase import Phase, phase_name
 from teleteach.study.questionnaire import Item
+from teleteach.trajectories import Trajectory
 
 
 def pose_to_array(pose) -> np.ndarray:
@@ -303,7 +304,7 @@ class RosWorker(QObject):
 
     @property
     def active_tab(self) -> int:
-        """The GUI's tab (teleteach.gui.session.Tab); set from the GUI thread."""
+        """The GUI's tab (teleteach.active_tab.Tab); set from the GUI thread."""
         return self._active_tab
 
     @active_tab.setter

@@ -15,8 +15,8 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
 from teleteach.frames import Transform
-from teleteach.gui.recording import Trajectory
 from teleteach.skill_file import TARGET_FRAME, Skill, Target
+from teleteach.trajectories import Trajectory
 
 LOW = 300.0  # [N/m] compliant approach stiffness in X and Y
 HIGH = 1500.0  # [N/m] alignment stiffness in Y

@@ -23,9 +23,9 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Ellipse
 
+from teleteach.active_tab import Tab
 from teleteach.control.stiffness import translational_stiffness
 from teleteach.datadir import atomic_write_bytes, atomic_write_text
-from teleteach.gui.session import Tab
 from teleteach.recording.session import Series, Session, TreeSnapshot, read_session, yaw_of
 
 TAB_COLOURS = {Tab.HIGH_LEVEL: "#d9f2d9", Tab.LOW_LEVEL: "#f8d7d7", Tab.SHARED_CONTROL: "#d7e3f8"}

@@ -14,7 +14,7 @@ import numpy as np
 from py_trees.common import Status
 
 from teleteach import placement
-from teleteach.gui.session import Tab
+from teleteach.active_tab import Tab
 from teleteach.recording.session import Session
 from teleteach.sim.scene import Scene
 from teleteach.skill_file import Skill, SkillFileError

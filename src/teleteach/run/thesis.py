@@ -20,10 +20,10 @@ import numpy as np
 import yaml
 from py_trees.common import Status
 
+from teleteach.active_tab import Tab
 from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.tree import TreeSpec, load_tree
 from teleteach.datadir import atomic_write_text, data_dir
-from teleteach.gui.session import Tab
 from teleteach.haptics.scenario import load_scenario
 from teleteach.paths import config_file, share_dir
 from teleteach.perception.observed import TRUE_SCENE_TOPIC, product_positions
