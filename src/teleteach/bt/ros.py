@@ -23,7 +23,7 @@ from std_msgs.msg import Bool, String
 from teleteach import datadir
 from teleteach.bt.behaviours import SkillLeaf
 from teleteach.bt.library import SkillEntry, SkillLibrary
-from teleteach.bt.teaching import NodeRecord, TeachingTree, TreeStore
+from teleteach.bt.teaching import Execution, NodeRecord, TeachingTree, TreeStore
 from teleteach.bt.tree import load_tree
 from teleteach.msg import (
     Behaviour,
@@ -31,6 +31,7 @@ from teleteach.msg import (
     ExecuteSkillAction,
     ExecuteSkillGoal,
     HelpRequest,
+    TreeExecution,
 )
 from teleteach.msg import (
     SkillLibrary as SkillLibraryMsg,
@@ -225,6 +226,18 @@ class ActionSkill(SkillLeaf):
             )
         return ""
 
+    def goal_out(self) -> bool:
+        """Whether a goal was sent and its server has not confirmed an end yet (succeeded, aborted, preempted)."""
+        return self.goal_handle is not None and self.goal_handle.get_comm_state() != actionlib.CommState.DONE
+
+    def finished_before_preempt(self) -> bool:
+        """Whether the server reports the preempted goal as succeeded (it ended before the cancel reached it)."""
+        handle = self.goal_handle
+        if handle is None or handle.get_comm_state() != actionlib.CommState.DONE:
+            return False
+        result = handle.get_result()
+        return handle.get_goal_status() == GoalStatus.SUCCEEDED and result is not None and result.success
+
     def cancel(self) -> None:
         """Cancel the goal if it is out."""
         if self.goal_handle is not None and self.goal_handle.get_comm_state() != actionlib.CommState.DONE:
@@ -252,6 +265,8 @@ class BehaviourTreeNode:
         * **/behaviour_tree/skill_library** (teleteach/SkillLibrary)
         * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered; a remembered
           repair of the same failure in ``suggestion``
+        * **/behaviour_tree/execution** (teleteach/TreeExecution): running, waiting to start, pausing (a goal still
+          out), paused (the arm is free) or completed
 
     ROS Subscribers:
         * **/behaviour_tree/pause** (std_msgs/Bool): writes the blackboard's pause flag
@@ -279,6 +294,8 @@ class BehaviourTreeNode:
         self.dot_publisher = rospy.Publisher("behaviour_tree/dot/tree", String, **latched)
         self.library_publisher = rospy.Publisher("behaviour_tree/skill_library", SkillLibraryMsg, **latched)
         self.help_publisher = rospy.Publisher("behaviour_tree/help_request", HelpRequest, **latched)
+        self.execution_publisher = rospy.Publisher("behaviour_tree/execution", TreeExecution, **latched)
+        self._published_execution: typing.Optional[Execution] = None
         self._published_library = -1
         self._published_help: typing.Any = ()
         self._structure_rendered = {self.ascii_tree_publisher: -1, self.dot_publisher: -1}
@@ -331,7 +348,18 @@ class BehaviourTreeNode:
         repairs, problems = store.restore_repairs()
         if problems:
             rospy.logwarn("behaviour_tree: the remembered repairs could not all be loaded: %s", problems)
-        tree = TeachingTree(spec, library, make_leaf, store=store, data_root=data_root, repairs=repairs)
+        tree = TeachingTree(
+            spec,
+            library,
+            make_leaf,
+            store=store,
+            data_root=data_root,
+            repairs=repairs,
+            start_paused=bool(params["start_paused"]),
+            preempt_after=float(params["pause_preempt_after"]),
+        )
+        if not tree.started:
+            rospy.loginfo("behaviour_tree: started paused: nothing runs until the operator starts the tree")
         return cls(
             tree,
             tick_rate=float(params["tick_rate"]),
@@ -416,6 +444,12 @@ class BehaviourTreeNode:
             )
             library.header.stamp = rospy.Time.now()
             self.library_publisher.publish(library)
+        execution = tree.execution_state()
+        if execution != self._published_execution:
+            self._published_execution = execution
+            state = TreeExecution(state=int(execution.state), skill=execution.skill, message=execution.message)
+            state.header.stamp = rospy.Time.now()
+            self.execution_publisher.publish(state)
         help_request = tree.help_request
         if help_request != self._published_help:
             self._published_help = help_request
