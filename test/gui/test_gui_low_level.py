@@ -38,6 +38,16 @@ def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, 
     assert values_log.last() is None and vectors_log.last() is None
     open_low_level(qapp, window, device)
     pump_until(qapp, lambda: pause_log.last() is not None and pause_log.last().data, 5, "the BT paused")
+    # Expect the ellipsoid of before (the initial one) commanded, not the handle's X, until the handle meets it
+    initial = [window.config.initial_stiffness] * 3
+    pump_until(qapp, lambda: values_log.last() is not None, 5, "/eigenvalues")
+    device.move(x=0.08)
+    pump(qapp, 0.5)
+    vector = values_log.last().vector
+    assert np.allclose([vector.x, vector.y, vector.z], initial, rtol=0.01)
+    assert "waits for the handle (now 2705 N/m)" in window.low_level.axis_labels[0].text()
+    device.move(x=0.0)  # the centred handle meets the initial ellipsoid: from now on the device commands it
+    pump(qapp, 0.3)
 
     position, angles = (0.06, -0.03, 0.02), (0.3, -0.2, 0.6)  # roll, pitch, yaw [rad]
     device.move(*position, *angles)
@@ -140,7 +150,12 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
     position = (0.06, -0.03, 0.02)
     scenario = data_root / "hold.yaml"
     keyframe = f"position: {list(position)}, rpy: [0.0, 0.0, 0.0], gripper: 0.25"
-    scenario.write_text(f"keyframes:\n  - {{t: 0.0, {keyframe}}}\n  - {{t: 1.0, {keyframe}}}\n")
+    centred = "position: [0.0, 0.0, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25"
+    # from the centre, where the hand takes the ellipsoid over (it is held at entry), to the position, held there
+    # centred for 1.5 s (the GUI connects meanwhile), then a jump (a sweep would stop within the GUI's deadband)
+    timeline = ((0.0, centred), (1.5, centred), (1.501, keyframe), (3.0, keyframe))
+    keyframes = (f"  - {{t: {t}, {pose}}}\n" for t, pose in timeline)
+    scenario.write_text("keyframes:\n" + "".join(keyframes))
     # a name of its own: private parameters another test's device.launch left on the master (the guided hand's
     # hand/enabled and tremor) would make this held device tremble
     node = "__name:=sigma7_killed_in_low_level"
@@ -181,8 +196,7 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
     assert after and all(holds(message) for message in after)
     device = start_device("second")
     try:
-        pump(qapp, 0.5)
+        pump_until(qapp, lambda: holds(values_log.last()), 5, f"{stiffness} N/m again")
         assert not window.low_level.device_lost_label.isVisible() and "device" not in window.health_label.text()
-        assert holds(values_log.last())
     finally:
         stop(device)

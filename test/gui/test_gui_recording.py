@@ -64,9 +64,9 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     device.click()
     pump_until(qapp, lambda: window.tabs.currentIndex() == 2, 5, "LOW-LEVEL")
     pump_until(qapp, lambda: pause_log.last() is not None and pause_log.last().data, 5, "the BT paused")
-    # the label says "switching to <controller>..." first: wait for the switch's answer
+    # the label says "waiting for the arm", then "switching to <controller>..." first: wait for the switch's answer
     label = window.low_level.controller_label
-    pump_until(qapp, lambda: not label.text().startswith("controller: switching"), 30, "the controller switch answer")
+    pump_until(qapp, lambda: label.text().endswith(("active", "failed")), 30, "the controller switch answer")
     assert label.text() == f"controller: {IMPEDANCE} active", label.text()
     assert IMPEDANCE in running_controllers()
 

@@ -34,7 +34,7 @@ from teleteach.gui.study_page import StudyPage
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.haptics.guidance import Guidance
-from teleteach.msg import HapticGuidance, Selection
+from teleteach.msg import HapticGuidance, Selection, TreeExecution
 from teleteach.node import init_node
 from teleteach.srv import (
     AddSkill,
@@ -125,6 +125,11 @@ class MainWindow(QMainWindow):
         self.setCentralWidget(central)
         self.health_label = QLabel()
         self.statusBar().addPermanentWidget(self.health_label)
+        self.tree_label = QLabel("tree: -")
+        self.statusBar().addPermanentWidget(self.tree_label)
+        self._arm_timer = QTimer(self)  # while a session waits for the arm to be free
+        self._arm_timer.timeout.connect(self._check_arm)
+        self._arm_deadline = math.inf
 
         self.services = ServiceCaller(config.service_timeout)
         self.services.finished.connect(self._on_service)
@@ -150,6 +155,8 @@ class MainWindow(QMainWindow):
         self.worker.shared_obstacle.connect(self.shared_control.on_obstacle, queued)
         self.worker.shared_arm.connect(self.shared_control.on_arm, queued)
         self.worker.study_state.connect(self._on_study_state, queued)
+        self.worker.execution_changed.connect(self._on_execution, queued)
+        self.start_tab.start_requested.connect(lambda: self._carry_out(self.session.start_requested()))
         self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
         self.start_tab.mode_chosen.connect(lambda tab: self._publish_selection(Tab.START, "mode", Tab(tab).name))
         self.high_level.request_ready.connect(self._send_change)
@@ -160,10 +167,14 @@ class MainWindow(QMainWindow):
         self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
         self.tabs.currentChanged.connect(self._on_tab_changed)
         self._actions = {  # what each of the teaching session's actions does here
+            Action.ENTER_LOW_LEVEL: self.low_level.on_enter,
             Action.LEAVE_LOW_LEVEL: self.low_level.on_leave,
             Action.RESET_HIGH_LEVEL: self.high_level.reset,
             Action.PAUSE_TREE: lambda: self._pause_tree(True),
             Action.RESUME_TREE: lambda: self._pause_tree(False),
+            Action.START_TREE: self._start_tree,
+            Action.WAIT_FOR_ARM: self._wait_for_arm,
+            Action.STOP_WAITING_FOR_ARM: self._stop_waiting_for_arm,
             Action.ANNOUNCE_HELP_ANSWERED: lambda: self.statusBar().showMessage(
                 "help request answered: the tree resumes", 15000
             ),
@@ -256,6 +267,20 @@ class MainWindow(QMainWindow):
         self.study_banner.setText(banner)
         self.study_banner.setVisible(bool(banner))
 
+    def _on_execution(self, state: int, message: str) -> None:
+        """The tree's execution (teleteach/TreeExecution): START and the status bar show it."""
+        waiting = state == TreeExecution.WAITING
+        self._carry_out(self.session.tree_waiting_changed(waiting))
+        self.start_tab.show_tree(waiting, message)
+        self.tree_label.setText(f"tree: {message}")
+        self.tree_label.setStyleSheet("color: #bf360c; font-weight: bold;" if waiting else "")
+
+    def _start_tree(self) -> None:
+        """The operator's start gesture: a tree that started paused runs."""
+        self._pause_tree(False)
+        self._publish_selection(Tab.START, "start", "tree")
+        self.statusBar().showMessage("the tree starts", 10000)
+
     def _publish_selection(self, tab: Tab, step: str, choice: str) -> None:
         """A confirmed choice, for studies and bags (teleteach/Selection)."""
         message = Selection(tab=tab.name, step=step, choice=choice)
@@ -319,6 +344,36 @@ class MainWindow(QMainWindow):
         )
 
     # LOW-LEVEL ------------------------------------------------------------------------------------
+    def _wait_for_arm(self) -> None:
+        """Hand the arm to the impedance controller once the tree's skill stopped and the arm rests (bounded)."""
+        self._arm_deadline = time.monotonic() + self.config.arm_free_timeout
+        self.low_level.controller_label.setText("controller: waiting for the arm to be free...")
+        self._arm_timer.start(100)
+        self._check_arm()
+
+    def _stop_waiting_for_arm(self) -> None:
+        self._arm_timer.stop()
+        self.low_level.controller_label.setText("controller: -")
+
+    def _check_arm(self) -> None:
+        if not self._arm_timer.isActive():
+            return
+        free, why = self.worker.arm_free()
+        if free:
+            self._arm_timer.stop()
+            self._carry_out(self.session.arm_freed())
+        elif time.monotonic() > self._arm_deadline:
+            self._arm_timer.stop()
+            self._carry_out(self.session.arm_not_freed())
+            text = (
+                f"the arm was not free within {self.config.arm_free_timeout:g} s ({why}): the impedance controller was"
+                " not started; go back to START and enter again"
+            )
+            self.low_level.controller_label.setText(f"controller: {text}")
+            self.statusBar().showMessage(text, 30000)
+        else:
+            self.low_level.controller_label.setText(f"controller: waiting for the arm: {why}")
+
     def _switch(self, start: str, stop: str) -> None:
         self.low_level.controller_label.setText(f"controller: switching to {start}...")
         request = SwitchControllerRequest(

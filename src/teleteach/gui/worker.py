@@ -18,6 +18,7 @@ import rospy
 from geometry_msgs.msg import PolygonStamped, PoseStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Path
 from PyQt5.QtCore import QObject, Qt, QTimer, pyqtSignal, pyqtSlot
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 
 from teleteach.gui.config import GuiConfig
@@ -28,7 +29,7 @@ from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.session import Tab
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.gui.study import StudyStatus
-from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState
+from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState, TreeExecution
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
 from teleteach.study.phase import Phase, phase_name
 from teleteach.study.questionnaire import Item
@@ -189,7 +190,8 @@ class RosWorker(QObject):
     ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose (in LOW-LEVEL and SHARED
     CONTROL), /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request,
     /shared_control/state, /shared_control/plan, /shared_control/boundary, /shared_control/obstacle,
-    /equilibrium_pose (recorded in SHARED CONTROL), study/state (a user study's state).
+    /equilibrium_pose (recorded in SHARED CONTROL), study/state (a user study's state), /behaviour_tree/execution
+    and /joint_states (whether the arm is free for the impedance controller).
     ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL or SHARED CONTROL is active).
     """
 
@@ -207,6 +209,7 @@ class RosWorker(QObject):
     shared_arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
     study_state = pyqtSignal(object)  # StudyStatus of a user study (study/state)
     _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
+    execution_changed = pyqtSignal(int, str)  # the tree's TreeExecution state and its message
 
     def __init__(
         self,
@@ -247,6 +250,8 @@ class RosWorker(QObject):
         self.device_time = 0.0  # the device's clock: the header stamp of its latest pose [s]
         self._subscribers: Dict[str, rospy.Subscriber] = {}
         self._timers: List[QTimer] = []
+        self._execution: Optional[TreeExecution] = None
+        self._arm_motion: Tuple[float, float] = (-math.inf, math.inf)  # (when, fastest joint speed [rad/s])
 
     @pyqtSlot()
     def start(self) -> None:
@@ -266,6 +271,8 @@ class RosWorker(QObject):
             ("shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
             ("equilibrium_pose", PoseStamped, self._on_equilibrium),
             ("study/state", StudyState, lambda message: self.study_state.emit(study_status(message))),
+            ("behaviour_tree/execution", TreeExecution, self._on_execution),
+            ("joint_states", JointState, self._on_joint_states),
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
@@ -404,6 +411,37 @@ class RosWorker(QObject):
 
     def _on_help(self, message: HelpRequest) -> None:
         self.help_requested.emit(message.node_name, message.reason, list(message.suggestion))
+
+    def _on_execution(self, message: TreeExecution) -> None:
+        self._execution = message
+        self.execution_changed.emit(message.state, message.message)
+
+    def _on_joint_states(self, message: JointState) -> None:
+        speeds = [abs(value) for value in message.velocity if math.isfinite(value)]
+        self._arm_motion = (time.monotonic(), max(speeds, default=0.0))
+
+    def arm_free(self) -> Tuple[bool, str]:
+        """Whether the impedance controller may take the arm now, and if not, why not.
+
+        Free means: the behaviour tree (if one runs) reports no skill goal out, and the arm (if /joint_states is
+        published) rests: every joint slower than ``arm_rest_speed`` in a message younger than ``device_timeout``.
+        """
+        tree, joints = self._subscribers.get("behaviour_tree/execution"), self._subscribers.get("joint_states")
+        if tree is None or joints is None:
+            return False, "the GUI's subscribers are starting"
+        if tree.get_num_connections() > 0:
+            execution = self._execution
+            if execution is None:
+                return False, "waiting for the behaviour tree's state"
+            if execution.state not in (TreeExecution.PAUSED, TreeExecution.WAITING, TreeExecution.COMPLETED):
+                return False, f"the tree still drives the arm ({execution.message})"
+        if joints.get_num_connections() > 0:
+            seen, speed = self._arm_motion
+            if time.monotonic() - seen > self.config.device_timeout:
+                return False, "waiting for /joint_states"
+            if speed >= self.config.arm_rest_speed:
+                return False, f"the arm still moves ({speed:.2f} rad/s)"
+        return True, ""
 
     def plane(self) -> Optional[TaskPlane]:
         """The shared_control node's task plane (its ``~plane`` param), looked up until found (at most 1/s)."""
