@@ -280,8 +280,10 @@ def test_node_publishes_what_the_dhd_library_reports(roscore, fake_dhd):
     )
     try:
         echo = echo_once("/sigma7/pose", env)
-        assert "x: 0.01\n    y: 0.02\n    z: 0.03" in echo.stdout, echo.stdout + echo.stderr
-        assert "z: 0.247403959" in echo.stdout  # sin(0.25): the 0.5 rad yaw of the fake device
+        # Expect the operator frame (config/device.yaml axes: dhd force_dimension): the SDK's (0.01, 0.02, 0.03), x
+        # toward the operator and y to the right, is 0.02 to the operator's right and 0.01 towards them
+        assert "x: 0.02\n    y: -0.01\n    z: 0.03" in echo.stdout, echo.stdout + echo.stderr
+        assert "z: 0.247403959" in echo.stdout  # sin(0.25): the 0.5 rad yaw of the fake device, about the same z
     finally:
         process.send_signal(signal.SIGINT)
         output, _ = process.communicate(timeout=30)
