@@ -73,6 +73,7 @@ class Sigma7Config:
     click: ClickParameters = dataclasses.field(default_factory=ClickParameters)
     twist_cutoff: float = 20.0
     click_duration: float = 0.2
+    double_click_gap: float = 0.1
     dhd_library: str = ""
     dhd_native_button: bool = False
     topic_timeout: float = 0.5
@@ -134,6 +135,7 @@ class Sigma7Config:
             ),
             twist_cutoff=float(param("~twist/cutoff_frequency", "twist_cutoff")),
             click_duration=float(param("~virtual/click_duration", "click_duration")),
+            double_click_gap=float(param("~virtual/double_click_gap", "double_click_gap")),
             dhd_library=param("~dhd/library", "dhd_library"),
             dhd_native_button=bool(param("~dhd/native_button", "dhd_native_button")),
             topic_timeout=float(param("~topic/timeout", "topic_timeout")),
@@ -384,7 +386,7 @@ class Sigma7Node:
         from teleteach.haptics.virtual import VirtualDevice, VirtualDeviceWindow
 
         self._application = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
-        device = VirtualDevice(self.config.click_duration)
+        device = VirtualDevice(self.config.click_duration, self.config.double_click_gap)
         self._window = VirtualDeviceWindow(device)
         self._window.show()
         return device
