@@ -27,7 +27,6 @@ import enum
 import math
 import os
 import pathlib
-import tempfile
 import threading
 import time
 import typing
@@ -41,6 +40,7 @@ from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairError, RepairMemory
 from teleteach.bt.tree import LeafFactory, TreeSpec, TreeSpecError, create_root, dump_live_yaml, load_tree, node_type
+from teleteach.datadir import temporary_beside
 
 TREE_FILE = "current_tree.yaml"
 LIBRARY_FILE = "skill_library.yaml"
@@ -217,7 +217,7 @@ class TreeStore:
 
     def _replace(self, path: pathlib.Path, text: str) -> None:
         """Write ``path`` atomically; the file it replaces becomes the previous version (``path`` never vanishes)."""
-        handle, temporary = tempfile.mkstemp(dir=self.directory, prefix=f".{path.name}.", suffix=".tmp")
+        handle, temporary = temporary_beside(path)
         link = f"{temporary}.previous"
         try:
             with os.fdopen(handle, "w", encoding="utf-8") as stream:
