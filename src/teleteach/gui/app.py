@@ -166,6 +166,7 @@ class MainWindow(QMainWindow):
         self.low_level.recording_toggled.connect(self._toggle_recording)
         self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
         self.tabs.currentChanged.connect(self._on_tab_changed)
+        controllers = config.controller_names
         self._actions = {  # what each of the teaching session's actions does here
             Action.ENTER_LOW_LEVEL: self.low_level.on_enter,
             Action.LEAVE_LOW_LEVEL: self.low_level.on_leave,
@@ -178,8 +179,8 @@ class MainWindow(QMainWindow):
             Action.ANNOUNCE_HELP_ANSWERED: lambda: self.statusBar().showMessage(
                 "help request answered: the tree resumes", 15000
             ),
-            Action.IMPEDANCE_CONTROL: lambda: self._switch(config.impedance_controller, config.position_controller),
-            Action.POSITION_CONTROL: lambda: self._switch(config.position_controller, config.impedance_controller),
+            Action.IMPEDANCE_CONTROL: lambda: self._switch(controllers.impedance, controllers.position),
+            Action.POSITION_CONTROL: lambda: self._switch(controllers.position, controllers.impedance),
             Action.START_STIFFNESS_RECORDING: self._start_recording,
             Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
             Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,

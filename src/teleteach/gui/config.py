@@ -8,6 +8,7 @@ from typing import Any, Dict, Mapping, Tuple
 import yaml
 
 from teleteach.paths import config_file
+from teleteach.robot_controllers import ControllerNames, ControllerNamesError, controller_names
 
 DEVICE_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 CONFIG_DIR = config_file()
@@ -50,8 +51,7 @@ class GuiConfig:
     arm_rest_speed: float = 0.05
     arm_free_timeout: float = 20.0
     base_frame: str = "base_link"
-    impedance_controller: str = "cartesian_impedance_controller"
-    position_controller: str = "position_joint_trajectory_controller"
+    controllers: str = ""
     trajectory: str = "perpendicular"
     skill_prefix: str = "DemonstratedPlace"
     initial_tab: int = 0
@@ -176,8 +176,17 @@ class GuiConfig:
             isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in self.timeout_seconds
         ):
             raise GuiConfigError(f"timeout_seconds must be positive numbers [s], got {self.timeout_seconds!r}")
+        try:
+            self.controller_names  # noqa: B018 - an unknown section is refused before any window opens
+        except ControllerNamesError as error:
+            raise GuiConfigError(f"GUI parameter {error}") from None
         if not (isinstance(self.shared_trail_length, int) and self.shared_trail_length >= 2):
             raise GuiConfigError(f"shared_trail_length must be an integer >= 2, got {self.shared_trail_length!r}")
+
+    @property
+    def controller_names(self) -> ControllerNames:
+        """The impedance and position controllers of the ``controllers`` section (config/robot_controllers.yaml)."""
+        return controller_names(self.controllers)
 
     @property
     def max_pixels(self) -> float:
