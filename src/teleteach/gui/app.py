@@ -22,7 +22,7 @@ from std_msgs.msg import Bool, Int8
 from teleteach import skill_file
 from teleteach.bt.editor import EditRequest
 from teleteach.datadir import data_dir
-from teleteach.gui.config import GuiConfig
+from teleteach.gui.config import GuiConfig, GuiConfigError
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
 from teleteach.gui.recording import StiffnessRecorder, Trajectory, unique_skill_name
@@ -35,7 +35,6 @@ from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.haptics.guidance import Guidance
 from teleteach.msg import HapticGuidance, Selection, TreeExecution
-from teleteach.node import init_node
 from teleteach.srv import (
     AddSkill,
     AddSkillRequest,
@@ -507,12 +506,16 @@ class MainWindow(QMainWindow):
             self.thread.wait(3000)
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-    """Node entry point: params (``config/gui.yaml`` overridden by the private params) -> window -> Qt loop."""
-    rospy.myargv(argv if argv is not None else sys.argv)
-    init_node("teaching_gui")
-    params = rospy.get_param("~", {})
-    config = GuiConfig.load(**params)
+def run() -> int:
+    """The node after rospy.init_node: params (``config/gui.yaml`` overridden by the private ones) -> window -> Qt loop.
+
+    A bad parameter ends it with one line (exit status 2).
+    """
+    try:
+        config = GuiConfig.load(**rospy.get_param("~", {}))
+    except GuiConfigError as error:
+        rospy.logfatal(f"teaching_gui cannot start: {error}")
+        return 2
     app = QApplication.instance() or QApplication(list(sys.argv[:1]))
     window = MainWindow(config)
     window.show()
