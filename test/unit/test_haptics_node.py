@@ -210,8 +210,9 @@ def test_node_without_the_force_dimension_sdk_says_so_in_one_line(roscore):
 
 
 def test_device_launch_with_dhd_ends_with_the_node_exit_code(roscore):
+    # Expect the launch to end by itself (the operator's own device is required by default), saying why
     result = subprocess.run(
-        ["roslaunch", "teleteach", "device.launch", "backend:=dhd", "required:=true"],
+        ["roslaunch", "teleteach", "device.launch", "backend:=dhd"],
         env=roscore,
         capture_output=True,
         text=True,
