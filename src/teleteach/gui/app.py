@@ -221,6 +221,11 @@ class MainWindow(QMainWindow):
             tab.on_device(sample)
 
     def _on_click(self, stamp: float) -> None:
+        # the click comes at once, the position at device_ui_rate: act on where the device is now (a first click
+        # may otherwise arrive before any position, and choose nothing)
+        latest = self.worker.latest_sample()
+        if latest is not None and latest is not self._device_sample:
+            self._on_device(latest)
         if self.study.page is Page.STUDY:
             submission = self.study.on_click()
             if submission is not None:

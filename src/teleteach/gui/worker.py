@@ -336,6 +336,11 @@ class RosWorker(QObject):
             subscriber.unregister()
         self._subscribers.clear()
 
+    def latest_sample(self):
+        """The newest filtered device sample (None before the first), whether or not it was emitted yet."""
+        with self._lock:
+            return self._sample
+
     def reset_device_filter(self) -> None:
         """Take the next device sample as it is (a new tab starts from where the device is, told even when still)."""
         with self._lock:
