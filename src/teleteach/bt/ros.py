@@ -373,18 +373,27 @@ class BehaviourTreeNode:
         Wall time, not ROS time: when the simulator dies its clock stops, and the tree must still tick to notice
         (its leaves fail, the operator is asked for help).
         """
+        rospy.on_shutdown(self._stop_skills)
         self.publish(changed=True)
         self._wait_for_skill_servers()
         period = 1.0 / self.tick_rate
         next_tick = time.monotonic()
         while not rospy.is_shutdown():
-            self.publish(changed=self.tree.tick())
+            try:
+                self.publish(changed=self.tree.tick())
+            except Exception:  # Ctrl-C closed the topics, or stopped the skills, in the middle of this tick
+                if rospy.is_shutdown():
+                    break
+                raise
             next_tick = max(next_tick + period, time.monotonic())
             time.sleep(max(0.0, next_tick - time.monotonic()))
-        with self.tree.lock:
-            self.tree.tree.interrupt()  # cancels the running goal
         if self.tree.store is not None:
             self.tree.store.flush()
+
+    def _stop_skills(self) -> None:
+        """Cancel the running skill's goal: rospy runs this first on shutdown, while the cancel topic is still open."""
+        with self.tree.lock:
+            self.tree.tree.interrupt()
 
     def _wait_for_skill_servers(self) -> None:
         """Hold the first tick until every skill server is connected, for at most ``startup_timeout`` (wall time).

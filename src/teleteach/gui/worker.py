@@ -44,6 +44,17 @@ def pose_to_array(pose) -> np.ndarray:
 DEVICE_LOST = "device lost (/sigma7/pose silent)"
 
 
+def send(publisher: rospy.Publisher, message) -> None:
+    """Publish, unless ROS is shutting down: Ctrl-C closes every topic, and the window closes within 0.2 s after."""
+    if rospy.is_shutdown():
+        return
+    try:
+        publisher.publish(message)
+    except (rospy.ROSException, ValueError, OSError):  # closed between the check and the write
+        if not rospy.is_shutdown():
+            raise
+
+
 def study_status(message: StudyState) -> StudyStatus:
     """The GUI's view of a teleteach/StudyState."""
     items = tuple(
@@ -124,7 +135,7 @@ class TrajectoryPlayer:
             p.x, p.y, p.z, q.x, q.y, q.z, q.w = (float(value) for value in pose)
             with self._lock:
                 self._current = pose
-            self._publisher.publish(message)
+            send(self._publisher, message)
             self._stop.wait(self._period)
 
 
@@ -540,8 +551,8 @@ class RosWorker(QObject):
         eigenvectors.header = eigenvalues.header
         q = eigenvectors.quaternion
         q.x, q.y, q.z, q.w = quaternion
-        self._eigenvalues.publish(eigenvalues)
-        self._eigenvectors.publish(eigenvectors)
+        send(self._eigenvalues, eigenvalues)
+        send(self._eigenvectors, eigenvectors)
         return stamp
 
     def _emit_device(self) -> None:

@@ -168,7 +168,14 @@ class Sigma7Publisher:
             self._button = rospy.Publisher("sigma7/button", Bool)
 
     def __call__(self, state: DeviceState) -> None:
-        """Publishes one cycle."""
+        """Publishes one cycle (nothing once ROS shuts down: Ctrl-C may close the topics in the middle of a cycle)."""
+        try:
+            self._publish(state)
+        except (rospy.ROSException, ValueError, OSError):
+            if not rospy.is_shutdown():
+                raise
+
+    def _publish(self, state: DeviceState) -> None:
         stamp = rospy.Time.from_sec(state.stamp)
         pose = PoseStamped()
         pose.header.stamp = stamp
