@@ -92,6 +92,9 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
         return message is not None and name in message.names
 
     pump_until(qapp, in_library, 10, f"{name} in /behaviour_tree/skill_library")
+    # Expect the status bar to say it in words (it said "/behaviour_tree/add_skill added: added stiffness skill ...")
+    said = f"{name} is in the skill library: a new button in HIGH-LEVEL"
+    pump_until(qapp, lambda: window.statusBar().currentMessage() == said, 10, "the status bar's words")
     message = library_log.last()
     assert message.kinds[list(message.names).index(name)] == "stiffness"
     pump_until(qapp, lambda: name in window.high_level.choices()[1], 5, f"a HIGH-LEVEL button for {name}")

@@ -431,7 +431,7 @@ class MainWindow(QMainWindow):
             self.saved_skills.append(name)
             self.statusBar().showMessage(f"saved {name} ({len(skill.time)} samples) to {path}", 10000)
             self.services.call(
-                "add_skill", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
+                f"add_skill:{name}", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
             )
 
     # SHARED CONTROL -------------------------------------------------------------------------------
@@ -479,9 +479,13 @@ class MainWindow(QMainWindow):
             self.study.answered(success and response.success, message if not success else response.message)
             if self.study.page is Page.STUDY:
                 self.study_page.show_screen(self.study)
-        elif key == "add_skill":
-            text = message if not success else ("added: " if response.success else "refused: ") + response.message
-            self.statusBar().showMessage(f"/behaviour_tree/add_skill {text}", 15000)
+        elif key.startswith("add_skill:"):
+            name = key.split(":", 1)[1]
+            if success and response.success:
+                text = f"{name} is in the skill library: a new button in HIGH-LEVEL"
+            else:
+                text = f"{name} was not added to the skill library: {response.message if success else message}"
+            self.statusBar().showMessage(text, 15000)
 
     def screenshot(self) -> QPixmap:
         """The window as the operator sees it (``grab()`` misses the text the GL view paints over its views)."""

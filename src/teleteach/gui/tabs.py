@@ -16,6 +16,7 @@ from PyQt5.QtWidgets import (
     QGridLayout,
     QGroupBox,
     QHBoxLayout,
+    QHeaderView,
     QLabel,
     QPushButton,
     QScrollArea,
@@ -47,6 +48,9 @@ from teleteach.gui.selection import (
 
 STATUS_COLOURS = {2: QColor(40, 90, 220), 3: QColor(30, 150, 50), 4: QColor(210, 40, 40)}
 NOT_VISITED = QColor(150, 150, 150)
+PAUSE_CONDITION = "PauseCondition"  # its FAILURE is "not paused" (the tree runs), its SUCCESS "paused": no error
+PAUSE_STATES = {3: ("paused", QColor(230, 81, 0)), 4: ("not paused", QColor(30, 150, 50))}
+COMPOSITE_KINDS = {2: "sequence", 3: "selector", 4: "parallel"}  # teleteach/Behaviour types: what the operator sees
 SELECTED_STYLE = "QPushButton { background: #ffd54f; border: 3px solid #e65100; font-weight: bold; padding: 6px; }"
 BUTTON_STYLE = "QPushButton { padding: 6px; }"
 UNAVAILABLE_STYLE = "QPushButton { padding: 6px; color: #9e9e9e; background: #eeeeee; }"
@@ -197,8 +201,9 @@ class TreeView(QTreeWidget):
     def __init__(self):
         super().__init__()
         self.setHeaderLabels(["Behaviour", "Skill", "State"])
-        self.setColumnWidth(0, 170)
-        self.setColumnWidth(1, 120)
+        for column in range(3):  # every name whole: the columns take what their longest entry needs
+            self.header().setSectionResizeMode(column, QHeaderView.ResizeToContents)
+        self.header().setStretchLastSection(False)
         self._signature: Optional[tuple] = None
 
     def show_tree(self, tree: TreeSnapshot) -> None:
@@ -211,10 +216,13 @@ class TreeView(QTreeWidget):
         items = {}
         for _, node in tree.depth_first():
             parent = items.get(node.parent_id)
-            item = QTreeWidgetItem([node.name, node.class_name, STATUS_NAMES.get(node.status, "not visited")])
-            if node.status == 1:
-                item.setText(2, "not visited")
-            brush = QBrush(STATUS_COLOURS.get(node.status, NOT_VISITED))
+            state = STATUS_NAMES.get(node.status, "not visited") if node.status != 1 else "not visited"
+            colour = STATUS_COLOURS.get(node.status, NOT_VISITED)
+            if node.class_name == PAUSE_CONDITION and node.status in PAUSE_STATES:
+                state, colour = PAUSE_STATES[node.status]
+            kind = COMPOSITE_KINDS.get(node.type, node.class_name)  # not py_trees' class (EditableSequence)
+            item = QTreeWidgetItem([node.name, kind, state])
+            brush = QBrush(colour)
             for column in range(3):
                 item.setForeground(column, brush)
             if parent is None:
@@ -269,7 +277,6 @@ class HighLevelTab(QWidget):
         column.addWidget(self.selected_label)
         column.addWidget(self.step1, 1)  # the buttons get the room; the steps below keep their size
 
-        row = QHBoxLayout()
         self.step2 = QGroupBox("Step 2: operation  (device Y, click; roll: page 2)")
         step2 = QHBoxLayout(self.step2)
         self.operation_slider = QSlider(Qt.Vertical)
@@ -284,9 +291,8 @@ class HighLevelTab(QWidget):
         for label in self.operation_labels:  # top to bottom: the page's last operation first
             labels.addWidget(label)
         step2.addLayout(labels)
-        row.addWidget(self.step2)
         self.step3 = QGroupBox("Step 3: insert index / wrap value  (roll, click)")
-        step3 = QVBoxLayout(self.step3)
+        step3 = QHBoxLayout(self.step3)
         self.dial = QDial()
         self.dial.setNotchesVisible(True)  # a notch per position: the device's detents in roll
         self.dial.setPageStep(1)
@@ -294,9 +300,8 @@ class HighLevelTab(QWidget):
         self.dial.setMinimumSize(120, 120)
         step3.addWidget(self.dial)
         self.index_label = _big(QLabel("index 0"), 12)
-        step3.addWidget(self.index_label)
-        row.addWidget(self.step3)
-        column.addLayout(row)
+        self.index_label.setWordWrap(True)
+        step3.addWidget(self.index_label, 1)
         for box in (self.step2, self.step3):
             box.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Maximum)
 
@@ -321,6 +326,10 @@ class HighLevelTab(QWidget):
             '<span style="color:#d22828">failure</span> &nbsp; <span style="color:#969696">not visited</span>'
         )
         tree_column.addWidget(legend)
+        # steps 2 and 3 below the tree: the buttons of step 1 get the whole height of the left column, so the
+        # thesis' tree, its library and the skills taught show in whole rows at the default window size
+        tree_column.addWidget(self.step2)
+        tree_column.addWidget(self.step3)
         splitter.addWidget(right)
         splitter.setSizes([620, 380])
         QVBoxLayout(self).addWidget(splitter)
@@ -564,6 +573,7 @@ class LowLevelTab(QWidget):
             self.axis_labels.append(label)
         self.device_lost_label = _big(QLabel("DEVICE LOST\nholding the last stiffness until it is back"), 13)
         self.device_lost_label.setStyleSheet("background: #d22828; color: white; padding: 6px;")
+        self.device_lost_label.setWordWrap(True)
         self.device_lost_label.hide()
         panel.addWidget(self.device_lost_label)
         self.recording_label = _big(QLabel(), 14)
