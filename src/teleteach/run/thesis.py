@@ -12,6 +12,7 @@ import functools
 import os
 import pathlib
 import shutil
+import signal
 import threading
 import time
 from typing import Callable, Dict, List, Optional, Tuple
@@ -47,7 +48,7 @@ TREE_FILE = config_file("tree.yaml")
 SKILLS_FILE = config_file("skills.yaml")
 RVIZ_CONFIG = share_dir() / "rviz" / "teleteach.rviz"
 RVIZ_SCREEN = "1200x846x24"  # the layout's window size: RViz fills its display
-RVIZ_TIMEOUT = 90.0  # [s] wall time for RViz to show its window and draw the scene (loaded 2-core machine: ~20 s)
+RVIZ_TIMEOUT = 45.0  # [s] wall time for RViz to show its window and draw the scene (loaded 2-core machine: ~20 s)
 EXECUTION = "BehaviorExecution"
 # teleteach/Behaviour's status constants (INVALID, RUNNING, SUCCESS, FAILURE) as py_trees' statuses
 STATUSES = {1: Status.INVALID, 2: Status.RUNNING, 3: Status.SUCCESS, 4: Status.FAILURE}
@@ -301,7 +302,7 @@ class ThesisRun:
         options, scenario = self.options, self.scenario
         display = os.environ.get("DISPLAY", "")
         if not display:
-            display = start_xvfb(self.processes)
+            display = start_xvfb(self.processes, parent_death_signal=signal.SIGTERM)
             self.say(f"run_thesis: started Xvfb on {display}")
 
         def start_launch(port: int):
@@ -325,6 +326,7 @@ class ThesisRun:
                 ],
                 self.folder / "launch.log",
                 ros_environment(f"http://localhost:{port}", display, self.root),
+                parent_death_signal=signal.SIGINT,  # a run_thesis killed (even by SIGKILL) leaves no system running
             )
 
         port, launch = own_master(start_launch, self.processes.stop)
@@ -393,9 +395,13 @@ class ThesisRun:
         """
         picture, attempt = self.folder / "rviz.png", self.folder / "rviz_attempt.png"
         try:
-            screen = start_xvfb(self.processes, size=RVIZ_SCREEN)
+            screen = start_xvfb(self.processes, size=RVIZ_SCREEN, parent_death_signal=signal.SIGTERM)
             rviz = self.processes.start(
-                "rviz", ["rviz", "-d", str(RVIZ_CONFIG)], self.folder / "rviz.log", dict(env, DISPLAY=screen)
+                "rviz",
+                ["rviz", "-d", str(RVIZ_CONFIG)],
+                self.folder / "rviz.log",
+                dict(env, DISPLAY=screen),
+                parent_death_signal=signal.SIGTERM,
             )
         except ProcessError as error:
             shots.errors.append(f"rviz.png: {error}")
