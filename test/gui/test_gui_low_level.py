@@ -200,3 +200,46 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
         assert not window.low_level.device_lost_label.isVisible() and "device" not in window.health_label.text()
     finally:
         stop(device)
+
+
+def test_an_arm_that_does_not_come_to_rest_is_not_switched_and_the_tab_says_why(qapp, make_window, device):
+    """The robot's /joint_states keep moving (a skill outside the tree drives it): after arm_free_timeout the tab says
+    why the impedance controller was not started, and nothing was switched."""
+    import threading
+
+    import rospy
+    from sensor_msgs.msg import JointState
+
+    from teleteach.srv import SwitchController
+
+    switched = []
+    service = rospy.Service("/controller_manager/switch_controller", SwitchController, lambda r: switched.append(r))
+    joints = rospy.Publisher("/joint_states", JointState, queue_size=10)
+    stop = threading.Event()
+
+    def moving_arm():
+        while not stop.wait(0.02):
+            joints.publish(JointState(name=["panda_joint1"], position=[0.0], velocity=[0.4]))
+
+    thread = threading.Thread(target=moving_arm, daemon=True)
+    thread.start()
+    try:
+        window = make_window(arm_free_timeout=2.0)
+        open_low_level(qapp, window, device)
+        label = window.low_level.controller_label
+        pump_until(qapp, lambda: "still moves" in label.text(), 5, "the tab saying what it waits for")
+        pump_until(qapp, lambda: "was not free within 2 s" in label.text(), 10, "the tab saying it gave up")
+        assert (
+            "the arm still moves (0.40 rad/s)" in label.text()
+            and "impedance controller was not started" in label.text()
+        )
+        pump(qapp, 0.5)
+        # (an earlier test's window, closing, may still be asking for the position controller: only ours count)
+        assert [
+            request for request in switched if request.start_controllers != ["position_joint_trajectory_controller"]
+        ] == []
+    finally:
+        stop.set()
+        thread.join(2)
+        service.shutdown()
+        joints.unregister()

@@ -441,10 +441,21 @@ class RosWorker(QObject):
 
         Free means: the behaviour tree (if one runs) reports no skill goal out, and the arm (if /joint_states is
         published) rests: every joint slower than ``arm_rest_speed`` in a message younger than ``device_timeout``.
+        A publisher the master knows but this GUI is not connected to yet counts as there (it is on its way).
         """
         tree, joints = self._subscribers.get("behaviour_tree/execution"), self._subscribers.get("joint_states")
         if tree is None or joints is None:
             return False, "the GUI's subscribers are starting"
+        published = None
+        if tree.get_num_connections() == 0 or joints.get_num_connections() == 0:
+            try:
+                published = {name for name, _ in rospy.get_published_topics()}
+            except (OSError, rospy.ROSException):
+                return False, "the ROS master does not answer"
+        if published is not None and tree.resolved_name in published and tree.get_num_connections() == 0:
+            return False, "connecting to the behaviour tree"
+        if published is not None and joints.resolved_name in published and joints.get_num_connections() == 0:
+            return False, "connecting to /joint_states"
         if tree.get_num_connections() > 0:
             execution = self._execution
             if execution is None:
