@@ -22,7 +22,6 @@ import roslib.packages
 from teleteach.haptics.guidance import GuidanceError, GuidanceLimits, render
 from teleteach.haptics.ros import Sigma7Config, guidance_from_message
 from teleteach.msg import HapticGuidance
-from teleteach.run.processes import Processes, own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -125,23 +124,6 @@ def test_any_guidance_message_is_refused_with_a_reason_or_rendered_finite_and_wi
         rendered += 1
     # Expect both outcomes to have been exercised many times
     assert rendered > 100 and refused > 100, (rendered, refused)
-
-
-@pytest.fixture(scope="module")
-def roscore(tmp_path_factory):
-    """A roscore of our own on a free port (own_master), stopped by its PID afterwards."""
-    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
-    processes = Processes()
-
-    def start_roscore(port):
-        env["ROS_MASTER_URI"] = f"http://localhost:{port}"
-        return processes.start("roscore", ["roscore", "-p", str(port)], env=env)
-
-    own_master(start_roscore, processes.stop)
-    try:
-        yield env
-    finally:
-        processes.stop_all()
 
 
 RUNS = itertools.count()

@@ -94,25 +94,6 @@ def test_the_yaml_defaults_are_the_node_defaults_in_the_help():
     assert f"~rate (default {device['rate']})" in parameters_help("device.yaml")
 
 
-@pytest.fixture(scope="module")
-def roscore(tmp_path_factory):
-    """A roscore of our own on a free port (own_master), stopped by its PID afterwards."""
-    from teleteach.run.processes import Processes, own_master
-
-    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
-    processes = Processes()
-
-    def start_roscore(port):
-        env["ROS_MASTER_URI"] = f"http://localhost:{port}"
-        return processes.start("roscore", ["roscore", "-p", str(port)], env=env)
-
-    own_master(start_roscore, processes.stop)
-    try:
-        yield env
-    finally:
-        processes.stop_all()
-
-
 def test_shared_control_without_a_launch_file_runs_on_its_yaml(roscore, tmp_path):
     """rosrun teleteach shared_control died with KeyError: '~'; its parameters now come from its yaml."""
     log = tmp_path / "shared_control.log"
