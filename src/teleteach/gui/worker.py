@@ -198,11 +198,12 @@ class ServiceCaller(QObject):
 class RosWorker(QObject):
     """Owns the subscribers and the stiffness publishers; lives in its own QThread (thesis Fig. A.1, orange block).
 
-    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose (in LOW-LEVEL and SHARED
-    CONTROL), /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request,
-    /shared_control/state, /shared_control/plan, /shared_control/boundary, /shared_control/obstacle,
-    /equilibrium_pose (recorded in SHARED CONTROL), study/state (a user study's state), /behaviour_tree/execution
-    and /joint_states (whether the arm is free for the impedance controller).
+    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose and /joint_states (in
+    LOW-LEVEL and SHARED CONTROL), /behaviour_tree/log/tree, /behaviour_tree/skill_library,
+    /behaviour_tree/help_request, /behaviour_tree/execution, /shared_control/state, /shared_control/plan,
+    /shared_control/boundary, /shared_control/obstacle, /equilibrium_pose (recorded in SHARED CONTROL), study/state
+    (a user study's state). The tree's execution and /joint_states tell whether the arm is free for the impedance
+    controller.
     ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL or SHARED CONTROL is active).
     """
 
@@ -283,7 +284,6 @@ class RosWorker(QObject):
             ("equilibrium_pose", PoseStamped, self._on_equilibrium),
             ("study/state", StudyState, lambda message: self.study_state.emit(study_status(message))),
             ("behaviour_tree/execution", TreeExecution, self._on_execution),
-            ("joint_states", JointState, self._on_joint_states),
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
@@ -318,25 +318,33 @@ class RosWorker(QObject):
 
     @pyqtSlot()
     def _follow_tab(self) -> None:
-        """Run the stiffness stream and hear /cartesian_pose only in the tabs that command a stiffness (worker thread).
+        """Run the stiffness stream and hear the arm only in the tabs that command a stiffness (worker thread).
 
-        /cartesian_pose (200 Hz) is recorded with the stiffness and drawn as the arm's trail in SHARED CONTROL.
+        /cartesian_pose (200 Hz) is recorded with the stiffness and drawn as the arm's trail in SHARED CONTROL;
+        /joint_states tells when the arm rests, before the impedance controller takes it.
         """
         if self._publish_timer is None:
             return  # not started yet: start() looks at the tab
+        arm_topics = (
+            ("cartesian_pose", PoseStamped, self._on_cartesian),
+            ("joint_states", JointState, self._on_joint_states),
+        )
         if self._active_tab in (Tab.LOW_LEVEL, Tab.SHARED_CONTROL):
             if not self._publish_timer.isActive():
                 self._publish_timer.start()
-            if "cartesian_pose" not in self._subscribers:
-                self._subscribers["cartesian_pose"] = rospy.Subscriber(
-                    "cartesian_pose", PoseStamped, self._on_cartesian, queue_size=5, tcp_nodelay=True
-                )
+            for topic, message_class, callback in arm_topics:
+                if topic not in self._subscribers:
+                    self._subscribers[topic] = rospy.Subscriber(
+                        topic, message_class, callback, queue_size=5, tcp_nodelay=True
+                    )
         else:
             self._publish_timer.stop()
-            subscriber = self._subscribers.pop("cartesian_pose", None)
-            if subscriber is not None:
-                subscriber.unregister()
-                self._cartesian = None  # a recording must not start from where the arm was in another tab
+            for topic, _, _ in arm_topics:
+                subscriber = self._subscribers.pop(topic, None)
+                if subscriber is not None:
+                    subscriber.unregister()
+            self._cartesian = None  # a recording must not start from where the arm was in another tab
+            self._arm_motion = (-math.inf, math.inf)  # nor an arm count as resting on what it did back then
 
     @pyqtSlot()
     def stop(self) -> None:
