@@ -20,7 +20,7 @@ def test_the_execution_states_are_the_messages_constants():
     assert constants == {state.name: state.value for state in ExecutionState}
 
 
-def test_a_tree_that_starts_paused_runs_nothing_until_the_first_resume():
+def test_a_tree_that_starts_paused_runs_nothing_until_the_operator_starts_it():
     world = SkillWorld(ticks=2)
     tree = thesis_tree(world, start_paused=True)
     for _ in range(20):
@@ -28,11 +28,18 @@ def test_a_tree_that_starts_paused_runs_nothing_until_the_first_resume():
     # Expect nothing started and the tree saying it waits (not merely paused)
     assert world.events == []
     assert tree.execution_state().state == ExecutionState.WAITING
+    # a resume is no start (a GUI's latched "not paused" may be older than this tree)
+    tree.set_pause(True)
     tree.set_pause(False)
+    for _ in range(5):
+        tree.tick()
+    assert world.events == [] and tree.execution_state().state == ExecutionState.WAITING
+    assert tree.start() == (True, "started: the tree runs")
     tree.tick()
-    # Expect the first skill to run at once after the operator's start
+    # Expect the first skill to run at once after the operator's start, and a second start changing nothing
     assert world.names("start") == ["LookToShelf"]
     assert tree.execution_state().state == ExecutionState.RUNNING
+    assert tree.start() == (False, "the tree was started already")
     # a later pause is a pause, not a wait
     tree.set_pause(True)
     assert tree.execution_state().state != ExecutionState.WAITING

@@ -19,6 +19,7 @@ import yaml
 from actionlib_msgs.msg import GoalStatus
 from py_trees.common import Status
 from std_msgs.msg import Bool, String
+from std_srvs.srv import Trigger, TriggerResponse
 
 from teleteach import datadir
 from teleteach.bt.behaviours import SkillLeaf
@@ -269,10 +270,12 @@ class BehaviourTreeNode:
           out), paused (the arm is free) or completed
 
     ROS Subscribers:
-        * **/behaviour_tree/pause** (std_msgs/Bool): writes the blackboard's pause flag
+        * **/behaviour_tree/pause** (std_msgs/Bool): writes the blackboard's pause flag (once the tree was started)
 
     ROS Services:
         * **/change_tree** (teleteach/ChangeTree), **/behaviour_tree/add_skill** (teleteach/AddSkill)
+        * **/behaviour_tree/start** (std_srvs/Trigger): the operator's start of a tree that waits for it
+          (``start_paused``); an event, not the latched pause flag, so a restarted tree still waits
     """
 
     def __init__(
@@ -305,6 +308,7 @@ class BehaviourTreeNode:
         rospy.Subscriber("behaviour_tree/pause", Bool, self._on_pause, queue_size=10)
         self.change_service = rospy.Service("change_tree", ChangeTree, self._on_change_tree)
         self.add_skill_service = rospy.Service("behaviour_tree/add_skill", AddSkill, self._on_add_skill)
+        self.start_service = rospy.Service("behaviour_tree/start", Trigger, self._on_start)
 
     @classmethod
     def from_params(cls) -> "BehaviourTreeNode":
@@ -359,7 +363,10 @@ class BehaviourTreeNode:
             preempt_after=float(params["pause_preempt_after"]),
         )
         if not tree.started:
-            rospy.loginfo("behaviour_tree: started paused: nothing runs until the operator starts the tree")
+            rospy.loginfo(
+                "behaviour_tree: started paused: nothing runs until the operator starts the tree (GUI START: handle"
+                " centred, click; or rosservice call /behaviour_tree/start)"
+            )
         return cls(
             tree,
             tick_rate=float(params["tick_rate"]),
@@ -498,6 +505,11 @@ class BehaviourTreeNode:
 
     def _on_pause(self, message: Bool) -> None:
         self.tree.set_pause(bool(message.data))
+
+    def _on_start(self, _request) -> TriggerResponse:
+        success, message = self.tree.start()
+        rospy.loginfo("behaviour_tree: /behaviour_tree/start: %s", message)
+        return TriggerResponse(success=success, message=message)
 
     def _on_change_tree(self, request: ChangeTree._request_class) -> ChangeTreeResponse:
         result = self.tree.change(

@@ -19,7 +19,7 @@ Pausing and the arm (:meth:`TeachingTree.execution_state`): a pause suspends the
 that it finishes what it was doing (the thesis: the tree pauses after its running skill); after ``preempt_after``
 seconds of pause a goal still out is cancelled, and the skill starts again when the tree resumes. Only once no goal
 is out (PAUSED) may another controller take the arm. A tree built with ``start_paused`` waits (WAITING) until the
-first resume: on a real robot nothing moves before the operator says so.
+operator starts it (:meth:`TeachingTree.start`): on a real robot nothing moves before the operator says so.
 """
 
 import datetime
@@ -324,7 +324,7 @@ class TeachingTree:
         store: where to save the tree and library after each change (None: nowhere)
         data_root: the data directory, for relative skill file paths
         repairs: the repairs remembered so far (saved in ``store`` when one is added)
-        start_paused: wait, paused, for the first resume before running anything
+        start_paused: wait, paused, for :meth:`start` before running anything
         preempt_after: [s] of pause after which a skill goal still out is cancelled (inf: never)
         clock: [s] monotonic time for ``preempt_after``
 
@@ -420,18 +420,32 @@ class TeachingTree:
     def set_pause(self, paused: bool) -> None:
         """Pause or resume; resuming closes an open help request, remembering its answer's edits as the repair.
 
-        The first resume of a tree that started paused starts it.
+        A tree that waits for its start stays paused: a resume is no start (a latched "not paused", left by a GUI
+        before this tree was started again, would otherwise run the robot without the operator); see :meth:`start`.
         """
         with self.lock:
-            if paused == self.paused:
+            if paused == self.paused or not self.started:
                 return
             self.blackboard.set(PAUSE_KEY, paused)
             self._paused_at = self._clock() if paused else math.inf
             if not paused:
-                self.started = True
                 self._remember_answer()
                 self.help_request = None
             self.revision += 1
+
+    def start(self) -> typing.Tuple[bool, str]:
+        """The operator's start of a tree that waits for it (``start_paused``): it runs from the next tick on.
+
+        Returns whether it was started now, and what happened in words.
+        """
+        with self.lock:
+            if self.started:
+                return False, "the tree was started already"
+            self.started = True
+            self.blackboard.set(PAUSE_KEY, False)
+            self._paused_at = math.inf
+            self.revision += 1
+            return True, "started: the tree runs"
 
     def execution_state(self) -> Execution:
         """What the tree does with the robot now (see the module docstring)."""

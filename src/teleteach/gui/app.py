@@ -18,6 +18,7 @@ from PyQt5.QtCore import QMetaObject, QPoint, Qt, QThread, QTimer
 from PyQt5.QtGui import QPainter, QPixmap
 from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, QTabWidget, QVBoxLayout, QWidget
 from std_msgs.msg import Bool, Int8
+from std_srvs.srv import Trigger, TriggerRequest
 
 from teleteach import skill_file
 from teleteach.bt.editor import EditRequest
@@ -281,10 +282,10 @@ class MainWindow(QMainWindow):
         self.tree_label.setStyleSheet("color: #bf360c; font-weight: bold;" if waiting else "")
 
     def _start_tree(self) -> None:
-        """The operator's start gesture: a tree that started paused runs."""
-        self._pause_tree(False)
+        """The operator's start gesture: a tree that started paused runs (behaviour_tree/start, an event)."""
+        self.services.call("start_tree", "behaviour_tree/start", Trigger, TriggerRequest())
         self._publish_selection(Tab.START, "start", "tree")
-        self.statusBar().showMessage("the tree starts", 10000)
+        self.statusBar().showMessage("starting the tree...", 10000)
 
     def _publish_selection(self, tab: Tab, step: str, choice: str) -> None:
         """A confirmed choice, for studies and bags (teleteach/Selection)."""
@@ -475,6 +476,11 @@ class MainWindow(QMainWindow):
                 reason = message or "the controller manager refused the switch"
                 self.low_level.controller_label.setText(f"controller: switch to {controller} failed")
                 self.statusBar().showMessage(f"switch to {controller} failed: {reason}", 15000)
+        elif key == "start_tree":
+            if success:
+                self.statusBar().showMessage(f"the tree: {response.message}", 10000)
+            else:
+                self.statusBar().showMessage(f"the tree was not started: {message}", 15000)
         elif key == "study":
             self.study.answered(success and response.success, message if not success else response.message)
             if self.study.page is Page.STUDY:

@@ -65,7 +65,7 @@ class Action(enum.Enum):
     RESET_HIGH_LEVEL = enum.auto()  # the HIGH-LEVEL selection starts again at step 1
     PAUSE_TREE = enum.auto()
     RESUME_TREE = enum.auto()
-    START_TREE = enum.auto()  # the operator's start of a tree that started paused (behaviour_tree/pause false)
+    START_TREE = enum.auto()  # the operator's start of a tree that started paused (behaviour_tree/start)
     ANNOUNCE_HELP_ANSWERED = enum.auto()  # tell the operator that the tree goes on after their edits
     WAIT_FOR_ARM = enum.auto()  # watch the tree and the arm until the arm is free (bounded), then call arm_freed
     STOP_WAITING_FOR_ARM = enum.auto()  # the session ended before the arm was free
