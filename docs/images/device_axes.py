@@ -8,13 +8,14 @@ import pathlib
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.patches import Circle, Ellipse, FancyBboxPatch  # noqa: E402
+import matplotlib.pyplot as plt
+from matplotlib.patches import Circle, Ellipse, FancyBboxPatch
 
 SDK, OPERATOR = "#c62828", "#1565c0"
 
 
 def arrow(axes, start, direction, colour, label, offset=(0.0, 0.0)):
+    """An axis of a frame: an arrow from ``start`` along ``direction`` and its label beyond the tip."""
     x, y = start
     dx, dy = direction
     axes.annotate("", xy=(x + dx, y + dy), xytext=(x, y), arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 2.5})
@@ -22,12 +23,14 @@ def arrow(axes, start, direction, colour, label, offset=(0.0, 0.0)):
 
 
 def up_out_of_the_page(axes, centre, colour):
+    """A z axis pointing at the viewer (up, seen from above): a dot in a circle."""
     axes.add_patch(Circle(centre, 0.09, fill=False, edgecolor=colour, lw=2))
     axes.add_patch(Circle(centre, 0.03, color=colour))
     axes.text(centre[0] - 0.38, centre[1] + 0.2, "z up", color=colour, fontsize=11)
 
 
 def main() -> None:
+    """Draw the device, the operator and both frames; save the PNG next to this script."""
     figure, axes = plt.subplots(figsize=(8.0, 5.2))
     axes.set_xlim(-4.0, 4.0)
     axes.set_ylim(-2.6, 2.6)

@@ -1,6 +1,6 @@
 """The data directory, where everything a user teaches or records lives, and atomic writes into it.
 
-Layout (docs/architecture.md, README "Data"): ``skills/``, ``trees/``, ``runs/``, ``bags/`` under one root,
+Layout (docs/architecture.md, the README's "Data"): ``skills/``, ``trees/``, ``runs/``, ``bags/`` under one root,
 ``~/.ros/teleteach`` unless ``TELETEACH_DATA`` or an explicit path says otherwise.
 """
 

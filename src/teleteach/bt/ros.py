@@ -3,8 +3,8 @@
 :class:`ActionSkill` leaves are actionlib clients of ``/skills/<Skill>`` (demonstrated skills: ``/skills/ReplaySkill``
 with ``parameters`` = yaml ``{data_file, kind}``). :class:`BehaviourTreeNode` ticks a
 :class:`~teleteach.bt.teaching.TeachingTree`, serves ``/change_tree`` and ``/behaviour_tree/add_skill``, listens to
-``/behaviour_tree/pause`` and publishes the latched topics of the README's ROS graph after each tick that changed
-something.
+``/behaviour_tree/pause`` and publishes the latched topics of the ROS graph (docs/reference.md) after each tick that
+changed something.
 """
 
 import io

@@ -4,7 +4,7 @@
 /teleteach/scene, /cartesian_pose. Out: joint trajectories, stiffness and equilibrium commands, controller switches,
 gripper goals (franka_gripper's actions) and base goals (move_base). :class:`SkillServer` serves /skills/<Name>
 (teleteach/ExecuteSkill), one action server per skill (thesis Appendix B.2), all running through one SkillRunner.
-Names are the README's ROS graph (docs/architecture.md).
+Names are the ROS graph of docs/reference.md.
 """
 
 import threading
