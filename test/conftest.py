@@ -17,3 +17,22 @@ def artifacts_dir():
     path = ROOT / "test-artifacts"
     path.mkdir(exist_ok=True)
     return path
+
+
+@pytest.fixture(scope="module")
+def roscore(tmp_path_factory):
+    """A roscore of our own on a free port (own_master), stopped by its PID afterwards: the environment to run in."""
+    from teleteach.run.processes import Processes, own_master
+
+    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
+    processes = Processes()
+
+    def start_roscore(port):
+        env["ROS_MASTER_URI"] = f"http://localhost:{port}"
+        return processes.start("roscore", ["roscore", "-p", str(port)], env=env)
+
+    own_master(start_roscore, processes.stop)
+    try:
+        yield env
+    finally:
+        processes.stop_all()

@@ -1,8 +1,138 @@
-"""Starting a teleteach ROS node: rospy.init_node plus the parameter that keeps rospy's logging cheap; parameters."""
+"""Starting a teleteach ROS node: ``--help`` without a master, the pinned libraries checked, then rospy.init_node.
 
+Every executable in nodes/ starts through :func:`start`: its usage says what the node does and lists its parameters
+with their defaults and meanings, read from the node's ``config/*.yaml`` (the one place of defaults), so ``rosrun
+teleteach <node> --help`` answers at once, with or without a roscore. Then the libraries teleteach pins are checked
+(:mod:`teleteach.pins`): a wrong version that another install put first on the path stops the node in one line.
+"""
+
+import argparse
+import dataclasses
+import re
+import sys
 import typing
 
 ROSOUT_TOPICS_PARAM = "/rosout_disable_topics_generation"
+
+
+@dataclasses.dataclass(frozen=True)
+class Parameter:
+    """A private parameter that no yaml holds: its name, its default as the user would write it, what it means."""
+
+    name: str
+    default: str
+    meaning: str
+
+
+def start(
+    name: str,
+    description: str,
+    parameters_file: str = "",
+    parameters: typing.Sequence[Parameter] = (),
+    parser: typing.Optional[argparse.ArgumentParser] = None,
+    init: bool = True,
+) -> argparse.Namespace:
+    """Parse the command line (``--help`` lists the parameters), check the pinned libraries, init the node.
+
+    Args:
+        name: the node's name (and program name in the usage).
+        description: the node's docstring: its first paragraph opens the usage.
+        parameters_file: the node's ``config/<file>``: each key is a private parameter, its value the default.
+        parameters: private parameters outside that file.
+        parser: the node's own parser, for command-line options; its epilog gets the parameters.
+        init: ``rospy.init_node`` (False: the caller inits later, e.g. robot_sim, whose --urdf only prints).
+
+    A library at a version other than the pinned one ends the process with one line (exit status 1).
+    """
+    import rospy
+
+    from teleteach import pins
+
+    parser = parser or argparse.ArgumentParser()
+    parser.prog = name
+    parser.description = description
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.epilog = parameters_help(parameters_file, parameters)
+    arguments = parser.parse_args(rospy.myargv(sys.argv)[1:])
+    try:
+        pins.check()
+    except pins.PinError as error:
+        sys.exit(f"{name} cannot start: {error}")
+    if init:
+        init_node(name)
+    return arguments
+
+
+def parameters_help(parameters_file: str = "", parameters: typing.Sequence[Parameter] = ()) -> str:
+    """The usage's list of private parameters: ``~name (default value): meaning``, from the yaml and ``parameters``."""
+    entries = list(parameters)
+    source = ""
+    if parameters_file:
+        from teleteach.paths import config_file
+
+        path = config_file(parameters_file)
+        entries += yaml_parameters(path.read_text())
+        source = f"; defaults from config/{parameters_file}"
+    if not entries:
+        return "parameters: none"
+    lines = [f"parameters (private: rosrun teleteach <node> _name:=value, or a launch file's <param>{source}):"]
+    for entry in entries:
+        lines.append(f"  ~{entry.name} (default {entry.default}): {entry.meaning}".rstrip(": "))
+    return "\n".join(lines)
+
+
+_KEY = re.compile(r"^(?P<indent>\s*)(?P<key>[A-Za-z_][\w]*):(?P<value>[^#]*?)\s*(#\s?(?P<comment>.*))?$")
+_CONTINUED = re.compile(r"^\s+#\s?(?P<comment>.*)$")
+
+
+def yaml_parameters(text: str) -> typing.List[Parameter]:
+    """The leaves of a parameter yaml as parameters: nested keys joined with ``/``, their comments as meaning.
+
+    Comment lines indented under a leaf continue its meaning; the defaults are the yaml's own values.
+    """
+    import yaml
+
+    data = yaml.safe_load(text) or {}
+    found: typing.List[Parameter] = []
+    stack: typing.List[typing.Tuple[int, str]] = []
+    comment_column = -1  # where the last leaf's comment began: a comment line aligned with it continues it
+    for line in text.splitlines():
+        match = _KEY.match(line)
+        if match is None:
+            continued = _CONTINUED.match(line)
+            if continued and found and 0 <= comment_column <= line.index("#"):
+                previous = found[-1]
+                found[-1] = dataclasses.replace(
+                    previous, meaning=f"{previous.meaning} {continued['comment'].strip()}".strip()
+                )
+            else:
+                comment_column = -1
+            continue
+        indent = len(match["indent"])
+        while stack and stack[-1][0] >= indent:
+            stack.pop()
+        path = [key for _, key in stack] + [match["key"]]
+        value = _lookup(data, path)
+        if isinstance(value, dict):
+            stack.append((indent, match["key"]))
+            continue
+        found.append(Parameter("/".join(path), _shown(value), (match["comment"] or "").strip()))
+        comment_column = line.index("#") if match["comment"] is not None else -1
+    return found
+
+
+def _lookup(data: typing.Any, path: typing.Sequence[str]) -> typing.Any:
+    for key in path:
+        data = data.get(key) if isinstance(data, dict) else None
+    return data
+
+
+def _shown(value: typing.Any) -> str:
+    """A default as a user would type it: yaml's spelling (true, [a, b]), "" for an empty string."""
+    import yaml
+
+    text = yaml.safe_dump(value, default_flow_style=True, width=1000).strip()
+    return text[: -len("...")].strip() if text.endswith("...") else text
 
 
 def init_node(name: str, **kwargs: typing.Any) -> None:

@@ -40,6 +40,8 @@ class WallStatusTimer:
     def __init__(self, servers) -> None:
         import threading
 
+        import rospy
+
         self._servers = [getattr(server, "action_server", server) for server in servers]
         frequencies = [server.status_frequency for server in self._servers if server.status_timer is not None]
         for server in self._servers:
@@ -48,13 +50,21 @@ class WallStatusTimer:
         self._period = 1.0 / max(frequencies) if frequencies else None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="action_status", daemon=True)
+        rospy.on_shutdown(self.shutdown)  # before rospy closes the status topics (its client hooks run first)
         if self._period is not None:
             self._thread.start()
 
     def _run(self) -> None:
+        import rospy
+
         while not self._stop.wait(self._period):
             for server in self._servers:
-                server.publish_status_async(None)
+                try:
+                    server.publish_status_async(None)
+                except rospy.ROSException:
+                    if not rospy.is_shutdown():
+                        raise
+                    return  # Ctrl-C closed the topics while this cycle was sending: nothing to report
 
     def shutdown(self) -> None:
         """Stop publishing (the servers keep running)."""

@@ -14,9 +14,10 @@ from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
 from teleteach.recording.session import read_session
+from teleteach.run.pictures import background_colour, rviz_picture
 from teleteach.sim.scene import load_scene
 
-RUN_TIMEOUT = 330.0  # [s] wall: the runner bounds itself to well under 5 minutes
+RUN_TIMEOUT = 420.0  # [s] wall: the runner bounds itself (scenario 230 s, RViz picture 45 s, stop, report)
 
 
 @pytest.fixture(scope="module")
@@ -139,6 +140,9 @@ def test_run_folder_holds_bag_report_and_screenshots(run):
         assert (folder / "report" / figure).stat().st_size > 0, figure
     shots = {path.name for path in folder.glob("*.png")}
     assert {"rviz.png", "gui_final.png"} <= shots
+    # Expect RViz's own window with the robot and the scene drawn (it showed the GUI, or RViz's splash screen)
+    drawn, share, why = rviz_picture(folder / "rviz.png", background_colour(ROOT / "rviz" / "teleteach.rviz"))
+    assert drawn, why
     for tab in ("start", "high_level", "low_level"):
         assert any(tab in name for name in shots), (tab, shots)
     for name in ("tree_before.txt", "tree_after.txt", "tree_after_saved.yaml", "summary.md"):

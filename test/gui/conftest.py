@@ -66,7 +66,7 @@ def start(command, log_path):
         return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
 
 
-def start_bt(data_root, server_timeout=60.0, resume=False):
+def start_bt(data_root, server_timeout=60.0, resume=False, start_paused=False):
     """The real behaviour tree node (config/tree.yaml, config/skills.yaml), its data in ``data_root``."""
     import rospy
 
@@ -79,6 +79,7 @@ def start_bt(data_root, server_timeout=60.0, resume=False):
             f"_data_dir:={data_root}",
             f"_server_timeout:={server_timeout}",
             f"_resume:={str(resume).lower()}",
+            f"_start_paused:={str(start_paused).lower()}",
             "_startup_timeout:=0",  # no robot here: tick at once, without waiting for skill servers
         ],
         data_root.parent / "behaviour_tree.log",

@@ -300,9 +300,9 @@ def test_the_guidance_follows_the_steps(qapp, bt_node, device, make_window, topi
     window = make_window()
     flow = window.high_level.flow
     pump_until(qapp, lambda: "PickItem" in flow.choices, 20, "buttons from the tree")
-    # START: detents at the left and right choices along X
+    # START: detents at the left and right choices along X, and at the neutral centre between them
     pump_until(qapp, lambda: guidance_log.last() is not None, 5, "the first guidance")
-    assert list(guidance_log.last().detents_x) == pytest.approx([-0.05, 0.05])
+    assert list(guidance_log.last().detents_x) == pytest.approx([-0.05, 0.0, 0.05])
     open_high_level(qapp, window, device)
     count = len(flow.choices)
     pump_until(qapp, lambda: len(guidance_log.last().detents_x) == count, 5, "a detent per button")

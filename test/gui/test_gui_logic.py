@@ -438,3 +438,36 @@ def test_the_dial_step_puts_a_detent_at_each_index_in_roll():
     assert designer.start().axes[0].click_stiffness == CONFIG.guidance_click_stiffness
     off = GuidanceDesigner(GuiConfig.load(guidance=False))
     assert all(axis.mode == "free" for axis in off.high_level(flow).axes)
+
+
+def test_entering_low_level_keeps_the_ellipsoid_until_the_handle_meets_it():
+    command = EllipsoidCommand(CONFIG)
+    initial, _ = command.stiffness()
+    command.hold()
+    # Expect: the handle where START left it (x right, rolled) moves nothing; a centred y and z take over at once
+    assert not command.device(sample(x=0.05, y=0.0, z=0.0, roll=0.4))
+    assert command.stiffness()[0] == pytest.approx(initial)
+    stiffness, angles = command.waiting()
+    assert stiffness[0] == pytest.approx(2262.5) and np.isnan(stiffness[1]) and angles[0] == pytest.approx(0.4)
+    command.device(sample(x=0.06, y=0.02, z=0.0, roll=0.4))
+    values, quaternion = command.stiffness()
+    assert values == pytest.approx([initial[0], 1820.0, initial[2]])  # y follows, x still held
+    # Expect x to follow once the handle has passed the held value, roll once it came within the tolerance
+    command.device(sample(x=-0.01, y=0.02, z=0.0, roll=0.03))
+    command.device(sample(x=-0.03, y=0.02, z=0.0, roll=0.2))
+    values, quaternion = command.stiffness()
+    assert values == pytest.approx([1082.5, 1820.0, 1525.0])
+    assert quaternion_to_rpy(quaternion)[0] == pytest.approx(0.2)
+    assert all(np.isnan(value) for value in command.waiting()[0])
+
+
+def test_a_mode_holds_the_axis_it_makes_live_until_the_handle_meets_it():
+    command = EllipsoidCommand(CONFIG)
+    command.device(sample(x=0.0, y=0.0, z=0.0))
+    command.next_mode()  # X: X was live in ALL and stays taken
+    command.next_mode()  # Y: newly live
+    command.device(sample(x=0.0, y=0.08, z=0.0))
+    assert command.stiffness()[0][1] == pytest.approx(1525.0)
+    command.device(sample(x=0.0, y=0.0, z=0.0))
+    command.device(sample(x=0.0, y=0.08, z=0.0))
+    assert command.stiffness()[0][1] == pytest.approx(2705.0)

@@ -26,6 +26,14 @@ def open_low_level(qapp, window, device):
     pump_until(qapp, lambda: window.tabs.currentIndex() == 2, 5, "the LOW-LEVEL tab to open")
 
 
+def gui_hears(topic):
+    """Whether the GUI (this process's node, /gui_test) subscribes ``topic``, as the master sees it."""
+    import rosgraph
+
+    _, subscribers, _ = rosgraph.Master("/gui_test").getSystemState()
+    return any(name == topic and "/gui_test" in nodes for name, nodes in subscribers)
+
+
 def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, topic_log, artifacts_dir):
     values_log = topic_log("/eigenvalues", Vector3Stamped)
     vectors_log = topic_log("/eigenvectors", QuaternionStamped)
@@ -38,6 +46,16 @@ def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, 
     assert values_log.last() is None and vectors_log.last() is None
     open_low_level(qapp, window, device)
     pump_until(qapp, lambda: pause_log.last() is not None and pause_log.last().data, 5, "the BT paused")
+    # Expect the ellipsoid of before (the initial one) commanded, not the handle's X, until the handle meets it
+    initial = [window.config.initial_stiffness] * 3
+    pump_until(qapp, lambda: values_log.last() is not None, 5, "/eigenvalues")
+    device.move(x=0.08)
+    pump(qapp, 0.5)
+    vector = values_log.last().vector
+    assert np.allclose([vector.x, vector.y, vector.z], initial, rtol=0.01)
+    assert "waits for the handle (now 2705 N/m)" in window.low_level.axis_labels[0].text()
+    device.move(x=0.0)  # the centred handle meets the initial ellipsoid: from now on the device commands it
+    pump(qapp, 0.3)
 
     position, angles = (0.06, -0.03, 0.02), (0.3, -0.2, 0.6)  # roll, pitch, yaw [rad]
     device.move(*position, *angles)
@@ -144,7 +162,12 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
     position = (0.06, -0.03, 0.02)
     scenario = data_root / "hold.yaml"
     keyframe = f"position: {list(position)}, rpy: [0.0, 0.0, 0.0], gripper: 0.25"
-    scenario.write_text(f"keyframes:\n  - {{t: 0.0, {keyframe}}}\n  - {{t: 1.0, {keyframe}}}\n")
+    centred = "position: [0.0, 0.0, 0.0], rpy: [0.0, 0.0, 0.0], gripper: 0.25"
+    # from the centre, where the hand takes the ellipsoid over (it is held at entry), to the position, held there
+    # centred for 1.5 s (the GUI connects meanwhile), then a jump (a sweep would stop within the GUI's deadband)
+    timeline = ((0.0, centred), (1.5, centred), (1.501, keyframe), (3.0, keyframe))
+    keyframes = (f"  - {{t: {t}, {pose}}}\n" for t, pose in timeline)
+    scenario.write_text("keyframes:\n" + "".join(keyframes))
     # a name of its own: private parameters another test's device.launch left on the master (the guided hand's
     # hand/enabled and tremor) would make this held device tremble
     node = "__name:=sigma7_killed_in_low_level"
@@ -185,8 +208,53 @@ def test_device_node_killed_while_low_level_is_open(qapp, make_window, topic_log
     assert after and all(holds(message) for message in after)
     device = start_device("second")
     try:
-        pump(qapp, 0.5)
+        pump_until(qapp, lambda: holds(values_log.last()), 5, f"{stiffness} N/m again")
         assert not window.low_level.device_lost_label.isVisible() and "device" not in window.health_label.text()
-        assert holds(values_log.last())
     finally:
         stop(device)
+
+
+def test_an_arm_that_does_not_come_to_rest_is_not_switched_and_the_tab_says_why(qapp, make_window, device):
+    """The robot's /joint_states keep moving (a skill outside the tree drives it): after arm_free_timeout the tab says
+    why the impedance controller was not started, and nothing was switched."""
+    import threading
+
+    import rospy
+    from sensor_msgs.msg import JointState
+
+    from teleteach.srv import SwitchController
+
+    switched = []
+    service = rospy.Service("/controller_manager/switch_controller", SwitchController, lambda r: switched.append(r))
+    joints = rospy.Publisher("/joint_states", JointState, queue_size=10)
+    stop = threading.Event()
+
+    def moving_arm():
+        while not stop.wait(0.02):
+            joints.publish(JointState(name=["panda_joint1"], position=[0.0], velocity=[0.4]))
+
+    thread = threading.Thread(target=moving_arm, daemon=True)
+    thread.start()
+    try:
+        window = make_window(arm_free_timeout=2.0)
+        # the arm's joint states (100 Hz in the simulation) cost the GUI nothing outside the tabs that hand it over
+        pump(qapp, 0.5)
+        assert not gui_hears("/joint_states")
+        open_low_level(qapp, window, device)
+        label = window.low_level.controller_label
+        pump_until(qapp, lambda: "still moves" in label.text(), 5, "the tab saying what it waits for")
+        pump_until(qapp, lambda: "was not free within 2 s" in label.text(), 10, "the tab saying it gave up")
+        assert (
+            "the arm still moves (0.40 rad/s)" in label.text()
+            and "impedance controller was not started" in label.text()
+        )
+        pump(qapp, 0.5)
+        # (an earlier test's window, closing, may still be asking for the position controller: only ours count)
+        assert [
+            request for request in switched if request.start_controllers != ["position_joint_trajectory_controller"]
+        ] == []
+    finally:
+        stop.set()
+        thread.join(2)
+        service.shutdown()
+        joints.unregister()

@@ -67,9 +67,9 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     device.click()
     pump_until(qapp, lambda: window.tabs.currentIndex() == 2, 5, "LOW-LEVEL")
     pump_until(qapp, lambda: pause_log.last() is not None and pause_log.last().data, 5, "the BT paused")
-    # the label says "switching to <controller>..." first: wait for the switch's answer
+    # the label says "waiting for the arm", then "switching to <controller>..." first: wait for the switch's answer
     label = window.low_level.controller_label
-    pump_until(qapp, lambda: not label.text().startswith("controller: switching"), 30, "the controller switch answer")
+    pump_until(qapp, lambda: label.text().endswith(("active", "failed")), 30, "the controller switch answer")
     assert label.text() == f"controller: {IMPEDANCE} active", label.text()
     assert IMPEDANCE in running_controllers()
 
@@ -95,6 +95,9 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
         return message is not None and name in message.names
 
     pump_until(qapp, in_library, 10, f"{name} in /behaviour_tree/skill_library")
+    # Expect the status bar to say it in words (it said "/behaviour_tree/add_skill added: added stiffness skill ...")
+    said = f"{name} is in the skill library: a new button in HIGH-LEVEL"
+    pump_until(qapp, lambda: window.statusBar().currentMessage() == said, 10, "the status bar's words")
     message = library_log.last()
     assert message.kinds[list(message.names).index(name)] == "stiffness"
     pump_until(qapp, lambda: name in window.high_level.choices()[1], 5, f"a HIGH-LEVEL button for {name}")

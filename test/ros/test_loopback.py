@@ -1,6 +1,7 @@
 """Loopback by default: with the environment of build/env.sh (ROS_IP=127.0.0.1 unless the user set ROS_IP or
 ROS_HOSTNAME), a launched system listens on 127.0.0.1 only. roscpp's rosout and robot_state_publisher bind their
-TCPROS data port to every interface whatever ROS_IP says: they are reported, not hidden (README: several machines)."""
+TCPROS data port to every interface whatever ROS_IP says: they are reported, not hidden (docs/real_robot.md: several
+machines)."""
 
 import os
 import pathlib

@@ -67,11 +67,11 @@ class ScriptedSkill(SkillLeaf):
         self.world.events.append(("cancel", self.name))
 
 
-def thesis_tree(world, store=None, data_root=None, repairs=None):
+def thesis_tree(world, store=None, data_root=None, repairs=None, **options):
     py_trees.blackboard.Blackboard.clear()
     library = SkillLibrary.load(CONFIG / "skills.yaml")
     spec = load_tree(CONFIG / "tree.yaml", library)
-    return TeachingTree(spec, library, world.make_leaf, store=store, data_root=data_root, repairs=repairs)
+    return TeachingTree(spec, library, world.make_leaf, store=store, data_root=data_root, repairs=repairs, **options)
 
 
 def leaf_names(node):

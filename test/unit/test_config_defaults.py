@@ -93,11 +93,18 @@ def launch_arguments(name):
     ],
 )
 def test_launch_arguments_of_yaml_values_default_to_the_yaml(launch_file, yaml_values):
-    # Expect an argument that overrides a yaml value to be empty by default (= the yaml's), never a second default
+    # Expect an argument that overrides a yaml value to say "config" by default (= the yaml's), never a second value
     arguments = launch_arguments(launch_file)
-    shadowing = {name: arguments[name] for name in yaml_values if arguments.get(name) not in (None, "")}
+    shadowing = {name: arguments[name] for name in yaml_values if arguments.get(name) not in (None, "config")}
     assert shadowing == {}
     assert set(yaml_values) & set(arguments)  # the check looked at something
+
+
+@pytest.mark.parametrize("launch_file", sorted(path.name for path in (ROOT / "launch").glob("*.launch")))
+def test_no_launch_argument_looks_required_but_has_a_default(launch_file):
+    """roslaunch --ros-args lists an argument with an empty default as "Required": every default says what it is."""
+    empty = [name for name, default in launch_arguments(launch_file).items() if default == ""]
+    assert empty == []
 
 
 def test_node_parameters_are_the_yaml_unless_a_private_parameter_overrides_them():

@@ -3,7 +3,7 @@
 import pytest
 
 from teleteach.active_tab import Tab
-from teleteach.gui.session import Action, Recording, TeachingSession
+from teleteach.gui.session import Action, Arm, Recording, TeachingSession
 
 A = Action
 
@@ -15,9 +15,13 @@ def session():
     return machine
 
 
-def test_a_teaching_tab_pauses_the_tree_and_hands_the_arm_to_impedance_control(session):
-    # Expect: entering LOW-LEVEL starts a session; SHARED CONTROL keeps it; START ends it, arm first, then the tree
-    assert session.tab_changed(Tab.LOW_LEVEL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL]
+def test_a_teaching_tab_pauses_the_tree_and_hands_the_arm_to_impedance_control_once_it_is_free(session):
+    # Expect: entering LOW-LEVEL starts a session: the tree pauses, the switch waits for the arm to be free
+    assert session.tab_changed(Tab.LOW_LEVEL) == [A.ENTER_LOW_LEVEL, A.PAUSE_TREE, A.WAIT_FOR_ARM]
+    assert session.arm == Arm.WAITING
+    assert session.arm_freed() == [A.IMPEDANCE_CONTROL]
+    assert session.arm_freed() == []  # told twice: switched once
+    # SHARED CONTROL keeps the session; START ends it, arm first, then the tree
     assert session.tab_changed(Tab.SHARED_CONTROL) == [A.LEAVE_LOW_LEVEL, A.SHARED_CONTROL_ON]
     assert session.tab_changed(Tab.START) == [A.SHARED_CONTROL_OFF, A.POSITION_CONTROL, A.RESUME_TREE]
     assert not session.session
@@ -26,6 +30,7 @@ def test_a_teaching_tab_pauses_the_tree_and_hands_the_arm_to_impedance_control(s
 
 def test_a_demonstration_is_saved_and_ends_the_session(session):
     session.tab_changed(Tab.LOW_LEVEL)
+    session.arm_freed()
     assert session.toggle_stiffness_recording() == [A.START_STIFFNESS_RECORDING]
     assert session.recording == Recording.STIFFNESS
     # Expect: the second double click stops, saves, and gives the arm back to the tree
@@ -38,20 +43,23 @@ def test_a_demonstration_is_saved_and_ends_the_session(session):
 
 def test_leaving_mid_recording_keeps_what_was_recorded(session):
     session.tab_changed(Tab.LOW_LEVEL)
+    session.arm_freed()
     session.toggle_stiffness_recording()
     stop = [A.STOP_STIFFNESS_RECORDING, A.SAVE_STIFFNESS_SKILL, A.POSITION_CONTROL, A.RESUME_TREE]
     assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL, *stop]
 
 
 def test_a_shared_control_recording_goes_on_in_the_tab_and_stops_when_it_is_left(session):
-    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL, A.SHARED_CONTROL_ON]
+    assert session.tab_changed(Tab.SHARED_CONTROL) == [A.PAUSE_TREE, A.WAIT_FOR_ARM]
+    # Expect the MPC to drive only once the impedance controller holds the arm
+    assert session.arm_freed() == [A.IMPEDANCE_CONTROL, A.SHARED_CONTROL_ON]
     assert session.toggle_shared_recording() == [A.START_SHARED_RECORDING]
     assert session.toggle_shared_recording() == [A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL]
     assert session.session  # the operator goes on in the tab
     session.toggle_shared_recording()
     # Expect: to LOW-LEVEL, the recording is saved and the session goes on; to START, the session ends too
     stop = [A.SHARED_CONTROL_OFF, A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL]
-    assert session.tab_changed(Tab.LOW_LEVEL) == stop
+    assert session.tab_changed(Tab.LOW_LEVEL) == [*stop, A.ENTER_LOW_LEVEL]
     assert session.tab_changed(Tab.SHARED_CONTROL) == [A.LEAVE_LOW_LEVEL, A.SHARED_CONTROL_ON]
     session.toggle_shared_recording()
     assert session.tab_changed(Tab.START) == [*stop, A.POSITION_CONTROL, A.RESUME_TREE]
@@ -59,7 +67,49 @@ def test_a_shared_control_recording_goes_on_in_the_tab_and_stops_when_it_is_left
 
 def test_recording_from_outside_a_session_starts_one(session):
     # the GUI tests toggle recording directly: the arm must be on impedance control first
-    assert session.toggle_stiffness_recording() == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL, A.START_STIFFNESS_RECORDING]
+    assert session.toggle_stiffness_recording() == [A.PAUSE_TREE, A.WAIT_FOR_ARM]
+    assert session.arm_freed() == [A.IMPEDANCE_CONTROL, A.START_STIFFNESS_RECORDING]
+
+
+def test_a_recording_asked_for_before_the_arm_is_free_starts_when_it_is_or_not_at_all(session):
+    session.tab_changed(Tab.LOW_LEVEL)
+    # Expect nothing recorded while the tree's skill still drives the arm; a second double click cancels the wish
+    assert session.toggle_stiffness_recording() == []
+    assert session.toggle_stiffness_recording() == []
+    assert session.arm_freed() == [A.IMPEDANCE_CONTROL]
+    session.tab_changed(Tab.START)
+    session.tab_changed(Tab.LOW_LEVEL)
+    session.toggle_stiffness_recording()
+    # Expect an arm that never becomes free to leave the session without a switch or a recording, the tree resumed
+    assert session.arm_not_freed() == []
+    assert session.arm_freed() == []
+    assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL, A.RESUME_TREE]
+
+
+def test_leaving_before_the_arm_is_free_stops_waiting_and_switches_nothing(session):
+    session.tab_changed(Tab.LOW_LEVEL)
+    assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL, A.STOP_WAITING_FOR_ARM, A.RESUME_TREE]
+    assert session.arm_freed() == []
+
+
+def test_a_tree_waiting_for_its_start_is_started_only_by_the_start_gesture(session):
+    session.tree_waiting_changed(True)
+    session.tab_changed(Tab.LOW_LEVEL)
+    session.arm_freed()
+    # Expect: a teaching session before the start does not start the tree when it ends
+    assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL, A.POSITION_CONTROL]
+    assert session.start_requested() == [A.START_TREE]
+    assert session.start_requested() == []  # started once
+    session.tree_waiting_changed(False)
+    session.tab_changed(Tab.LOW_LEVEL)
+    session.arm_freed()
+    assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL, A.POSITION_CONTROL, A.RESUME_TREE]
+
+
+def test_the_start_gesture_counts_only_in_start(session):
+    session.tree_waiting_changed(True)
+    session.tab_changed(Tab.HIGH_LEVEL)
+    assert session.start_requested() == []
 
 
 def test_leaving_high_level_answers_the_help_request(session):
@@ -69,7 +119,7 @@ def test_leaving_high_level_answers_the_help_request(session):
     assert session.tab_changed(Tab.START) == [A.RESUME_TREE, A.ANNOUNCE_HELP_ANSWERED]
     # to LOW-LEVEL instead, teaching continues the answer: the session pauses the tree
     session.tab_changed(Tab.HIGH_LEVEL)
-    assert session.tab_changed(Tab.LOW_LEVEL) == [A.PAUSE_TREE, A.IMPEDANCE_CONTROL]
+    assert session.tab_changed(Tab.LOW_LEVEL) == [A.ENTER_LOW_LEVEL, A.PAUSE_TREE, A.WAIT_FOR_ARM]
     # a closed request (empty node name) needs no answer
     session.help_requested("")
     session.tab_changed(Tab.HIGH_LEVEL)
@@ -80,13 +130,14 @@ def test_leaving_high_level_answers_the_help_request(session):
     "steps, expected",
     [
         ([], []),
-        ([Tab.LOW_LEVEL], [A.POSITION_CONTROL, A.RESUME_TREE]),
+        ([Tab.LOW_LEVEL], [A.STOP_WAITING_FOR_ARM, A.RESUME_TREE]),
+        ([Tab.LOW_LEVEL, "free"], [A.POSITION_CONTROL, A.RESUME_TREE]),
         (
-            [Tab.LOW_LEVEL, "record"],
+            [Tab.LOW_LEVEL, "free", "record"],
             [A.STOP_STIFFNESS_RECORDING, A.SAVE_STIFFNESS_SKILL, A.POSITION_CONTROL, A.RESUME_TREE],
         ),
         (
-            [Tab.SHARED_CONTROL, "record"],
+            [Tab.SHARED_CONTROL, "free", "record"],
             [A.SHARED_CONTROL_OFF, A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL, A.POSITION_CONTROL, A.RESUME_TREE],
         ),
     ],
@@ -95,6 +146,8 @@ def test_shutdown_saves_and_gives_the_arm_back(session, steps, expected):
     for step in steps:
         if step == "record":
             (session.toggle_stiffness_recording if session.tab == Tab.LOW_LEVEL else session.toggle_shared_recording)()
+        elif step == "free":
+            session.arm_freed()
         else:
             session.tab_changed(step)
     assert session.shutdown() == expected
@@ -104,7 +157,7 @@ def test_every_path_through_the_tabs_gives_the_arm_back():
     """Whatever the operator does, a session that took the arm returns it before the tree resumes."""
     import itertools
 
-    events = [*Tab, "record"]
+    events = [*Tab, "record", "free", "not freed"]
     for path in itertools.product(events, repeat=4):
         machine, actions = TeachingSession(), []
         for event in (Tab.START, *path):
@@ -114,6 +167,10 @@ def test_every_path_through_the_tabs_gives_the_arm_back():
                     Tab.SHARED_CONTROL: machine.toggle_shared_recording,
                 }
                 actions += toggle[machine.tab]() if machine.tab in toggle else []
+            elif event == "free":
+                actions += machine.arm_freed()
+            elif event == "not freed":
+                actions += machine.arm_not_freed()
             else:
                 actions += machine.tab_changed(event)
         actions += machine.shutdown()
@@ -131,7 +188,13 @@ def test_every_path_through_the_tabs_gives_the_arm_back():
         starts = actions.count(A.START_STIFFNESS_RECORDING) + actions.count(A.START_SHARED_RECORDING)
         saves = actions.count(A.SAVE_STIFFNESS_SKILL) + actions.count(A.SAVE_SHARED_SKILL)
         assert starts == saves, path
-        assert not machine.session and machine.recording is None, path
+        # Expect a recording only ever while the impedance controller holds the arm
+        holding = False
+        for action in actions:
+            holding = {A.IMPEDANCE_CONTROL: True, A.POSITION_CONTROL: False}.get(action, holding)
+            if action in (A.START_STIFFNESS_RECORDING, A.START_SHARED_RECORDING, A.SHARED_CONTROL_ON):
+                assert holding, path
+        assert not machine.session and machine.recording is None and machine.arm == Arm.POSITION, path
 
 
 def test_tab_ids_and_titles_are_the_contract_of_active_tab():

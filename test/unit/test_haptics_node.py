@@ -22,7 +22,6 @@ import roslib.packages
 from teleteach.haptics.guidance import GuidanceError, GuidanceLimits, render
 from teleteach.haptics.ros import Sigma7Config, guidance_from_message
 from teleteach.msg import HapticGuidance
-from teleteach.run.processes import Processes, own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -127,23 +126,6 @@ def test_any_guidance_message_is_refused_with_a_reason_or_rendered_finite_and_wi
     assert rendered > 100 and refused > 100, (rendered, refused)
 
 
-@pytest.fixture(scope="module")
-def roscore(tmp_path_factory):
-    """A roscore of our own on a free port (own_master), stopped by its PID afterwards."""
-    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
-    processes = Processes()
-
-    def start_roscore(port):
-        env["ROS_MASTER_URI"] = f"http://localhost:{port}"
-        return processes.start("roscore", ["roscore", "-p", str(port)], env=env)
-
-    own_master(start_roscore, processes.stop)
-    try:
-        yield env
-    finally:
-        processes.stop_all()
-
-
 RUNS = itertools.count()
 
 
@@ -210,8 +192,9 @@ def test_node_without_the_force_dimension_sdk_says_so_in_one_line(roscore):
 
 
 def test_device_launch_with_dhd_ends_with_the_node_exit_code(roscore):
+    # Expect the launch to end by itself (the operator's own device is required by default), saying why
     result = subprocess.run(
-        ["roslaunch", "teleteach", "device.launch", "backend:=dhd", "required:=true"],
+        ["roslaunch", "teleteach", "device.launch", "backend:=dhd"],
         env=roscore,
         capture_output=True,
         text=True,
@@ -280,8 +263,10 @@ def test_node_publishes_what_the_dhd_library_reports(roscore, fake_dhd):
     )
     try:
         echo = echo_once("/sigma7/pose", env)
-        assert "x: 0.01\n    y: 0.02\n    z: 0.03" in echo.stdout, echo.stdout + echo.stderr
-        assert "z: 0.247403959" in echo.stdout  # sin(0.25): the 0.5 rad yaw of the fake device
+        # Expect the operator frame (config/device.yaml axes: dhd force_dimension): the SDK's (0.01, 0.02, 0.03), x
+        # toward the operator and y to the right, is 0.02 to the operator's right and 0.01 towards them
+        assert "x: 0.02\n    y: -0.01\n    z: 0.03" in echo.stdout, echo.stdout + echo.stderr
+        assert "z: 0.247403959" in echo.stdout  # sin(0.25): the 0.5 rad yaw of the fake device, about the same z
     finally:
         process.send_signal(signal.SIGINT)
         output, _ = process.communicate(timeout=30)

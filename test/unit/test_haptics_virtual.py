@@ -107,3 +107,22 @@ def test_closing_the_window_finishes_the_device(window):
     assert not window.device.finished
     window.close()
     assert window.device.finished
+
+
+def test_enter_is_a_double_click_for_the_gui(window):
+    """Two Space presses depend on the operator's timing; Enter plays two flicks within the double-click window."""
+    from teleteach.gui.config import GuiConfig
+    from teleteach.gui.device import ClickClassifier, EdgeDetector
+
+    detector, button = ClickDetector(ClickParameters()), EdgeDetector(0.5, 0.5)
+    classifier = ClickClassifier(GuiConfig.load().double_click_window)
+    clock, kinds = window.clock, []
+    QTest.keyClick(window, QtCore.Qt.Key_Return)
+    for _ in range(int(round(1.5 / 0.001))):
+        clock.now += 0.001
+        pressed = detector.update(clock.now, window.device.read(clock.now).gripper)
+        if button.update(1.0 if pressed else 0.0):
+            kinds.append(classifier.click(clock.now))
+        kinds.append(classifier.poll(clock.now))
+    assert detector.clicks == 2
+    assert [kind for kind in kinds if kind] == [ClickClassifier.DOUBLE]

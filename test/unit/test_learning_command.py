@@ -174,3 +174,40 @@ def test_bad_options_are_rejected_before_anything_is_written(data, capsys, argum
     assert main(["Demo", "--data-dir", str(data), *arguments]) == 2
     assert message in capsys.readouterr().err
     assert sorted(path.name for path in (data / "skills").iterdir()) == ["Demo.npz"]
+
+
+def test_a_bag_whose_stiffness_shares_stamps_is_learned_from(tmp_path):
+    """Under simulated time the GUI (200 Hz) publishes faster than /clock ticks: consecutive commands share a stamp."""
+    import rosbag
+    from session_bags import eigenvalues_message, eigenvectors_message, pose_message, stamp
+
+    bag_path = tmp_path / "session_sim_time.bag"
+    clock_period = 0.008  # [s] a /clock slower than the GUI's 5 ms, as on a loaded machine
+    with rosbag.Bag(str(bag_path), "w") as bag:
+        for step in range(int(8.0 * 200)):
+            t = step / 200.0
+            ticked = np.floor(t / clock_period) * clock_period
+            bag.write("/eigenvalues", eigenvalues_message(400.0 + 200.0 * t, 800.0, 1500.0, t=ticked), stamp(t))
+            bag.write("/eigenvectors", eigenvectors_message(0.0, t=ticked), stamp(t))
+            if step % 2 == 0:
+                bag.write("/cartesian_pose", pose_message(0.4 + 0.02 * t, t=ticked), stamp(t))
+    env = dict(os.environ, TELETEACH_DATA=str(tmp_path / "data"))
+    result = run(bag_path, "--name", "FromSimTime", env=env)
+    # Expect a learned skill, not "stiffness times are not strictly increasing (non-monotonic)"
+    assert result.returncode == 0, result.stdout + result.stderr
+    learned = skill_file.load(tmp_path / "data" / "skills" / "FromSimTime.npz")
+    assert learned.stiffness[0, 0, 0] == pytest.approx(400.0, rel=0.05)
+    assert learned.stiffness[-1, 0, 0] == pytest.approx(2000.0, rel=0.05)
+
+
+def test_a_constant_demonstration_reports_an_error_that_means_something(tmp_path):
+    """A constant stiffness reproduced exactly printed "mean 141.42 %" (an error divided by a spread of rounding)."""
+    skill, _, _ = placement_demo(angle=0.0, duration=6.0, gui_rate=4.0, seed=2)
+    skill.stiffness[:] = np.diag([800.0, 1200.0, 1500.0])
+    skill.name = "Constant"
+    path = skill_file.save(skill, tmp_path / "skills" / "Constant.npz")
+    result = run(path, "--name", "ConstantDmp", env=dict(os.environ, TELETEACH_DATA=str(tmp_path)))
+    assert result.returncode == 0, result.stderr
+    line = next(line for line in result.stdout.splitlines() if "reproduction error" in line)
+    mean = float(line.split("mean ")[1].split(" %")[0])
+    assert mean < 1.0 and "(the demonstration is constant)" in line, line

@@ -308,9 +308,9 @@ def test_full_launch_includes_the_parts_by_its_args():
     assert launch_nodes("shared_control:=false") == everything - {"/shared_control"}
     # headless: no RViz (the ellipsoid marker stays for bags and a later RViz); record: the session recorder
     assert launch_nodes("headless:=true", "record:=true") == everything - {"/rviz"} | {"/session_recorder"}
-    # a real robot: no simulation; the skill servers, robot_state_publisher and the stiffness bridge to
-    # franka_human_friendly_controllers run, and static_scene when there is no perception
-    real = everything - {"/robot_sim", "/teaching_gui", "/rviz"} | {"/stiffness_bridge"}
+    # a real robot: no simulation (franka_control.launch brings robot_state_publisher); the skill servers and the
+    # stiffness bridge to the variable impedance controller run, and static_scene when there is no perception
+    real = everything - {"/robot_sim", "/robot_state_publisher", "/teaching_gui", "/rviz"} | {"/stiffness_bridge"}
     assert launch_nodes("real_robot:=true", "gui:=false", "rviz:=false") == real
     assert launch_nodes("real_robot:=true", "gui:=false", "rviz:=false", "static_scene:=true") == real | {
         "/static_scene"

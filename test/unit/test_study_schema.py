@@ -216,7 +216,7 @@ def test_node_parameters_become_a_rosparam_file_in_the_root_namespace():
 
 
 def test_every_node_parameter_a_condition_may_set_is_one_its_node_reads():
-    # Expect the parameters named in the README's examples to be accepted with the right types, integers as numbers
+    # Expect the parameters named in docs/study.md's examples to be accepted with the right types, integers as numbers
     assert check_parameter("shared_control/blend_authority", False) is None
     assert check_parameter("sigma7_node/hand/tremor_rms", 0) is None
     assert check_parameter("behaviour_tree/tick_rate", 20) is None

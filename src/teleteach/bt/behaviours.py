@@ -53,6 +53,9 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
     tree; the next tick after the pause retries the skill (unless the operator removed the leaf meanwhile). A
     failure that the tree above handles (:func:`failure_handled_above`), or of a condition, is returned as FAILURE.
 
+    A pause suspends the running leaf with its goal out (:class:`PausableSelector`); the tree may :meth:`preempt`
+    it so that the arm is free, and the first tick after the pause starts the skill again.
+
     Args:
         name: unique name of the leaf in the tree
         skill: the skill it runs (the library name, e.g. "PlaceItem" for the leaf "PlaceItem_2")
@@ -68,6 +71,7 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
         self.parameters: typing.Dict[str, str] = {}
         self.awaiting_help = False
         self.goal_active = False
+        self.preempted = False
         self.on_failure: typing.Optional[typing.Callable[[SkillLeaf, str], None]] = None
 
     @abc.abstractmethod
@@ -82,17 +86,38 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
     def cancel(self) -> None:
         """Abort the skill that :meth:`start` asked for."""
 
+    def goal_out(self) -> bool:
+        """Whether the skill's goal may still move the robot (subclasses that can ask the server say exactly)."""
+        return self.goal_active
+
+    def finished_before_preempt(self) -> bool:
+        """Whether a preempted goal had succeeded before the cancel reached it (then it is not run again)."""
+        return False
+
+    def preempt(self) -> None:
+        """Cancel the goal of a suspended leaf; the first tick after the pause starts the skill again."""
+        if self.goal_active:
+            self.cancel()
+            self.feedback_message = f"preempted {self.skill} (paused): it starts again when the tree resumes"
+        self.goal_active = False
+        self.preempted = True
+
     def initialise(self) -> None:
         """Start the skill."""
         self.awaiting_help = False
+        self.preempted = False
         self.feedback_message = f"starting {self.skill}"
         self.goal_active = True
         self.start()
 
     def update(self) -> Status:
         """Poll the skill; on failure ask for help (if someone listens) instead of failing."""
-        if self.awaiting_help:  # first tick after the pause that the help request caused: retry
-            self.awaiting_help = False
+        if self.preempted and self.finished_before_preempt():  # the cancel came too late: the skill is done
+            self.preempted = False
+            self.goal_active = False
+            return Status.SUCCESS
+        if self.awaiting_help or self.preempted:  # first tick after a help request's pause, or a preempting one
+            self.awaiting_help = self.preempted = False
             self.goal_active = True
             self.start()
         status, message = self.poll()
@@ -118,7 +143,7 @@ class SkillLeaf(py_trees.behaviour.Behaviour, abc.ABC):
             self.feedback_message = f"cancelled {self.skill}"
         self.goal_active = False
         if new_status == Status.INVALID:
-            self.awaiting_help = False
+            self.awaiting_help = self.preempted = False
 
 
 def failure_handled_above(node: py_trees.behaviour.Behaviour) -> bool:

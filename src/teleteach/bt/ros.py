@@ -3,8 +3,8 @@
 :class:`ActionSkill` leaves are actionlib clients of ``/skills/<Skill>`` (demonstrated skills: ``/skills/ReplaySkill``
 with ``parameters`` = yaml ``{data_file, kind}``). :class:`BehaviourTreeNode` ticks a
 :class:`~teleteach.bt.teaching.TeachingTree`, serves ``/change_tree`` and ``/behaviour_tree/add_skill``, listens to
-``/behaviour_tree/pause`` and publishes the latched topics of the README's ROS graph after each tick that changed
-something.
+``/behaviour_tree/pause`` and publishes the latched topics of the ROS graph (docs/reference.md) after each tick that
+changed something.
 """
 
 import io
@@ -19,11 +19,12 @@ import yaml
 from actionlib_msgs.msg import GoalStatus
 from py_trees.common import Status
 from std_msgs.msg import Bool, String
+from std_srvs.srv import Trigger, TriggerResponse
 
 from teleteach import datadir
 from teleteach.bt.behaviours import SkillLeaf
 from teleteach.bt.library import SkillEntry, SkillLibrary
-from teleteach.bt.teaching import NodeRecord, TeachingTree, TreeStore
+from teleteach.bt.teaching import Execution, NodeRecord, TeachingTree, TreeStore
 from teleteach.bt.tree import load_tree
 from teleteach.msg import (
     Behaviour,
@@ -31,6 +32,7 @@ from teleteach.msg import (
     ExecuteSkillAction,
     ExecuteSkillGoal,
     HelpRequest,
+    TreeExecution,
 )
 from teleteach.msg import (
     SkillLibrary as SkillLibraryMsg,
@@ -225,6 +227,18 @@ class ActionSkill(SkillLeaf):
             )
         return ""
 
+    def goal_out(self) -> bool:
+        """Whether a goal was sent and its server has not confirmed an end yet (succeeded, aborted, preempted)."""
+        return self.goal_handle is not None and self.goal_handle.get_comm_state() != actionlib.CommState.DONE
+
+    def finished_before_preempt(self) -> bool:
+        """Whether the server reports the preempted goal as succeeded (it ended before the cancel reached it)."""
+        handle = self.goal_handle
+        if handle is None or handle.get_comm_state() != actionlib.CommState.DONE:
+            return False
+        result = handle.get_result()
+        return handle.get_goal_status() == GoalStatus.SUCCEEDED and result is not None and result.success
+
     def cancel(self) -> None:
         """Cancel the goal if it is out."""
         if self.goal_handle is not None and self.goal_handle.get_comm_state() != actionlib.CommState.DONE:
@@ -252,12 +266,16 @@ class BehaviourTreeNode:
         * **/behaviour_tree/skill_library** (teleteach/SkillLibrary)
         * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered; a remembered
           repair of the same failure in ``suggestion``
+        * **/behaviour_tree/execution** (teleteach/TreeExecution): running, waiting to start, pausing (a goal still
+          out), paused (the arm is free) or completed
 
     ROS Subscribers:
-        * **/behaviour_tree/pause** (std_msgs/Bool): writes the blackboard's pause flag
+        * **/behaviour_tree/pause** (std_msgs/Bool): writes the blackboard's pause flag (once the tree was started)
 
     ROS Services:
         * **/change_tree** (teleteach/ChangeTree), **/behaviour_tree/add_skill** (teleteach/AddSkill)
+        * **/behaviour_tree/start** (std_srvs/Trigger): the operator's start of a tree that waits for it
+          (``start_paused``); an event, not the latched pause flag, so a restarted tree still waits
     """
 
     def __init__(
@@ -279,6 +297,8 @@ class BehaviourTreeNode:
         self.dot_publisher = rospy.Publisher("behaviour_tree/dot/tree", String, **latched)
         self.library_publisher = rospy.Publisher("behaviour_tree/skill_library", SkillLibraryMsg, **latched)
         self.help_publisher = rospy.Publisher("behaviour_tree/help_request", HelpRequest, **latched)
+        self.execution_publisher = rospy.Publisher("behaviour_tree/execution", TreeExecution, **latched)
+        self._published_execution: typing.Optional[Execution] = None
         self._published_library = -1
         self._published_help: typing.Any = ()
         self._structure_rendered = {self.ascii_tree_publisher: -1, self.dot_publisher: -1}
@@ -288,6 +308,7 @@ class BehaviourTreeNode:
         rospy.Subscriber("behaviour_tree/pause", Bool, self._on_pause, queue_size=10)
         self.change_service = rospy.Service("change_tree", ChangeTree, self._on_change_tree)
         self.add_skill_service = rospy.Service("behaviour_tree/add_skill", AddSkill, self._on_add_skill)
+        self.start_service = rospy.Service("behaviour_tree/start", Trigger, self._on_start)
 
     @classmethod
     def from_params(cls) -> "BehaviourTreeNode":
@@ -331,7 +352,21 @@ class BehaviourTreeNode:
         repairs, problems = store.restore_repairs()
         if problems:
             rospy.logwarn("behaviour_tree: the remembered repairs could not all be loaded: %s", problems)
-        tree = TeachingTree(spec, library, make_leaf, store=store, data_root=data_root, repairs=repairs)
+        tree = TeachingTree(
+            spec,
+            library,
+            make_leaf,
+            store=store,
+            data_root=data_root,
+            repairs=repairs,
+            start_paused=bool(params["start_paused"]),
+            preempt_after=float(params["pause_preempt_after"]),
+        )
+        if not tree.started:
+            rospy.loginfo(
+                "behaviour_tree: started paused: nothing runs until the operator starts the tree (GUI START: handle"
+                " centred, click; or rosservice call /behaviour_tree/start)"
+            )
         return cls(
             tree,
             tick_rate=float(params["tick_rate"]),
@@ -345,18 +380,27 @@ class BehaviourTreeNode:
         Wall time, not ROS time: when the simulator dies its clock stops, and the tree must still tick to notice
         (its leaves fail, the operator is asked for help).
         """
+        rospy.on_shutdown(self._stop_skills)
         self.publish(changed=True)
         self._wait_for_skill_servers()
         period = 1.0 / self.tick_rate
         next_tick = time.monotonic()
         while not rospy.is_shutdown():
-            self.publish(changed=self.tree.tick())
+            try:
+                self.publish(changed=self.tree.tick())
+            except Exception:  # Ctrl-C closed the topics, or stopped the skills, in the middle of this tick
+                if rospy.is_shutdown():
+                    break
+                raise
             next_tick = max(next_tick + period, time.monotonic())
             time.sleep(max(0.0, next_tick - time.monotonic()))
-        with self.tree.lock:
-            self.tree.tree.interrupt()  # cancels the running goal
         if self.tree.store is not None:
             self.tree.store.flush()
+
+    def _stop_skills(self) -> None:
+        """Cancel the running skill's goal: rospy runs this first on shutdown, while the cancel topic is still open."""
+        with self.tree.lock:
+            self.tree.tree.interrupt()
 
     def _wait_for_skill_servers(self) -> None:
         """Hold the first tick until every skill server is connected, for at most ``startup_timeout`` (wall time).
@@ -416,6 +460,12 @@ class BehaviourTreeNode:
             )
             library.header.stamp = rospy.Time.now()
             self.library_publisher.publish(library)
+        execution = tree.execution_state()
+        if execution != self._published_execution:
+            self._published_execution = execution
+            state = TreeExecution(state=int(execution.state), skill=execution.skill, message=execution.message)
+            state.header.stamp = rospy.Time.now()
+            self.execution_publisher.publish(state)
         help_request = tree.help_request
         if help_request != self._published_help:
             self._published_help = help_request
@@ -455,6 +505,11 @@ class BehaviourTreeNode:
 
     def _on_pause(self, message: Bool) -> None:
         self.tree.set_pause(bool(message.data))
+
+    def _on_start(self, _request) -> TriggerResponse:
+        success, message = self.tree.start()
+        rospy.loginfo("behaviour_tree: /behaviour_tree/start: %s", message)
+        return TriggerResponse(success=success, message=message)
 
     def _on_change_tree(self, request: ChangeTree._request_class) -> ChangeTreeResponse:
         result = self.tree.change(

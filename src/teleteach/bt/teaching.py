@@ -14,12 +14,19 @@ operator unpauses. What happens then depends on the operator's edits while pause
 
 The edits that answered a help request are remembered (:mod:`teleteach.bt.repairs`): the next help request for the
 same node and reason suggests them, and ``repair`` applies them as one edit.
+
+Pausing and the arm (:meth:`TeachingTree.execution_state`): a pause suspends the running skill with its goal out, so
+that it finishes what it was doing (the thesis: the tree pauses after its running skill); after ``preempt_after``
+seconds of pause a goal still out is cancelled, and the skill starts again when the tree resumes. Only once no goal
+is out (PAUSED) may another controller take the arm. A tree built with ``start_paused`` waits (WAITING) until the
+operator starts it (:meth:`TeachingTree.start`): on a real robot nothing moves before the operator says so.
 """
 
 import datetime
+import enum
+import math
 import os
 import pathlib
-import tempfile
 import threading
 import time
 import typing
@@ -33,6 +40,7 @@ from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairError, RepairMemory
 from teleteach.bt.tree import LeafFactory, TreeSpec, TreeSpecError, create_root, dump_live_yaml, load_tree, node_type
+from teleteach.datadir import temporary_beside
 
 TREE_FILE = "current_tree.yaml"
 LIBRARY_FILE = "skill_library.yaml"
@@ -47,6 +55,24 @@ class HelpRequest(typing.NamedTuple):
     node_name: str
     reason: str
     suggestion: typing.Tuple[EditRequest, ...] = ()  # how the operator repaired the same failure before
+
+
+class ExecutionState(enum.IntEnum):
+    """What the tree does with the robot (the constants of teleteach/TreeExecution)."""
+
+    RUNNING = 0  # ticking its skills
+    WAITING = 1  # started paused: nothing ran yet
+    PAUSING = 2  # paused, a skill's goal still out
+    PAUSED = 3  # paused, no goal out: the arm is free
+    COMPLETED = 4  # the execution composite succeeded
+
+
+class Execution(typing.NamedTuple):
+    """The tree's :class:`ExecutionState`, the skill whose goal is out (PAUSING) and a line for the operator."""
+
+    state: ExecutionState
+    skill: str
+    message: str
 
 
 class NodeRecord(typing.NamedTuple):
@@ -191,7 +217,7 @@ class TreeStore:
 
     def _replace(self, path: pathlib.Path, text: str) -> None:
         """Write ``path`` atomically; the file it replaces becomes the previous version (``path`` never vanishes)."""
-        handle, temporary = tempfile.mkstemp(dir=self.directory, prefix=f".{path.name}.", suffix=".tmp")
+        handle, temporary = temporary_beside(path)
         link = f"{temporary}.previous"
         try:
             with os.fdopen(handle, "w", encoding="utf-8") as stream:
@@ -298,6 +324,9 @@ class TeachingTree:
         store: where to save the tree and library after each change (None: nowhere)
         data_root: the data directory, for relative skill file paths
         repairs: the repairs remembered so far (saved in ``store`` when one is added)
+        start_paused: wait, paused, for :meth:`start` before running anything
+        preempt_after: [s] of pause after which a skill goal still out is cancelled (inf: never)
+        clock: [s] monotonic time for ``preempt_after``
 
     Blackboard Variables:
         * **pause** (:obj:`bool`)[w]: written by :meth:`set_pause` and by help requests
@@ -311,8 +340,15 @@ class TeachingTree:
         store: typing.Optional[TreeStore] = None,
         data_root: typing.Optional[pathlib.Path] = None,
         repairs: typing.Optional[RepairMemory] = None,
+        start_paused: bool = False,
+        preempt_after: float = math.inf,
+        clock: typing.Callable[[], float] = time.monotonic,
     ):
         self.lock = threading.RLock()
+        self.started = not start_paused
+        self.preempt_after = preempt_after
+        self._clock = clock
+        self._paused_at = clock() if start_paused else math.inf
         self.repairs = repairs or RepairMemory()
         self._answer: typing.List[typing.Tuple[EditRequest, ...]] = []  # the open help request's edits, by change
         self._undone_answer: typing.List[typing.Tuple[EditRequest, ...]] = []
@@ -326,7 +362,7 @@ class TeachingTree:
         self.editor = TreeEditor(self.tree.root, spec.execution, library, self._leaf, spec.history)
         self.blackboard = py_trees.blackboard.Client(name="TeachingTree")
         self.blackboard.register_key(PAUSE_KEY, access=py_trees.common.Access.WRITE)
-        self.blackboard.set(PAUSE_KEY, False)
+        self.blackboard.set(PAUSE_KEY, start_paused)
         self.help_request: typing.Optional[HelpRequest] = None
         self.completed = False
         self.revision = 0  # bumped by every edit, library change, pause change and help request
@@ -361,6 +397,8 @@ class TeachingTree:
 
     def _ask(self, node_name: str, reason: str) -> None:
         """Pause and ask the operator, with the remembered repair of this failure if there is one."""
+        if not self.paused:
+            self._paused_at = self._clock()
         self.blackboard.set(PAUSE_KEY, True)
         self.help_request = HelpRequest(node_name, reason, self.repairs.suggestion(node_name, reason))
         self._answer, self._undone_answer = [], []
@@ -380,15 +418,68 @@ class TeachingTree:
         )
 
     def set_pause(self, paused: bool) -> None:
-        """Pause or resume; resuming closes an open help request, remembering its answer's edits as the repair."""
+        """Pause or resume; resuming closes an open help request, remembering its answer's edits as the repair.
+
+        A tree that waits for its start stays paused: a resume is no start (a latched "not paused", left by a GUI
+        before this tree was started again, would otherwise run the robot without the operator); see :meth:`start`.
+        """
         with self.lock:
-            if paused == self.paused:
+            if paused == self.paused or not self.started:
                 return
             self.blackboard.set(PAUSE_KEY, paused)
+            self._paused_at = self._clock() if paused else math.inf
             if not paused:
                 self._remember_answer()
                 self.help_request = None
             self.revision += 1
+
+    def start(self) -> typing.Tuple[bool, str]:
+        """The operator's start of a tree that waits for it (``start_paused``): it runs from the next tick on.
+
+        Returns whether it was started now, and what happened in words.
+        """
+        with self.lock:
+            if self.started:
+                return False, "the tree was started already"
+            self.started = True
+            self.blackboard.set(PAUSE_KEY, False)
+            self._paused_at = math.inf
+            self.revision += 1
+            return True, "started: the tree runs"
+
+    def execution_state(self) -> Execution:
+        """What the tree does with the robot now (see the module docstring)."""
+        with self.lock:
+            if not self.started:
+                return Execution(ExecutionState.WAITING, "", "started paused: waiting for the operator to start it")
+            if self.completed:
+                return Execution(ExecutionState.COMPLETED, "", f"done: {self.execution.name} succeeded")
+            if not self.paused:
+                return Execution(ExecutionState.RUNNING, "", "running")
+            out = self._goals_out()
+            if out:
+                leaf = out[0]
+                if leaf.preempted:
+                    message = f"paused: {leaf.skill} preempted, waiting for its end to be confirmed"
+                else:
+                    message = f"paused: {leaf.skill} finishes its goal (preempted after {self.preempt_after:g} s)"
+                return Execution(ExecutionState.PAUSING, leaf.skill, message)
+            if self.help_request is not None:
+                return Execution(ExecutionState.PAUSED, "", f"paused: asking for help ({self.help_request.node_name})")
+            return Execution(ExecutionState.PAUSED, "", "paused: no skill runs")
+
+    def _goals_out(self) -> typing.List[SkillLeaf]:
+        """The suspended leaves whose goal may still move the robot."""
+        return [node for node in self.root.iterate() if isinstance(node, SkillLeaf) and node.goal_out()]
+
+    def _preempt_overdue(self) -> None:
+        """Cancel the goals still out ``preempt_after`` seconds into a pause (the skills start again on resume)."""
+        if self._clock() - self._paused_at < self.preempt_after:
+            return
+        for leaf in self._goals_out():
+            if not leaf.preempted:
+                leaf.preempt()
+                self.revision += 1
 
     def _remember_answer(self) -> None:
         help_request, edits = self.help_request, [request for change in self._answer for request in change]
@@ -412,6 +503,8 @@ class TeachingTree:
     def tick(self) -> bool:
         """Tick once (unless the execution is complete); return True if anything visible changed."""
         with self.lock:
+            if self.paused:
+                self._preempt_overdue()
             if not self.completed:
                 self.tree.tick()
                 self.completed = self.execution.status == Status.SUCCESS

@@ -1,11 +1,14 @@
-"""Stiffness for the TU Delft franka_human_friendly_controllers' CartesianVariableImpedanceController.
+"""Stiffness for a Cartesian variable impedance controller on a real Panda, through ``/stiffness``.
 
-Its public source (github.com/franzesegiovanni/franka_human_friendly_controllers, src/
-cartesian_variable_impedance_controller.cpp, in the versions that subscribe ``/stiffness``; newer versions take
-stiffness only through dynamic_reconfigure) reads std_msgs/Float32MultiArray ``data`` as seven numbers: the diagonal of
-the translational stiffness [N/m] (clamped there to [0, 4000]), of the rotational stiffness [Nm/rad] ([0, 50]), and the
-nullspace stiffness ([0, 50]), in the arm's base frame, with damping 2 sqrt(K) per axis. It copies ``data`` into a
-fixed array of seven without checking the length, so exactly seven are sent, all finite.
+The controller, named exactly (config/robot_controllers.yaml, section ``franka``): ``cartesian_variable_impedance_
+controller`` of github.com/platonics-delft/franka_impedance_controller at commit
+173448f6bfef6b08103b04c56f3a6c86c4cbcec0 (2024-04-19), type franka_impedance_controller/CartesianVariableImpedance
+Controller. Its src/cartesian_variable_impedance_controller.cpp subscribes ``/stiffness`` and reads
+std_msgs/Float32MultiArray ``data`` as seven numbers: the diagonal of the translational stiffness [N/m] (clamped there
+to [0, 4000]), of the rotational stiffness [Nm/rad] ([0, 50]), and the nullspace stiffness ([0, 50]), in the arm's base
+frame, with damping 2 sqrt(K) per axis. It copies ``data`` into a fixed array of seven without checking the length, so
+exactly seven are sent, all finite. (franzesegiovanni/franka_human_friendly_controllers had the same subscriber up to
+commit 44069fd06e5b2d315084b3551c2d40a82c8b483d; 2443322 of 2024-05-14 removed it for dynamic_reconfigure only.)
 
 A diagonal cannot hold a turned ellipsoid. The bridge sends the diagonal of the thesis' K = V Sigma V^T (eq 1) and
 K_R = V K_R V^T (eq 4), i.e. the stiffness along each base axis, and reports the largest off-diagonal term it left out:

@@ -1,4 +1,4 @@
-"""ROS layer of control: the stiffness bridge to franka_human_friendly_controllers (teleteach.control.franka_stiffness).
+"""ROS layer of control: the stiffness bridge to a variable impedance controller (teleteach.control.franka_stiffness).
 
 robot_sim's controllers have their own node (teleteach.sim.ros).
 """
@@ -20,7 +20,7 @@ OFF_DIAGONAL_NOTICE = 1.0  # [N/m] off-diagonal stiffness left out beyond this i
 
 
 class StiffnessBridgeNode:
-    """stiffness_bridge: /eigenvalues + /eigenvectors -> /stiffness (franka_human_friendly_controllers).
+    """stiffness_bridge: /eigenvalues + /eigenvectors -> /stiffness (platonics-delft/franka_impedance_controller).
 
     Publishes once both have arrived, on every good message; a bad one (NaN or inf, negative, a zero or non-unit
     quaternion, another frame) is rejected with a log line and changes nothing: the controller keeps the last good

@@ -18,13 +18,14 @@ from PyQt5.QtCore import QMetaObject, QPoint, Qt, QThread, QTimer
 from PyQt5.QtGui import QPainter, QPixmap
 from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, QTabWidget, QVBoxLayout, QWidget
 from std_msgs.msg import Bool, Int8
+from std_srvs.srv import Trigger, TriggerRequest
 
 from teleteach import skill_file
 from teleteach.active_tab import Tab
 from teleteach.bt.editor import EditRequest
 from teleteach.datadir import data_dir
 from teleteach.frames import Transform
-from teleteach.gui.config import GuiConfig
+from teleteach.gui.config import GuiConfig, GuiConfigError
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
 from teleteach.gui.recording import StiffnessRecorder, unique_skill_name
@@ -34,10 +35,9 @@ from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.study import Page, StudyScreen, StudyStatus
 from teleteach.gui.study_page import StudyPage
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
-from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
+from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer, send
 from teleteach.haptics.guidance import Guidance
-from teleteach.msg import HapticGuidance, Selection
-from teleteach.node import init_node
+from teleteach.msg import HapticGuidance, Selection, TreeExecution
 from teleteach.skill_file import TARGET_FRAME
 from teleteach.srv import (
     AddSkill,
@@ -74,7 +74,7 @@ class MainWindow(QMainWindow):
         self._tab_publisher = rospy.Publisher("teleteach/active_tab", Int8, queue_size=1, latch=True)
         self._pause_publisher = rospy.Publisher("behaviour_tree/pause", Bool, queue_size=1, latch=True)
         self._recording_publisher = rospy.Publisher("teleteach/recording", Bool, queue_size=1, latch=True)
-        self._recording_publisher.publish(Bool(False))
+        send(self._recording_publisher, Bool(False))
         self._shared_control_publisher = rospy.Publisher("shared_control/enable", Bool, queue_size=1, latch=True)
         self._guidance_publisher = rospy.Publisher("sigma7/guidance", HapticGuidance, queue_size=1, latch=True)
         self._guidance = GuidanceDesigner(config)
@@ -82,7 +82,7 @@ class MainWindow(QMainWindow):
         self._device_sample = None
         self._sent_guidance: Optional[Guidance] = None
         self._guidance_sent_at = -math.inf
-        self._shared_control_publisher.publish(Bool(False))
+        send(self._shared_control_publisher, Bool(False))
         self._selection_publisher = rospy.Publisher("teleteach/selection", Selection, queue_size=20)
         self.study = StudyScreen(config)
         equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
@@ -130,6 +130,11 @@ class MainWindow(QMainWindow):
         self.setCentralWidget(central)
         self.health_label = QLabel()
         self.statusBar().addPermanentWidget(self.health_label)
+        self.tree_label = QLabel("tree: -")
+        self.statusBar().addPermanentWidget(self.tree_label)
+        self._arm_timer = QTimer(self)  # while a session waits for the arm to be free
+        self._arm_timer.timeout.connect(self._check_arm)
+        self._arm_deadline = math.inf
 
         self.services = ServiceCaller(config.service_timeout)
         self.services.finished.connect(self._on_service)
@@ -155,6 +160,8 @@ class MainWindow(QMainWindow):
         self.worker.shared_obstacle.connect(self.shared_control.on_obstacle, queued)
         self.worker.shared_arm.connect(self.shared_control.on_arm, queued)
         self.worker.study_state.connect(self._on_study_state, queued)
+        self.worker.execution_changed.connect(self._on_execution, queued)
+        self.start_tab.start_requested.connect(lambda: self._carry_out(self.session.start_requested()))
         self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
         self.start_tab.mode_chosen.connect(lambda tab: self._publish_selection(Tab.START, "mode", Tab(tab).name))
         self.high_level.request_ready.connect(self._send_change)
@@ -164,21 +171,26 @@ class MainWindow(QMainWindow):
         self.low_level.recording_toggled.connect(self._toggle_recording)
         self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
         self.tabs.currentChanged.connect(self._on_tab_changed)
+        controllers = config.controller_names
         self._actions = {  # what each of the teaching session's actions does here
+            Action.ENTER_LOW_LEVEL: self.low_level.on_enter,
             Action.LEAVE_LOW_LEVEL: self.low_level.on_leave,
             Action.RESET_HIGH_LEVEL: self.high_level.reset,
             Action.PAUSE_TREE: lambda: self._pause_tree(True),
             Action.RESUME_TREE: lambda: self._pause_tree(False),
+            Action.START_TREE: self._start_tree,
+            Action.WAIT_FOR_ARM: self._wait_for_arm,
+            Action.STOP_WAITING_FOR_ARM: self._stop_waiting_for_arm,
             Action.ANNOUNCE_HELP_ANSWERED: lambda: self.statusBar().showMessage(
                 "help request answered: the tree resumes", 15000
             ),
-            Action.IMPEDANCE_CONTROL: lambda: self._switch(config.impedance_controller, config.position_controller),
-            Action.POSITION_CONTROL: lambda: self._switch(config.position_controller, config.impedance_controller),
+            Action.IMPEDANCE_CONTROL: lambda: self._switch(controllers.impedance, controllers.position),
+            Action.POSITION_CONTROL: lambda: self._switch(controllers.position, controllers.impedance),
             Action.START_STIFFNESS_RECORDING: self._start_recording,
             Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
             Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,
-            Action.SHARED_CONTROL_ON: lambda: self._shared_control_publisher.publish(Bool(True)),
-            Action.SHARED_CONTROL_OFF: lambda: self._shared_control_publisher.publish(Bool(False)),
+            Action.SHARED_CONTROL_ON: lambda: send(self._shared_control_publisher, Bool(True)),
+            Action.SHARED_CONTROL_OFF: lambda: send(self._shared_control_publisher, Bool(False)),
             Action.START_SHARED_RECORDING: self._start_shared_recording,
             Action.STOP_SHARED_RECORDING: self._stop_shared_recording,
             Action.SAVE_SHARED_SKILL: self._save_shared_skill,
@@ -215,6 +227,11 @@ class MainWindow(QMainWindow):
             tab.on_device(sample)
 
     def _on_click(self, stamp: float) -> None:
+        # the click comes at once, the position at device_ui_rate: act on where the device is now (a first click
+        # may otherwise arrive before any position, and choose nothing)
+        latest = self.worker.latest_sample()
+        if latest is not None and latest is not self._device_sample:
+            self._on_device(latest)
         if self.study.page is Page.STUDY:
             submission = self.study.on_click()
             if submission is not None:
@@ -261,11 +278,25 @@ class MainWindow(QMainWindow):
         self.study_banner.setText(banner)
         self.study_banner.setVisible(bool(banner))
 
+    def _on_execution(self, state: int, message: str) -> None:
+        """The tree's execution (teleteach/TreeExecution): START and the status bar show it."""
+        waiting = state == TreeExecution.WAITING
+        self._carry_out(self.session.tree_waiting_changed(waiting))
+        self.start_tab.show_tree(waiting, message)
+        self.tree_label.setText(f"tree: {message}")
+        self.tree_label.setStyleSheet("color: #bf360c; font-weight: bold;" if waiting else "")
+
+    def _start_tree(self) -> None:
+        """The operator's start gesture: a tree that started paused runs (behaviour_tree/start, an event)."""
+        self.services.call("start_tree", "behaviour_tree/start", Trigger, TriggerRequest())
+        self._publish_selection(Tab.START, "start", "tree")
+        self.statusBar().showMessage("starting the tree...", 10000)
+
     def _publish_selection(self, tab: Tab, step: str, choice: str) -> None:
         """A confirmed choice, for studies and bags (teleteach/Selection)."""
         message = Selection(tab=tab.name, step=step, choice=choice)
         message.header.stamp = rospy.Time.now()
-        self._selection_publisher.publish(message)
+        send(self._selection_publisher, message)
 
     def _on_health(self, problems: str) -> None:
         self.health_label.setText(problems)
@@ -294,7 +325,7 @@ class MainWindow(QMainWindow):
             return
         message = HapticGuidance(**guidance_fields(guidance))
         message.header.stamp = rospy.Time.now()
-        self._guidance_publisher.publish(message)
+        send(self._guidance_publisher, message)
         self._sent_guidance, self._guidance_sent_at = guidance, now
 
     # tabs -----------------------------------------------------------------------------------------
@@ -306,7 +337,7 @@ class MainWindow(QMainWindow):
         self.worker.reset_device_filter()
         for position, tab in enumerate(self._tab_widgets):
             tab.active = position == index
-        self._tab_publisher.publish(Int8(index))
+        send(self._tab_publisher, Int8(index))
         self._carry_out(self.session.tab_changed(index))
 
     def _carry_out(self, actions) -> None:
@@ -324,6 +355,36 @@ class MainWindow(QMainWindow):
         )
 
     # LOW-LEVEL ------------------------------------------------------------------------------------
+    def _wait_for_arm(self) -> None:
+        """Hand the arm to the impedance controller once the tree's skill stopped and the arm rests (bounded)."""
+        self._arm_deadline = time.monotonic() + self.config.arm_free_timeout
+        self.low_level.controller_label.setText("controller: waiting for the arm to be free...")
+        self._arm_timer.start(100)
+        self._check_arm()
+
+    def _stop_waiting_for_arm(self) -> None:
+        self._arm_timer.stop()
+        self.low_level.controller_label.setText("controller: -")
+
+    def _check_arm(self) -> None:
+        if not self._arm_timer.isActive():
+            return
+        free, why = self.worker.arm_free()
+        if free:
+            self._arm_timer.stop()
+            self._carry_out(self.session.arm_freed())
+        elif time.monotonic() > self._arm_deadline:
+            self._arm_timer.stop()
+            self._carry_out(self.session.arm_not_freed())
+            text = (
+                f"the arm was not free within {self.config.arm_free_timeout:g} s ({why}): the impedance controller was"
+                " not started; go back to START and enter again"
+            )
+            self.low_level.controller_label.setText(f"controller: {text}")
+            self.statusBar().showMessage(text, 30000)
+        else:
+            self.low_level.controller_label.setText(f"controller: waiting for the arm: {why}")
+
     def _switch(self, start: str, stop: str) -> None:
         self.low_level.controller_label.setText(f"controller: switching to {start}...")
         request = SwitchControllerRequest(
@@ -336,7 +397,7 @@ class MainWindow(QMainWindow):
         self.services.call("switch:" + start, SWITCH_SERVICE, SwitchController, request)
 
     def _pause_tree(self, paused: bool) -> None:
-        self._pause_publisher.publish(Bool(paused))
+        send(self._pause_publisher, Bool(paused))
 
     def _toggle_recording(self) -> None:
         self._carry_out(self.session.toggle_stiffness_recording())
@@ -362,7 +423,7 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage("recording not started: no /cartesian_pose of the arm yet", 15000)
             return
         self.recorder.start()
-        self._recording_publisher.publish(Bool(True))
+        send(self._recording_publisher, Bool(True))
         self.player.start(trajectory.resolve(self._teaching_target and self._teaching_target[1], hand))
         self.low_level.recording_since = time.monotonic()
         where = f" at {trajectory.target}" if trajectory.frame == TARGET_FRAME else ""
@@ -370,7 +431,7 @@ class MainWindow(QMainWindow):
 
     def _stop_recording(self) -> None:
         self.recorder.stop()
-        self._recording_publisher.publish(Bool(False))
+        send(self._recording_publisher, Bool(False))
         self.player.stop()
         self.low_level.recording_since = None
 
@@ -411,7 +472,7 @@ class MainWindow(QMainWindow):
             self.saved_skills.append(name)
             self.statusBar().showMessage(f"saved {name} ({len(skill.time)} samples) to {path}", 10000)
             self.services.call(
-                "add_skill", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
+                f"add_skill:{name}", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
             )
 
     # SHARED CONTROL -------------------------------------------------------------------------------
@@ -421,13 +482,13 @@ class MainWindow(QMainWindow):
 
     def _start_shared_recording(self) -> None:
         self.shared_recorder.start()
-        self._recording_publisher.publish(Bool(True))
+        send(self._recording_publisher, Bool(True))
         self.shared_control.recording_since = time.monotonic()
         self.statusBar().showMessage("recording the shared-control trajectory", 5000)
 
     def _stop_shared_recording(self) -> None:
         self.shared_recorder.stop()
-        self._recording_publisher.publish(Bool(False))
+        send(self._recording_publisher, Bool(False))
         self.shared_control.recording_since = None
         self.shared_control.show_status(self.shared_control.status)
 
@@ -455,13 +516,22 @@ class MainWindow(QMainWindow):
                 reason = message or "the controller manager refused the switch"
                 self.low_level.controller_label.setText(f"controller: switch to {controller} failed")
                 self.statusBar().showMessage(f"switch to {controller} failed: {reason}", 15000)
+        elif key == "start_tree":
+            if success:
+                self.statusBar().showMessage(f"the tree: {response.message}", 10000)
+            else:
+                self.statusBar().showMessage(f"the tree was not started: {message}", 15000)
         elif key == "study":
             self.study.answered(success and response.success, message if not success else response.message)
             if self.study.page is Page.STUDY:
                 self.study_page.show_screen(self.study)
-        elif key == "add_skill":
-            text = message if not success else ("added: " if response.success else "refused: ") + response.message
-            self.statusBar().showMessage(f"/behaviour_tree/add_skill {text}", 15000)
+        elif key.startswith("add_skill:"):
+            name = key.split(":", 1)[1]
+            if success and response.success:
+                text = f"{name} is in the skill library: a new button in HIGH-LEVEL"
+            else:
+                text = f"{name} was not added to the skill library: {response.message if success else message}"
+            self.statusBar().showMessage(text, 15000)
 
     def screenshot(self) -> QPixmap:
         """The window as the operator sees it (``grab()`` misses the text the GL view paints over its views)."""
@@ -483,7 +553,7 @@ class MainWindow(QMainWindow):
         """Idempotent: what closing the window does (the device is left without guidance: no force)."""
         if self.thread.isRunning():
             self._guidance_timer.stop()
-            self._guidance_publisher.publish(HapticGuidance(**guidance_fields(self._guidance.free())))
+            send(self._guidance_publisher, HapticGuidance(**guidance_fields(self._guidance.free())))
             self._carry_out(self.session.shutdown())
             self.player.stop()
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)
@@ -491,12 +561,16 @@ class MainWindow(QMainWindow):
             self.thread.wait(3000)
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-    """Node entry point: params (``config/gui.yaml`` overridden by the private params) -> window -> Qt loop."""
-    rospy.myargv(argv if argv is not None else sys.argv)
-    init_node("teaching_gui")
-    params = rospy.get_param("~", {})
-    config = GuiConfig.load(**params)
+def run() -> int:
+    """The node after rospy.init_node: params (``config/gui.yaml`` overridden by the private ones) -> window -> Qt loop.
+
+    A bad parameter ends it with one line (exit status 2).
+    """
+    try:
+        config = GuiConfig.load(**rospy.get_param("~", {}))
+    except GuiConfigError as error:
+        rospy.logfatal(f"teaching_gui cannot start: {error}")
+        return 2
     app = QApplication.instance() or QApplication(list(sys.argv[:1]))
     window = MainWindow(config)
     window.show()

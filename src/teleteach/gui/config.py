@@ -8,6 +8,7 @@ from typing import Any, Dict, Mapping, Tuple
 import yaml
 
 from teleteach.paths import config_file
+from teleteach.robot_controllers import ControllerNames, ControllerNamesError, controller_names
 
 DEVICE_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 CONFIG_DIR = config_file()
@@ -31,7 +32,9 @@ class GuiConfig:
     stiffness_per_pixel: float = 5.0
     max_stiffness: float = 3000.0
     min_stiffness: float = 50.0
-    initial_stiffness: float = 500.0
+    initial_stiffness: float = 1525.0
+    takeover_tolerance: float = 50.0
+    takeover_angle: float = 0.05
     rotational_stiffness: float = 30.0
     rotation_gain: float = 1.0
     double_click_window: float = 0.6
@@ -44,9 +47,11 @@ class GuiConfig:
     service_timeout: float = 5.0
     device_timeout: float = 0.5
     health_rate: float = 5.0
+    start_neutral_zone: float = 0.02
+    arm_rest_speed: float = 0.05
+    arm_free_timeout: float = 20.0
     base_frame: str = "base_link"
-    impedance_controller: str = "cartesian_impedance_controller"
-    position_controller: str = "position_joint_trajectory_controller"
+    controllers: str = ""
     trajectory: str = "perpendicular"
     skill_prefix: str = "DemonstratedPlace"
     initial_tab: int = 0
@@ -100,6 +105,11 @@ class GuiConfig:
             "guidance_refresh",
             "study_start_radius",
             "guidance_mode_angle_width",
+            "takeover_tolerance",
+            "takeover_angle",
+            "start_neutral_zone",
+            "arm_rest_speed",
+            "arm_free_timeout",
         )
         for name in positive:
             value = getattr(self, name)
@@ -148,6 +158,10 @@ class GuiConfig:
             isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in stiffness
         ):
             raise GuiConfigError(f"shared_control_stiffness must be 3 positive numbers [N/m], got {stiffness!r}")
+        if not self.start_neutral_zone < self.device_range:
+            raise GuiConfigError(
+                f"start_neutral_zone {self.start_neutral_zone} must be below device_range {self.device_range}"
+            )
         if not self.edit_push < self.device_range:
             raise GuiConfigError(f"edit_push {self.edit_push} must be below device_range {self.device_range}")
         if not self.page_turn < self.device_angle_range:
@@ -162,8 +176,17 @@ class GuiConfig:
             isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in self.timeout_seconds
         ):
             raise GuiConfigError(f"timeout_seconds must be positive numbers [s], got {self.timeout_seconds!r}")
+        try:
+            self.controller_names  # noqa: B018 - an unknown section is refused before any window opens
+        except ControllerNamesError as error:
+            raise GuiConfigError(f"GUI parameter {error}") from None
         if not (isinstance(self.shared_trail_length, int) and self.shared_trail_length >= 2):
             raise GuiConfigError(f"shared_trail_length must be an integer >= 2, got {self.shared_trail_length!r}")
+
+    @property
+    def controller_names(self) -> ControllerNames:
+        """The impedance and position controllers of the ``controllers`` section (config/robot_controllers.yaml)."""
+        return controller_names(self.controllers)
 
     @property
     def max_pixels(self) -> float:

@@ -5,6 +5,11 @@ Device translation sets the semi-axis lengths in pixels (scaled to the screen), 
 device rotation sets roll, pitch, yaw of the axes with R = Rz(yaw) Ry(pitch) Rx(roll) (eq. 2).
 A click cycles the modes ALL -> X -> Y -> Z: X moves only the X length and roll, Y the Y length and pitch,
 Z the Z length and yaw.
+
+Soft takeover: an axis that becomes live (entering LOW-LEVEL, or a mode that includes it) keeps its value until the
+handle has met it - come within ``takeover_tolerance`` of it or passed it - and follows the handle from then on. So
+entering the tab, or changing mode, never makes the stiffness jump to wherever the handle happens to be; a centred
+handle meets the initial ellipsoid (``initial_stiffness`` is the centre of the range).
 """
 
 import threading
@@ -31,6 +36,20 @@ class EllipsoidCommand:
         self._angles = [0.0, 0.0, 0.0]
         self._mode = 0
         self.version = 0
+        self._taken = [True] * 6  # per length (x, y, z) then angle (roll, pitch, yaw): follows the handle
+        self._side = [0.0] * 6  # on which side of the held value the handle was (sign), while not taken
+        self._handle = [float("nan")] * 6  # the value the handle maps to, for the display
+
+    def hold(self) -> None:
+        """Keep every value until the handle meets it (entering LOW-LEVEL)."""
+        with self._lock:
+            self._release(range(3))
+
+    def _release(self, axes) -> None:
+        for axis in axes:
+            for index in (axis, axis + 3):
+                self._taken[index] = False
+                self._side[index] = 0.0
 
     @property
     def min_pixels(self) -> float:
@@ -45,9 +64,28 @@ class EllipsoidCommand:
     def next_mode(self) -> str:
         """Cycle the mode (one click) and return the new one."""
         with self._lock:
+            before = set(self._live_axes())
             self._mode = (self._mode + 1) % len(MODES)
+            self._release(set(self._live_axes()) - before)
             self.version += 1
             return MODES[self._mode]
+
+    def _live_axes(self) -> range:
+        return range(3) if self._mode == 0 else range(self._mode - 1, self._mode)
+
+    def waiting(self) -> Tuple[Tuple[float, ...], Tuple[float, ...]]:
+        """Where the handle points for each live value that waits for it: (stiffnesses [N/m], angles [rad]).
+
+        NaN for a value that follows the handle, or is not live in this mode.
+        """
+        with self._lock:
+            live = self._live_axes()
+            pending = [
+                self._handle[index] if (index % 3) in live and not self._taken[index] else float("nan")
+                for index in range(6)
+            ]
+        gain = self.config.stiffness_per_pixel
+        return tuple(value * gain for value in pending[:3]), tuple(pending[3:])
 
     def device(self, sample: DeviceSample) -> bool:
         """Apply a (filtered) device sample according to the mode; True when the ellipsoid changed."""
@@ -61,13 +99,24 @@ class EllipsoidCommand:
             float(np.clip(config.rotation_gain * value, -limit, limit))
             for value in (sample.roll, sample.pitch, sample.yaw)
         ]
-        axes = range(3) if self._mode == 0 else (self._mode - 1,)
+        tolerances = [config.takeover_tolerance / config.stiffness_per_pixel] * 3 + [config.takeover_angle] * 3
+        targets = lengths + angles
         with self._lock:
-            before = (tuple(self._lengths), tuple(self._angles))
-            for axis in axes:
-                self._lengths[axis] = lengths[axis]
-                self._angles[axis] = angles[axis]
-            changed = before != (tuple(self._lengths), tuple(self._angles))
+            values = self._lengths + self._angles
+            before = tuple(values)
+            self._handle = targets
+            for axis in self._live_axes():
+                for index in (axis, axis + 3):
+                    if not self._taken[index]:
+                        side = float(np.sign(targets[index] - values[index]))
+                        met = abs(targets[index] - values[index]) <= tolerances[index]
+                        if not (met or side * self._side[index] < 0.0):
+                            self._side[index] = side
+                            continue
+                        self._taken[index] = True
+                    values[index] = targets[index]
+            self._lengths, self._angles = values[:3], values[3:]
+            changed = before != tuple(values)
             if changed:
                 self.version += 1
             return changed

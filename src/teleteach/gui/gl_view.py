@@ -18,6 +18,7 @@ from teleteach.rotations import rpy_to_matrix
 
 LOG = logging.getLogger(__name__)
 AXIS_COLOURS = ((0.85, 0.1, 0.1), (0.1, 0.65, 0.1), (0.15, 0.3, 0.95))
+LABEL_BACKGROUND = QColor(255, 255, 255, 225)  # behind every label: readable on the ellipsoid as on the background
 AXIS_NAMES = ("X", "Y", "Z")
 ANGLE_NAMES = ("roll", "pitch", "yaw")
 
@@ -66,6 +67,7 @@ class EllipsoidView(QOpenGLWidget):
         self._sphere = 0
         self._vertices, self._indices = sphere_mesh()
         self.setMinimumSize(480, 400)
+        self.label_boxes = []  # (text, QRectF) of the axis labels of the last frame, in widget pixels
 
     def initializeGL(self) -> None:  # noqa: N802 - Qt's name
         """One-time GL state and the sphere's display list.
@@ -176,6 +178,7 @@ class EllipsoidView(QOpenGLWidget):
     def _draw_labels(self, lengths, angles, rotation, width, height, half) -> None:
         """View titles and, at each axis tip, its stiffness [N/m] (and angle in the 3D view)."""
         gain = self.command.config.stiffness_per_pixel
+        self.label_boxes = []  # (text, box) drawn this frame, in widget pixels
         painter = QPainter(self)
         painter.setRenderHint(QPainter.TextAntialiasing)
         title_font = QFont(self.font())
@@ -200,7 +203,9 @@ class EllipsoidView(QOpenGLWidget):
                         f"{AXIS_NAMES[axis]}: {lengths[axis] * gain:.0f} N/m, "
                         f"{ANGLE_NAMES[axis]} {math.degrees(angles[axis]):.1f}\N{DEGREE SIGN}"
                     )
-                    painter.drawText(QRectF(left + 6, top + h - 62 + 18 * axis, w - 12, 18), Qt.AlignLeft, legend)
+                    line = QRectF(left + 6, top + h - 62 + 18 * axis, w - 12, 18)
+                    painter.fillRect(painter.boundingRect(line, Qt.AlignLeft, legend), LABEL_BACKGROUND)
+                    painter.drawText(line, Qt.AlignLeft, legend)
                 tip = view @ (1.15 * lengths[axis] * rotation[:, axis])
                 if abs(tip[0]) + abs(tip[1]) < 0.2 * lengths[axis]:
                     continue  # axis points at the viewer: its label would cover the centre
@@ -213,5 +218,9 @@ class EllipsoidView(QOpenGLWidget):
                 box = QRectF(centre[0] - half_width, centre[1] - 9, 2 * half_width, 18)
                 box.moveLeft(min(max(box.left(), left + 2), left + w - 2 - box.width()))
                 box.moveTop(min(max(box.top(), top + 22), top + h - 20))
+                # a label held inside the view may land on the ellipsoid, whose X axis is as red as its text
+                used = painter.boundingRect(box, Qt.AlignCenter, text).adjusted(-3, 0, 3, 0)
+                painter.fillRect(used, LABEL_BACKGROUND)
                 painter.drawText(box, Qt.AlignCenter, text)
+                self.label_boxes.append((text, used))
         painter.end()

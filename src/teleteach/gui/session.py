@@ -1,18 +1,24 @@
 """The teaching session as a state machine without Qt: what the GUI does on tab changes, recordings and help requests.
 
-Events in (tab changes, recording toggles, help requests, shutdown), :class:`Action` lists out, in the order the
-window must carry them out. The window only wires the events to this machine and the actions to the widgets, the
-recorders and the ROS calls, so every rule below is tested without a display (test/unit/test_gui_session.py):
+Events in (tab changes, recording toggles, the arm freed, help requests, the tree's state, shutdown), :class:`Action`
+lists out, in the order the window must carry them out. The window only wires the events to this machine and the
+actions to the widgets, the recorders and the ROS calls, so every rule below is tested without a display
+(test/unit/test_gui_session.py):
 
-- LOW-LEVEL and SHARED CONTROL are teaching tabs: entering one starts a session (the tree pauses, the impedance
-  controller takes the arm); leaving to a tab that is not a teaching tab ends it (position controller, tree resumes).
-- A recording runs in one teaching tab; leaving that tab, or shutting down, stops it and saves what was recorded.
-  A stiffness demonstration (LOW-LEVEL) ends the session when it stops; a shared-control recording does not
-  (the operator goes on in the tab) unless the tab is left for a tab that is not a teaching tab.
-- The MPC drives the arm only while SHARED CONTROL is open: on when the tab opens (after the session began), off
-  first thing when it is left or the window closes.
+- LOW-LEVEL and SHARED CONTROL are teaching tabs: entering one starts a session. The tree pauses at once, but the
+  impedance controller takes the arm only once the arm is free (:meth:`TeachingSession.arm_freed`: the tree's
+  running skill stopped and the arm is at rest): a skill's goal is never cut off by a controller switch. Leaving to
+  a tab that is not a teaching tab ends the session: the position controller takes the arm back (if the impedance
+  controller had it), then the tree resumes - unless it was waiting for its first start when the session began.
+- A recording runs in one teaching tab, on the impedance controller: a double click before the arm is free starts it
+  as soon as it is (a second one cancels that). Leaving the tab, or shutting down, stops it and saves what was
+  recorded. A stiffness demonstration (LOW-LEVEL) ends the session when it stops; a shared-control recording does
+  not (the operator goes on in the tab) unless the tab is left for a tab that is not a teaching tab.
+- The MPC drives the arm only while SHARED CONTROL is open and the impedance controller holds the arm: on when both
+  hold, off first thing when the tab is left or the window closes.
 - The operator answers a help request with tree edits in HIGH-LEVEL: leaving HIGH-LEVEL (except for LOW-LEVEL,
   where teaching continues the answer) resumes the tree.
+- A tree that started paused waits for the operator's start gesture in START (:meth:`TeachingSession.start_requested`).
 """
 
 import enum
@@ -30,14 +36,26 @@ class Recording(enum.Enum):
     SHARED_CONTROL = "shared_control"  # SHARED CONTROL: the MPC's trajectory under a constant stiffness
 
 
+class Arm(enum.Enum):
+    """Which controller a teaching session has for the arm."""
+
+    POSITION = "position"  # the position controller (the tree's skills); no session holds the arm
+    WAITING = "waiting"  # a session waits for the tree's skill to stop and the arm to rest
+    IMPEDANCE = "impedance"  # the session switched the arm to the impedance controller
+
+
 class Action(enum.Enum):
     """What the window must do, in the order given."""
 
+    ENTER_LOW_LEVEL = enum.auto()  # the LOW-LEVEL tab keeps its ellipsoid until the handle takes it over
     LEAVE_LOW_LEVEL = enum.auto()  # the LOW-LEVEL tab's own clean-up (mode display, deadbands)
     RESET_HIGH_LEVEL = enum.auto()  # the HIGH-LEVEL selection starts again at step 1
     PAUSE_TREE = enum.auto()
     RESUME_TREE = enum.auto()
+    START_TREE = enum.auto()  # the operator's start of a tree that started paused (behaviour_tree/start)
     ANNOUNCE_HELP_ANSWERED = enum.auto()  # tell the operator that the tree goes on after their edits
+    WAIT_FOR_ARM = enum.auto()  # watch the tree and the arm until the arm is free (bounded), then call arm_freed
+    STOP_WAITING_FOR_ARM = enum.auto()  # the session ended before the arm was free
     IMPEDANCE_CONTROL = enum.auto()  # switch the arm to the Cartesian impedance controller
     POSITION_CONTROL = enum.auto()  # switch it back to the joint trajectory controller
     START_STIFFNESS_RECORDING = enum.auto()  # recorder on, /teleteach/recording true, trajectory player on
@@ -53,14 +71,19 @@ class Action(enum.Enum):
 class TeachingSession:
     """The state of the operator's teaching.
 
-    The open tab, whether a session holds the arm, what is recorded, and whether the robot's help request is open.
+    The open tab, whether a session holds the arm (and with which controller), what is recorded or waits to be, whether
+    the robot's help request is open and whether the tree still waits for its first start.
     """
 
     def __init__(self):
         self.tab: Optional[Tab] = None
         self.session = False
+        self.arm = Arm.POSITION
         self.recording: Optional[Recording] = None
+        self.pending_recording: Optional[Recording] = None  # asked for before the arm was free
         self.help_open = False
+        self.tree_waiting = False  # the tree started paused and nobody started it yet
+        self._resume_on_end = True
 
     def tab_changed(self, index: int) -> List[Action]:
         """The operator opened the tab ``index``."""
@@ -76,28 +99,52 @@ class TeachingSession:
             elif self.session and tab != Tab.SHARED_CONTROL:
                 actions += self._end_session()
         if previous == Tab.SHARED_CONTROL:
-            actions.append(Action.SHARED_CONTROL_OFF)
+            if self.arm == Arm.IMPEDANCE:
+                actions.append(Action.SHARED_CONTROL_OFF)
             if self.recording == Recording.SHARED_CONTROL:
                 actions += self._stop_shared_recording(end_session=tab != Tab.LOW_LEVEL)
             elif self.session and tab != Tab.LOW_LEVEL:
                 actions += self._end_session()
+        self.pending_recording = None  # a recording asked for in the tab that was left is not wanted any more
         if previous == Tab.HIGH_LEVEL and tab != Tab.LOW_LEVEL and self.help_open:
             actions += [Action.RESUME_TREE, Action.ANNOUNCE_HELP_ANSWERED]
         if tab == Tab.HIGH_LEVEL:
             actions.append(Action.RESET_HIGH_LEVEL)
-        elif tab in TEACHING_TABS and not self.session:
+        elif tab == Tab.LOW_LEVEL:
+            actions.append(Action.ENTER_LOW_LEVEL)
+        if tab in TEACHING_TABS and not self.session:
             actions += self._begin_session()
-        if tab == Tab.SHARED_CONTROL:
+        if tab == Tab.SHARED_CONTROL and self.arm == Arm.IMPEDANCE:
             actions.append(Action.SHARED_CONTROL_ON)
         return actions
+
+    def arm_freed(self) -> List[Action]:
+        """The tree's skill has stopped and the arm rests: the impedance controller may take it."""
+        if self.arm != Arm.WAITING:
+            return []
+        self.arm = Arm.IMPEDANCE
+        actions = [Action.IMPEDANCE_CONTROL]
+        if self.tab == Tab.SHARED_CONTROL:
+            actions.append(Action.SHARED_CONTROL_ON)
+        pending, self.pending_recording = self.pending_recording, None
+        if pending == Recording.STIFFNESS:
+            actions += self._start_recording(Recording.STIFFNESS)
+        elif pending == Recording.SHARED_CONTROL:
+            actions += self._start_recording(Recording.SHARED_CONTROL)
+        return actions
+
+    def arm_not_freed(self) -> List[Action]:
+        """The arm did not become free in time: the session keeps the tree paused, the arm stays where it was."""
+        if self.arm == Arm.WAITING:
+            self.arm = Arm.POSITION
+        self.pending_recording = None
+        return []
 
     def toggle_stiffness_recording(self) -> List[Action]:
         """LOW-LEVEL's double click: start a demonstration, or stop and save it (which ends the session)."""
         if self.recording == Recording.STIFFNESS:
             return self._stop_stiffness_recording()
-        actions = [] if self.session else self._begin_session()
-        self.recording = Recording.STIFFNESS
-        return [*actions, Action.START_STIFFNESS_RECORDING]
+        return self._ask_for_recording(Recording.STIFFNESS)
 
     def recording_refused(self) -> List[Action]:
         """The demonstration could not start (its target is not perceived): no recording, the session goes on."""
@@ -108,33 +155,63 @@ class TeachingSession:
         """SHARED CONTROL's double click: start recording, or stop and save (the session goes on in the tab)."""
         if self.recording == Recording.SHARED_CONTROL:
             return self._stop_shared_recording(end_session=False)
-        actions = [] if self.session else self._begin_session()
-        self.recording = Recording.SHARED_CONTROL
-        return [*actions, Action.START_SHARED_RECORDING]
+        return self._ask_for_recording(Recording.SHARED_CONTROL)
 
     def help_requested(self, node_name: str) -> List[Action]:
         """The tree asks for help about ``node_name``; an empty name closes the request."""
         self.help_open = bool(node_name)
         return []
 
+    def tree_waiting_changed(self, waiting: bool) -> List[Action]:
+        """The tree reports whether it still waits for its first start (teleteach/TreeExecution WAITING)."""
+        self.tree_waiting = waiting
+        return []
+
+    def start_requested(self) -> List[Action]:
+        """The operator's start gesture in START: starts a tree that waits for it, and nothing else."""
+        if self.tab != Tab.START or not self.tree_waiting:
+            return []
+        self.tree_waiting = False
+        return [Action.START_TREE]
+
     def shutdown(self) -> List[Action]:
         """The window closes: save a running recording and give the arm back to the position controller."""
-        actions = [Action.SHARED_CONTROL_OFF] if self.tab == Tab.SHARED_CONTROL else []
+        self.pending_recording = None
+        actions = [Action.SHARED_CONTROL_OFF] if self.tab == Tab.SHARED_CONTROL and self.arm == Arm.IMPEDANCE else []
         if self.recording == Recording.STIFFNESS:
             return actions + self._stop_stiffness_recording()
         if self.recording == Recording.SHARED_CONTROL:
             return actions + self._stop_shared_recording(end_session=True)
         return actions + (self._end_session() if self.session else [])
 
+    def _ask_for_recording(self, recording: Recording) -> List[Action]:
+        """Start now if the impedance controller holds the arm, else once it does (asking again cancels that)."""
+        actions = [] if self.session else self._begin_session()
+        if self.arm == Arm.IMPEDANCE:
+            return actions + self._start_recording(recording)
+        self.pending_recording = None if self.pending_recording == recording else recording
+        return actions
+
+    def _start_recording(self, recording: Recording) -> List[Action]:
+        self.recording = recording
+        if recording == Recording.STIFFNESS:
+            return [Action.START_STIFFNESS_RECORDING]
+        return [Action.START_SHARED_RECORDING]
+
     def _begin_session(self) -> List[Action]:
-        """The tree pauses and the impedance controller takes the arm (thesis III-A)."""
+        """The tree pauses; the impedance controller takes the arm once it is free (thesis III-A)."""
         self.session = True
-        return [Action.PAUSE_TREE, Action.IMPEDANCE_CONTROL]
+        self.arm = Arm.WAITING
+        self._resume_on_end = not self.tree_waiting
+        return [Action.PAUSE_TREE, Action.WAIT_FOR_ARM]
 
     def _end_session(self) -> List[Action]:
-        """The position controller takes the arm back, then the tree runs again."""
+        """The position controller takes the arm back (if it was taken), then the tree runs again."""
         self.session = False
-        return [Action.POSITION_CONTROL, Action.RESUME_TREE]
+        arm, self.arm = self.arm, Arm.POSITION
+        self.pending_recording = None
+        actions = {Arm.IMPEDANCE: [Action.POSITION_CONTROL], Arm.WAITING: [Action.STOP_WAITING_FOR_ARM]}.get(arm, [])
+        return actions + ([Action.RESUME_TREE] if self._resume_on_end else [])
 
     def _stop_stiffness_recording(self) -> List[Action]:
         self.recording = None

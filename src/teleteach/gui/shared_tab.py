@@ -51,10 +51,27 @@ class SharedStatus:
     message: str = ""
 
 
-class PlaneView(QWidget):
-    """The task plane, x to the right and y up, scaled to fit the boundary (or what is drawn when there is none)."""
+TICK_STEPS = (0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)  # [m] candidate spacings of the axes' ticks
+AXIS_TITLES = ("task x [m]  (the robot's right)", "task y [m]  (away from the robot)")
 
-    MARGIN_PX = 30
+
+def ticks(low: float, high: float, most: int = 8) -> Tuple[float, ...]:
+    """Round values [m] in [low, high], at the finest spacing of TICK_STEPS that gives at most ``most`` of them."""
+    for step in TICK_STEPS:
+        first, last = math.ceil(low / step - 1e-9), math.floor(high / step + 1e-9)
+        if last - first + 1 <= most:
+            return tuple(round(index * step, 6) for index in range(first, last + 1))
+    return (low, high)
+
+
+class PlaneView(QWidget):
+    """The task plane, x to the right and y up, scaled to fit the boundary (or what is drawn when there is none).
+
+    Axes in metres along the bottom and the left of the shown area, with titles saying which way the task's x and y
+    point for the operator standing behind the robot.
+    """
+
+    MARGIN_PX = 50  # room for the tick labels and the axis titles
     DEFAULT_EXTENT = ((-0.3, -0.2), (0.3, 0.2))
 
     def __init__(self, trail_length: int):
@@ -104,6 +121,7 @@ class PlaneView(QWidget):
         self._polyline(painter, list(self.arm_trail), "#2e7d32", 4.0)
         self._polyline(painter, list(self.trail), "#1565c0", 2.0)
         self._polyline(painter, self.plan, "#ef6c00", 3.0, Qt.DashLine)
+        self._draw_axes(painter)
         if self.trail:
             painter.setPen(QPen(QColor("#0d47a1"), 1))
             painter.setBrush(QColor("#1565c0"))
@@ -124,6 +142,44 @@ class PlaneView(QWidget):
             painter.setPen(QColor("#212121"))
             painter.drawText(36, y + 5, text)
         painter.end()
+
+    def axes(self) -> Tuple[Tuple[float, ...], Tuple[float, ...]]:
+        """The ticks [m] of the x axis and of the y axis for the area shown now."""
+        low, high = self.extent()
+        return ticks(low[0], high[0]), ticks(low[1], high[1])
+
+    def _draw_axes(self, painter: QPainter) -> None:
+        """Ticks with their values [m] along the bottom and the left of the shown area, and the axis titles."""
+        low, _ = self.extent()
+        x_ticks, y_ticks = self.axes()
+        bottom, left = self.to_pixels(low).y(), self.to_pixels(low).x()
+        painter.setPen(QPen(QColor("#616161"), 1))
+        metrics = painter.fontMetrics()
+        for value in x_ticks:
+            x = self.to_pixels((value, low[1])).x()
+            painter.drawLine(QPointF(x, bottom), QPointF(x, bottom + 5))
+            text = f"{value:.2f}"
+            painter.drawText(QPointF(x - metrics.horizontalAdvance(text) / 2, bottom + 6 + metrics.ascent()), text)
+        for value in y_ticks:
+            y = self.to_pixels((low[0], value)).y()
+            painter.drawLine(QPointF(left - 5, y), QPointF(left, y))
+            text = f"{value:.2f}"
+            painter.drawText(QPointF(left - 7 - metrics.horizontalAdvance(text), y + metrics.ascent() / 2), text)
+        painter.setPen(QColor("#212121"))
+        painter.drawText(
+            QRectF(0, self.height() - metrics.height() - 2, self.width(), metrics.height()),
+            Qt.AlignCenter,
+            AXIS_TITLES[0],
+        )
+        painter.save()
+        painter.translate(metrics.height() + 2, self.height() / 2)
+        painter.rotate(-90)
+        painter.drawText(
+            QRectF(-self.height() / 2, -metrics.height(), self.height(), metrics.height()),
+            Qt.AlignCenter,
+            AXIS_TITLES[1],
+        )
+        painter.restore()
 
     def _draw_obstacle(self, painter: QPainter) -> None:
         """The edge through (x, y); yaw points to the free side, the other side is hatched."""
@@ -221,18 +277,16 @@ class SharedControlTab(QWidget):
         if status is None:
             self.skill_label.setText("skill: - (no /shared_control/state yet: is shared_control running?)")
             self.mode_label.setText("mode: -")
-            self.errors_label.setText("")
+            self.errors_label.setText("fitting errors: - (no state yet)")
             self.times_label.setText("")
         else:
             mode = MODE_NAMES.get(status.mode, str(status.mode))
             self.skill_label.setText(f"skill: <b>{status.skill or '-'}</b>")
             self.mode_label.setText(f"mode: <b style='color: {MODE_COLOURS.get(status.mode, '#212121')}'>{mode}</b>")
-            self.errors_label.setText(
-                "fitting errors:<br>"
-                + "<br>".join(
-                    f"&nbsp;&nbsp;{name}: {error:.3g}" for name, error in zip(status.skills, status.fitting_errors)
-                )
-            )
+            errors = [f"&nbsp;&nbsp;{name}: {error:.3g}" for name, error in zip(status.skills, status.fitting_errors)]
+            if not errors:  # direct control for the first window: nothing was fitted yet
+                errors = ["&nbsp;&nbsp;none yet (direct control while the first window fills)"]
+            self.errors_label.setText("fitting errors [(m/s)<sup>2</sup>]:<br>" + "<br>".join(errors))
             self.times_label.setText(
                 f"solve: estimation {1e3 * status.estimation_time:.2f} ms, "
                 f"optimisation {1e3 * status.optimisation_time:.2f} ms"

@@ -6,7 +6,7 @@ device signals only while it is the active one (thesis A.2.1).
 
 import math
 import time
-from typing import Callable, List, Optional, Sequence, Set, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 from PyQt5.QtCore import QEvent, QObject, QSize, Qt, QTimer, pyqtSignal
 from PyQt5.QtGui import QBrush, QColor, QFont
@@ -16,6 +16,7 @@ from PyQt5.QtWidgets import (
     QGridLayout,
     QGroupBox,
     QHBoxLayout,
+    QHeaderView,
     QLabel,
     QPushButton,
     QScrollArea,
@@ -30,7 +31,7 @@ from PyQt5.QtWidgets import (
 
 from teleteach.bt.editor import EditRequest
 from teleteach.gui.config import GuiConfig
-from teleteach.gui.device import ClickClassifier, DeviceSample, scale_to_index
+from teleteach.gui.device import ClickClassifier, DeviceSample
 from teleteach.gui.ellipsoid import MODES, EllipsoidCommand
 from teleteach.gui.gl_view import ANGLE_NAMES, AXIS_NAMES, EllipsoidView
 from teleteach.gui.selection import (
@@ -47,6 +48,9 @@ from teleteach.gui.selection import (
 
 STATUS_COLOURS = {2: QColor(40, 90, 220), 3: QColor(30, 150, 50), 4: QColor(210, 40, 40)}
 NOT_VISITED = QColor(150, 150, 150)
+PAUSE_CONDITION = "PauseCondition"  # its FAILURE is "not paused" (the tree runs), its SUCCESS "paused": no error
+PAUSE_STATES = {3: ("paused", QColor(230, 81, 0)), 4: ("not paused", QColor(30, 150, 50))}
+COMPOSITE_KINDS = {2: "sequence", 3: "selector", 4: "parallel"}  # teleteach/Behaviour types: what the operator sees
 SELECTED_STYLE = "QPushButton { background: #ffd54f; border: 3px solid #e65100; font-weight: bold; padding: 6px; }"
 BUTTON_STYLE = "QPushButton { padding: 6px; }"
 UNAVAILABLE_STYLE = "QPushButton { padding: 6px; color: #9e9e9e; background: #eeeeee; }"
@@ -85,21 +89,29 @@ def _big(label: QLabel, points: int, bold: bool = True) -> QLabel:
 
 
 class StartTab(QWidget):
-    """Choose the teaching mode with the device, a click opens it.
+    """Choose the teaching mode with the device, a click opens it; start a tree that waits for the operator.
 
-    Device X moves between HIGH-LEVEL and LOW-LEVEL (as in the thesis), device Y up beyond half its range selects
-    SHARED CONTROL above them; the X ranges of the first two stay as they were.
+    Device X left of the neutral zone selects HIGH-LEVEL, right of it LOW-LEVEL (as in the thesis); device Y up beyond
+    half its range selects SHARED CONTROL above them. In the neutral zone (``start_neutral_zone`` around the centre)
+    nothing is selected, so a resting, centred handle opens nothing; the centre panel there shows what the tree does,
+    and a click in it starts a tree that waits for its start (``start_requested``).
     """
 
     SHARED_CONTROL_Y = 0.5  # fraction of device_range above which device Y selects SHARED CONTROL
+    NEUTRAL = -1  # ``selected`` in the neutral zone
+    WAITING_STYLE = "background: #ffe0b2; border: {border}; color: #bf360c; font-size: 14pt; font-weight: bold;"
+    STATE_STYLE = "background: #f5f5f5; border: {border}; color: #424242; font-size: 12pt;"
 
     mode_chosen = pyqtSignal(int)
+    start_requested = pyqtSignal()
 
     def __init__(self, config: GuiConfig):
         super().__init__()
         self.config = config
         self.active = False
-        self.selected = 0
+        self.selected = self.NEUTRAL
+        self.tree_waiting = False
+        self.tree_message = "no behaviour tree yet"
         layout = QVBoxLayout(self)
         layout.addStretch(1)
         title = _big(QLabel("Teleoperated teaching"), 20)
@@ -113,7 +125,6 @@ class StartTab(QWidget):
         layout.addWidget(hint)
         row = QHBoxLayout()
         self.buttons: List[QPushButton] = []
-        self.unavailable: Set[int] = set()  # indices in buttons of library skills that cannot run
         for index, (text, colour, height) in enumerate(
             (
                 ("HIGH-LEVEL teaching\nchange the behaviour tree", "#c8e6c9", 240),
@@ -126,14 +137,25 @@ class StartTab(QWidget):
             button.setProperty("colour", colour)
             button.clicked.connect(lambda _checked, tab=index + 1: self.mode_chosen.emit(tab))
             self.buttons.append(button)
+        self.centre = QLabel()
+        self.centre.setAlignment(Qt.AlignCenter)
+        self.centre.setWordWrap(True)
+        self.centre.setFixedWidth(220)
+        self.centre.setMinimumHeight(240)
         layout.addWidget(self.buttons[2])
-        row.addWidget(self.buttons[0])
-        row.addWidget(self.buttons[1])
+        row.addWidget(self.buttons[0], 1)
+        row.addWidget(self.centre)
+        row.addWidget(self.buttons[1], 1)
         layout.addLayout(row)
         gesture = QLabel("In any mode, open the gripper fully to come back here.")
         gesture.setAlignment(Qt.AlignCenter)
         layout.addWidget(gesture)
         layout.addStretch(2)
+        self._show()
+
+    def show_tree(self, waiting: bool, message: str) -> None:
+        """What the behaviour tree does (teleteach/TreeExecution): a tree waiting for its start is shown loudly."""
+        self.tree_waiting, self.tree_message = waiting, message
         self._show()
 
     def _show(self) -> None:
@@ -142,21 +164,34 @@ class StartTab(QWidget):
             button.setStyleSheet(
                 f"QPushButton {{ background: {button.property('colour')}; border: {border}; font-size: 16pt; }}"
             )
+        border = "5px solid #e65100" if self.selected == self.NEUTRAL else "1px dashed #888"
+        if self.tree_waiting:
+            self.centre.setText("The robot waits for you.\n\nHandle in the centre, click: start its task.")
+            self.centre.setStyleSheet(self.WAITING_STYLE.format(border=border))
+        else:
+            self.centre.setText(f"centre: no mode\n\nrobot: {self.tree_message}")
+            self.centre.setStyleSheet(self.STATE_STYLE.format(border=border))
 
     def on_device(self, sample: DeviceSample) -> None:
-        """Device X chooses the button."""
+        """Device X (and Y) choose the button; the neutral zone chooses none."""
         if self.active:
             if sample.y > self.SHARED_CONTROL_Y * self.config.device_range:
                 selected = 2
+            elif abs(sample.x) < self.config.start_neutral_zone:
+                selected = self.NEUTRAL
             else:
-                selected = scale_to_index(sample.x, self.config.device_range, 2)
+                selected = 0 if sample.x < 0.0 else 1
             if selected != self.selected:
                 self.selected = selected
                 self._show()
 
     def on_click(self, _stamp: float = 0.0) -> None:
-        """Open the chosen mode."""
-        if self.active:
+        """Open the chosen mode; in the neutral zone, ask to start the tree."""
+        if not self.active:
+            return
+        if self.selected == self.NEUTRAL:
+            self.start_requested.emit()
+        else:
             self.mode_chosen.emit(self.selected + 1)
 
 
@@ -166,8 +201,9 @@ class TreeView(QTreeWidget):
     def __init__(self):
         super().__init__()
         self.setHeaderLabels(["Behaviour", "Skill", "State"])
-        self.setColumnWidth(0, 170)
-        self.setColumnWidth(1, 120)
+        for column in range(3):  # every name whole: the columns take what their longest entry needs
+            self.header().setSectionResizeMode(column, QHeaderView.ResizeToContents)
+        self.header().setStretchLastSection(False)
         self._signature: Optional[tuple] = None
 
     def show_tree(self, tree: TreeSnapshot) -> None:
@@ -180,10 +216,13 @@ class TreeView(QTreeWidget):
         items = {}
         for _, node in tree.depth_first():
             parent = items.get(node.parent_id)
-            item = QTreeWidgetItem([node.name, node.class_name, STATUS_NAMES.get(node.status, "not visited")])
-            if node.status == 1:
-                item.setText(2, "not visited")
-            brush = QBrush(STATUS_COLOURS.get(node.status, NOT_VISITED))
+            state = STATUS_NAMES.get(node.status, "not visited") if node.status != 1 else "not visited"
+            colour = STATUS_COLOURS.get(node.status, NOT_VISITED)
+            if node.class_name == PAUSE_CONDITION and node.status in PAUSE_STATES:
+                state, colour = PAUSE_STATES[node.status]
+            kind = COMPOSITE_KINDS.get(node.type, node.class_name)  # not py_trees' class (EditableSequence)
+            item = QTreeWidgetItem([node.name, kind, state])
+            brush = QBrush(colour)
             for column in range(3):
                 item.setForeground(column, brush)
             if parent is None:
@@ -238,7 +277,6 @@ class HighLevelTab(QWidget):
         column.addWidget(self.selected_label)
         column.addWidget(self.step1, 1)  # the buttons get the room; the steps below keep their size
 
-        row = QHBoxLayout()
         self.step2 = QGroupBox("Step 2: operation  (device Y, click; roll: page 2)")
         step2 = QHBoxLayout(self.step2)
         self.operation_slider = QSlider(Qt.Vertical)
@@ -253,9 +291,8 @@ class HighLevelTab(QWidget):
         for label in self.operation_labels:  # top to bottom: the page's last operation first
             labels.addWidget(label)
         step2.addLayout(labels)
-        row.addWidget(self.step2)
         self.step3 = QGroupBox("Step 3: insert index / wrap value  (roll, click)")
-        step3 = QVBoxLayout(self.step3)
+        step3 = QHBoxLayout(self.step3)
         self.dial = QDial()
         self.dial.setNotchesVisible(True)  # a notch per position: the device's detents in roll
         self.dial.setPageStep(1)
@@ -263,9 +300,8 @@ class HighLevelTab(QWidget):
         self.dial.setMinimumSize(120, 120)
         step3.addWidget(self.dial)
         self.index_label = _big(QLabel("index 0"), 12)
-        step3.addWidget(self.index_label)
-        row.addWidget(self.step3)
-        column.addLayout(row)
+        self.index_label.setWordWrap(True)
+        step3.addWidget(self.index_label, 1)
         for box in (self.step2, self.step3):
             box.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Maximum)
 
@@ -290,6 +326,10 @@ class HighLevelTab(QWidget):
             '<span style="color:#d22828">failure</span> &nbsp; <span style="color:#969696">not visited</span>'
         )
         tree_column.addWidget(legend)
+        # steps 2 and 3 below the tree: the buttons of step 1 get the whole height of the left column, so the
+        # thesis' tree, its library and the skills taught show in whole rows at the default window size
+        tree_column.addWidget(self.step2)
+        tree_column.addWidget(self.step3)
         splitter.addWidget(right)
         splitter.setSizes([620, 380])
         QVBoxLayout(self).addWidget(splitter)
@@ -528,10 +568,12 @@ class LowLevelTab(QWidget):
         self.axis_labels = []
         for _ in range(3):
             label = _big(QLabel(), 12, bold=False)
+            label.setWordWrap(True)
             panel.addWidget(label)
             self.axis_labels.append(label)
         self.device_lost_label = _big(QLabel("DEVICE LOST\nholding the last stiffness until it is back"), 13)
         self.device_lost_label.setStyleSheet("background: #d22828; color: white; padding: 6px;")
+        self.device_lost_label.setWordWrap(True)
         self.device_lost_label.hide()
         panel.addWidget(self.device_lost_label)
         self.recording_label = _big(QLabel(), 14)
@@ -589,6 +631,10 @@ class LowLevelTab(QWidget):
         """Say that the device is gone (the ellipsoid, and the stiffness sent, stay as they were) or back."""
         self.device_lost_label.setVisible(lost)
 
+    def on_enter(self) -> None:
+        """Keep the ellipsoid as it is until the handle meets it (no jump to wherever the handle is)."""
+        self.command.hold()
+
     def on_leave(self) -> None:
         """Drop a pending click."""
         self.clicks.reset()
@@ -617,13 +663,20 @@ class LowLevelTab(QWidget):
                 for name in MODES
             )
         )
+        handle_stiffness, handle_angles = self.command.waiting()
         for axis, label in enumerate(self.axis_labels):
             live = mode in ("ALL", AXIS_NAMES[axis])
             restyle(label, "" if live else "color: #999;")
-            label.setText(
+            text = (
                 f"{AXIS_NAMES[axis]}: {lengths[axis] * gain:6.0f} N/m, "
                 f"{ANGLE_NAMES[axis]} {angles[axis] * 57.29578:5.1f}\N{DEGREE SIGN}"
             )
+            stiffness, angle = handle_stiffness[axis], handle_angles[axis]
+            now = [f"{stiffness:.0f} N/m"] if math.isfinite(stiffness) else []
+            now += [f"{angle * 57.29578:.0f}\N{DEGREE SIGN}"] if math.isfinite(angle) else []
+            if now:
+                text += f"<br><span style='color:#bf360c'>held: waits for the handle (now {', '.join(now)})</span>"
+            label.setText(text)
         if self.recording_since is None:
             restyle(self.recording_label, "color: #555;")
             self.recording_label.setText("not recording")

@@ -19,6 +19,7 @@ import tf2_ros
 from geometry_msgs.msg import PolygonStamped, PoseStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Path
 from PyQt5.QtCore import QObject, Qt, QTimer, pyqtSignal, pyqtSlot
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 from visualization_msgs.msg import MarkerArray
 
@@ -31,7 +32,7 @@ from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.gui.study import StudyStatus
-from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState
+from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState, TreeExecution
 from teleteach.perception.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
 from teleteach.study.phase import Phase, phase_name
@@ -46,6 +47,17 @@ def pose_to_array(pose) -> np.ndarray:
 
 
 DEVICE_LOST = "device lost (/sigma7/pose silent)"
+
+
+def send(publisher: rospy.Publisher, message) -> None:
+    """Publish, unless ROS is shutting down: Ctrl-C closes every topic, and the window closes within 0.2 s after."""
+    if rospy.is_shutdown():
+        return
+    try:
+        publisher.publish(message)
+    except (rospy.ROSException, ValueError, OSError):  # closed between the check and the write
+        if not rospy.is_shutdown():
+            raise
 
 
 def study_status(message: StudyState) -> StudyStatus:
@@ -133,7 +145,7 @@ class TrajectoryPlayer:
             p.x, p.y, p.z, q.x, q.y, q.z, q.w = (float(value) for value in pose)
             with self._lock:
                 self._current = pose
-            self._publisher.publish(message)
+            send(self._publisher, message)
             self._stop.wait(self._period)
 
 
@@ -196,11 +208,13 @@ class ServiceCaller(QObject):
 class RosWorker(QObject):
     """Owns the subscribers and the stiffness publishers; lives in its own QThread (thesis Fig. A.1, orange block).
 
-    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose (in LOW-LEVEL and SHARED
-    CONTROL), /behaviour_tree/log/tree, /behaviour_tree/skill_library, /behaviour_tree/help_request,
-    /shared_control/state, /shared_control/plan, /shared_control/boundary, /shared_control/obstacle,
-    /equilibrium_pose (recorded in SHARED CONTROL), study/state (a user study's state); in LOW-LEVEL,
-    teleteach/scene and TF world -> base_frame (the gap a target-frame trajectory places at).
+    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose and /joint_states (in
+    LOW-LEVEL and SHARED CONTROL), /behaviour_tree/log/tree, /behaviour_tree/skill_library,
+    /behaviour_tree/help_request, /behaviour_tree/execution, /shared_control/state, /shared_control/plan,
+    /shared_control/boundary, /shared_control/obstacle, /equilibrium_pose (recorded in SHARED CONTROL), study/state
+    (a user study's state); in LOW-LEVEL, teleteach/scene and TF world -> base_frame (the gap a target-frame
+    trajectory places at). The tree's execution and /joint_states tell whether the arm is free for the impedance
+    controller.
     ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL or SHARED CONTROL is active).
     """
 
@@ -218,6 +232,7 @@ class RosWorker(QObject):
     shared_arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
     study_state = pyqtSignal(object)  # StudyStatus of a user study (study/state)
     _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
+    execution_changed = pyqtSignal(int, str)  # the tree's TreeExecution state and its message
 
     def __init__(
         self,
@@ -261,6 +276,8 @@ class RosWorker(QObject):
         self._scene: Optional[ObservedScene] = None
         self._tf_buffer: Optional[tf2_ros.Buffer] = None
         self._tf_listener: Optional[tf2_ros.TransformListener] = None
+        self._execution: Optional[TreeExecution] = None
+        self._arm_motion: Tuple[float, float] = (-math.inf, math.inf)  # (when, fastest joint speed [rad/s])
 
     @pyqtSlot()
     def start(self) -> None:
@@ -280,6 +297,7 @@ class RosWorker(QObject):
             ("shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
             ("equilibrium_pose", PoseStamped, self._on_equilibrium),
             ("study/state", StudyState, lambda message: self.study_state.emit(study_status(message))),
+            ("behaviour_tree/execution", TreeExecution, self._on_execution),
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
@@ -314,25 +332,33 @@ class RosWorker(QObject):
 
     @pyqtSlot()
     def _follow_tab(self) -> None:
-        """Run the stiffness stream and hear /cartesian_pose only in the tabs that command a stiffness (worker thread).
+        """Run the stiffness stream and hear the arm only in the tabs that command a stiffness (worker thread).
 
-        /cartesian_pose (200 Hz) is recorded with the stiffness and drawn as the arm's trail in SHARED CONTROL.
+        /cartesian_pose (200 Hz) is recorded with the stiffness and drawn as the arm's trail in SHARED CONTROL;
+        /joint_states tells when the arm rests, before the impedance controller takes it.
         """
         if self._publish_timer is None:
             return  # not started yet: start() looks at the tab
+        arm_topics = (
+            ("cartesian_pose", PoseStamped, self._on_cartesian),
+            ("joint_states", JointState, self._on_joint_states),
+        )
         if self._active_tab in (Tab.LOW_LEVEL, Tab.SHARED_CONTROL):
             if not self._publish_timer.isActive():
                 self._publish_timer.start()
-            if "cartesian_pose" not in self._subscribers:
-                self._subscribers["cartesian_pose"] = rospy.Subscriber(
-                    "cartesian_pose", PoseStamped, self._on_cartesian, queue_size=5, tcp_nodelay=True
-                )
+            for topic, message_class, callback in arm_topics:
+                if topic not in self._subscribers:
+                    self._subscribers[topic] = rospy.Subscriber(
+                        topic, message_class, callback, queue_size=5, tcp_nodelay=True
+                    )
         else:
             self._publish_timer.stop()
-            subscriber = self._subscribers.pop("cartesian_pose", None)
-            if subscriber is not None:
-                subscriber.unregister()
-                self._cartesian = None  # a recording must not start from where the arm was in another tab
+            for topic, _, _ in arm_topics:
+                subscriber = self._subscribers.pop(topic, None)
+                if subscriber is not None:
+                    subscriber.unregister()
+            self._cartesian = None  # a recording must not start from where the arm was in another tab
+            self._arm_motion = (-math.inf, math.inf)  # nor an arm count as resting on what it did back then
         self._follow_target(self._active_tab == Tab.LOW_LEVEL)
 
     def _follow_target(self, teaching: bool) -> None:
@@ -358,6 +384,11 @@ class RosWorker(QObject):
         for subscriber in self._subscribers.values():
             subscriber.unregister()
         self._subscribers.clear()
+
+    def latest_sample(self):
+        """The newest filtered device sample (None before the first), whether or not it was emitted yet."""
+        with self._lock:
+            return self._sample
 
     def reset_device_filter(self) -> None:
         """Take the next device sample as it is (a new tab starts from where the device is, told even when still)."""
@@ -434,6 +465,48 @@ class RosWorker(QObject):
 
     def _on_help(self, message: HelpRequest) -> None:
         self.help_requested.emit(message.node_name, message.reason, list(message.suggestion))
+
+    def _on_execution(self, message: TreeExecution) -> None:
+        self._execution = message
+        self.execution_changed.emit(message.state, message.message)
+
+    def _on_joint_states(self, message: JointState) -> None:
+        speeds = [abs(value) for value in message.velocity if math.isfinite(value)]
+        self._arm_motion = (time.monotonic(), max(speeds, default=0.0))
+
+    def arm_free(self) -> Tuple[bool, str]:
+        """Whether the impedance controller may take the arm now, and if not, why not.
+
+        Free means: the behaviour tree (if one runs) reports no skill goal out, and the arm (if /joint_states is
+        published) rests: every joint slower than ``arm_rest_speed`` in a message younger than ``device_timeout``.
+        A publisher the master knows but this GUI is not connected to yet counts as there (it is on its way).
+        """
+        tree, joints = self._subscribers.get("behaviour_tree/execution"), self._subscribers.get("joint_states")
+        if tree is None or joints is None:
+            return False, "the GUI's subscribers are starting"
+        published = None
+        if tree.get_num_connections() == 0 or joints.get_num_connections() == 0:
+            try:
+                published = {name for name, _ in rospy.get_published_topics()}
+            except (OSError, rospy.ROSException):
+                return False, "the ROS master does not answer"
+        if published is not None and tree.resolved_name in published and tree.get_num_connections() == 0:
+            return False, "connecting to the behaviour tree"
+        if published is not None and joints.resolved_name in published and joints.get_num_connections() == 0:
+            return False, "connecting to /joint_states"
+        if tree.get_num_connections() > 0:
+            execution = self._execution
+            if execution is None:
+                return False, "waiting for the behaviour tree's state"
+            if execution.state not in (TreeExecution.PAUSED, TreeExecution.WAITING, TreeExecution.COMPLETED):
+                return False, f"the tree still drives the arm ({execution.message})"
+        if joints.get_num_connections() > 0:
+            seen, speed = self._arm_motion
+            if time.monotonic() - seen > self.config.device_timeout:
+                return False, "waiting for /joint_states"
+            if speed >= self.config.arm_rest_speed:
+                return False, f"the arm still moves ({speed:.2f} rad/s)"
+        return True, ""
 
     def plane(self) -> Optional[TaskPlane]:
         """The shared_control node's task plane (its ``~plane`` param), looked up until found (at most 1/s)."""
@@ -555,8 +628,8 @@ class RosWorker(QObject):
         eigenvectors.header = eigenvalues.header
         q = eigenvectors.quaternion
         q.x, q.y, q.z, q.w = quaternion
-        self._eigenvalues.publish(eigenvalues)
-        self._eigenvectors.publish(eigenvectors)
+        send(self._eigenvalues, eigenvalues)
+        send(self._eigenvectors, eigenvectors)
         return stamp
 
     def _emit_device(self) -> None:

@@ -110,7 +110,10 @@ def _check_axis(name: str, axis: AxisGuidance) -> None:
 
 @dataclasses.dataclass(frozen=True)
 class Wrench:
-    """What the device is told to render: force [N] and torque [Nm] in the device frame, gripper force [N]."""
+    """What the device is told to render: force [N] and torque [Nm], gripper force [N].
+
+    The guidance computes it in the operator frame; the device loop turns it into the device's (haptics.axes).
+    """
 
     force: np.ndarray
     torque: np.ndarray

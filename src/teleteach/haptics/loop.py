@@ -1,4 +1,4 @@
-"""The device loop: read, emulate the click, estimate the twist, publish, render the guidance; at a fixed rate.
+"""The device loop: read, turn into the operator frame, click, twist, publish, render the guidance; at a fixed rate.
 
 Nothing here needs ROS: the node passes the clock that stamps samples (ROS time), the publishing function and a
 logger, so the whole loop runs in unit tests.
@@ -10,6 +10,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from teleteach.haptics.axes import CONVENTIONS, AxisMapping
 from teleteach.haptics.click import ClickDetector
 from teleteach.haptics.device import DeviceBackend, DeviceReadError
 from teleteach.haptics.guidance import GuidanceRenderer, Wrench
@@ -22,10 +23,10 @@ class DeviceState:
 
     Attributes:
         stamp: [s] time of the read (ROS time in the node).
-        position: [m] (3,), device frame.
-        orientation: unit quaternion (x, y, z, w).
-        linear_velocity: [m/s] (3,), device frame, filtered.
-        angular_velocity: [rad/s] (3,), device frame, filtered.
+        position: [m] (3,), operator frame (:mod:`teleteach.haptics.axes`).
+        orientation: unit quaternion (x, y, z, w), operator frame.
+        linear_velocity: [m/s] (3,), operator frame, filtered.
+        angular_velocity: [rad/s] (3,), operator frame, filtered.
         gripper: [rad].
         button: emulated (or native) button state.
     """
@@ -140,6 +141,7 @@ class DeviceLoop:
         guidance: the guidance whose wrench the backend renders each cycle (None: no force ever); a failed read (the
             device lost) drops it and renders zero, until the next guidance message.
         publish_wrench: called with each rendered :class:`Wrench` (the node publishes a decimated share).
+        axes: the backend's frame -> the operator frame (None: the same); samples are turned by it, wrenches back.
     """
 
     def __init__(
@@ -155,7 +157,9 @@ class DeviceLoop:
         wall_clock: Callable[[], float] = wall_time.monotonic,
         guidance: Optional[GuidanceRenderer] = None,
         publish_wrench: Callable[[Wrench], None] = lambda wrench: None,
+        axes: Optional[AxisMapping] = None,
     ) -> None:
+        self.axes = axes or AxisMapping(CONVENTIONS["operator"])
         self.guidance = guidance
         self._publish_wrench = publish_wrench
         self.backend = backend
@@ -191,6 +195,7 @@ class DeviceLoop:
         if self._failing_since is not None:
             self._log_info(f"device reads recovered after {self.failed_reads - self._failing_since + 1} failures")
             self._failing_since = None
+        sample = self.axes.to_operator(sample)
         button = sample.button
         if button is None:
             self._clicks.catch_up(self.backend.missed_gripper(), stamp)
@@ -211,8 +216,9 @@ class DeviceLoop:
         return True
 
     def _render(self, wrench: Wrench) -> None:
+        """Render a wrench of the operator frame (in the device's frame); publish it as it was asked."""
         try:
-            self.backend.render(wrench)
+            self.backend.render(self.axes.to_device(wrench))
         except DeviceReadError as error:
             self._log_error(f"device did not take the guidance force: {error}")
             return

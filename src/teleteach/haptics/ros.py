@@ -21,12 +21,14 @@ import os
 import threading
 import time as wall_time
 import warnings
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Optional, Sequence, Union
 
 import rospy
+import yaml
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from std_msgs.msg import Bool, Float64, Int8
 
+from teleteach.haptics.axes import AxisMapping
 from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.device import DeviceBackend, DeviceUnavailableError
 from teleteach.haptics.dhd import DhdBackend
@@ -51,6 +53,7 @@ from teleteach.haptics.scenario import (
 from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
+from teleteach.paths import config_file
 from teleteach.study.phase import phase_name
 
 BACKENDS = ("dhd", "scenario", "virtual", "topic")
@@ -70,6 +73,7 @@ class Sigma7Config:
     click: ClickParameters = dataclasses.field(default_factory=ClickParameters)
     twist_cutoff: float = 20.0
     click_duration: float = 0.2
+    double_click_gap: float = 0.1
     dhd_library: str = ""
     dhd_native_button: bool = False
     topic_timeout: float = 0.5
@@ -77,6 +81,12 @@ class Sigma7Config:
     guidance: GuidanceLimits = dataclasses.field(default_factory=GuidanceLimits)
     force_rate: float = 100.0
     hand_model: Optional[HandParameters] = None  # None: no hand model (the backend's pose is the device's)
+    device_axes: Union[str, Sequence[Sequence[float]]] = "operator"  # the backend's entry of ~axes
+
+    @property
+    def axis_mapping(self) -> AxisMapping:
+        """The backend's frame -> the operator frame (teleteach.haptics.axes)."""
+        return AxisMapping.from_config(self.device_axes, f"~axes/{self.backend}")
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
@@ -97,6 +107,7 @@ class Sigma7Config:
             raise ValueError(f"~publish_rate must be a positive number of Hz, got {self.publish_rate}")
         if not 0.0 < self.force_rate <= self.rate:
             raise ValueError(f"~force_rate must be in (0, ~rate], got {self.force_rate}")
+        self.axis_mapping  # noqa: B018 - a bad ~axes entry is refused here, with its reason
 
     @classmethod
     def from_params(cls, get_param: Callable[[str, Any], Any]) -> "Sigma7Config":
@@ -107,8 +118,9 @@ class Sigma7Config:
             return get_param(name, field_defaults[field])
 
         click = ClickParameters()
+        backend = param("~backend", "backend")
         return cls(
-            backend=param("~backend", "backend"),
+            backend=backend,
             scenario=param("~scenario", "scenario"),
             at_end=param("~at_end", "at_end"),
             rate=float(param("~rate", "rate")),
@@ -123,6 +135,7 @@ class Sigma7Config:
             ),
             twist_cutoff=float(param("~twist/cutoff_frequency", "twist_cutoff")),
             click_duration=float(param("~virtual/click_duration", "click_duration")),
+            double_click_gap=float(param("~virtual/double_click_gap", "double_click_gap")),
             dhd_library=param("~dhd/library", "dhd_library"),
             dhd_native_button=bool(param("~dhd/native_button", "dhd_native_button")),
             topic_timeout=float(param("~topic/timeout", "topic_timeout")),
@@ -135,6 +148,7 @@ class Sigma7Config:
             ),
             force_rate=float(param("~force_rate", "force_rate")),
             hand_model=_hand_parameters(get_param),
+            device_axes=get_param(f"~axes/{backend}", _configured_axes().get(backend, "operator")),
         )
 
 
@@ -154,7 +168,14 @@ class Sigma7Publisher:
             self._button = rospy.Publisher("sigma7/button", Bool)
 
     def __call__(self, state: DeviceState) -> None:
-        """Publishes one cycle."""
+        """Publishes one cycle (nothing once ROS shuts down: Ctrl-C may close the topics in the middle of a cycle)."""
+        try:
+            self._publish(state)
+        except (rospy.ROSException, ValueError, OSError):
+            if not rospy.is_shutdown():
+                raise
+
+    def _publish(self, state: DeviceState) -> None:
         stamp = rospy.Time.from_sec(state.stamp)
         pose = PoseStamped()
         pose.header.stamp = stamp
@@ -171,6 +192,11 @@ class Sigma7Publisher:
         self._twist.publish(twist)
         self._gripper.publish(Float64(state.gripper))
         self._button.publish(Bool(state.button))
+
+
+def _configured_axes() -> dict:
+    """config/device.yaml's ``axes``: what each backend's frame is when no ~axes parameter says otherwise."""
+    return (yaml.safe_load(config_file("device.yaml").read_text()) or {}).get("axes") or {}
 
 
 def _hand_parameters(get_param: Callable[[str, Any], Any]) -> Optional[HandParameters]:
@@ -267,6 +293,7 @@ class Sigma7Node:
             log_info=rospy.loginfo,
             guidance=self.guidance,
             publish_wrench=WrenchPublisher(config.frame_id, round(config.rate / config.force_rate)),
+            axes=config.axis_mapping,
         )
         self._guidance_subscriber = rospy.Subscriber(
             "sigma7/guidance", HapticGuidance, self._on_guidance, queue_size=10
@@ -366,7 +393,7 @@ class Sigma7Node:
         from teleteach.haptics.virtual import VirtualDevice, VirtualDeviceWindow
 
         self._application = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
-        device = VirtualDevice(self.config.click_duration)
+        device = VirtualDevice(self.config.click_duration, self.config.double_click_gap)
         self._window = VirtualDeviceWindow(device)
         self._window.show()
         return device

@@ -1,7 +1,9 @@
 """A virtual Sigma.7 for people without the device: a small PyQt5 window (the ``virtual`` backend).
 
 Keys: arrows (or a mouse drag) move x/y, Page Up/Down move z, Q/A W/S E/D turn roll/pitch/yaw, Space clicks (a
-scripted quick close-and-back of the gripper, detected like a real one), O held down opens the gripper fully.
+scripted quick close-and-back of the gripper, detected like a real one), Enter double-clicks (two such flicks
+``double_click_gap`` apart: a keyboard's two presses are too slow or too irregular for the GUI's double-click window),
+O held down opens the gripper fully.
 :class:`VirtualDevice` holds the state and is read by the device loop's thread; :class:`VirtualDeviceWindow` only
 edits it from the Qt thread, under the device's lock.
 """
@@ -28,18 +30,25 @@ class VirtualDevice(DeviceBackend):
 
     Args:
         click_duration: [s] duration of the scripted gripper flick of a click.
+        double_click_gap: [s] between the two flicks of a double click.
         clock: [s] wall clock that times the flick.
     """
 
-    def __init__(self, click_duration: float = 0.2, clock: Callable[[], float] = wall_time.monotonic) -> None:
+    def __init__(
+        self,
+        click_duration: float = 0.2,
+        double_click_gap: float = 0.1,
+        clock: Callable[[], float] = wall_time.monotonic,
+    ) -> None:
         self._lock = threading.Lock()
         self._clock = clock
         self._click_duration = click_duration
+        self._double_click_gap = double_click_gap
         self._position = np.zeros(3)
         self._rpy = np.zeros(3)
         self._quaternion = np.array([0.0, 0.0, 0.0, 1.0])  # of _rpy, made when it changes, not in each 1 kHz read
         self._held_open = False
-        self._click_started = -float("inf")
+        self._flicks = [-float("inf")]  # start times of the scripted flicks, in order
         self._closed = False
 
     def move(self, dx: float = 0.0, dy: float = 0.0, dz: float = 0.0) -> None:
@@ -55,10 +64,18 @@ class VirtualDevice(DeviceBackend):
 
     def click(self) -> None:
         """Starts a quick close-and-back of the gripper (ignored while one is under way)."""
+        self._flick(1)
+
+    def double_click(self) -> None:
+        """Two flicks ``double_click_gap`` apart: the GUI's double click (ignored while a flick is under way)."""
+        self._flick(2)
+
+    def _flick(self, count: int) -> None:
         with self._lock:
             now = self._clock()
-            if now - self._click_started > self._click_duration:
-                self._click_started = now
+            if now - self._flicks[-1] > self._click_duration:
+                period = self._click_duration + self._double_click_gap
+                self._flicks = [now + index * period for index in range(count)]
 
     def hold_open(self, held: bool) -> None:
         """Opens the gripper fully while ``held``; back to resting otherwise."""
@@ -74,7 +91,9 @@ class VirtualDevice(DeviceBackend):
         """Position [m], roll/pitch/yaw [rad] and gripper angle [rad] now."""
         with self._lock:
             base = OPEN_GRIPPER if self._held_open else RESTING_GRIPPER
-            gripper = flick_gripper_angle(base, self._clock() - self._click_started, self._click_duration)
+            now = self._clock()
+            started = max((start for start in self._flicks if start <= now), default=-float("inf"))
+            gripper = flick_gripper_angle(base, now - started, self._click_duration)
             return self._position.copy(), self._rpy.copy(), gripper
 
     def read(self, time: float) -> DeviceSample:
@@ -126,7 +145,7 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
         help_text = QtWidgets.QLabel(
             "arrows / mouse drag: x, y    PgUp / PgDn: z\n"
             "Q/A roll   W/S pitch   E/D yaw\n"
-            "Space: click    O (hold): gripper fully open"
+            "Space: click    Enter: double click    O (hold): gripper fully open"
         )
         layout = QtWidgets.QVBoxLayout(self)
         layout.addWidget(self.values)
@@ -156,6 +175,8 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
             self.device.rotate(*(self.ANGLE_STEP * step for step in self._ROTATION_KEYS[key]))
         elif key == QtCore.Qt.Key_Space and not event.isAutoRepeat():
             self.device.click()
+        elif key in (QtCore.Qt.Key_Return, QtCore.Qt.Key_Enter) and not event.isAutoRepeat():
+            self.device.double_click()
         elif key == QtCore.Qt.Key_O and not event.isAutoRepeat():
             self.device.hold_open(True)
         else:

@@ -4,6 +4,9 @@ The GUI publishes the principal stiffnesses on ``/eigenvalues`` (Vector3Stamped 
 ``/eigenvectors`` (QuaternionStamped, V = R(q)); the controller publishes ``/cartesian_pose`` and the trajectory
 player ``/equilibrium_pose`` (PoseStamped). K = V diag(lambda) V^T (thesis eq 1), each eigenvalue message paired
 with the eigenvector message nearest in time. Times are header stamps (the bag's receive time when a stamp is 0).
+
+A stream's messages are put in stamp order, and messages that share a stamp become one sample, the last one: under
+simulated time the GUI publishes (200 Hz) faster than /clock ticks, so consecutive commands carry the same stamp.
 """
 
 import pathlib
@@ -36,6 +39,14 @@ def _values(topic: str, message) -> List[float]:
     return [position.x, position.y, position.z, orientation.x, orientation.y, orientation.z, orientation.w]
 
 
+def one_per_stamp(times: np.ndarray, values: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """The samples in stamp order, one per stamp: of messages that share a stamp, the last one received."""
+    order = np.argsort(times, kind="stable")
+    times, values = times[order], np.asarray(values, dtype=float)[order]
+    last = np.append(np.diff(times) > 0.0, True)
+    return times[last], values[last]
+
+
 def read_bag(path: Union[str, pathlib.Path]) -> Tuple[np.ndarray, np.ndarray, Dict[str, Tuple[np.ndarray, np.ndarray]]]:
     """(stiffness times, stiffness (n, 3, 3), poses name -> (times, (k, 7))) from a session bag.
 
@@ -63,7 +74,7 @@ def read_bag(path: Union[str, pathlib.Path]) -> Tuple[np.ndarray, np.ndarray, Di
             raise LearningError(f"bag {path} has no {topic} messages")
 
     def stream(topic):
-        return np.array([row[0] for row in rows[topic]]), np.array([row[1] for row in rows[topic]], dtype=float)
+        return one_per_stamp(np.array([row[0] for row in rows[topic]]), np.array([row[1] for row in rows[topic]]))
 
     value_times, eigenvalues = stream(EIGENVALUES)
     vector_times, quaternions = stream(EIGENVECTORS)

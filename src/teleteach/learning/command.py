@@ -8,7 +8,7 @@ import argparse
 import pathlib
 import re
 import sys
-from typing import Callable, Optional, Sequence
+from typing import Callable, Dict, Optional, Sequence
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -171,14 +171,25 @@ def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
     for line in (
         f"learned {name} from {source} ({demo.samples.shape[0]} stiffness samples, {demo.duration:.1f} s) "
         f"in {learned.learning_time:.3f} s with N = {learned.stiffness.parameters.basis_count} basis functions",
-        f"reproduction error (same duration and goal): mean {100 * error['mean_relative']:.2f} %, "
-        f"max {100 * error['max_relative']:.2f} % of the demonstration's spread",
+        f"reproduction error (same duration and goal): {describe_error(error)}",
         f"saved {saved} (kind dmp, {skill.time.size} samples, {skill.duration:.1f} s)",
         f"plot {plot}",
     ):
         report(line)
     if arguments.add:
         report(f"added to the BT library: {add_to_library(name, saved, arguments.timeout)}")
+
+
+SPREAD_WORTH_COMPARING = 0.05  # a demonstration varying less (affine-invariant, ~5 %) is constant for the error's sake
+
+
+def describe_error(error: Dict[str, float]) -> str:
+    """The reproduction error as a share of the stiffness, and of the demonstration's variation when it varies."""
+    mean, largest = 100 * error["mean_of_stiffness"], 100 * error["max_of_stiffness"]
+    text = f"mean {mean:.2f} %, max {largest:.2f} % of the stiffness"
+    if error["spread"] < SPREAD_WORTH_COMPARING:
+        return f"{text} (the demonstration is constant)"
+    return f"{text}; mean {100 * error['mean_relative']:.1f} % of the demonstration's variation"
 
 
 def main(argv: Sequence[str]) -> int:

@@ -16,6 +16,7 @@ from matplotlib.patches import Ellipse
 
 from teleteach.datadir import atomic_write_bytes
 from teleteach.learning.preprocess import resample_geodesic
+from teleteach.plotting import legends_beside
 
 
 def _ellipses(axes, times, matrices, scale, colour):
@@ -45,10 +46,19 @@ def write_figure_c1(
     title: str = "",
     count: int = 21,
 ) -> pathlib.Path:
-    """Write the PNG (atomically) and return its path.
+    """Write :func:`figure_c1` as a PNG (atomically) and return its path."""
+    figure = figure_c1(sample_times, samples, times, reproduction, title, count)
+    path = pathlib.Path(path)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=110)
+    atomic_write_bytes(path, buffer.getvalue())
+    return path
+
+
+def figure_c1(sample_times, samples, times, reproduction, title: str = "", count: int = 21) -> Figure:
+    """Recorded and reproduced stiffness as ellipses over time, and the entries K_xx, K_yy, K_xy (thesis Fig. C.1).
 
     Args:
-        path: output PNG.
         sample_times: (k,) times of the recorded stiffness samples [s].
         samples: (k, m, m) recorded stiffness [N/m] (m = 2 or 3; the X-Y block is drawn).
         times: (n,) times of the reproduction [s].
@@ -101,13 +111,8 @@ def write_figure_c1(
         entries.plot(times, np.asarray(reproduction)[:, row, column], color=colour, label=f"{label} reproduced")
     entries.set_xlabel("time [s]")
     entries.set_ylabel("stiffness [N/m]")
-    entries.legend(ncol=3, fontsize=7)
     entries.grid(alpha=0.3)
     if title:
         figure.suptitle(title)
-    figure.tight_layout()
-    path = pathlib.Path(path)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=110)
-    atomic_write_bytes(path, buffer.getvalue())
-    return path
+    legends_beside(figure, [(entries,)], fontsize=7)
+    return figure

@@ -209,14 +209,16 @@ def prepare(
             f"the streams share only {max(end - start, 0.0):.3f} s of time (need {shortest:.3f} s): "
             "stiffness and poses were not recorded together"
         )
-    grid = start + np.arange(int(np.floor((end - start) / step + 1e-9)) + 1) * step
+    # the grid's own times from 0: start + k step - start loses the uniform step to rounding at epoch-sized stamps
+    offsets = np.arange(int(np.floor((end - start) / step + 1e-9)) + 1) * step
+    grid = start + offsets
     sample_times, samples = gui_samples(stiffness_times, stiffness)
     knot_times, knots = (sample_times, samples) if recover_gui_samples else (stiffness_times, stiffness)
     resampled = resample_geodesic(knot_times, knots, grid)
     smoothed = smooth_at_mean(resampled, step, smoothing)
     inside = (sample_times >= start - 1e-9) & (sample_times <= grid[-1] + 1e-9)
     return Demonstration(
-        time=grid - start,
+        time=offsets,
         stiffness=smoothed,
         poses={name: resample_poses(times, values, grid) for name, (times, values) in streams.items()},
         sample_time=sample_times[inside] - start,

@@ -249,7 +249,10 @@ def reproduction_error(sample_times, samples, times, matrices) -> Dict[str, floa
     e_k = d(D_k, R(t_k)) for each recorded sample D_k at t_k, with R(t_k) taken on the reproduction's geodesic
     interpolation and d(A, B) = ||logm(A^-1/2 B A^-1/2)||_F. The demonstration's spread is its geodesic standard
     deviation s = sqrt(mean_k d(D_k, M)^2) about its Karcher mean M. Returned: ``mean`` and ``max`` of e_k,
-    ``spread`` s, ``mean_relative`` = mean / s and ``max_relative`` = max / s (0 when s == 0 and e == 0).
+    ``spread`` s, ``mean_relative`` = mean / s and ``max_relative`` = max / s (0 when s == 0 and e == 0), and
+    ``mean_of_stiffness`` = exp(mean) - 1, ``max_of_stiffness`` = exp(max) - 1: d is a logarithm of stiffness ratios,
+    so these are the error as a fraction of the stiffness itself, which means something for a constant demonstration
+    too (where s is rounding noise and e / s is not).
     """
     samples = np.asarray(samples, dtype=float)
     reproduced = resample_geodesic(times, matrices, sample_times)
@@ -268,6 +271,8 @@ def reproduction_error(sample_times, samples, times, matrices) -> Dict[str, floa
         "spread": spread,
         "mean_relative": relative(mean),
         "max_relative": relative(largest),
+        "mean_of_stiffness": float(np.expm1(mean)),
+        "max_of_stiffness": float(np.expm1(largest)),
         "samples": int(samples.shape[0]),
     }
 

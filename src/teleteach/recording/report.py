@@ -26,6 +26,7 @@ from matplotlib.patches import Ellipse
 from teleteach.active_tab import Tab
 from teleteach.control.stiffness import translational_stiffness
 from teleteach.datadir import atomic_write_bytes, atomic_write_text
+from teleteach.plotting import legends_beside
 from teleteach.recording.session import Series, Session, TreeSnapshot, read_session, yaw_of
 
 TAB_COLOURS = {Tab.HIGH_LEVEL: "#d9f2d9", Tab.LOW_LEVEL: "#f8d7d7", Tab.SHARED_CONTROL: "#d7e3f8"}
@@ -141,6 +142,13 @@ def _mark_edits(axes, edits: List[TreeEdit], label: bool) -> None:
 
 
 def plot_high_level(session: Session, path: pathlib.Path, edits: List[TreeEdit]) -> List[str]:
+    """Fig. 5 written to ``path``; notes on what the bag lacked."""
+    figure, notes = high_level_figure(session, edits)
+    _save(figure, path)
+    return notes
+
+
+def high_level_figure(session: Session, edits: List[TreeEdit]) -> Tuple[Figure, List[str]]:
     """Fig. 5: device X, Y and gripper over time with clicks and tree edits marked."""
     _require(session, **{"/sigma7/pose": session.device_position, "/sigma7/gripper_angle": session.gripper})
     figure = Figure(figsize=(10, 6))
@@ -161,11 +169,9 @@ def plot_high_level(session: Session, path: pathlib.Path, edits: List[TreeEdit])
     gripper_axes.set_xlabel("time [s]")
     position_axes.set_title("High-level teaching: device input and tree edits")
     for axes in (position_axes, gripper_axes):
-        axes.legend(loc="upper left", fontsize=8)
         axes.grid(alpha=0.3)
-    figure.tight_layout()
-    _save(figure, path)
-    return [] if session.trees else ["no tree edits marked: missing /behaviour_tree/log/tree"]
+    legends_beside(figure, [(position_axes,), (gripper_axes,)])
+    return figure, [] if session.trees else ["no tree edits marked: missing /behaviour_tree/log/tree"]
 
 
 def _stiffness(session: Session) -> Tuple[Series, np.ndarray]:
@@ -185,7 +191,6 @@ def _plot_cartesian(axes, session: Session) -> List[str]:
     for column, name in enumerate("XYZ"):
         axes.plot(cartesian.times, cartesian.values[:, column], color=AXIS_COLOURS["dark"][column], label=name)
     axes.set_ylabel("end effector [m]")
-    axes.legend(loc="upper left", fontsize=8, ncol=3)
     axes.grid(alpha=0.3)
     return []
 
@@ -228,6 +233,13 @@ def _plot_ellipses(axes, times: np.ndarray, matrices: np.ndarray, duration: floa
 
 
 def plot_stiffness(session: Session, path: pathlib.Path) -> List[str]:
+    """Fig. 6 written to ``path``; notes on what the bag lacked."""
+    figure, notes = stiffness_figure(session)
+    _save(figure, path)
+    return notes
+
+
+def stiffness_figure(session: Session) -> Tuple[Figure, List[str]]:
     """Fig. 6: end-effector position, device translation vs principal stiffness, X-Y ellipses over time."""
     _require(
         session,
@@ -257,18 +269,22 @@ def plot_stiffness(session: Session, path: pathlib.Path) -> List[str]:
         )
     device_axes.set_ylabel("device translation [m]")
     stiffness_axes.set_ylabel("principal stiffness [N/m]")
-    device_axes.legend(loc="upper left", fontsize=8)
-    stiffness_axes.legend(loc="upper right", fontsize=8)
     device_axes.grid(alpha=0.3)
     _plot_ellipses(ellipse_axes, values.times, matrices, session.duration)
     ellipse_axes.set_xlabel("time [s]")
     cartesian_axes.set_title("Low-level teaching: stiffness ellipsoid size and shape")
-    figure.tight_layout()
+    legends_beside(figure, [(cartesian_axes,), (device_axes, stiffness_axes)])
+    return figure, notes
+
+
+def plot_rotation(session: Session, path: pathlib.Path) -> List[str]:
+    """Fig. 7 written to ``path``; notes on what the bag lacked."""
+    figure, notes = rotation_figure(session)
     _save(figure, path)
     return notes
 
 
-def plot_rotation(session: Session, path: pathlib.Path) -> List[str]:
+def rotation_figure(session: Session) -> Tuple[Figure, List[str]]:
     """Fig. 7: end-effector position, device rotation about Z vs ellipsoid yaw, X-Y ellipses over time."""
     _require(
         session,
@@ -294,14 +310,12 @@ def plot_rotation(session: Session, path: pathlib.Path) -> List[str]:
         label="ellipsoid yaw",
     )
     yaw_axes.set_ylabel("rotation about Z [deg]")
-    yaw_axes.legend(loc="upper left", fontsize=8)
     yaw_axes.grid(alpha=0.3)
     _plot_ellipses(ellipse_axes, values.times, matrices, session.duration)
     ellipse_axes.set_xlabel("time [s]")
     cartesian_axes.set_title("Low-level teaching: stiffness ellipsoid orientation")
-    figure.tight_layout()
-    _save(figure, path)
-    return notes
+    legends_beside(figure, [(cartesian_axes,), (yaw_axes,)])
+    return figure, notes
 
 
 @dataclasses.dataclass

@@ -376,6 +376,7 @@ class RunSummary:
             f"- files: {self.bag}, report/ ({len(self.figures)} figures), screenshots: {len(self.screenshots)}, "
             "tree_before/after.yaml/.txt, skills/"
         )
+        lines.extend(f"- picture missing: {error}" for error in self.screenshot_errors)
         lines.extend(f"- PROBLEM: {problem}" for problem in self.problems)
         lines.append(f"- wall time [s]: {self.timings_wall_s}")
         return "\n".join(lines) + "\n"

@@ -166,7 +166,7 @@ def _on_parent_death(signal_number: int) -> Callable[[], None]:
 def ros_environment(master_uri: str, display: str, data_root: pathlib.Path) -> Dict[str, str]:
     """The environment of a run's ROS processes: its master, its display, its data directory, loopback only.
 
-    ROS_IP is 127.0.0.1 unless the user set ROS_IP or ROS_HOSTNAME (README: several machines).
+    ROS_IP is 127.0.0.1 unless the user set ROS_IP or ROS_HOSTNAME (docs/real_robot.md: several machines).
     """
     env = dict(os.environ)
     if not env.get("ROS_IP") and not env.get("ROS_HOSTNAME"):

@@ -12,6 +12,7 @@ import functools
 import os
 import pathlib
 import shutil
+import signal
 import threading
 import time
 from typing import Callable, Dict, List, Optional, Tuple
@@ -31,6 +32,7 @@ from teleteach.recording.report import make_report
 from teleteach.recording.session import SessionError, read_session
 from teleteach.run import outcome
 from teleteach.run.outcome import RunSummary
+from teleteach.run.pictures import background_colour, rviz_picture
 from teleteach.run.processes import (
     ProcessError,
     Processes,
@@ -45,6 +47,8 @@ DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")
 TREE_FILE = config_file("tree.yaml")
 SKILLS_FILE = config_file("skills.yaml")
 RVIZ_CONFIG = share_dir() / "rviz" / "teleteach.rviz"
+RVIZ_SCREEN = "1200x846x24"  # the layout's window size: RViz fills its display
+RVIZ_TIMEOUT = 45.0  # [s] wall time for RViz to show its window and draw the scene (loaded 2-core machine: ~20 s)
 EXECUTION = "BehaviorExecution"
 # teleteach/Behaviour's status constants (INVALID, RUNNING, SUCCESS, FAILURE) as py_trees' statuses
 STATUSES = {1: Status.INVALID, 2: Status.RUNNING, 3: Status.SUCCESS, 4: Status.FAILURE}
@@ -298,7 +302,7 @@ class ThesisRun:
         options, scenario = self.options, self.scenario
         display = os.environ.get("DISPLAY", "")
         if not display:
-            display = start_xvfb(self.processes)
+            display = start_xvfb(self.processes, parent_death_signal=signal.SIGTERM)
             self.say(f"run_thesis: started Xvfb on {display}")
 
         def start_launch(port: int):
@@ -322,6 +326,7 @@ class ThesisRun:
                 ],
                 self.folder / "launch.log",
                 ros_environment(f"http://localhost:{port}", display, self.root),
+                parent_death_signal=signal.SIGINT,  # a run_thesis killed (even by SIGKILL) leaves no system running
             )
 
         port, launch = own_master(start_launch, self.processes.stop)
@@ -383,14 +388,42 @@ class ThesisRun:
         return False, f"timeout after {self.options.timeout:.0f} s wall time ({state})"
 
     def _rviz_view(self, env, display: str, shots: TabScreenshots) -> None:
-        """RViz briefly, only for a picture of the robot, the shelf and the ellipsoid."""
+        """RViz briefly, on a display of its own, for a picture of the robot, the shelf and the ellipsoid.
+
+        Its own display: nothing else can lie on top of it. The picture is kept once it shows the 3D view with the
+        scene drawn, the same in two shots in a row (teleteach.run.pictures); else the run says what it showed.
+        """
+        picture, attempt = self.folder / "rviz.png", self.folder / "rviz_attempt.png"
         try:
-            rviz = self.processes.start("rviz", ["rviz", "-d", str(RVIZ_CONFIG)], self.folder / "rviz.log", env)
+            screen = start_xvfb(self.processes, size=RVIZ_SCREEN, parent_death_signal=signal.SIGTERM)
+            rviz = self.processes.start(
+                "rviz",
+                ["rviz", "-d", str(RVIZ_CONFIG)],
+                self.folder / "rviz.log",
+                dict(env, DISPLAY=screen),
+                parent_death_signal=signal.SIGTERM,
+            )
         except ProcessError as error:
-            shots.errors.append(f"rviz: {error}")
+            shots.errors.append(f"rviz.png: {error}")
             return
-        time.sleep(12.0)
-        shots.take(self.folder / "rviz.png")
+        background, previous, why = background_colour(RVIZ_CONFIG), None, "no picture taken"
+        deadline = time.monotonic() + RVIZ_TIMEOUT
+        while time.monotonic() < deadline and rviz.poll() is None:
+            time.sleep(2.0)
+            error = screenshot(screen, attempt)
+            if error:
+                why = error
+                continue
+            drawn, share, why = rviz_picture(attempt, background)
+            if drawn and previous is not None and abs(share - previous) <= 0.1 * previous:
+                attempt.replace(picture)
+                break
+            previous = share if drawn else None
+        else:
+            shots.errors.append(
+                f"rviz.png: RViz did not show the robot and the scene within {RVIZ_TIMEOUT:.0f} s: {why} "
+                f"(its last picture: {attempt.name})"
+            )
         self.processes.stop(rviz, grace=5.0)
 
     def _collect_bag(self) -> Optional[pathlib.Path]:

@@ -62,6 +62,14 @@ def compiled_function(function: ca.Function, folder: Optional[str] = None) -> ca
     return ca.external(function.name(), library)
 
 
+def compiler_failure(result: subprocess.CompletedProcess) -> str:
+    """Why the compiler failed, in its own words (the end of what it printed) and how it ended (status or signal)."""
+    code = result.returncode
+    ended = f"killed by signal {-code}" if code < 0 else f"exit status {code}"
+    said = " ".join((result.stderr or result.stdout or "").split())[-2000:]
+    return f"{COMPILER[0]} {ended}: {said}" if said else f"{COMPILER[0]} {ended}, printing nothing"
+
+
 def _compile(generate, name: str, folder: Optional[str]) -> str:
     folder = pathlib.Path(folder) if folder else cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
@@ -85,6 +93,6 @@ def _compile(generate, name: str, folder: Optional[str]) -> str:
         built = pathlib.Path(work) / library.name
         result = subprocess.run([*COMPILER, str(source), "-o", str(built), "-lm"], capture_output=True, text=True)
         if result.returncode != 0:
-            raise RuntimeError(f"compiling {name} failed: {result.stderr[-2000:]}")
+            raise RuntimeError(f"compiling {name} failed: {compiler_failure(result)}")
         os.replace(built, library)
     return str(library)

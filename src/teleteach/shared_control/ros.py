@@ -340,7 +340,8 @@ class SharedControlNode:
         try:
             controller = SharedControl(config, initial_state, box)
         except (OSError, RuntimeError) as error:
-            self._rospy.logerr(f"shared_control: compiling failed ({error}); using the slower 'fast' solver")
+            if not self._rospy.is_shutdown():  # a compiler stopped by Ctrl-C is no failure to report
+                self._rospy.logerr(f"shared_control: compiling failed ({error}); using the slower 'fast' solver")
             return SharedControl(dataclasses.replace(config, solver="fast"), initial_state, box)
         finally:
             done.set()

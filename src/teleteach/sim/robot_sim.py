@@ -17,6 +17,7 @@ from teleteach.control.manager import ControllerManager
 from teleteach.frames import Transform
 from teleteach.paths import config_file
 from teleteach.perception.observed import ObservedScene, observed_from_scene
+from teleteach.robot_controllers import controller_names
 from teleteach.sim import panda
 from teleteach.sim.gripper import SimGripper
 from teleteach.sim.scene import BasePose, Scene, load_scene
@@ -24,8 +25,8 @@ from teleteach.sim.uncertainty import BaseError, PerceptionNoise, UncertaintySet
 from teleteach.sim.world import SupermarketWorld
 
 DEFAULT_CONTROLLER_FILE = config_file("controllers.yaml")
-IMPEDANCE = "cartesian_impedance_controller"
-TRAJECTORY = "position_joint_trajectory_controller"
+# the simulated robot serves config/robot_controllers.yaml's `simulation` controllers (their gains: controllers.yaml)
+IMPEDANCE, TRAJECTORY = controller_names("simulation").impedance, controller_names("simulation").position
 BASE_FRAME = "base_link"
 
 

@@ -7,6 +7,7 @@ from typing import Dict, Optional, Tuple
 import yaml
 
 from teleteach.paths import config_file
+from teleteach.robot_controllers import ControllerNames, ControllerNamesError, controller_names
 
 DEFAULT_MOTION_FILE = config_file("skills_motion.yaml")
 
@@ -106,16 +107,22 @@ class MotionConfig:
     replay: ReplayConfig
 
 
-def load_motion_config(path: Optional[str] = None) -> MotionConfig:
+def load_motion_config(path: Optional[str] = None, controllers: Optional[str] = None) -> MotionConfig:
     """Read and validate the motion file (default: the package's config/skills_motion.yaml).
+
+    The controllers' names come from config/robot_controllers.yaml, section ``controllers`` (None: its default).
 
     Raises:
         MotionConfigError: a key is missing or a value is of the wrong kind or out of range.
     """
     path = pathlib.Path(path) if path else DEFAULT_MOTION_FILE
     try:
+        names = controller_names(controllers)
+    except ControllerNamesError as error:
+        raise MotionConfigError(str(error)) from None
+    try:
         data = yaml.safe_load(path.read_text())
-        return _parse(data)
+        return _parse(data, names)
     except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError) as error:
         raise MotionConfigError(f"{path}: {error!r}") from None
 
@@ -132,7 +139,7 @@ def _section(cls, data, positive=(), non_negative=()):
     return cls(**values)
 
 
-def _parse(data):
+def _parse(data, names: ControllerNames):
     arm = _section(ArmConfig, data["arm"], positive=[field.name for field in fields(ArmConfig)])
     gripper = _section(
         GripperConfig,
@@ -161,8 +168,8 @@ def _parse(data):
         str(name): {str(key): str(value) for key, value in entry.items()} for name, entry in data["skills"].items()
     }
     return MotionConfig(
-        position_controller=str(data["controllers"]["position"]),
-        impedance_controller=str(data["controllers"]["impedance"]),
+        position_controller=names.position,
+        impedance_controller=names.impedance,
         arm=arm,
         gripper=gripper,
         base=base,

@@ -4,7 +4,7 @@
 /teleteach/scene, /cartesian_pose. Out: joint trajectories, stiffness and equilibrium commands, controller switches,
 gripper goals (franka_gripper's actions) and base goals (move_base). :class:`SkillServer` serves /skills/<Name>
 (teleteach/ExecuteSkill), one action server per skill (thesis Appendix B.2), all running through one SkillRunner.
-Names are the README's ROS graph (docs/architecture.md).
+Names are the ROS graph of docs/reference.md.
 """
 
 import threading
@@ -52,19 +52,24 @@ STATE_WAIT = 10.0  # [s] wall time to wait for the first /joint_states or base t
 
 
 class _ActionGoal(RobotGoal):
-    """A goal sent through a SimpleActionClient; ``judge(state, result, text)`` says whether it succeeded."""
+    """One goal's handle; ``judge(state, result, text)`` says whether it succeeded.
 
-    def __init__(self, client: actionlib.SimpleActionClient, judge):
-        self.client, self.judge = client, judge
+    A handle per goal, not a SimpleActionClient, which tracks one goal per client and logs an ERROR ("a goal handle
+    that we're not tracking") whenever the server's last status for the previous goal arrives after the next goal left.
+    """
+
+    def __init__(self, handle: actionlib.ClientGoalHandle, judge):
+        self.handle, self.judge = handle, judge
 
     def done(self) -> bool:
-        return self.client.simple_state == actionlib.SimpleGoalState.DONE
+        return self.handle.get_comm_state() == actionlib.CommState.DONE
 
     def outcome(self) -> Tuple[bool, str]:
-        return self.judge(self.client.get_state(), self.client.get_result(), self.client.get_goal_status_text())
+        handle = self.handle
+        return self.judge(handle.get_goal_status(), handle.get_result(), handle.get_goal_status_text())
 
     def cancel(self) -> None:
-        self.client.cancel_goal()
+        self.handle.cancel()
 
 
 def _gripper_outcome(state, result, text):
@@ -106,9 +111,9 @@ class RosRobot(Robot):
         self._skills = 0
         self._idle_after = idle_after
         self._trajectory = rospy.Publisher(f"{position_controller}/command", JointTrajectory, queue_size=1)
-        self._gripper_move = actionlib.SimpleActionClient("franka_gripper/move", MoveAction)
-        self._gripper_grasp = actionlib.SimpleActionClient("franka_gripper/grasp", GraspAction)
-        self._move_base = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self._gripper_move = actionlib.ActionClient("franka_gripper/move", MoveAction)
+        self._gripper_grasp = actionlib.ActionClient("franka_gripper/grasp", GraspAction)
+        self._move_base = actionlib.ActionClient("move_base", MoveBaseAction)
         self._eigenvalues = rospy.Publisher("eigenvalues", Vector3Stamped, queue_size=10)
         self._eigenvectors = rospy.Publisher("eigenvectors", QuaternionStamped, queue_size=10)
         self._equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
@@ -307,16 +312,15 @@ class RosRobot(Robot):
         self._publish(self._trajectory, msg)
 
     @staticmethod
-    def _send(client: actionlib.SimpleActionClient, goal, judge) -> RobotGoal:
+    def _send(client: actionlib.ActionClient, goal, judge) -> RobotGoal:
         """Send a goal once its server is connected (waited for in wall time: a stopped /clock must not hang here)."""
         deadline = time.monotonic() + CONNECTION_WAIT
-        while not server_ready(client.action_client):
+        while not server_ready(client):
             if time.monotonic() > deadline or rospy.is_shutdown():
-                name = rospy.resolve_name(client.action_client.ns)
+                name = rospy.resolve_name(client.ns)
                 raise SkillError(f"nobody serves {name}: is robot_sim (or the robot's driver) running?")
             time.sleep(0.01)
-        client.send_goal(goal)
-        return _ActionGoal(client, judge)
+        return _ActionGoal(client.send_goal(goal), judge)
 
     def move_gripper(self, width: float, speed: float) -> RobotGoal:
         """franka_gripper/move."""

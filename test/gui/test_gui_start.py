@@ -1,0 +1,97 @@
+"""START with the real GUI: a neutral zone in the centre, and the start gesture of a tree that started paused."""
+
+import time
+
+import pytest
+from conftest import pump, pump_until, start_bt, stop
+from std_msgs.msg import Bool
+
+from teleteach.active_tab import Tab
+from teleteach.gui.tabs import StartTab
+from teleteach.msg import TreeExecution
+
+pytestmark = pytest.mark.gui
+
+
+def test_a_centred_handle_selects_no_mode_and_its_click_opens_nothing(qapp, device, make_window):
+    window = make_window()
+    device.move(x=0.0)
+    pump_until(qapp, lambda: window.start_tab.selected == StartTab.NEUTRAL, 5, "the neutral zone")
+    device.click()
+    pump(qapp, 1.0)
+    # Expect START still open: a resting hand that clicks does not enter a teaching mode
+    assert window.tabs.currentIndex() == Tab.START
+    for x, selected in ((0.015, StartTab.NEUTRAL), (0.03, 1), (-0.03, 0), (-0.015, StartTab.NEUTRAL)):
+        device.move(x=x)
+        pump_until(qapp, lambda selected=selected: window.start_tab.selected == selected, 5, f"x {x} -> {selected}")
+
+
+def test_a_tree_that_starts_paused_waits_for_the_start_gesture(
+    qapp, ros_master, device, make_window, topic_log, data_root, artifacts_dir
+):
+    execution_log = topic_log("/behaviour_tree/execution", TreeExecution)
+    pause_log = topic_log("/behaviour_tree/pause", Bool)
+    tree = start_bt(data_root, start_paused=True)
+    try:
+        window = make_window()
+        device.move(x=0.0)
+        pump_until(qapp, lambda: window.start_tab.tree_waiting, 10, "START showing the waiting tree")
+        # Expect the operator told, in START and in the status bar, and the tree really waiting
+        assert window.start_tab.centre.text().startswith("The robot waits for you.")
+        assert "waiting for the operator" in window.tree_label.text()
+        assert execution_log.last().state == TreeExecution.WAITING
+        pump(qapp, 0.5)
+        window.screenshot().save(str(artifacts_dir / "gui_start_tree_waiting.png"))
+        # a teaching session before the start does not start the tree when it ends
+        device.move(x=0.05)
+        pump_until(qapp, lambda: window.start_tab.selected == 1, 5, "LOW-LEVEL selected")
+        entered = time.monotonic()  # (an earlier test's window may have left its own pause flag latched)
+        device.click()
+        pump_until(qapp, lambda: window.tabs.currentIndex() == Tab.LOW_LEVEL, 5, "LOW-LEVEL")
+        device.set_gripper(0.5)
+        pump_until(qapp, lambda: window.tabs.currentIndex() == Tab.START, 5, "back to START")
+        device.set_gripper(0.25)
+        pump(qapp, 1.0)
+        assert execution_log.last().state == TreeExecution.WAITING
+        assert [message.data for message in pause_log.since(entered)] == [True]
+        # the start gesture: centred, click
+        device.move(x=0.0)
+        pump_until(qapp, lambda: window.start_tab.selected == StartTab.NEUTRAL, 5, "the neutral zone")
+        device.click()
+        pump_until(qapp, lambda: execution_log.last().state == TreeExecution.RUNNING, 10, "the tree running")
+        pump_until(qapp, lambda: not window.start_tab.tree_waiting, 5, "START no longer waiting")
+        assert window.tabs.currentIndex() == Tab.START
+        # the start is an event (behaviour_tree/start), not a "not paused" left latched for the next tree
+        assert [message.data for message in pause_log.since(entered)] == [True]
+        pump_until(qapp, lambda: "the tree: started" in window.statusBar().currentMessage(), 5, "the status bar")
+    finally:
+        stop(tree)
+
+
+def test_a_tree_restarted_under_a_gui_that_said_not_paused_waits_for_the_start_gesture_again(
+    qapp, ros_master, device, make_window, topic_log, data_root
+):
+    """A GUI's latched "not paused" (a teaching session ended) is no start: the tree that restarts after a crash
+    (roslaunch respawn) with start_paused waits again, until the operator's gesture."""
+    import rospy
+
+    execution_log = topic_log("/behaviour_tree/execution", TreeExecution)
+    window = make_window()
+    not_paused = rospy.Publisher("/behaviour_tree/pause", Bool, queue_size=1, latch=True)
+    not_paused.publish(Bool(False))
+    try:
+        tree = start_bt(data_root, start_paused=True)
+        try:
+            device.move(x=0.0)
+            pump_until(qapp, lambda: window.start_tab.tree_waiting, 10, "START showing the waiting tree")
+            pump(qapp, 2.0)
+            # Expect the tree still waiting: it heard "not paused" and did not run
+            assert execution_log.last().state == TreeExecution.WAITING
+            assert not_paused.get_num_connections() > 0, "the tree heard the latched pause flag"
+            pump_until(qapp, lambda: window.start_tab.selected == StartTab.NEUTRAL, 5, "the neutral zone")
+            device.click()
+            pump_until(qapp, lambda: execution_log.last().state == TreeExecution.RUNNING, 10, "the tree running")
+        finally:
+            stop(tree)
+    finally:
+        not_paused.unregister()
