@@ -6,8 +6,9 @@ import ast
 from conftest import ROOT
 
 PACKAGE = ROOT / "src" / "teleteach"
-# The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers, the main job and the learn_skill CLI.
-ROS_LAYERS = {"node.py", "gui/app.py", "gui/worker.py", "run/thesis.py", "learning/command.py"}
+# The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers, the actionlib helpers the ros.py layers
+# share (their status thread stops with rospy's shutdown), the main job and the learn_skill CLI.
+ROS_LAYERS = {"node.py", "ros_actions.py", "gui/app.py", "gui/worker.py", "run/thesis.py", "learning/command.py"}
 
 
 def modules():
