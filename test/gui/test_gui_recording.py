@@ -114,10 +114,19 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     played = skill.in_base(skill.target.transform)
     planned = window.trajectory.resolve(skill.target.transform, played.cartesian_pose[0])
     assert np.allclose(played.equilibrium_pose[0, :3], played.cartesian_pose[0, :3], atol=0.01)
+    # the recorder and the player start on the same double click, in different threads: under load one starts up to
+    # a few tenths of a (simulated) second after the other, so the recording may lead or lag the plan by that much
     times = played.time - played.time[0]
-    for index in np.linspace(0, len(times) - 1, 8).astype(int):
-        expected = planned.sample(times[index])[:3]
-        assert np.linalg.norm(played.equilibrium_pose[index, :3] - expected) < 0.005, (times[index], expected)
+    samples = np.linspace(0, len(times) - 1, 8).astype(int)
+
+    def largest_error(lead):
+        planned_points = np.array([planned.sample(times[index] + lead)[:3] for index in samples])
+        return np.linalg.norm(played.equilibrium_pose[samples, :3] - planned_points, axis=1).max()
+
+    leads = np.linspace(-0.3, 0.3, 61)
+    errors = [largest_error(lead) for lead in leads]
+    best = int(np.argmin(errors))
+    assert errors[best] < 0.005, f"best fit {1000 * errors[best]:.1f} mm at a lead of {leads[best]:+.2f} s"
     assert equilibrium_log.messages and equilibrium_log.last().header.frame_id == "base_link"
     assert np.all(np.isfinite(skill.cartesian_pose))
 
