@@ -168,6 +168,26 @@ def test_a_preempted_skill_cancels_its_base_goal(sim, runner):
     assert np.linalg.norm(stopped[:2] - start[:2]) < 0.2
 
 
+def test_pick_fails_at_once_when_the_grasp_does(sim, runner):
+    body = sim.world.products["product_pick_1"]
+    phases = []
+
+    def feedback(progress, phase):
+        if phase == "grasp" and "grasp" not in phases:  # the product taken away as the fingers start to close
+            pybullet.resetBasePositionAndOrientation(
+                body, [0.0, 1.5, 0.07], [0, 0, 0, 1], physicsClientId=sim.world.client
+            )
+        phases.append(phase)
+
+    assert runner.execute("LookToShelf").success
+    outcome = runner.execute("PickItem", "", Execution(feedback=feedback))
+    # Expect the grasp's own failure, with nothing moved after it: no lift, no carry posture
+    assert not outcome.success and not outcome.preempted
+    assert re.fullmatch(r"the grasp of product_pick_1 \(\d+ mm wide\) failed: .+", outcome.message), outcome.message
+    assert phases[-1] == "grasp" and "lift" not in phases
+    assert sim.world.grasped is None
+
+
 def test_a_skill_first_switches_back_to_the_position_controller(sim, runner):
     ok, message = sim.switch_controllers([IMPEDANCE], [TRAJECTORY], 2)
     assert ok, message
