@@ -181,3 +181,16 @@ def test_queued_clicks_are_pressed_one_release_pulse_apart():
     states = [detector.update(time, 0.5) for time in (1.0, 1.124, 1.125, 1.249, 1.25, 1.374, 1.375)]
     assert detector.clicks == 2
     assert states == [True, True, False, False, True, True, False]
+
+
+def test_clicks_of_a_second_stall_wait_for_those_still_pressed():
+    detector = ClickDetector(EXACT)
+    detector.catch_up([(0.0, 0.5), (0.125, 0.0), (0.25, 0.5), (0.375, 0.0), (0.5, 0.5)], now=1.0)
+    # a second stall, over another double click, ends while the first click is still pressed
+    detector.catch_up([(1.01, 0.0), (1.02, 0.5), (1.03, 0.0), (1.04, 0.5)], now=1.0625)
+    times = np.arange(1.0625, 3.0, 0.001)
+    states = np.array([True] + [detector.update(time, 0.5) for time in times[1:]])
+    # Expect: four clicks, four presses of a pulse each, a pulse of release between them
+    assert detector.clicks == 4
+    assert rising_edges(states) == 4
+    assert np.count_nonzero(states) == pytest.approx(4 * 125 - 62, abs=4)
