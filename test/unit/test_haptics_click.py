@@ -194,3 +194,16 @@ def test_clicks_of_a_second_stall_wait_for_those_still_pressed():
     assert detector.clicks == 4
     assert rising_edges(states) == 4
     assert np.count_nonzero(states) == pytest.approx(4 * 125 - 62, abs=4)
+
+
+def test_a_stall_s_click_found_during_a_press_or_its_release_gets_its_own_rising_edge():
+    for stall_ends in (0.6, 0.7):  # during the press (0.5-0.625 s), during the release after it (0.625-0.75 s)
+        detector, states = feed([(0.0, 0.5), (0.25, 0.0), (0.5, 0.5)])
+        assert states[-1] and detector.clicks == 1
+        detector.catch_up([(0.52, 0.0), (0.54, 0.5)], now=stall_ends)
+        times = np.arange(stall_ends, 2.0, 0.001)
+        states = np.array([detector.update(time, 0.5) for time in times])
+        # Expect: the second click pressed for a pulse after a release of one pulse, not merged into the first
+        assert detector.clicks == 2
+        assert not states[(times > 0.626) & (times < 0.749)].any()
+        assert states[(times > 0.751) & (times < 0.874)].all() and not states[times > 0.876].any()

@@ -74,15 +74,15 @@ class ClickDetector:
         """Feeds the (time [s], gripper angle [rad]) samples a stalled loop did not read: a stall delays a click.
 
         Only a scripted backend knows them; without them, a stall can swallow a click or stretch it into a grip.
-        Clicks found among them are pressed from ``now`` (or after the clicks still being pressed), one
+        Clicks found among them are pressed from ``now`` (or after the press under way and its release), one
         ``pulse_duration`` pulse each with as long a release between them (a double click stays two clicks, closer
         together than the GUI's double-click window).
         """
         found = sum(self._recognise(time, angle) for time, angle in samples)
         if not found:
             return
-        if self._queued or now < self._pressed_until:
-            self._queued += found  # after the clicks being pressed
+        if self._queued or now < self._pressed_until + self.parameters.pulse_duration:
+            self._queued += found  # after the press under way and its release: every click its own rising edge
         else:
             self._pressed_until = now + self.parameters.pulse_duration
             self._queued = found - 1
