@@ -68,11 +68,15 @@ def module_key(argument: str, modules) -> str:
 
 
 def setup_cfg(module: str, tests) -> str:
-    """mutmut's configuration for one module: mutate only its file, select only its tests."""
+    """mutmut's configuration for one module: mutate only its file, select only its tests.
+
+    The unit tests need no display: without ``-p no:xvfb`` every mutant's pytest starts an Xvfb that mutmut's forked
+    children never stop (a run over click.py left some 500 behind, and the next Xvfb could not start).
+    """
     lines = ["[mutmut]", "source_paths = src", f"only_mutate = {PACKAGE}/{module}"]
     lines += ["pytest_add_cli_args_test_selection ="]
     lines += [f"    {test}" for test in tests]
-    lines += ["pytest_add_cli_args =", "    -p", "    no:cacheprovider"]
+    lines += ["pytest_add_cli_args =", "    -p", "    no:cacheprovider", "    -p", "    no:xvfb"]
     return "\n".join(lines) + "\n"
 
 
