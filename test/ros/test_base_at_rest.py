@@ -2,10 +2,7 @@
 (a loaded skill server): the base's pose is read only once its own transforms say it stands still, and the scene
 used afterwards is one published after that."""
 
-import subprocess
-import sys
-
-from ros_processes import Processes, start_roscore
+from ros_processes import run_probe
 
 # The robot: /clock lags its stamps by LAG (the skill server hears time late); the base drives along x at 0.1 m/s
 # until robot time 2 s, then stands at x = 0.2 m; the scene (10 Hz) says nothing between robot time 1.9 s and 2.6 s.
@@ -56,11 +53,7 @@ rospy.signal_shutdown("probe done")
 
 
 def test_the_base_is_read_once_it_stands_still_and_the_scene_after_that(tmp_path):
-    with Processes(tmp_path) as processes:
-        start_roscore(processes)
-        probe = subprocess.run(
-            [sys.executable, "-c", PROBE], env=processes.env, capture_output=True, text=True, timeout=120, check=False
-        )
+    probe = run_probe(tmp_path, PROBE)
     assert probe.returncode == 0, probe.stdout + probe.stderr
     # Expect: the pose where the base stopped (not one from the drive, 0.1 to 0.15 m), and a scene from after it
     assert probe.stdout.splitlines() == ["at rest 0.2", "scene after rest True"], probe.stdout + probe.stderr
