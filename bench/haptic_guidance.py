@@ -258,27 +258,19 @@ def stiffness_position(stiffness: float, config) -> float:
     return -config.device_range + 2.0 * config.device_range * (pixels - low) / (high - low)
 
 
-def stiffness_matrix(eigenvalues: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:
-    """K = V diag(lambda) V^T from /eigenvalues and /eigenvectors (thesis eq. 1)."""
-    from scipy.spatial.transform import Rotation
-
-    axes = Rotation.from_quat(quaternion).as_matrix()
-    return axes @ np.diag(eigenvalues) @ axes.T
-
-
 def drift_of(samples: Sequence[tuple]) -> tuple:
     """(RMS of the change of K outside K_yy, RMS change of the X and Z eigenvalues) [N/m] over (eigenvalues,
     quaternion) samples, K taken in the ellipsoid's axes at the first sample (so raising its Y axis, wherever it
     points, changes only K_yy)."""
     if not samples:
         return math.nan, math.nan
-    from scipy.spatial.transform import Rotation
+    from teleteach.control.stiffness import as_rotation, translational_stiffness
 
-    axes = Rotation.from_quat(samples[0][1]).as_matrix()
-    reference = axes.T @ stiffness_matrix(*samples[0]) @ axes
+    axes = as_rotation(samples[0][1])
+    reference = axes.T @ translational_stiffness(*samples[0]) @ axes
     outside, eigen = [], []
     for eigenvalues, quaternion in samples:
-        change = axes.T @ stiffness_matrix(eigenvalues, quaternion) @ axes - reference
+        change = axes.T @ translational_stiffness(eigenvalues, quaternion) @ axes - reference
         change[1, 1] = 0.0
         outside.append(np.sum(change**2))
         eigen.append((eigenvalues[0] - samples[0][0][0]) ** 2 + (eigenvalues[2] - samples[0][0][2]) ** 2)

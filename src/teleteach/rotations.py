@@ -12,14 +12,19 @@ from scipy.spatial.transform import Rotation
 FIXED_AXES = "xyz"  # extrinsic: roll about X, then pitch about Y, then yaw about Z
 
 
+def rpy_rotation(rpy) -> Rotation:
+    """The rotation of (roll, pitch, yaw) [rad], or of each row of an (N, 3) array of them."""
+    return Rotation.from_euler(FIXED_AXES, rpy)
+
+
 def rpy_to_quaternion(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Unit quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    return Rotation.from_euler(FIXED_AXES, [roll, pitch, yaw]).as_quat()
+    return rpy_rotation([roll, pitch, yaw]).as_quat()
 
 
 def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """R = Rz(yaw) Ry(pitch) Rx(roll); its columns are the rotated X, Y, Z axes."""
-    return Rotation.from_euler(FIXED_AXES, [roll, pitch, yaw]).as_matrix()
+    return rpy_rotation([roll, pitch, yaw]).as_matrix()
 
 
 def yaw_rotation(yaw: float) -> Rotation:

@@ -17,7 +17,7 @@ from teleteach.recording.session import read_session
 from teleteach.run.pictures import background_colour, rviz_picture
 from teleteach.sim.scene import load_scene
 
-RUN_TIMEOUT = 420.0  # [s] wall: the runner bounds itself (scenario 230 s, RViz picture 45 s, stop, report)
+RUN_TIMEOUT = 420.0  # [s] wall: the runner bounds itself (scenario 300 s, RViz picture 45 s, stop, report)
 
 
 @pytest.fixture(scope="module")

@@ -117,10 +117,18 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     played = skill.in_base(skill.target.transform)
     planned = window.trajectory.resolve(skill.target.transform, played.cartesian_pose[0])
     assert np.allclose(played.equilibrium_pose[0, :3], played.cartesian_pose[0, :3], atol=0.01)
+    # the recorder samples the player's latest pose at its own (simulated) time: the two threads start apart and a
+    # starved player runs late, so a sample may lead or lag the plan by a few tenths of a second (CI: 8.5 mm at
+    # t = 0.9 s); a player on the wall's clock would be a whole second and more ahead by the end
     times = played.time - played.time[0]
+    leads = np.linspace(-0.3, 0.3, 61)
     for index in np.linspace(0, len(times) - 1, 8).astype(int):
-        expected = planned.sample(times[index])[:3]
-        assert np.linalg.norm(played.equilibrium_pose[index, :3] - expected) < 0.005, (times[index], expected)
+        planned_points = np.array([planned.sample(times[index] + lead)[:3] for lead in leads])
+        errors = np.linalg.norm(planned_points - played.equilibrium_pose[index, :3], axis=1)
+        best = int(np.argmin(errors))
+        assert (
+            errors[best] < 0.005
+        ), f"t = {times[index]:.2f} s: {1000 * errors[best]:.1f} mm off at a lead of {leads[best]:+.2f} s"
     assert equilibrium_log.messages and equilibrium_log.last().header.frame_id == "base_link"
     assert np.all(np.isfinite(skill.cartesian_pose))
 

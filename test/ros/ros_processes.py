@@ -4,6 +4,7 @@ import os
 import pathlib
 import signal
 import subprocess
+import sys
 import time
 
 from teleteach.run.processes import own_master
@@ -94,6 +95,14 @@ def start_roscore(processes, name="roscore"):
 
     port, _ = own_master(start, lambda core: processes.stop(names[core.pid]))
     return f"http://localhost:{port}"
+
+
+def run_probe(log_dir, code, timeout=120):
+    """Run a Python program (one ROS node) against a roscore of its own; returns the finished process."""
+    with Processes(log_dir) as processes:
+        start_roscore(processes)
+        command = [sys.executable, "-c", code]
+        return subprocess.run(command, env=processes.env, capture_output=True, text=True, timeout=timeout, check=False)
 
 
 def start_xvfb(processes, size="1280x900x24"):

@@ -95,13 +95,20 @@ class SharedControlFromTheDevice(unittest.TestCase):
             f"the arm ended at {np.round(arm_points[-1], 3)}"
         )
         # Expect: the reference never jumped, not even when the GUI switched shared control on with the arm off the
-        # task plane (the jump this guards against was 25 cm). A step is at most the fastest plan's (speed_bounds'
-        # top, 0.2 m/s: 4 mm per 50 Hz cycle, while the approach's 0.1 m/s gives 2 mm); a cycle that ran late may
-        # carry two (a fresh machine once showed 5.0 mm), so a step of two cycles is the bound
-        _, references = reference.all()
+        # task plane (the jump this guards against was 25 cm). It moves at most as fast as the fastest plan
+        # (speed_bounds' top, 0.2 m/s: 4 mm per 50 Hz cycle), over the time between two messages plus one cycle: a
+        # loop that fell behind catches up with cycles published back to back, and the publisher keeps only the last
+        # of them (a fresh machine at load 7 showed 12.9 mm after three late cycles)
+        stamps, references = reference.all()
         steps = np.linalg.norm(np.diff(references, axis=0), axis=1)
-        largest = 2.0 * float(params["speed_bounds"][1]) / float(params["rate"])
-        self.assertLess(float(steps.max()), largest, f"largest step of /equilibrium_pose: {steps.max():.4f} m")
+        period, fastest = 1.0 / float(params["rate"]), float(params["speed_bounds"][1])
+        allowed = fastest * (np.maximum(np.diff(stamps), 0.0) + period) + 1e-4
+        worst = int(np.argmax(steps - allowed))
+        self.assertLessEqual(
+            steps[worst],
+            allowed[worst],
+            f"/equilibrium_pose stepped {steps[worst]:.4f} m in {stamps[worst + 1] - stamps[worst]:.3f} s",
+        )
         # Expect: the check saw the pushes, the arm went the hand's way in (nearly) all of them
         self.assertGreaterEqual(compared, 20, "too few windows with the hand moving steadily and the arm clear")
         self.assertLessEqual(len(against), compared // 10, f"arm against the hand (t, hand, arm): {against}")

@@ -1,10 +1,7 @@
 """The rospy internals that teleteach.bt.ros.ActionClients reads (why: see its docstring), pinned against the installed
 rospy and actionlib: a real action server and client in one node over a real roscore."""
 
-import subprocess
-import sys
-
-from ros_processes import Processes, start_roscore
+from ros_processes import run_probe
 
 PROBE = """
 import actionlib, rospy
@@ -24,11 +21,7 @@ rospy.signal_shutdown("probe done")  # ends the action server's thread, so the p
 
 
 def test_action_clients_read_who_serves_a_skill_and_whether_it_is_still_connected(tmp_path):
-    with Processes(tmp_path) as processes:
-        start_roscore(processes)
-        probe = subprocess.run(
-            [sys.executable, "-c", PROBE], env=processes.env, capture_output=True, text=True, timeout=120, check=False
-        )
+    probe = run_probe(tmp_path, PROBE)
     assert probe.returncode == 0, probe.stdout + probe.stderr
     # Expect: a connected server is ready and named by its node, and only that node counts as connected
     assert probe.stdout.splitlines() == ["ready True []", "server /internals_probe", "connected True False"]

@@ -7,8 +7,17 @@ from conftest import ROOT
 
 PACKAGE = ROOT / "src" / "teleteach"
 # The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers, the actionlib helpers the ros.py layers
-# share (their status thread stops with rospy's shutdown), the main job and the learn_skill CLI.
-ROS_LAYERS = {"node.py", "ros_actions.py", "gui/app.py", "gui/worker.py", "run/thesis.py", "learning/command.py"}
+# share (their status thread stops with rospy's shutdown), the main job, the learn_skill CLI and the study's trial
+# processes (docs/architecture.md: study/runner.py starts the study node, importing it in functions).
+ROS_LAYERS = {
+    "node.py",
+    "ros_actions.py",
+    "gui/app.py",
+    "gui/worker.py",
+    "run/thesis.py",
+    "learning/command.py",
+    "study/runner.py",
+}
 
 
 def modules():
@@ -90,3 +99,55 @@ def test_only_the_ros_layers_import_rospy():
     layers = {path for path in importers if path.endswith("/ros.py")}
     assert layers >= {"bt/ros.py", "haptics/ros.py", "shared_control/ros.py", "sim/ros.py", "skills/ros.py"}
     assert importers - layers <= ROS_LAYERS
+
+
+def library_imports(library, tree):
+    """The library's modules an import anywhere in ``tree`` runs: each one named and the packages above it."""
+    found = set()
+    for name in imported_names(tree, top_level_only=False):
+        parts = name.split(".")
+        found |= {".".join(parts[:end]) for end in range(1, len(parts) + 1)} & set(library)
+    return found
+
+
+def chains_to_rospy(library):
+    """{path: the import chain through which the module gets rospy, e.g. ['teleteach.a', 'teleteach.b', 'rospy']}."""
+    graph = {name: library_imports(library, tree) - {name} for name, (_, tree) in library.items()}
+    chains = {
+        name: [name, "rospy"]
+        for name, (_, tree) in library.items()
+        if any(target.split(".")[0] == "rospy" for target in imported_names(tree, top_level_only=False))
+    }
+    while True:  # breadth first: each module gets one of its shortest chains
+        reached = dict(chains)
+        for name in sorted(set(graph) - set(reached)):
+            via = sorted(target for target in graph[name] if target in reached)
+            if via:
+                chains[name] = [name, *reached[via[0]]]
+        if len(chains) == len(reached):
+            break
+    return {library[name][0]: chain for name, chain in chains.items()}
+
+
+def is_ros_layer(path):
+    return path.endswith("/ros.py") or path in ROS_LAYERS
+
+
+def test_only_the_ros_layers_get_rospy_even_through_other_modules():
+    chains = chains_to_rospy(modules())
+    assert {"bt/ros.py", "viz/ros.py", "node.py"} <= set(chains)  # the check saw the ROS layers
+    assert {path: " -> ".join(chain) for path, chain in chains.items() if not is_ros_layer(path)} == {}
+
+
+def test_a_chain_to_rospy_is_found_through_an_import_inside_a_function():
+    library = {
+        "teleteach.a": ("a.py", ast.parse("def f():\n    from teleteach.b import thing")),
+        "teleteach.b": ("b/__init__.py", ast.parse("import teleteach.b.ros")),
+        "teleteach.b.ros": ("b/ros.py", ast.parse("import rospy")),
+        "teleteach.c": ("c.py", ast.parse("import math")),
+    }
+    assert chains_to_rospy(library) == {
+        "a.py": ["teleteach.a", "teleteach.b", "teleteach.b.ros", "rospy"],
+        "b/__init__.py": ["teleteach.b", "teleteach.b.ros", "rospy"],
+        "b/ros.py": ["teleteach.b.ros", "rospy"],
+    }

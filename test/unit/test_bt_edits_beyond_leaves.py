@@ -3,10 +3,12 @@ running, decorators changing who is asked for help, the history saved with the t
 
 import json
 import math
+import re
 
 import py_trees
 import pytest
 from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, status_of, thesis_tree
+from conftest import ROOT
 from py_trees.common import Status
 
 from teleteach.bt.editor import HISTORY_LIMIT, EditRequest, snapshot
@@ -262,9 +264,13 @@ def test_a_new_edit_clears_redo_and_the_history_is_bounded():
     assert tree.change("", "undo").success
     assert tree.change("Idle", "prepend").success
     assert tree.change("", "redo").message == "nothing to redo"
-    for _ in range(HISTORY_LIMIT + 5):
+    # Expect as many edits kept as the README promises ("`undo` and `redo` revert ... the last edits ... (up to N,")
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    promised = [int(number) for number in re.findall(r"`undo` and `redo` revert [^(]*\(up to (\d+),", readme)]
+    assert promised == [100]
+    for _ in range(promised[0] + 5):
         assert tree.change("Idle", "add").success
-    assert len(tree.editor.undo_edits) == HISTORY_LIMIT >= 50
+    assert len(tree.editor.undo_edits) == HISTORY_LIMIT == promised[0]
 
 
 def test_history_is_saved_with_the_tree_and_undo_works_after_a_restart(tmp_path):

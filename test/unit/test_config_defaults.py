@@ -2,12 +2,14 @@
 the same one, so that reading the code never misleads about what runs; a missing value is named in one line."""
 
 import dataclasses
+import inspect
 import xml.etree.ElementTree as ElementTree
 
 import pytest
 import yaml
 from conftest import ROOT
 
+from teleteach.bt.ros import ActionSkill, BehaviourTreeNode
 from teleteach.control.impedance import ImpedanceParams
 from teleteach.gui.config import GuiConfig
 from teleteach.haptics.click import ClickParameters
@@ -38,6 +40,10 @@ def comparable(value):
     return value
 
 
+def is_required(field):
+    return field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING
+
+
 @pytest.mark.parametrize(
     "parameters, yaml_values",
     [
@@ -52,6 +58,7 @@ def comparable(value):
     ids=["impedance", "gui", "sigma7", "click", "guidance", "hand", "shared_control"],
 )
 def test_no_code_default_disagrees_with_its_yaml(parameters, yaml_values):
+    # Sigma7Config's sections twist, virtual, topic, dhd and hand are flat fields, compared by parameter name below
     disagreeing = {}
     for field in dataclasses.fields(parameters):
         if field.name not in yaml_values:
@@ -67,9 +74,51 @@ def test_no_code_default_disagrees_with_its_yaml(parameters, yaml_values):
     assert disagreeing == {}
 
 
+def test_sigma7_defaults_are_the_yaml_s_values_of_the_parameters_they_stand_for():
+    # Expect each default the node passes to get_param (a flattened field such as topic_timeout for ~topic/timeout
+    # too) to be the yaml's value of that parameter, and every value of the yaml asked for
+    asked = {}
+    launch = {"~scenario": "scenario.yaml", "~hand/enabled": True}  # launch arguments: the yaml leaves them out
+
+    def get_param(name, default):
+        asked[name] = default
+        return launch.get(name, default)
+
+    Sigma7Config.from_params(get_param)
+    yaml_values = {}
+    for name, value in config("device.yaml").items():
+        items = value.items() if isinstance(value, dict) else [(None, value)]
+        yaml_values.update({f"~{name}/{key}" if key else f"~{name}": item for key, item in items})
+    assert set(yaml_values) <= set(asked)
+    assert {"~topic/timeout", "~twist/cutoff_frequency", "~virtual/click_duration", "~dhd/library"} <= set(asked)
+    disagreeing = {
+        name: (asked[name], value)
+        for name, value in yaml_values.items()
+        if comparable(asked[name]) != comparable(value)
+    }
+    assert disagreeing == {}
+
+
+def test_the_behaviour_tree_node_s_argument_defaults_are_the_yaml_s():
+    yaml_values = config("behaviour_tree.yaml")
+    defaults = {}
+    for function in (BehaviourTreeNode.__init__, ActionSkill.__init__):
+        for name, parameter in inspect.signature(function).parameters.items():
+            if name in yaml_values and parameter.default is not inspect.Parameter.empty:
+                defaults[name] = parameter.default
+    assert set(defaults) == set(yaml_values) - {"skill_namespace"}  # ActionClients' namespace has its own name
+    disagreeing = {name: (default, yaml_values[name]) for name, default in defaults.items()}
+    disagreeing = {name: pair for name, pair in disagreeing.items() if pair[0] != pair[1]}
+    assert disagreeing == {}
+
+
 def test_the_impedance_gains_come_only_from_the_yaml_and_a_missing_one_is_named():
     settings = load_controller_config()
-    assert impedance_params(settings).initial_eigenvalues == (800.0, 800.0, 800.0)
+    # Expect no code default at all (so none to disagree), and what runs to be each of the yaml's values
+    assert [field.name for field in dataclasses.fields(ImpedanceParams) if not is_required(field)] == []
+    yaml_values = config("controllers.yaml", "cartesian_impedance_controller")
+    assert len(yaml_values) == len(dataclasses.fields(ImpedanceParams)) == 14
+    assert comparable(impedance_params(settings)) == comparable(yaml_values)
     del settings["cartesian_impedance_controller"]["nullspace_stiffness"]
     settings["cartesian_impedance_controller"]["nullspace_damping"] = 1.0
     with pytest.raises(ControllerConfigError) as error:

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module
+from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module, to_impedance
 
 from teleteach.control.joint_trajectory import JointTrajectoryController
 from teleteach.control.manager import BEST_EFFORT, STRICT
@@ -120,3 +120,24 @@ def test_trajectory_in_the_past_is_rejected_and_past_points_dropped():
     controller.set_trajectory(9.0, [0.5, 2.0], np.array([np.ones(7), 2 * np.ones(7)]), None, now=10.0)
     np.testing.assert_allclose(controller.sample(10.0)[0], 0.0)  # starts from the current setpoint
     np.testing.assert_allclose(controller.goal, 2.0)
+
+
+def test_the_impedance_torque_changes_at_most_1_nm_per_ms(robot_sim):
+    sim = robot_sim
+    to_impedance(sim)
+    sim.command_eigenvalues([3000.0] * 3)
+    sim.run(1.5)  # the stiffness filter's 0.2 s time constant: at its target
+    position, quaternion = sim.state.position.copy(), sim.state.quaternion.copy()
+    sim.command_equilibrium("base_link", position + np.array([0.0, 0.05, 0.05]), quaternion)
+    torques = [sim.impedance.last_torque.copy()]
+    for _ in range(100):
+        sim.tick()
+        torques.append(sim.impedance.last_torque.copy())
+    steps = np.abs(np.diff(torques, axis=0)).max(axis=1)  # [Nm] per 1 ms tick, the largest joint's
+    # Expect the 150 N pull of the jump (K e at the 5 cm clip) to build up at the limit of 1 Nm per tick, not at once
+    assert sim.world.time_step == 0.001
+    assert steps.max() <= 1.0 + 1e-9
+    assert np.all(steps[:10] == pytest.approx(1.0))
+    sim.command_equilibrium("base_link", position, quaternion)
+    sim.run(1.0)
+    assert sim.switch_controllers([TRAJECTORY], [IMPEDANCE], STRICT)[0]

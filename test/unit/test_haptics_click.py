@@ -128,15 +128,82 @@ def test_two_flicks_are_two_clicks():
 
 
 @pytest.mark.parametrize(
-    "arguments",
+    "arguments, said",
     [
-        {"close_threshold": 0.2, "release_threshold": 0.1},
-        {"close_threshold": -0.1},
-        {"max_duration": 0.0},
-        {"pulse_duration": -1.0},
-        {"release_threshold": float("nan")},
+        ({"close_threshold": 0.2, "release_threshold": 0.1}, "need 0 <= close_threshold < release_threshold"),
+        ({"close_threshold": 0.2, "release_threshold": 0.2}, "need 0 <= close_threshold < release_threshold"),
+        ({"close_threshold": -0.1}, "got close -0.1 rad, release 0.2 rad"),
+        ({"max_duration": 0.0}, "durations must be positive, got max_duration 0.0 s"),
+        ({"pulse_duration": 0.0}, "pulse_duration 0.0 s"),
+        ({"pulse_duration": -1.0}, "pulse_duration -1.0 s"),
+        ({"release_threshold": float("nan")}, "must be finite numbers"),
     ],
 )
-def test_bad_parameters_are_refused(arguments):
-    with pytest.raises(ValueError):
+def test_bad_parameters_are_refused_saying_why(arguments, said):
+    with pytest.raises(ValueError, match=said):
         ClickParameters(**arguments)
+
+
+def test_a_fully_closed_threshold_is_allowed():
+    assert ClickParameters(close_threshold=0.0).close_threshold == 0.0
+
+
+# Exact binary times and angles: each threshold and duration hit exactly
+EXACT = ClickParameters(close_threshold=0.125, release_threshold=0.25, max_duration=0.5, pulse_duration=0.125)
+
+
+def feed(samples):
+    detector = ClickDetector(EXACT)
+    return detector, [detector.update(time, angle) for time, angle in samples]
+
+
+def test_the_thresholds_must_be_crossed_not_reached():
+    # at exactly the release threshold the gripper is not open yet: it cannot arm, so the quick close is no click
+    detector, _ = feed([(0.0, 0.25), (0.125, 0.0), (0.25, 0.5)])
+    assert detector.clicks == 0
+    # at exactly the close threshold the gripper is not closed yet
+    detector, _ = feed([(0.0, 0.5), (0.125, 0.125), (0.25, 0.5)])
+    assert detector.clicks == 0
+
+
+def test_a_release_exactly_max_duration_after_the_close_is_a_click_pressed_for_exactly_pulse_duration():
+    # closed at 0.25 s, between the thresholds at 0.75 s (not yet too long), released at 0.75 s
+    detector, states = feed([(0.0, 0.5), (0.25, 0.0), (0.75, 0.2), (0.75, 0.5), (0.874, 0.5), (0.875, 0.5)])
+    assert detector.clicks == 1
+    assert states == [False, False, False, True, True, False]
+
+
+def test_queued_clicks_are_pressed_one_release_pulse_apart():
+    detector = ClickDetector(EXACT)
+    double_click = [(0.0, 0.5), (0.125, 0.0), (0.25, 0.5), (0.375, 0.0), (0.5, 0.5)]
+    detector.catch_up(double_click, now=1.0)
+    # Expect: pressed from 1.0 to 1.125 s, released for one pulse, pressed again from 1.25 s
+    states = [detector.update(time, 0.5) for time in (1.0, 1.124, 1.125, 1.249, 1.25, 1.374, 1.375)]
+    assert detector.clicks == 2
+    assert states == [True, True, False, False, True, True, False]
+
+
+def test_clicks_of_a_second_stall_wait_for_those_still_pressed():
+    detector = ClickDetector(EXACT)
+    detector.catch_up([(0.0, 0.5), (0.125, 0.0), (0.25, 0.5), (0.375, 0.0), (0.5, 0.5)], now=1.0)
+    # a second stall, over another double click, ends while the first click is still pressed
+    detector.catch_up([(1.01, 0.0), (1.02, 0.5), (1.03, 0.0), (1.04, 0.5)], now=1.0625)
+    times = np.arange(1.0625, 3.0, 0.001)
+    states = np.array([True] + [detector.update(time, 0.5) for time in times[1:]])
+    # Expect: four clicks, four presses of a pulse each, a pulse of release between them
+    assert detector.clicks == 4
+    assert rising_edges(states) == 4
+    assert np.count_nonzero(states) == pytest.approx(4 * 125 - 62, abs=4)
+
+
+def test_a_stall_s_click_found_during_a_press_or_its_release_gets_its_own_rising_edge():
+    for stall_ends in (0.6, 0.7):  # during the press (0.5-0.625 s), during the release after it (0.625-0.75 s)
+        detector, states = feed([(0.0, 0.5), (0.25, 0.0), (0.5, 0.5)])
+        assert states[-1] and detector.clicks == 1
+        detector.catch_up([(0.52, 0.0), (0.54, 0.5)], now=stall_ends)
+        times = np.arange(stall_ends, 2.0, 0.001)
+        states = np.array([detector.update(time, 0.5) for time in times])
+        # Expect: the second click pressed for a pulse after a release of one pulse, not merged into the first
+        assert detector.clicks == 2
+        assert not states[(times > 0.626) & (times < 0.749)].any()
+        assert states[(times > 0.751) & (times < 0.874)].all() and not states[times > 0.876].any()

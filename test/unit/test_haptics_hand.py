@@ -85,6 +85,21 @@ def test_a_stalled_loop_keeps_the_last_force_and_only_a_paused_one_restarts_the_
     assert model.step(3.3, intended, push_back)[0] == 0.02  # a second without reads: the model starts afresh
 
 
+def test_a_stall_while_the_device_moves_is_integrated_as_if_the_loop_had_read_every_millisecond():
+    # The device frozen across a gap (or teleported to the intention) would differ from the model read at 1 kHz
+    stalled, steady = HandModel(HandParameters()), HandModel(HandParameters())
+    push_back = Wrench(np.array([-1.5, 0.0, 0.0]), np.zeros(3))
+    for model in (stalled, steady):
+        settle(model, STILL)
+    intended = np.array([0.02, -0.01, 0, 0.2, 0, 0])
+    for step in range(1, 101):
+        expected = steady.step(2.0 + step / 1000.0, intended, push_back)
+    pose = stalled.step(2.1, intended, push_back)  # a 0.1 s stall just as the hand starts to move
+    np.testing.assert_allclose(pose, expected, atol=1e-4)
+    # Expect the device moved (not frozen at 0) and the push felt (not teleported to the intention's 0.02 m)
+    assert 0.01 < pose[0] < 0.018
+
+
 class Intention(DeviceBackend):
     def __init__(self):
         self.x = 0.0

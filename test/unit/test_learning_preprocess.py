@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from teleteach.control.stiffness import translational_stiffnesses
 from teleteach.learning import spd
 from teleteach.learning.preprocess import (
     LearningError,
@@ -12,7 +13,7 @@ from teleteach.learning.preprocess import (
     resample_geodesic,
     smooth_at_mean,
 )
-from teleteach.learning.synthetic import minimum_jerk, stiffness_matrices
+from teleteach.learning.synthetic import minimum_jerk
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -32,7 +33,9 @@ def truth(times):
     principal = np.column_stack(
         [np.full_like(times, 300.0), 300 + 1200 * minimum_jerk(times, 2.0, 5.0), np.full_like(times, 1000.0)]
     )
-    return stiffness_matrices(principal, np.radians(45.0) * minimum_jerk(times, 4.0, 8.0))
+    return translational_stiffnesses(
+        principal, Rotation.from_euler("z", np.radians(45.0) * minimum_jerk(times, 4.0, 8.0))
+    )
 
 
 def test_gui_samples_are_recovered_from_a_zero_order_hold_staircase():

@@ -7,9 +7,10 @@ from rosbags.typesys import Stores, get_typestore
 from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
+from teleteach.control.stiffness import translational_stiffness
 from teleteach.learning import spd
 from teleteach.learning.bag import read_bag
-from teleteach.learning.command import main
+from teleteach.learning.command import goal_stiffness, main
 from teleteach.learning.dmp import SPDDMP
 from teleteach.learning.preprocess import LearningError
 from teleteach.learning.skill import (
@@ -18,7 +19,6 @@ from teleteach.learning.skill import (
     learn_skill,
     principal_axes_like_base,
     reproduction_error,
-    stiffness_from_principal,
 )
 from teleteach.learning.synthetic import placement_demo
 from teleteach.skills.replay import plan_replay
@@ -56,7 +56,7 @@ def test_learning_without_recovering_gui_samples_and_smoothing_is_worse(gui_rate
 
 
 def test_reproduction_with_a_new_duration_and_goal_becomes_a_dmp_skill_file(learned, tmp_path):
-    goal = stiffness_from_principal([500.0, 1000.0, 1200.0], principal_axes_like_base(learned.stiffness.goal))
+    goal = translational_stiffness([500.0, 1000.0, 1200.0], principal_axes_like_base(learned.stiffness.goal))
     reproduction = learned.reproduce(duration=20.0, goal_stiffness=goal)
     assert reproduction.time[-1] == pytest.approx(20.0)
     assert spd.distance(reproduction.stiffness[-1], goal) < 0.05
@@ -95,7 +95,7 @@ def test_bad_reproduction_requests_are_rejected(learned):
 def test_principal_axes_keep_the_labels_of_a_rotated_ellipsoid():
     for yaw in (0.0, 20.0, 45.0):
         rotation = Rotation.from_euler("z", yaw, degrees=True)
-        stiffness = stiffness_from_principal([300.0, 1200.0, 1200.0], rotation)  # Y and Z equal: degenerate
+        stiffness = translational_stiffness([300.0, 1200.0, 1200.0], rotation)  # Y and Z equal: degenerate
         axes = principal_axes_like_base(stiffness)
         np.testing.assert_allclose(axes.as_matrix(), rotation.as_matrix(), atol=1e-6)
 
@@ -168,7 +168,7 @@ def test_a_session_bag_is_read_and_learned(tmp_path):
     write_bag(path, zip(gui_times, eigenvalues), zip(gui_times, quaternions), pose_times, pose_rows)
     times, stiffness, poses = read_bag(path)
     np.testing.assert_allclose(times, gui_times, atol=1e-6)
-    expected = stiffness_from_principal(eigenvalues[-1], Rotation.from_quat(quaternions[-1]))
+    expected = translational_stiffness(eigenvalues[-1], Rotation.from_quat(quaternions[-1]))
     np.testing.assert_allclose(stiffness[-1], expected, rtol=1e-9)
     assert set(poses) == {"cartesian_pose", "equilibrium_pose"}
     np.testing.assert_allclose(poses["cartesian_pose"][1], pose_rows, atol=1e-12)
@@ -208,3 +208,21 @@ def test_bad_bags_name_the_problem(tmp_path):
     garbage.write_bytes(b"not a bag at all")
     with pytest.raises(LearningError, match="cannot read bag"):
         read_bag(garbage)
+
+
+def test_the_command_s_goal_rotation_is_roll_pitch_yaw_about_the_fixed_axes():
+    learned_goal = np.diag([300.0, 1200.0, 800.0])
+    # Expect: yaw 90 deg turns the X axis (300 N/m) onto base Y; roll 90 deg then pitch 90 deg is not pitch then roll
+    yawed = goal_stiffness(learned_goal, (300.0, 1200.0, 800.0), (0.0, 0.0, 90.0))
+    np.testing.assert_allclose(yawed, np.diag([1200.0, 300.0, 800.0]), atol=1e-9)
+    # without new principal values, the learned goal's along the turned axes (here 45 deg: X and Y averaged)
+    np.testing.assert_allclose(
+        goal_stiffness(learned_goal, None, (0.0, 0.0, 45.0)), np.diag([750.0, 750.0, 800.0]), atol=1e-9
+    )
+    turned = goal_stiffness(learned_goal, (100.0, 200.0, 300.0), (90.0, 90.0, 0.0))
+    axes = Rotation.from_euler("x", 90.0, degrees=True)
+    axes = Rotation.from_euler("y", 90.0, degrees=True) * axes  # R = Ry(pitch) Rx(roll) (thesis eq 2)
+    np.testing.assert_allclose(
+        turned, axes.as_matrix() @ np.diag([100.0, 200.0, 300.0]) @ axes.as_matrix().T, atol=1e-9
+    )
+    np.testing.assert_allclose(np.diag(turned), [200.0, 300.0, 100.0], atol=1e-9)

@@ -5,9 +5,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from teleteach import placement
+from teleteach.perception.observed import ObservedScene
 from teleteach.recording.session import Series, Session, TreeSnapshot
 from teleteach.run import outcome
-from teleteach.sim.scene import SceneError, load_scene
+from teleteach.sim.scene import Gap, SceneError, load_scene
 
 UPRIGHT = (0.0, 0.0, 0.0, 1.0)
 
@@ -67,6 +68,51 @@ def test_placed_products_are_the_carried_ones_that_ended_near_a_gap(scene):
     placed = placement.placed_products(scene, initial, final)
     assert [(entry.product, entry.gap) for entry in placed] == [("product_pick_1", "gap_1")]
     assert placed[0].displaced == ["product_shelf_7"]
+
+
+@pytest.fixture
+def one_gap():
+    """One gap at the origin, 6 cm wide, 1 cm tolerance: distances from it come out exact in floating point."""
+    return ObservedScene({}, {"gap": Gap("gap", (0.0, 0.0, 0.0), 0.0, 0.06, 0.01)}, {})
+
+
+def test_the_tolerances_are_inclusive(one_gap):
+    # Expect: a product exactly 1 cm to the side and 2 cm high still stands in the gap ("farther than" is out)
+    judged = placement.judge(one_gap, "p", ((0.01, 0.0, 0.02), UPRIGHT), {}, {})
+    assert (judged.distance_m, judged.height_error_m, judged.gap) == (0.01, 0.02, "gap")
+    # Expect: a product that stood exactly two gap widths away is a neighbour, the product itself never is
+    initial = {"p": np.array([0.02, 0.0, 0.0]), "edge": np.array([0.12, 0.0, 0.0]), "far": np.array([0.0, 0.13, 0.0])}
+    final = {"p": np.array([0.09, 0.0, 0.09]), "edge": np.array([0.21, 0.0, 0.0]), "far": initial["far"]}
+    judged = placement.judge(one_gap, "p", (final["p"], UPRIGHT), initial, final)
+    assert sorted(judged.neighbour_moves) == ["edge"]
+    assert judged.problems() == ["p ended 9.0 cm from gap (9.0 cm in height)", "p's neighbour edge moved 9.0 cm"]
+
+
+def test_tilt_is_that_of_the_vertical_axis_whatever_the_rounding():
+    assert placement.tilt(Rotation.from_euler("y", 30.0, degrees=True).as_quat()) == pytest.approx(30.0)
+    assert placement.tilt(Rotation.from_euler("zx", [40.0, 30.0], degrees=True).as_quat()) == pytest.approx(30.0)
+    # quaternions whose rotated z axis rounds to just beyond +-1 (arccos of it would be NaN)
+    assert (
+        placement.tilt([1.0608010138411552e-10, 8.195449057251706e-10, -0.9917267407192243, 0.12836694178184882]) == 0
+    )
+    assert (
+        placement.tilt([0.12836694178184882, 0.9917267407192243, -8.195450412378263e-10, 1.0608011892457749e-10]) == 180
+    )
+
+
+def test_placed_products_are_carried_more_than_5_cm_to_board_height_within_two_gap_widths(one_gap):
+    ends = {
+        "moved_5_cm": (0.0, 0.0, 0.0),  # from 5 cm away: pushed, not carried
+        "at_2_cm_height": (0.0, 0.0, 0.02),
+        "two_widths_away": (0.12, 0.0, 0.0),
+        "beyond_two_widths": (0.13, 0.0, 0.0),
+        "on_the_floor_below": (0.0, 0.0, -0.5),
+    }
+    initial = {name: np.array([1.0, 1.0, 0.0]) for name in ends}
+    initial["moved_5_cm"] = np.array([-0.05, 0.0, 0.0])
+    final = {name: (np.array(end), UPRIGHT) for name, end in ends.items()}
+    placed = placement.placed_products(one_gap, initial, final)
+    assert [entry.product for entry in placed] == ["at_2_cm_height", "two_widths_away"]
 
 
 def session_of(scene, product_paths, running, tabs):

@@ -10,7 +10,8 @@ from conftest import ROOT
 from scipy.spatial.transform import Rotation
 from session_bags import write_session
 
-from teleteach.recording.report import clicks, make_report, stiffness_matrices, tree_edits
+from teleteach.control.stiffness import translational_stiffnesses
+from teleteach.recording.report import clicks, make_report, tree_edits
 from teleteach.recording.session import Series, SessionError, TreeSnapshot, read_session
 
 
@@ -166,7 +167,7 @@ def test_tree_edits_name_a_converted_composite():
 def test_stiffness_matrix_matches_a_hand_derivation():
     # diag(100, 400, 900) turned 90 degrees about Z swaps the X and Y stiffnesses.
     quaternion = Rotation.from_euler("z", 90, degrees=True).as_quat()
-    matrix = stiffness_matrices(np.array([[100.0, 400.0, 900.0]]), np.array([quaternion]))[0]
+    matrix = translational_stiffnesses(np.array([[100.0, 400.0, 900.0]]), np.array([quaternion]))[0]
     np.testing.assert_allclose(matrix, np.diag([400.0, 100.0, 900.0]), atol=1e-9)
 
 

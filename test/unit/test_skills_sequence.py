@@ -140,6 +140,54 @@ def test_a_preempted_skill_stops_and_holds_the_arm(sim, runner):
     assert sim.manager.running == TRAJECTORY
 
 
+def test_a_preempted_skill_cancels_its_gripper_goal(sim, runner):
+    closing = runner.robot.move_gripper(0.0, 0.1)
+    while not closing.done():
+        sim.run(0.02)
+    start = sim.time
+    # LookToShelf opens the gripper first: preempt it 0.1 s into that move
+    outcome = runner.execute("LookToShelf", "", Execution(preempt_requested=lambda: sim.time > start + 0.1))
+    assert outcome.preempted and not outcome.success
+    stopped = runner.robot.gripper_width()
+    sim.run(1.0)
+    # Expect the fingers stopped part way (a move left running would open them to 0.08 m)
+    assert 0.002 < stopped < 0.05
+    assert runner.robot.gripper_width() == pytest.approx(stopped, abs=0.001)
+
+
+def test_a_preempted_skill_cancels_its_base_goal(sim, runner):
+    start = np.array(sim.world.base_pose)
+    driven = Execution(preempt_requested=lambda: np.linalg.norm(np.array(sim.world.base_pose)[:2] - start[:2]) > 0.1)
+    outcome = runner.execute("MoveBase", "", driven)
+    assert outcome.preempted and not outcome.success
+    stopped = np.array(sim.world.base_pose)
+    sim.run(2.0)
+    # Expect the base stopped where the skill was preempted (move_base left running drives on at 0.5 m/s)
+    assert not sim.world.base_moving
+    np.testing.assert_allclose(sim.world.base_pose, stopped, atol=0.001)
+    assert np.linalg.norm(stopped[:2] - start[:2]) < 0.2
+
+
+def test_pick_fails_at_once_when_the_grasp_does(sim, runner):
+    body = sim.world.products["product_pick_1"]
+    phases = []
+
+    def feedback(progress, phase):
+        if phase == "grasp" and "grasp" not in phases:  # the product taken away as the fingers start to close
+            pybullet.resetBasePositionAndOrientation(
+                body, [0.0, 1.5, 0.07], [0, 0, 0, 1], physicsClientId=sim.world.client
+            )
+        phases.append(phase)
+
+    assert runner.execute("LookToShelf").success
+    outcome = runner.execute("PickItem", "", Execution(feedback=feedback))
+    # Expect the grasp's own failure, with nothing moved after it: no lift, no carry posture
+    assert not outcome.success and not outcome.preempted
+    assert re.fullmatch(r"the grasp of product_pick_1 \(\d+ mm wide\) failed: .+", outcome.message), outcome.message
+    assert phases[-1] == "grasp" and "lift" not in phases
+    assert sim.world.grasped is None
+
+
 def test_a_skill_first_switches_back_to_the_position_controller(sim, runner):
     ok, message = sim.switch_controllers([IMPEDANCE], [TRAJECTORY], 2)
     assert ok, message

@@ -121,3 +121,18 @@ def test_cartesian_inertia_is_capped_at_a_singularity():
 def test_bad_eigenvector_shape_is_refused():
     with pytest.raises(ValueError):
         ellipsoid.translational_stiffness([1.0, 2.0, 3.0], [1.0, 0.0])
+
+
+def test_a_series_is_eq_1_row_by_row_whatever_form_its_axes_take():
+    eigenvalues = np.array([[300.0, 100.0, 500.0], [50.0, 3000.0, 800.0]])
+    rotations = Rotation.from_euler("zyx", [[45.0, 0.0, 0.0], [10.0, 20.0, 30.0]], degrees=True)
+    expected = [
+        ellipsoid.translational_stiffness(values, quaternion)
+        for values, quaternion in zip(eigenvalues, rotations.as_quat())
+    ]
+    np.testing.assert_allclose(expected[0], [[200.0, 100.0, 0.0], [100.0, 200.0, 0.0], [0.0, 0.0, 500.0]], atol=1e-9)
+    for axes in (rotations, rotations.as_quat(), rotations.as_matrix()):
+        np.testing.assert_allclose(ellipsoid.translational_stiffnesses(eigenvalues, axes), expected, atol=1e-9)
+    # Expect: as many axes as eigenvalue rows, or a clear error
+    with pytest.raises(ValueError, match="must be 2 quaternions"):
+        ellipsoid.translational_stiffnesses(eigenvalues, rotations.as_quat()[:1])

@@ -283,7 +283,7 @@ class BehaviourTreeNode:
         tree: TeachingTree,
         tick_rate: float = 10.0,
         clients: typing.Optional[ActionClients] = None,
-        startup_timeout: float = 0.0,
+        startup_timeout: float = 30.0,
     ):
         self.tree = tree
         self.tick_rate = tick_rate

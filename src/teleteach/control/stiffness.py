@@ -29,8 +29,8 @@ def translational_stiffness(eigenvalues, eigenvectors):
 
     Args:
         eigenvalues: the three principal stiffnesses Sigma [N/m].
-        eigenvectors: V, either a 3x3 rotation matrix (columns = principal axes) or a quaternion (x, y, z, w) of
-            R = Rz(psi) Ry(theta) Rx(phi) (eq 2), which is V.
+        eigenvectors: V, a 3x3 rotation matrix (columns = principal axes), a quaternion (x, y, z, w) of
+            R = Rz(psi) Ry(theta) Rx(phi) (eq 2), which is V, or a scipy Rotation.
     """
     rotation = as_rotation(eigenvectors)
     return rotation @ np.diag(np.asarray(eigenvalues, dtype=float)) @ rotation.T
@@ -113,8 +113,32 @@ def cartesian_inertia_blocks(jacobian, mass_matrix, max_inertia=(MAX_TRANSLATION
     return tuple(blocks)
 
 
+def translational_stiffnesses(eigenvalues, eigenvectors) -> np.ndarray:
+    """Eq 1 for a series: K_T = V Sigma V^T for each row, as an (N, 3, 3) array.
+
+    Args:
+        eigenvalues: (N, 3) principal stiffnesses [N/m].
+        eigenvectors: the N V's: (N, 4) quaternions (x, y, z, w), (N, 3, 3) matrices or a scipy Rotation of N.
+    """
+    values = np.asarray(eigenvalues, dtype=float).reshape(-1, 3)
+    if isinstance(eigenvectors, Rotation):
+        rotations = eigenvectors.as_matrix().reshape(-1, 3, 3)
+    else:
+        rotations = np.asarray(eigenvectors, dtype=float)
+        if rotations.ndim == 2 and rotations.shape[1:] == (4,):
+            rotations = Rotation.from_quat(rotations).as_matrix().reshape(-1, 3, 3)
+    if rotations.shape != (values.shape[0], 3, 3):
+        raise ValueError(
+            f"eigenvectors must be {values.shape[0]} quaternions (x, y, z, w) or 3x3 matrices, got shape "
+            f"{np.shape(eigenvectors)}"
+        )
+    return rotations @ (values[:, :, None] * np.swapaxes(rotations, 1, 2))
+
+
 def as_rotation(eigenvectors):
-    """V as a 3x3 matrix from a quaternion (x, y, z, w) or a 3x3 matrix."""
+    """V as a 3x3 matrix from a quaternion (x, y, z, w), a 3x3 matrix or a scipy Rotation."""
+    if isinstance(eigenvectors, Rotation):
+        return eigenvectors.as_matrix()
     matrix = np.asarray(eigenvectors, dtype=float)
     if matrix.shape == (4,):
         return rotation_from_quaternion(matrix)

@@ -74,16 +74,18 @@ class ClickDetector:
         """Feeds the (time [s], gripper angle [rad]) samples a stalled loop did not read: a stall delays a click.
 
         Only a scripted backend knows them; without them, a stall can swallow a click or stretch it into a grip.
-        Clicks found among them are pressed from ``now``, one ``pulse_duration`` pulse each with as long a release
-        between them (a double click stays two clicks, closer together than the GUI's double-click window).
+        Clicks found among them are pressed from ``now`` (or after the press under way and its release), one
+        ``pulse_duration`` pulse each with as long a release between them (a double click stays two clicks, closer
+        together than the GUI's double-click window).
         """
-        before = self.clicks
-        for time, angle in samples:
-            self.update(time, angle)
-        found = self.clicks - before
-        if found:
+        found = sum(self._recognise(time, angle) for time, angle in samples)
+        if not found:
+            return
+        if self._queued or now < self._pressed_until + self.parameters.pulse_duration:
+            self._queued += found  # after the press under way and its release: every click its own rising edge
+        else:
             self._pressed_until = now + self.parameters.pulse_duration
-            self._queued += found - 1
+            self._queued = found - 1
 
     def update(self, time: float, gripper_angle: float) -> bool:
         """Feeds one gripper angle [rad] taken at ``time`` [s]; returns the button state."""
@@ -91,6 +93,13 @@ class ClickDetector:
         if self._queued and time >= self._pressed_until + parameters.pulse_duration:
             self._queued -= 1
             self._pressed_until = time + parameters.pulse_duration
+        if self._recognise(time, gripper_angle):
+            self._pressed_until = time + parameters.pulse_duration
+        return time < self._pressed_until
+
+    def _recognise(self, time: float, gripper_angle: float) -> bool:
+        """Advances the gesture by one sample; True when it completes a click (counted in ``clicks``)."""
+        parameters = self.parameters
         if self._phase is _Phase.DISARMED:
             if gripper_angle > parameters.release_threshold:
                 self._phase = _Phase.OPEN
@@ -99,13 +108,13 @@ class ClickDetector:
                 self._phase = _Phase.CLOSED
                 self._closed_since = time
         elif gripper_angle > parameters.release_threshold:
+            self._phase = _Phase.OPEN
             if time - self._closed_since <= parameters.max_duration:
                 self.clicks += 1
-                self._pressed_until = time + parameters.pulse_duration
-            self._phase = _Phase.OPEN
+                return True
         elif time - self._closed_since > parameters.max_duration:
             self._phase = _Phase.DISARMED
-        return time < self._pressed_until
+        return False
 
 
 def flick_gripper_angle(base_angle: float, time_since_start: float, duration: float) -> float:

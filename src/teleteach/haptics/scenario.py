@@ -30,10 +30,11 @@ from typing import Any, Callable, Dict, FrozenSet, List, Optional, Tuple
 import numpy as np
 import yaml
 from scipy.interpolate import PchipInterpolator, make_interp_spline
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Slerp
 
 from teleteach.haptics.click import ClickDetector, ClickParameters, flick_gripper_angle
 from teleteach.haptics.device import DeviceBackend, DeviceSample
+from teleteach.rotations import rpy_rotation
 from teleteach.study.phase import PHASE_NAMES
 
 INTERPOLATIONS = ("linear", "smooth")
@@ -262,7 +263,7 @@ class ScenarioTrajectory:
             self._values = PchipInterpolator(times, values, axis=0)
         else:
             self._values = make_interp_spline(times, values, k=1, axis=0)
-        rotations = Rotation.from_euler("xyz", [keyframe.rpy for keyframe in keyframes])
+        rotations = rpy_rotation([keyframe.rpy for keyframe in keyframes])
         self._orientation = Slerp(times, rotations)
         self._first_time, self._last_time = times[0], times[-1]
         self._click_times = np.array(scenario.click_times())

@@ -14,10 +14,10 @@ from typing import Callable, Tuple
 
 import numpy as np
 from PyQt5 import QtCore, QtWidgets
-from scipy.spatial.transform import Rotation
 
 from teleteach.haptics.click import flick_gripper_angle
 from teleteach.haptics.device import DeviceBackend, DeviceSample
+from teleteach.rotations import rpy_to_quaternion
 
 RESTING_GRIPPER = 0.25  # [rad] finger relaxed
 OPEN_GRIPPER = 0.5  # [rad] fully open (the GUI's "back to START" gesture needs >= 0.45)
@@ -60,7 +60,7 @@ class VirtualDevice(DeviceBackend):
         """Turns roll/pitch/yaw by [rad], each clamped to +-ANGLE_LIMIT."""
         with self._lock:
             self._rpy = np.clip(self._rpy + np.array([droll, dpitch, dyaw]), -ANGLE_LIMIT, ANGLE_LIMIT)
-            self._quaternion = Rotation.from_euler("xyz", self._rpy).as_quat()
+            self._quaternion = rpy_to_quaternion(*self._rpy)
 
     def click(self) -> None:
         """Starts a quick close-and-back of the gripper (ignored while one is under way)."""

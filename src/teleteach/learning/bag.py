@@ -13,8 +13,8 @@ import pathlib
 from typing import Dict, List, Tuple, Union
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from teleteach.control.stiffness import translational_stiffnesses
 from teleteach.learning.preprocess import LearningError
 from teleteach.recording.session import SessionError, open_bag
 
@@ -87,7 +87,6 @@ def read_bag(path: Union[str, pathlib.Path]) -> Tuple[np.ndarray, np.ndarray, Di
     left = right - 1
     closer_left = np.abs(value_times - vector_times[order][left]) <= np.abs(vector_times[order][right] - value_times)
     nearest = order[np.where(closer_left, left, right)] if order.size > 1 else np.zeros(value_times.size, dtype=int)
-    rotations = Rotation.from_quat(quaternions[nearest]).as_matrix()
-    stiffness = rotations @ (eigenvalues[:, :, None] * np.swapaxes(rotations, 1, 2))
+    stiffness = translational_stiffnesses(eigenvalues, quaternions[nearest])
     poses = {name: stream(topic) for name, topic in POSE_TOPICS.items() if rows[topic]}
     return value_times, stiffness, poses

@@ -11,20 +11,15 @@ import sys
 from typing import Callable, Dict, Optional, Sequence
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
+from teleteach.control.stiffness import translational_stiffness
 from teleteach.datadir import data_dir
 from teleteach.learning import bag
 from teleteach.learning.plot import write_figure_c1
 from teleteach.learning.preprocess import LearningError
-from teleteach.learning.skill import (
-    LearningParameters,
-    learn,
-    learn_skill,
-    principal_axes_like_base,
-    stiffness_from_principal,
-)
+from teleteach.learning.skill import LearningParameters, learn, learn_skill, principal_axes_like_base
+from teleteach.rotations import rpy_rotation
 
 ADD_SKILL_SERVICE = "behaviour_tree/add_skill"
 
@@ -94,10 +89,10 @@ def goal_stiffness(learned_goal, principal: Optional[Sequence[float]], rotation:
     axes = principal_axes_like_base(learned_goal)
     if rotation is not None:
         roll, pitch, yaw = rotation
-        axes = Rotation.from_euler("ZYX", [yaw, pitch, roll], degrees=True)
+        axes = rpy_rotation(np.radians([roll, pitch, yaw]))
     if principal is None:
         principal = np.diag(axes.as_matrix().T @ learned_goal @ axes.as_matrix())
-    return stiffness_from_principal(principal, axes)
+    return translational_stiffness(principal, axes)
 
 
 def add_to_library(name: str, path: pathlib.Path, timeout: float) -> str:

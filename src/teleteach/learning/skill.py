@@ -277,17 +277,11 @@ def reproduction_error(sample_times, samples, times, matrices) -> Dict[str, floa
     }
 
 
-def stiffness_from_principal(eigenvalues, rotation) -> np.ndarray:
-    """K = V diag(lambda) V^T (thesis eq 1) with V a rotation (scipy Rotation or 3x3 matrix)."""
-    matrix = rotation.as_matrix() if isinstance(rotation, Rotation) else np.asarray(rotation, dtype=float)
-    return matrix @ np.diag(np.asarray(eigenvalues, dtype=float)) @ matrix.T
-
-
 def principal_axes_like_base(stiffness) -> Rotation:
     """The principal axes of a 3x3 stiffness as a rotation whose columns best match the base X, Y, Z axes.
 
     Eigenvectors carry no X/Y/Z labels; this picks the permutation and signs closest to the identity (largest
-    trace), so that ``stiffness_from_principal((kx, ky, kz), principal_axes_like_base(K))`` changes the "X" axis of
+    trace), so that ``translational_stiffness((kx, ky, kz), principal_axes_like_base(K))`` changes the "X" axis of
     an ellipsoid rotated about Z the way a GUI user expects. Equal eigenvalues leave the axes free within their
     eigenspace: a tiny diagonal perturbation picks the base-aligned ones. At an exact 45-degree tie the positive
     rotation about Z wins.

@@ -14,6 +14,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
+from teleteach.control.stiffness import translational_stiffnesses
 from teleteach.frames import Transform
 from teleteach.skill_file import TARGET_FRAME, Skill, Target
 from teleteach.trajectories import Trajectory
@@ -59,12 +60,6 @@ def principal_stiffness(times, angle: float, rng) -> Tuple[np.ndarray, np.ndarra
     return np.column_stack([kx, ky, np.full_like(times, VERTICAL)]), yaw
 
 
-def stiffness_matrices(principal, yaw) -> np.ndarray:
-    """K = Rz(yaw) diag(principal) Rz(yaw)^T for each sample (thesis eq 1)."""
-    rotations = Rotation.from_euler("z", yaw).as_matrix()
-    return rotations @ (principal[:, :, None] * np.swapaxes(rotations, 1, 2))
-
-
 def placement_demo(
     angle: float = 45.0,
     duration: float = 102.0,
@@ -90,7 +85,7 @@ def placement_demo(
     rng = np.random.default_rng(seed)
     times = np.arange(0.0, duration + 0.5 / pose_rate, 1.0 / pose_rate)
     principal, yaw = principal_stiffness(times, angle, rng)
-    truth = stiffness_matrices(principal, yaw)
+    truth = translational_stiffnesses(principal, Rotation.from_euler("z", yaw))
     if gui_rate and gui_rate > 0:
         publish_times = [0.0]
         while publish_times[-1] < duration:

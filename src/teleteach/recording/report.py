@@ -24,7 +24,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Ellipse
 
 from teleteach.active_tab import Tab
-from teleteach.control.stiffness import translational_stiffness
+from teleteach.control.stiffness import translational_stiffnesses
 from teleteach.datadir import atomic_write_bytes, atomic_write_text
 from teleteach.plotting import legends_beside
 from teleteach.recording.session import Series, Session, TreeSnapshot, read_session, yaw_of
@@ -80,13 +80,6 @@ def tree_edits(trees: List[TreeSnapshot]) -> List[TreeEdit]:
         moved = tuple(name for name, other in zip(kept_before, kept_after) if name != other)
         edits.append(TreeEdit(after.time, removed, added, moved, after, converted))
     return edits
-
-
-def stiffness_matrices(eigenvalues: np.ndarray, quaternions_xyzw: np.ndarray) -> np.ndarray:
-    """K_T = V Sigma V^T (thesis eq. 1, teleteach.control.stiffness) for each row of eigenvalues and quaternion."""
-    return np.array(
-        [translational_stiffness(values, quaternion) for values, quaternion in zip(eigenvalues, quaternions_xyzw)]
-    ).reshape(-1, 3, 3)
 
 
 def clicks(button: Optional[Series]) -> np.ndarray:
@@ -178,7 +171,7 @@ def _stiffness(session: Session) -> Tuple[Series, np.ndarray]:
     """Eigenvalues with the eigenvector quaternion held at each eigenvalue time, and K at those times."""
     values = session.eigenvalues
     quaternions = session.eigenvectors.at(values.times)
-    return values, stiffness_matrices(values.values, quaternions)
+    return values, translational_stiffnesses(values.values, quaternions)
 
 
 def _plot_cartesian(axes, session: Session) -> List[str]:

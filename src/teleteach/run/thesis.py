@@ -60,7 +60,9 @@ class Options:
 
     scenario: pathlib.Path = DEFAULT_SCENARIO
     data_root: Optional[pathlib.Path] = None
-    timeout: float = 230.0  # [s] wall time allowed for the scenario and the tree
+    # [s] wall time allowed for the scenario and the tree: a bound for a run that hangs, not a speed goal (74 s of
+    # simulated scenario plus its waits took 234 s at load 7 on 2 cores, both products placed)
+    timeout: float = 300.0
     rviz: bool = True
     tree: pathlib.Path = TREE_FILE
     trajectory: str = "perpendicular"
@@ -538,7 +540,9 @@ def main(argv=None) -> int:
         help="device scenario (default thesis_full; thesis_III_D.yaml runs with its own tree and trajectory)",
     )
     parser.add_argument("--data-dir", default=None, help="data directory (default $TELETEACH_DATA or ~/.ros/teleteach)")
-    parser.add_argument("--timeout", type=float, default=230.0, help="[s] wall time for the scenario and the tree")
+    parser.add_argument(
+        "--timeout", type=float, default=Options.timeout, help="[s] wall time for the scenario and the tree"
+    )
     parser.add_argument("--no-rviz", action="store_true", help="skip the RViz screenshot at the end")
     arguments = parser.parse_args(argv)
     options = options_for(

@@ -231,7 +231,7 @@ class Motion:
 
     # --------------------------------------------------------------------------------------------- base
     def move_base(self, x, y, yaw) -> None:
-        """Drive the base to (x [m], y [m], yaw [rad]) in world (move_base); done when TF says it is there."""
+        """Drive the base to (x [m], y [m], yaw [rad]) in world (move_base); done when TF says it stands there."""
         settings = self.config.base
         start_pose = self.robot.base_pose()
         initial = math.hypot(x - start_pose[0], y - start_pose[1]) + abs(angle_difference(yaw, start_pose[2]))
@@ -252,6 +252,9 @@ class Motion:
                 succeeded, said = goal.outcome()
                 if not succeeded:
                     raise SkillError(f"move_base did not reach ({x:.2f}, {y:.2f}, {yaw:.2f}): {said or 'it failed'}")
+                pose = self.robot.base_at_rest()
+                distance = math.hypot(x - pose[0], y - pose[1])
+                turn = abs(angle_difference(yaw, pose[2]))
                 if distance < settings.position_tolerance and turn < settings.yaw_tolerance:
                     return
             if self.robot.now() - start > limit:

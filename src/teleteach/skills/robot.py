@@ -63,6 +63,13 @@ class Robot(abc.ABC):
     def base_pose(self) -> Tuple[float, float, float]:
         """base_link in world: x [m], y [m], yaw [rad]; raises SkillError when unknown."""
 
+    def base_at_rest(self) -> Tuple[float, float, float]:
+        """The base pose once the base stands still, and from then on a scene that shows it standing there.
+
+        A robot read synchronously (an in-process simulation) is at rest as soon as its base goal ends.
+        """
+        return self.base_pose()
+
     @abc.abstractmethod
     def observed_scene(self) -> ObservedScene:
         """The products, gaps and tables as the robot's perception reports them now (teleteach.perception)."""

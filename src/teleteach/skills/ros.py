@@ -7,6 +7,7 @@ gripper goals (franka_gripper's actions) and base goals (move_base). :class:`Ski
 Names are the ROS graph of docs/reference.md.
 """
 
+import math
 import threading
 import time
 from typing import Sequence, Tuple
@@ -47,6 +48,10 @@ SCENE_FRESHNESS = 0.15  # [s] sim time: a scene older than this when asked is wa
 SCENE_WAIT = 2.0  # [s] wall time to wait for a fresh scene before using the last one
 TF_FRESHNESS = 0.05  # [s] sim time: a base transform older than this when asked is waited for
 TF_WAIT = 2.0  # [s] wall time to wait for a fresh base transform before using the last one
+REST_INTERVAL = 0.1  # [s] robot time between the two transforms that must agree for the base to be at rest
+REST_DISTANCE = 0.001  # [m] the base moved less than this over REST_INTERVAL: at rest (1 cm/s)
+REST_ANGLE = 0.002  # [rad] the base turned less than this over REST_INTERVAL: at rest
+REST_WAIT = 10.0  # [s] wall time for the base to come to rest after move_base's goal ended
 CONNECTION_WAIT = 3.0  # [s] wall time to wait for a command topic's subscriber or an action server to connect
 STATE_WAIT = 10.0  # [s] wall time to wait for the first /joint_states or base transform (robot_sim may be starting)
 
@@ -105,6 +110,7 @@ class RosRobot(Robot):
         self._fingers = None
         self._scene = ObservedScene({}, {}, {})
         self._scene_stamp = -1.0
+        self._rest_stamp = -1.0  # [s] robot time the base was last found at rest: older scenes are stale
         self._cartesian = None
         self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self._listeners = []
@@ -155,7 +161,7 @@ class RosRobot(Robot):
                 listener.unregister()
             self._listeners = []
             self._joints = self._fingers = self._cartesian = None
-            self._scene_stamp = -1.0
+            self._scene_stamp = self._rest_stamp = -1.0
             self._tf_buffer.clear()
 
     # ------------------------------------------------------------------------------------------- callbacks
@@ -221,13 +227,12 @@ class RosRobot(Robot):
         if self._joints is None:
             raise SkillError(f"no /joint_states received in {STATE_WAIT:.0f} s: is robot_sim running?")
 
-    def base_pose(self) -> Tuple[float, float, float]:
-        """TF world->base_link as (x [m], y [m], yaw [rad]), no older than TF_FRESHNESS when it can be had.
+    def _base_transform(self, newer_than: float = -1.0) -> Tuple[float, Tuple[float, float, float]]:
+        """The newest TF world->base_link as (stamp [s], (x [m], y [m], yaw [rad])), waited for until past newer_than.
 
-        A loaded process receives TF late: the newest transform it holds can be from before the base stopped, while
-        the scene it compares with is fresh (a carried product then looks out of the hand). So it waits, bounded in
-        wall time (a dead simulator's clock must not hang the skill), for a transform as new as the scene. A skill asked
+        The wait is bounded in wall time (TF_WAIT): a dead simulator's clock must not hang the skill. A skill asked
         while the TF listener still connects (the first goal after start-up) waits for the first transform likewise.
+        Returns the newest one held when the wait runs out; SkillError when there is none.
         """
         started = time.monotonic()
         transform = None
@@ -239,20 +244,58 @@ class RosRobot(Robot):
                     message = f"no transform {WORLD_FRAME} -> {BASE_FRAME} in {STATE_WAIT:.0f} s: {error}"
                     raise SkillError(message) from None
             else:
-                fresh = transform.header.stamp.to_sec() >= self.now() - TF_FRESHNESS
-                if fresh or time.monotonic() - started > TF_WAIT:
+                if transform.header.stamp.to_sec() > newer_than or time.monotonic() - started > TF_WAIT:
                     break
             time.sleep(0.005)
         if transform is None:
             raise SkillError(f"no transform {WORLD_FRAME} -> {BASE_FRAME}: shutting down")
         translation, rotation = transform.transform.translation, transform.transform.rotation
         yaw = 2.0 * np.arctan2(rotation.z, rotation.w)
-        return float(translation.x), float(translation.y), float(np.arctan2(np.sin(yaw), np.cos(yaw)))
+        pose = (float(translation.x), float(translation.y), float(np.arctan2(np.sin(yaw), np.cos(yaw))))
+        return transform.header.stamp.to_sec(), pose
+
+    def base_pose(self) -> Tuple[float, float, float]:
+        """TF world->base_link as (x [m], y [m], yaw [rad]), no older than TF_FRESHNESS when it can be had.
+
+        A loaded process receives TF late: the newest transform it holds can be from before the base stopped, while
+        the scene it compares with is fresh (a carried product then looks out of the hand). So it waits for a
+        transform as new as the scene.
+        """
+        return self._base_transform(newer_than=self.now() - TF_FRESHNESS - 1e-9)[1]
+
+    def base_at_rest(self) -> Tuple[float, float, float]:
+        """The base pose once two transforms REST_INTERVAL apart (stamped by the robot's clock) agree.
+
+        From then on :meth:`observed_scene` waits for a scene stamped after them. When move_base reports its goal
+        done, a loaded process may still hold transforms (and a scene) from the last centimetres of the drive, and its
+        own clock lags the robot's: "fresh" by that clock is not fresh. Comparing stamps of the robot's own clock is:
+        a skill that places relative to the base then never mixes the drive's last poses with the base standing still.
+        """
+        started = time.monotonic()
+        stamp, pose = self._base_transform()
+        while time.monotonic() - started < REST_WAIT and not rospy.is_shutdown():
+            later_stamp, later_pose = self._base_transform(newer_than=stamp + REST_INTERVAL)
+            if later_stamp < stamp + REST_INTERVAL:
+                break  # TF stopped coming: _base_transform already waited TF_WAIT for it
+            moved = math.hypot(later_pose[0] - pose[0], later_pose[1] - pose[1])
+            turned = abs(math.remainder(later_pose[2] - pose[2], math.tau))
+            stamp, pose = later_stamp, later_pose
+            if moved < REST_DISTANCE and turned < REST_ANGLE:
+                with self._lock:
+                    self._rest_stamp = stamp
+                return pose
+        raise SkillError(
+            f"the base did not come to rest within {REST_WAIT:.0f} s (TF {WORLD_FRAME} -> {BASE_FRAME} last stamped "
+            f"{stamp:.2f} s, robot clock {self.now():.2f} s)"
+        )
 
     def observed_scene(self) -> ObservedScene:
-        """The latest /teleteach/scene, waited for (SCENE_WAIT) until one no older than SCENE_FRESHNESS arrives."""
-        wanted = self.now() - SCENE_FRESHNESS
+        """The latest /teleteach/scene, waited for (SCENE_WAIT) until a fresh one arrives.
+
+        Fresh: no older than SCENE_FRESHNESS, and stamped after the base was last found at rest (:meth:`base_at_rest`).
+        """
         with self._lock:
+            wanted = max(self.now() - SCENE_FRESHNESS, self._rest_stamp)
             self._lock.wait_for(lambda: self._scene_stamp >= wanted or rospy.is_shutdown(), timeout=SCENE_WAIT)
             return self._scene
 
