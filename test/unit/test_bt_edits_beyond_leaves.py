@@ -264,9 +264,9 @@ def test_a_new_edit_clears_redo_and_the_history_is_bounded():
     assert tree.change("", "undo").success
     assert tree.change("Idle", "prepend").success
     assert tree.change("", "redo").message == "nothing to redo"
-    # Expect as many edits kept as the README promises ("`undo` and `redo` revert ... the last edits ... (up to N,")
-    readme = " ".join((ROOT / "README.md").read_text().split())
-    promised = [int(number) for number in re.findall(r"`undo` and `redo` revert [^(]*\(up to (\d+),", readme)]
+    # Expect as many edits kept as the reference promises ("`undo` and `redo` revert ... the last edits ... (up to N,")
+    reference = " ".join((ROOT / "docs" / "reference.md").read_text().split())
+    promised = [int(number) for number in re.findall(r"`undo` and `redo` revert [^(]*\(up to (\d+),", reference)]
     assert promised == [100]
     for _ in range(promised[0] + 5):
         assert tree.change("Idle", "add").success

@@ -89,8 +89,17 @@ def test_sigma7_defaults_are_the_yaml_s_values_of_the_parameters_they_stand_for(
     for name, value in config("device.yaml").items():
         items = value.items() if isinstance(value, dict) else [(None, value)]
         yaml_values.update({f"~{name}/{key}" if key else f"~{name}": item for key, item in items})
+    axes = {name: yaml_values.pop(name) for name in list(yaml_values) if name.startswith("~axes/")}
     assert set(yaml_values) <= set(asked)
     assert {"~topic/timeout", "~twist/cutoff_frequency", "~virtual/click_duration", "~dhd/library"} <= set(asked)
+    # Expect each backend to ask for its own entry of ~axes only, with the yaml's value as the default
+    for name, value in axes.items():
+        backend = name.split("/")[1]
+        launch.update({"~backend": backend, "~hand/enabled": backend != "dhd"})
+        asked.clear()
+        Sigma7Config.from_params(get_param)
+        assert [key for key in asked if key.startswith("~axes/")] == [name]
+        assert asked[name] == value
     disagreeing = {
         name: (asked[name], value)
         for name, value in yaml_values.items()
@@ -106,7 +115,12 @@ def test_the_behaviour_tree_node_s_argument_defaults_are_the_yaml_s():
         for name, parameter in inspect.signature(function).parameters.items():
             if name in yaml_values and parameter.default is not inspect.Parameter.empty:
                 defaults[name] = parameter.default
-    assert set(defaults) == set(yaml_values) - {"skill_namespace"}  # ActionClients' namespace has its own name
+    # ActionClients' namespace has its own name; the pause's two are read from the yaml alone and handed to
+    # TeachingTree, whose own defaults are the library's (started, never preempted) for in-process trees
+    from_yaml_alone = {"skill_namespace", "start_paused", "pause_preempt_after"}
+    assert set(defaults) == set(yaml_values) - from_yaml_alone
+    source = inspect.getsource(BehaviourTreeNode.from_params)
+    assert all(f'params["{name}"]' in source for name in from_yaml_alone)
     disagreeing = {name: (default, yaml_values[name]) for name, default in defaults.items()}
     disagreeing = {name: pair for name, pair in disagreeing.items() if pair[0] != pair[1]}
     assert disagreeing == {}
