@@ -1,8 +1,8 @@
 """Draws docs/images/overview.png from a run folder: the GUI's LOW-LEVEL tab beside RViz's window, as the run saw them.
 
 Run from the checkout after ``bash scripts/demo``: ``python docs/images/overview.py <data dir>/runs/<timestamp>``.
-The pictures are the run's own screenshots (its first ``gui_NN_low_level.png`` and ``rviz.png``), scaled to one
-height.
+The pictures are the run's own screenshots (its last ``gui_NN_low_level_latest.png``, the arm handed over, and
+``rviz.png``), cropped to the windows and scaled to one height.
 """
 
 import argparse
@@ -16,12 +16,13 @@ GAP = 8  # [px] white between them
 
 def overview(run: pathlib.Path) -> Image.Image:
     """The two screenshots of ``run`` side by side, the GUI on the left."""
-    low_level = sorted(run.glob("gui_*_low_level.png"))
+    low_level = sorted(run.glob("gui_*_low_level_latest.png"))
     if not low_level:
-        raise SystemExit(f"{run} has no screenshot of the LOW-LEVEL tab (gui_NN_low_level.png)")
+        raise SystemExit(f"{run} has no screenshot of the LOW-LEVEL tab (gui_NN_low_level_latest.png)")
     pictures = []
-    for path in (low_level[0], run / "rviz.png"):
-        with Image.open(path) as picture:
+    for path in (low_level[-1], run / "rviz.png"):
+        with Image.open(path) as shot:
+            picture = shot.crop(shot.convert("L").point(lambda value: value > 0).getbbox())  # the display's black
             width = round(picture.width * HEIGHT / picture.height)
             pictures.append(picture.convert("RGB").resize((width, HEIGHT), Image.LANCZOS))
     canvas = Image.new("RGB", (sum(picture.width for picture in pictures) + GAP, HEIGHT), "white")
