@@ -41,8 +41,8 @@ def test_a_participant_goes_through_a_trial_and_the_questionnaire(
 
     from teleteach.srv import StudyInput
     from teleteach.study.metrics import TrialMetrics
-    from teleteach.study.phase import Phase
     from teleteach.study.scripted import slider_x
+    from teleteach.study_phase import Phase
 
     study, plan, flow, ros = study_node
     task = study.task(plan[0].task)

@@ -54,7 +54,7 @@ from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
 from teleteach.paths import config_file
-from teleteach.study.phase import phase_name
+from teleteach.study_phase import phase_name
 
 BACKENDS = ("dhd", "scenario", "virtual", "topic")
 

@@ -35,7 +35,7 @@ from scipy.spatial.transform import Slerp
 from teleteach.haptics.click import ClickDetector, ClickParameters, flick_gripper_angle
 from teleteach.haptics.device import DeviceBackend, DeviceSample
 from teleteach.rotations import rpy_rotation
-from teleteach.study.phase import PHASE_NAMES
+from teleteach.study_phase import PHASE_NAMES
 
 INTERPOLATIONS = ("linear", "smooth")
 AT_END_CHOICES = ("hold", "exit")

@@ -34,8 +34,8 @@ from teleteach.sim.scene import Scene
 from teleteach.srv import StudyInput, StudyInputResponse
 from teleteach.study.goals import Goal, GoalJudge, Judgement, TreeView
 from teleteach.study.metrics import TrialMetrics
-from teleteach.study.phase import Phase
 from teleteach.study.trial import StudyFlow, StudyView
+from teleteach.study_phase import Phase
 
 STATE_TOPIC = "study/state"
 INPUT_SERVICE = "study/input"

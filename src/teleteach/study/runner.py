@@ -41,11 +41,11 @@ from teleteach.sim.scene import load_scene
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import QUESTIONNAIRE, Step, participant_number
 from teleteach.study.parameters import launch_value, parameters_file
-from teleteach.study.phase import Phase
 from teleteach.study.schema import Study
 from teleteach.study.scripted import compose
 from teleteach.study.storage import ParticipantStore
 from teleteach.study.trial import StudyFlow
+from teleteach.study_phase import Phase
 
 DEVICES = ("dhd", "virtual", "scenario")
 STUDY_TOPICS = (

@@ -13,9 +13,9 @@ from typing import Dict, Optional, Sequence, Tuple
 
 from teleteach.study.goals import Judgement
 from teleteach.study.ordering import Step
-from teleteach.study.phase import Phase
 from teleteach.study.questionnaire import AnswerError, Item, check_answers
 from teleteach.study.schema import Study
+from teleteach.study_phase import Phase
 
 
 @dataclasses.dataclass(frozen=True)

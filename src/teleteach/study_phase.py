@@ -1,7 +1,7 @@
 """The phases of a participant's session as teleteach/StudyState numbers them.
 
-One definition for the study node, the GUI and the scripted device's waits (a light module: the device node imports
-it).
+A word the study node, the GUI and the device node (the scripted operator's waits) share, so it
+lives below all of them, as the GUI's tabs do in active_tab.py.
 """
 
 import enum
