@@ -31,7 +31,7 @@ from matplotlib.figure import Figure
 
 from teleteach import skill_file
 from teleteach.run.trials import TrialJob, TrialSetup, run_trials, summarise
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 
 BENCH = pathlib.Path(__file__).resolve().parent
 SKILL_FILE = BENCH / "data" / "DemonstratedPlace_1.npz"

@@ -51,7 +51,7 @@ from teleteach.run.ablation import (
     sweep_name,
 )
 from teleteach.run.trials import TrialJob, TrialSetup, run_trials, summarise
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 
 BENCH = pathlib.Path(__file__).resolve().parent

@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 from teleteach import skill_file
 from teleteach.recording.session import read_session
 from teleteach.run.pictures import background_colour, rviz_picture
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 
 RUN_TIMEOUT = 420.0  # [s] wall: the runner bounds itself (scenario 300 s, RViz picture 45 s, stop, report)
 

@@ -32,7 +32,7 @@ from teleteach.gui.selection import (
     TreeSnapshot,
 )
 from teleteach.rotations import quaternion_to_rpy, rpy_to_matrix, rpy_to_quaternion
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 from teleteach.skills.config import load_motion_config
 from teleteach.trajectories import Trajectory, TrajectoryError
 

@@ -194,7 +194,7 @@ class RobotStandIn:
         from visualization_msgs.msg import MarkerArray
 
         from teleteach.perception.observed import SCENE_TOPIC, WORLD_FRAME, observed_from_scene
-        from teleteach.sim.scene import load_scene
+        from teleteach.scene import load_scene
 
         scene = load_scene()
         self._observed = observed_from_scene(scene)

@@ -10,7 +10,7 @@ from visualization_msgs.msg import MarkerArray
 
 from teleteach.msg import Behaviour, ExecuteSkillActionGoal
 from teleteach.perception.observed import product_positions
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS
 
 

@@ -19,7 +19,7 @@ from teleteach import skill_file
 from teleteach.learning.synthetic import placement_on_trajectory
 from teleteach.msg import ExecuteSkillAction, ExecuteSkillActionFeedback, ExecuteSkillGoal
 from teleteach.perception.observed import product_positions
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 from teleteach.skills.predefined import PREDEFINED_SKILLS
 from teleteach.srv import ListControllers
 

@@ -29,7 +29,7 @@ from teleteach.msg import (
     StopGoal,
 )
 from teleteach.perception.observed import observed_from_markers
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 
 
 def client(name, action):

@@ -29,7 +29,7 @@ from teleteach.learning.synthetic import placement_on_trajectory
 from teleteach.msg import ExecuteSkillAction, ExecuteSkillGoal
 from teleteach.perception.observed import observed_from_markers
 from teleteach.placement import judge
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 
 SKILL_TIMEOUT = 180.0  # [s] sim time per skill
 DROP = 0.03  # [m] the pushing skill's reference runs this much lower from the alignment on: into the lip

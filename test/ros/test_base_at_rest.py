@@ -14,7 +14,7 @@ from rosgraph_msgs.msg import Clock
 from visualization_msgs.msg import MarkerArray
 from teleteach.perception.observed import observed_from_scene
 from teleteach.perception.ros import scene_markers
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 from teleteach.skills.ros import RosRobot
 
 LAG = 0.5

@@ -8,7 +8,7 @@ from teleteach import placement
 from teleteach.perception.observed import ObservedScene
 from teleteach.recording.session import Series, Session, TreeSnapshot
 from teleteach.run import outcome
-from teleteach.sim.scene import Gap, SceneError, load_scene
+from teleteach.scene import Gap, SceneError, load_scene
 
 UPRIGHT = (0.0, 0.0, 0.0, 1.0)
 

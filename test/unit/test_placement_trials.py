@@ -9,10 +9,10 @@ from scipy.spatial.transform import Rotation
 from teleteach import skill_file
 from teleteach.learning.synthetic import placement_on_trajectory
 from teleteach.run.trials import TrialSetup, hold_product, run_trial, scene_around
+from teleteach.scene import load_scene
 from teleteach.sim import panda
 from teleteach.sim.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import RobotSim
-from teleteach.sim.scene import load_scene
 from teleteach.sim.uncertainty import load_uncertainty
 from teleteach.skills.config import load_motion_config
 from teleteach.skills.runner import SkillRunner

@@ -17,7 +17,7 @@ from teleteach.perception.observed import (
     table_on,
 )
 from teleteach.perception.ros import scene_markers
-from teleteach.sim.scene import load_objects, load_scene
+from teleteach.scene import load_objects, load_scene
 
 
 def marker(ns, text, xyz, frame="world", quaternion=(0.0, 0.0, 0.0, 1.0), scale=(0.06, 0.05, 0.14)):

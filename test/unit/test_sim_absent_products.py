@@ -2,8 +2,8 @@
 
 import pytest
 
+from teleteach.scene import SceneError, load_scene
 from teleteach.sim.robot_sim import RobotSim
-from teleteach.sim.scene import SceneError, load_scene
 from teleteach.skills.sim_robot import SimRobot
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 from teleteach.study.goals import Goal, GoalJudge, PlacementGoal, StiffnessGoal, TreeGoal, TreeView
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import session_plan

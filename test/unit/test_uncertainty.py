@@ -8,8 +8,8 @@ import pytest
 import yaml
 
 from teleteach.perception.observed import observed_from_scene
+from teleteach.scene import load_scene
 from teleteach.sim.robot_sim import RobotSim
-from teleteach.sim.scene import load_scene
 from teleteach.sim.uncertainty import (
     DEFAULT_UNCERTAINTY_FILE,
     BaseError,

@@ -25,7 +25,7 @@ from scipy.spatial.transform import Rotation
 
 from teleteach.control.validation import InvalidCommandError, finite_vector, validate_quaternion
 from teleteach.rotations import yaw_quaternion
-from teleteach.sim.scene import Gap, GapLookup, Scene
+from teleteach.scene import Gap, GapLookup, Scene
 
 WORLD_FRAME = "world"
 SCENE_TOPIC = "teleteach/scene"  # what the robot's perception reports: what the skills act on

@@ -16,7 +16,7 @@ from py_trees.common import Status
 from teleteach import placement
 from teleteach.active_tab import Tab
 from teleteach.recording.session import Session
-from teleteach.sim.scene import Scene
+from teleteach.scene import Scene
 from teleteach.skill_file import Skill, SkillFileError
 from teleteach.skill_file import load as load_skill
 

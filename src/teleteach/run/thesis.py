@@ -41,7 +41,7 @@ from teleteach.run.processes import (
     screenshot,
     start_xvfb,
 )
-from teleteach.sim.scene import SceneError, load_scene
+from teleteach.scene import SceneError, load_scene
 
 DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")
 TREE_FILE = config_file("tree.yaml")

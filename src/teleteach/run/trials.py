@@ -25,10 +25,10 @@ import pybullet
 from scipy.spatial.transform import Rotation
 
 from teleteach import placement
+from teleteach.scene import Scene, load_scene
 from teleteach.sim import panda
 from teleteach.sim.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import TRAJECTORY, RobotSim
-from teleteach.sim.scene import Scene, load_scene
 from teleteach.sim.uncertainty import UncertaintySettings, load_uncertainty
 from teleteach.skills.config import MotionConfig, load_motion_config
 from teleteach.skills.motion import TOP_DOWN

@@ -8,8 +8,8 @@ import numpy as np
 import pybullet
 
 from teleteach.control.impedance import orientation_error
+from teleteach.scene import load_site
 from teleteach.sim import panda
-from teleteach.sim.scene import load_site
 
 DAMPING = 0.02  # damped least squares regularisation [m]
 NULLSPACE_GAIN = 0.05  # pull toward the seed posture per iteration [-]

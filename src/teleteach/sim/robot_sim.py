@@ -18,9 +18,9 @@ from teleteach.frames import Transform
 from teleteach.paths import config_file
 from teleteach.perception.observed import ObservedScene, observed_from_scene
 from teleteach.robot_controllers import controller_names
+from teleteach.scene import BasePose, Scene, load_scene
 from teleteach.sim import panda
 from teleteach.sim.gripper import SimGripper
-from teleteach.sim.scene import BasePose, Scene, load_scene
 from teleteach.sim.uncertainty import BaseError, PerceptionNoise, UncertaintySettings, base_stream
 from teleteach.sim.world import SupermarketWorld
 

@@ -45,9 +45,9 @@ from teleteach.perception.observed import WORLD_FRAME
 from teleteach.perception.ros import box_marker, scene_markers
 from teleteach.ros_actions import WallStatusTimer
 from teleteach.rotations import yaw_quaternion
+from teleteach.scene import load_scene
 from teleteach.sim import panda
 from teleteach.sim.robot_sim import BASE_FRAME, ControllerConfigError, RobotSim, load_controller_config
-from teleteach.sim.scene import load_scene
 from teleteach.sim.uncertainty import load_uncertainty
 from teleteach.sim.urdf import robot_description
 from teleteach.sim.world import SHELF_COLOUR

@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from teleteach.paths import config_file
 from teleteach.perception.observed import ObservedBox, ObservedScene
-from teleteach.sim.scene import Gap
+from teleteach.scene import Gap
 
 DEFAULT_UNCERTAINTY_FILE = config_file("uncertainty.yaml")
 MAX_POSITION = 0.5  # [m] a standard deviation or limit above this is a mistake, not an uncertainty

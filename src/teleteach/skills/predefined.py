@@ -15,7 +15,7 @@ from teleteach import placement
 from teleteach.perception.observed import ObservedBox, ObservedScene, table_on
 from teleteach.placement import Placement
 from teleteach.rotations import yaw_rotation
-from teleteach.sim.scene import Gap, SceneError, Site
+from teleteach.scene import Gap, SceneError, Site
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import TOP_DOWN, Motion, world_to_base
 from teleteach.skills.robot import SkillError
@@ -60,7 +60,7 @@ class WorldView:
 
     Args:
         motion: the running skill's motions (robot, kinematics, config).
-        site: the named base poses (a teleteach.sim.scene.Site, or the whole Scene).
+        site: the named base poses (a teleteach.scene.Site, or the whole Scene).
     """
 
     motion: Motion

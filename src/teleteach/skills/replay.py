@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from teleteach import skill_file
 from teleteach.frames import Transform, continuous_quaternions
-from teleteach.sim.scene import Gap
+from teleteach.scene import Gap
 from teleteach.skills.motion import Motion
 from teleteach.skills.predefined import WorldView, release
 from teleteach.skills.robot import SkillError

@@ -6,7 +6,7 @@ from typing import Dict
 
 import yaml
 
-from teleteach.sim.scene import Site
+from teleteach.scene import Site
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import InverseKinematics, Motion
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS, WorldView, create_skills
@@ -47,7 +47,7 @@ class SkillRunner:
     Args:
         robot: the robot interface.
         config: the motion configuration.
-        site: the named base poses (teleteach.sim.scene.Site; the whole Scene will do).
+        site: the named base poses (teleteach.scene.Site; the whole Scene will do).
         kinematics: Panda forward kinematics and Jacobian in base_link (teleteach.sim.kinematics.PandaKinematics).
     """
 

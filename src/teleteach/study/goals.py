@@ -18,7 +18,7 @@ from typing import Dict, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from teleteach.placement import judge
-from teleteach.sim.scene import Scene
+from teleteach.scene import Scene
 
 AXES = ("x", "y", "z")
 

@@ -30,7 +30,7 @@ from visualization_msgs.msg import MarkerArray
 
 from teleteach.msg import BehaviourTree, HelpRequest, Selection, StudyState
 from teleteach.perception.observed import TRUE_SCENE_TOPIC, product_poses
-from teleteach.sim.scene import Scene
+from teleteach.scene import Scene
 from teleteach.srv import StudyInput, StudyInputResponse
 from teleteach.study.goals import Goal, GoalJudge, Judgement, TreeView
 from teleteach.study.metrics import TrialMetrics

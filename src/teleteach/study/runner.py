@@ -37,7 +37,7 @@ from teleteach.run.processes import (
     screenshot,
     start_xvfb,
 )
-from teleteach.sim.scene import load_scene
+from teleteach.scene import load_scene
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import QUESTIONNAIRE, Step, participant_number
 from teleteach.study.parameters import launch_value, parameters_file

@@ -18,7 +18,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import yaml
 
 from teleteach.haptics.scenario import ScenarioError, load_scenario
-from teleteach.sim.scene import SceneError, load_scene
+from teleteach.scene import SceneError, load_scene
 from teleteach.study.goals import AXES, Goal, PlacementGoal, StiffnessGoal, TreeGoal
 from teleteach.study.parameters import check_launch_argument, check_parameter
 from teleteach.study.questionnaire import NASA_TLX, Item

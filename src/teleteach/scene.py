@@ -2,7 +2,8 @@
 
 robot_sim reads all of it (:func:`load_scene`); the skill server only the site (:func:`load_site`: how the arm sits on
 the base, named base poses); static_scene only the objects (:func:`load_objects`: products, pick table, gaps), which
-the skills then perceive on ``teleteach/scene`` (teleteach.perception).
+the skills then perceive on ``teleteach/scene`` (teleteach.perception). A word the simulation, perception, skills,
+runs and studies share, so it lives below all of them.
 """
 
 import dataclasses
