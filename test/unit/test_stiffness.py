@@ -118,9 +118,17 @@ def test_cartesian_inertia_is_capped_at_a_singularity():
     assert np.all(np.isfinite(damping)) and np.max(damping) <= 2.0 * np.sqrt(800.0 * 50.0) + 1e-6
 
 
-def test_bad_eigenvector_shape_is_refused():
-    with pytest.raises(ValueError):
+def test_bad_eigenvector_shape_is_refused_with_the_shape_it_got():
+    with pytest.raises(ValueError, match=r"a quaternion \(x, y, z, w\) or a 3x3 matrix, got shape \(2,\)"):
         ellipsoid.translational_stiffness([1.0, 2.0, 3.0], [1.0, 0.0])
+
+
+def test_damping_of_a_principal_stiffness_below_one_is_its_square_root_and_of_a_negative_one_none():
+    # Eq 7 takes sqrt(K0) of the principal stiffnesses, clipped at 0 (a numerically negative one): 0.25 N/m -> 0.5
+    k = np.diag([0.25, 0.04, -1e-9, 1.0, 1.0, 1.0])
+    expected = np.diag([2 * 0.5, 2 * 0.2, 0.0, 2.0, 2.0, 2.0])
+    np.testing.assert_allclose(ellipsoid.damping_unit_mass(k, 1.0), expected, atol=1e-9)
+    np.testing.assert_allclose(ellipsoid.damping_mass_aware(k, (np.eye(3), np.eye(3)), 1.0), expected, atol=1e-9)
 
 
 def test_a_series_is_eq_1_row_by_row_whatever_form_its_axes_take():
@@ -134,5 +142,8 @@ def test_a_series_is_eq_1_row_by_row_whatever_form_its_axes_take():
     for axes in (rotations, rotations.as_quat(), rotations.as_matrix()):
         np.testing.assert_allclose(ellipsoid.translational_stiffnesses(eigenvalues, axes), expected, atol=1e-9)
     # Expect: as many axes as eigenvalue rows, or a clear error
-    with pytest.raises(ValueError, match="must be 2 quaternions"):
+    with pytest.raises(ValueError, match=r"must be 2 quaternions \(x, y, z, w\) or 3x3 matrices, got shape \(1, 4\)"):
         ellipsoid.translational_stiffnesses(eigenvalues, rotations.as_quat()[:1])
+    # Expect one 3x3 matrix (no series axis) to be refused as such, not read as quaternions
+    with pytest.raises(ValueError, match=r"must be 1 quaternions .* got shape \(3, 3\)"):
+        ellipsoid.translational_stiffnesses(eigenvalues[0], rotations.as_matrix()[0])
