@@ -321,7 +321,11 @@ BAD_REQUESTS = [
     (("PickItem", "convert", 0, "", "selector"), "cannot convert 'PickItem': it is a skill, not a composite"),
     (("PauseCondition", "convert", 0, "", "sequence"), "cannot convert 'PauseCondition': it is a pause"),
     (("Root", "convert", 0, "", "sequence"), "cannot convert 'Root': it is the root of the tree"),
-    (("BehaviorExecution", "convert", 0, "", "selector"), "cannot convert 'BehaviorExecution' while it runs"),
+    (
+        ("BehaviorExecution", "convert", 0, "", "selector"),
+        "cannot convert 'BehaviorExecution' while it runs MoveBase, paused or not (a new selector would start its"
+        " children again): convert a composite that does not run, or wrap a node that has not run yet in a selector",
+    ),
     (("BehaviorExecution", "convert", 0, "", "sequence"), "'BehaviorExecution' is a sequence already"),
     (("BehaviorExecution", "convert", 0, "", "fallback"), "cannot convert to 'fallback'; expected node_type"),
     (("BehaviorExecution", "convert", 0, "", ""), "cannot convert to ''; expected node_type"),
@@ -453,3 +457,23 @@ def test_failures_are_the_same_without_their_measured_values():
     saved = RepairMemory.from_dict(memory.to_dict())
     assert saved.to_dict() == memory.to_dict()
     assert saved.to_dict()["repairs"][0]["reason"] == "product_pick_1 ended 15.0 cm from gap_2"
+
+
+def test_a_paused_composite_is_still_refused_with_advice_the_operator_can_follow():
+    world = SkillWorld(durations={"MoveBase": 50})
+    tree = thesis_tree(world)
+    while status_of(tree, "MoveBase") != Status.RUNNING:
+        tree.tick()
+    tree.set_pause(True)
+    tree.tick()
+    # Expect the pause to leave the sequence holding its suspended skill, so the refusal no longer says "pause first"
+    refused = tree.change("BehaviorExecution", "convert", node_type="parallel")
+    assert not refused.success and "pause first" not in refused.message
+    assert refused.message.startswith("cannot convert 'BehaviorExecution' while it runs MoveBase, paused or not")
+    # Expect its advice to work: a node that has not run yet, wrapped in the new type, takes edits and the tree resumes
+    wrapped = tree.change("Idle", "wrap", node_type="parallel")
+    assert wrapped.success, wrapped.message
+    assert tree.change("Idle", "add", parent=wrapped.new_node_name).success
+    tree.set_pause(False)
+    run(tree)
+    assert tree.completed and world.names("start").count("MoveBase") == 1

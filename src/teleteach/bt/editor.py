@@ -15,9 +15,10 @@ even after a restart.
 Edits keep execution going: py_trees' sequence memory is the identity of the running child, so inserting or removing
 siblings before or after it leaves it running and remembered; a wrapped or unwrapped node keeps running inside or
 outside its decorator. Removing a running node (or a composite holding one) and converting a running composite are
-refused. A leaf that failed and waits for the operator (``awaiting_help``) is not running: removing it makes its
-parent continue with the node that takes its place; inserting a node right in front of it runs that node first,
-then retries the failed one.
+refused; a pause does not change that, since a paused composite still holds its suspended child and a converted one
+would start its children again. A leaf that failed and waits for the operator (``awaiting_help``) is not running:
+removing it makes its parent continue with the node that takes its place; inserting a node right in front of it runs
+that node first, then retries the failed one.
 
 A bad request changes nothing and says exactly what was wrong. The caller serialises edits with ticks.
 """
@@ -363,8 +364,12 @@ class TreeEditor:
         if after["type"] == before["type"]:
             return ChangeResult(False, f"'{node.name}' is a {before['type']} already")
         if node.status == Status.RUNNING:
+            running = [leaf.name for leaf in node.iterate() if not leaf.children and leaf.status == Status.RUNNING]
             return ChangeResult(
-                False, f"cannot convert '{node.name}' while it runs (its children would start again); pause first"
+                False,
+                f"cannot convert '{node.name}' while it runs {', '.join(running) or 'a child'}, paused or not (a new"
+                f" {after['type']} would start its children again): convert a composite that does not run, or wrap a"
+                f" node that has not run yet in a {after['type']}",
             )
         converted = create_root({**after, "children": []}, self.library, self.make_leaf)
         children = list(node.children)
