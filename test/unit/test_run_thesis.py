@@ -26,6 +26,7 @@ from teleteach.run.processes import (
     master_pid,
     own_master,
     parent_pid,
+    required_death,
     screenshot,
     start_xvfb,
 )
@@ -331,3 +332,35 @@ def test_full_launch_passes_its_args_to_the_parts():
     assert params["/behaviour_tree/resume"] is False
     # shared control reads the device and waits for the GUI's SHARED CONTROL tab to switch it on
     assert params["/shared_control/input"] == "twist" and params["/shared_control/enabled"] is False
+
+
+# What roslaunch wrote when a scripted operator's wait failed: another node's ERROR line first, roslaunch's colours
+LAUNCH_LOG_OF_A_FAILED_SCENARIO = (
+    "\x1b[1mprocess[sigma7_node-9]: started with pid [4242]\x1b[0m\n"
+    "[ERROR] [1795692682.1, 48.7]: skill_server: Got a goal the arm cannot reach\n"
+    "[INFO] [1795692682.3, 49.0]: published 41000 cycles at 238.0 Hz on average\n"
+    "[FATAL] [1795692682.5, 49.1]: sigma7_node: scenario failed: config/scenarios/thesis_full.yaml:212: "
+    "keyframes[17].wait: still waiting after 30 s for recording true\n"
+    "\x1b[31m================================================================================"
+    "REQUIRED process [sigma7_node-9] has died!\n"
+    "process has died [pid 4242, exit code 1, cmd /devel/lib/teleteach/sigma7_node __name:=sigma7_node].\n"
+    "Initiating shutdown!\n\x1b[0m"
+    "[teaching_gui-7] killing on exit\n"
+)
+
+
+def test_a_required_death_is_told_by_the_node_its_exit_code_and_its_last_words():
+    assert required_death(LAUNCH_LOG_OF_A_FAILED_SCENARIO) == (
+        "sigma7_node died (exit code 1): sigma7_node: scenario failed: config/scenarios/thesis_full.yaml:212: "
+        "keyframes[17].wait: still waiting after 30 s for recording true"
+    )
+    # Expect a node killed without a word to be named with its exit code alone, not with another node's error
+    killed = LAUNCH_LOG_OF_A_FAILED_SCENARIO.replace("[FATAL]", "[INFO]").replace("exit code 1", "exit code -9")
+    assert required_death(killed) == "sigma7_node died (exit code -9)"
+    # Expect a node that names itself only in an ERROR line to be quoted from it; a FATAL line of another node last
+    erring = killed.replace("skill_server: Got", "sigma7_node: lost")
+    assert required_death(erring) == "sigma7_node died (exit code -9): sigma7_node: lost a goal the arm cannot reach"
+    fatal_elsewhere = killed.replace("[ERROR] [1795692682.1, 48.7]: skill_server", "[FATAL] [1795692682.1, 48.7]: gui")
+    assert required_death(fatal_elsewhere) == "sigma7_node died (exit code -9): gui: Got a goal the arm cannot reach"
+    # Expect nothing when roslaunch ended without a required death (Ctrl-C, or a normal end)
+    assert required_death(LAUNCH_LOG_OF_A_FAILED_SCENARIO.split("\x1b[31m")[0]) == ""

@@ -9,6 +9,7 @@ roslaunch behind.
 import ctypes
 import os
 import pathlib
+import re
 import select
 import shutil
 import signal
@@ -216,3 +217,34 @@ def screenshot(display: str, path: pathlib.Path, timeout: float = 20.0) -> Optio
     if result.returncode != 0 or not path.is_file():
         return result.stderr.decode(errors="replace").strip() or f"import exited with {result.returncode}"
     return None
+
+
+_COLOUR = re.compile(r"\x1b\[[0-9;]*m|\x1b\][^\x07]*\x07")  # roslaunch's colours and terminal titles
+_REQUIRED_DIED = re.compile(r"REQUIRED process \[(?P<name>[^\]]+?)-\d+\] has died!")
+_EXIT_CODE = re.compile(r"process has died \[pid \d+, exit code (?P<code>-?\d+)")
+_LOG_LINE = re.compile(r"^\[(?P<level>FATAL|ERROR)\] \[[^\]]*\]: (?P<message>.*)$", re.MULTILINE)
+
+
+def required_death(launch_log: str) -> str:
+    """Why a roslaunch ended early, in one line: the required process that died, its exit code and its last words.
+
+    Its last words are the last FATAL (else ERROR) line that names it before it died, else the last FATAL line: a
+    scripted operator's failed wait says where in its scenario file it waited. "" when no required process died.
+    """
+    text = _COLOUR.sub("", launch_log)
+    died = _REQUIRED_DIED.search(text)
+    if died is None:
+        return ""
+    name, before = died.group("name"), text[: died.start()]
+    code = _EXIT_CODE.search(text, died.end())
+    cause = f"{name} died" + (f" (exit code {code.group('code')})" if code else "")
+    lines = [(match.group("level"), match.group("message").strip()) for match in _LOG_LINE.finditer(before)]
+    for wanted in (
+        lambda level, message: level == "FATAL" and name in message,
+        lambda level, message: name in message,
+        lambda level, message: level == "FATAL",
+    ):
+        said = [message for level, message in lines if wanted(level, message)]
+        if said:
+            return f"{cause}: {said[-1]}"
+    return cause

@@ -37,6 +37,7 @@ from teleteach.run.processes import (
     ProcessError,
     Processes,
     own_master,
+    required_death,
     ros_environment,
     screenshot,
     start_xvfb,
@@ -320,6 +321,7 @@ class ThesisRun:
                     "device:=scenario",
                     f"scenario:={options.scenario}",
                     f"device_rate:={options.device_rate:g}",
+                    "device_required:=true",  # a scripted operator that fails its scenario ends the run at once
                     f"tree:={options.tree}",
                     f"trajectory:={options.trajectory}",
                     "record:=true",
@@ -366,7 +368,11 @@ class ThesisRun:
         reported = set()
         while time.monotonic() < deadline:
             if launch.poll() is not None:
-                return False, f"roslaunch ended early (exit {launch.returncode}); see launch.log"
+                cause = required_death((self.folder / "launch.log").read_text(errors="replace"))
+                reason = f"roslaunch ended early (exit {launch.returncode}); see launch.log"
+                reason = f"{cause}; {reason}" if cause else reason
+                self.say(f"run_thesis: stopped waiting: {reason}")
+                return False, reason
             if start is None and rospy.has_param("sigma7_node/scenario_start"):
                 start = float(rospy.get_param("sigma7_node/scenario_start"))
                 self.say(

@@ -33,6 +33,7 @@ from teleteach.run.processes import (
     ProcessError,
     Processes,
     own_master,
+    required_death,
     ros_environment,
     screenshot,
     start_xvfb,
@@ -64,6 +65,13 @@ KEEP_PARAMETERS = ("roslaunch", "rosdistro", "rosversion", "run_id", "study")
 
 class TrialError(RuntimeError):
     """A trial could not run to its end (its system did not come up, or died): it stays unfinished, resumable."""
+
+
+def _ended(launch: subprocess.Popen, log: pathlib.Path) -> str:
+    """Why a trial's system ended early: the required node that died and its last words (roslaunch's log), first."""
+    cause = required_death(log.read_text(errors="replace")) if log.exists() else ""
+    ended = f"the trial's system ended (roslaunch exit {launch.returncode}); see {log}"
+    return f"{cause}; {ended}" if cause else ended
 
 
 @dataclasses.dataclass(frozen=True)
@@ -241,7 +249,7 @@ class StudyRunner:
             if task.pause_tree == "instructions":
                 self._ros.pause_tree(False)
             self.say(f"study: trial {step.trial} started")
-            self._run_until_done(launch)
+            self._run_until_done(launch, log)
             success, task_time, status = self._flow.outcome
             self.say(f"study: trial {step.trial} {'done' if success else 'NOT done'} in {task_time:.1f} s: {status}")
             time.sleep(self.settings.end_screen)
@@ -299,6 +307,7 @@ class StudyRunner:
         command += [f"study_parameters:={folder / 'parameters.yaml'}"]
         if self.options.device == "scenario":
             command += [f"scenario:={folder / 'scenario.yaml'}", f"device_rate:={self.settings.scripted_device_rate:g}"]
+            command += ["device_required:=true"]  # a scripted participant that fails its script ends the trial at once
         command += [f"{name}:={launch_value(value)}" for name, value in arguments.items()]
         env = ros_environment(self._master_uri, self._display, folder / "data")
         return self.processes.start("roslaunch", command, folder / "launch.log", env, parent_death_signal=signal.SIGINT)
@@ -334,7 +343,7 @@ class StudyRunner:
     @staticmethod
     def _check_alive(launch: subprocess.Popen, log: pathlib.Path) -> None:
         if launch.poll() is not None:
-            raise TrialError(f"the trial's system ended (roslaunch exit {launch.returncode}); see {log}")
+            raise TrialError(_ended(launch, log))
 
     def _parameters_seen(self, parameters: Dict[str, Any]) -> Dict[str, Any]:
         from teleteach.study.ros import parameters_seen
@@ -351,16 +360,17 @@ class StudyRunner:
             self._ros.publish()
             time.sleep(1.0 / self.settings.status_rate)
 
-    def _run_until_done(self, launch: subprocess.Popen) -> None:
+    def _run_until_done(self, launch: subprocess.Popen, log: pathlib.Path) -> None:
         """Judge the goal until it is met or the time is up; the live status goes out at status_rate."""
         period = 1.0 / self.settings.judge_rate
         published = 0.0
         while True:
             now = time.monotonic()
             if launch.poll() is not None:
-                self._flow.abort(now, f"the system ended (roslaunch exit {launch.returncode})")
+                why = _ended(launch, log)
+                self._flow.abort(now, why)
                 self._ros.publish()
-                raise TrialError(f"the trial's system ended while it ran (roslaunch exit {launch.returncode})")
+                raise TrialError(why)
             done = self._flow.update(now, self._ros.judgement())
             if done or now - published >= 1.0 / self.settings.status_rate:
                 self._ros.publish()
@@ -441,6 +451,7 @@ class StudyRunner:
             scenario = self._questionnaire_scenario(step)
             atomic_write_text(folder / "scenario.yaml", scenario)
             command += [f"scenario:={folder / 'scenario.yaml'}", f"device_rate:={self.settings.scripted_device_rate:g}"]
+            command += ["device_required:=true"]  # a scripted participant that fails its script ends the trial at once
         env = ros_environment(self._master_uri, self._display, folder / "data")
         log = folder / "launch.log"
         launch = self.processes.start("roslaunch", command, log, env, parent_death_signal=signal.SIGINT)
