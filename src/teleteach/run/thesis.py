@@ -13,6 +13,7 @@ import os
 import pathlib
 import shutil
 import signal
+import subprocess
 import threading
 import time
 from typing import Callable, Dict, List, Optional, Tuple
@@ -50,6 +51,7 @@ SKILLS_FILE = config_file("skills.yaml")
 RVIZ_CONFIG = share_dir() / "rviz" / "teleteach.rviz"
 RVIZ_SCREEN = "1200x846x24"  # the layout's window size: RViz fills its display
 RVIZ_TIMEOUT = 45.0  # [s] wall time for RViz to show its window and draw the scene (loaded 2-core machine: ~20 s)
+MASTER_GONE_WAIT = 30.0  # [s] for roslaunch to end once its master stopped answering (it stops its nodes first)
 EXECUTION = "BehaviorExecution"
 # teleteach/Behaviour's status constants (INVALID, RUNNING, SUCCESS, FAILURE) as py_trees' statuses
 STATUSES = {1: Status.INVALID, 2: Status.RUNNING, 3: Status.SUCCESS, 4: Status.FAILURE}
@@ -368,19 +370,22 @@ class ThesisRun:
         reported = set()
         while time.monotonic() < deadline:
             if launch.poll() is not None:
-                cause = required_death((self.folder / "launch.log").read_text(errors="replace"))
-                reason = f"roslaunch ended early (exit {launch.returncode}); see launch.log"
-                reason = f"{cause}; {reason}" if cause else reason
-                self.say(f"run_thesis: stopped waiting: {reason}")
-                return False, reason
-            if start is None and rospy.has_param("sigma7_node/scenario_start"):
-                start = float(rospy.get_param("sigma7_node/scenario_start"))
-                self.say(
-                    f"run_thesis: scenario started at simulated t = {start:.2f} s ({duration:.0f} s without waits)"
-                )
-            now = rospy.get_time()
-            if played_at is None and rospy.get_param("sigma7_node/scenario_played", False):
-                played_at = now  # the device node says so: with waits, the end is not start + duration
+                return self._ended_early(launch)
+            try:
+                if start is None and rospy.has_param("sigma7_node/scenario_start"):
+                    start = float(rospy.get_param("sigma7_node/scenario_start"))
+                    self.say(
+                        f"run_thesis: scenario started at simulated t = {start:.2f} s ({duration:.0f} s without waits)"
+                    )
+                now = rospy.get_time()
+                if played_at is None and rospy.get_param("sigma7_node/scenario_played", False):
+                    played_at = now  # the device node says so: with waits, the end is not start + duration
+            except OSError as error:  # the master is roslaunch's: it goes first when a required node ends the launch
+                try:
+                    launch.wait(timeout=MASTER_GONE_WAIT)
+                except subprocess.TimeoutExpired:
+                    return False, f"the ROS master stopped answering ({error}) while roslaunch still runs"
+                return self._ended_early(launch)
             played = played_at is not None and now >= played_at + 1.0
             for name, (status, message, _) in list(monitor.leaves.items()):
                 ended = status in (Status.SUCCESS, Status.FAILURE)
@@ -394,6 +399,14 @@ class ThesisRun:
             time.sleep(0.2)
         state = "scenario not over" if played_at is None else "tree not finished"
         return False, f"timeout after {self.options.timeout:.0f} s wall time ({state})"
+
+    def _ended_early(self, launch) -> Tuple[bool, str]:
+        """The reason a launch ended before the scenario did: the required node that died first, if one did."""
+        cause = required_death((self.folder / "launch.log").read_text(errors="replace"))
+        reason = f"roslaunch ended early (exit {launch.returncode}); see launch.log"
+        reason = f"{cause}; {reason}" if cause else reason
+        self.say(f"run_thesis: stopped waiting: {reason}")
+        return False, reason
 
     def _rviz_view(self, env, display: str, shots: TabScreenshots) -> None:
         """RViz briefly, on a display of its own, for a picture of the robot, the shelf and the ellipsoid.
