@@ -159,3 +159,48 @@ def test_a_participant_goes_through_a_trial_and_the_questionnaire(
     ros.publish()
     pump(qapp, 0.5)
     window.screenshot().save(str(artifacts_dir / "study_6_finished.png"))
+
+
+def test_a_selection_heard_after_the_goal_was_met_counts_when_it_was_made_before(qapp, study_node):
+    import rospy
+
+    from teleteach.msg import Behaviour, BehaviourTree, Selection
+    from teleteach.study.metrics import TrialMetrics
+
+    study, plan, flow, ros = study_node
+    task = study.task(plan[0].task)
+    assert task.goal.tree.absent == ("PlaceItem",)
+    metrics = TrialMetrics(task.intended, contact_threshold=10.0)
+    ros.begin_trial(task.goal, None, metrics)
+    flow.instructions(plan[0])
+    assert flow.start(time.monotonic())[0]
+    trees = rospy.Publisher("behaviour_tree/log/tree", BehaviourTree, queue_size=1, latch=True)
+    selections = rospy.Publisher("teleteach/selection", Selection, queue_size=10)
+    pump_until(qapp, lambda: selections.get_num_connections() > 0, 10, "the study node to hear selections")
+
+    def selection(step, choice, stamp):
+        message = Selection(tab="HIGH_LEVEL", step=step, choice=choice)
+        message.header.stamp = rospy.Time.from_sec(stamp)
+        selections.publish(message)
+
+    selection("node", "PlaceItem", 99.0)
+    pump_until(qapp, lambda: len(metrics.selections) == 1, 10, "the node's selection")
+    # The edit's tree (stamped 100 s) is judged before the operation's selection (stamped 99.5 s) arrives
+    tree = BehaviourTree()
+    tree.header.stamp = rospy.Time.from_sec(100.0)
+    tree.behaviours = [
+        Behaviour(own_id="1", name="BehaviorExecution", child_ids=["2"]),
+        Behaviour(own_id="2", name="PickItem"),
+    ]
+    trees.publish(tree)
+    pump_until(qapp, lambda: ros.trees_heard > 0, 10, "the tree")
+    assert flow.update(time.monotonic(), ros.judgement())
+    selection("operation", "remove", 99.5)  # made before the tree changed: part of the trial
+    selection("node", "Idle", 100.5)  # made after the goal was met: not part of it
+    pump(qapp, 1.0)
+    # Expect the trial's record to end with the selection that did the task, at the trial's end, and nothing after
+    assert [(s.step, s.choice) for s in metrics.selections] == [("node", "PlaceItem"), ("operation", "remove")]
+    assert metrics.selections[-1].time == pytest.approx(flow.outcome[1])
+    ros.end_trial()
+    trees.unregister()
+    selections.unregister()

@@ -15,7 +15,10 @@ ROS Subscribers:
     behaviour_tree/log/tree (teleteach/BehaviourTree), eigenvalues (geometry_msgs/Vector3Stamped), teleteach/true_scene
     (visualization_msgs/MarkerArray: the simulated world as it is): what the goals judge; teleteach/selection
     (teleteach/Selection), behaviour_tree/help_request (teleteach/HelpRequest), force_torque_ext
-    (geometry_msgs/WrenchStamped): what the trial measures while it runs.
+    (geometry_msgs/WrenchStamped): what the trial measures while it runs. A selection heard after the goal was judged
+    met still counts when it was stamped no later than the newest world message that judgement saw: the GUI sends the
+    selection that completes a task before the edit it makes, but on another connection, so it may arrive after the
+    tree that shows the edit (the trial's record would lose the very selection that did the task).
 """
 
 import threading
@@ -87,6 +90,8 @@ class StudyRos:
         self._judge: Optional[GoalJudge] = None
         self._metrics: Optional[TrialMetrics] = None
         self._trees_heard = 0
+        self._heard_until = 0.0  # [s] the newest stamp (the trial's clock) of what the judge was given
+        self._judged_until = 0.0  # [s] the same, at the last judgement
         self._state = rospy.Publisher(STATE_TOPIC, StudyState, queue_size=1, latch=True)
         self._pause = rospy.Publisher("behaviour_tree/pause", Bool, queue_size=1, latch=True)
         self._service = rospy.Service(INPUT_SERVICE, StudyInput, self._on_input)
@@ -114,6 +119,7 @@ class StudyRos:
             self._judge = GoalJudge(goal, scene)
             self._metrics = metrics
             self._trees_heard = 0
+            self._heard_until = self._judged_until = 0.0
 
     def end_trial(self) -> None:
         """Stop judging and measuring."""
@@ -131,6 +137,7 @@ class StudyRos:
         with self._lock:
             if self._judge is None:
                 return Judgement(False, "")
+            self._judged_until = self._heard_until
             return self._judge.judgement(self.clock())
 
     def publish(self) -> None:
@@ -161,12 +168,21 @@ class StudyRos:
             return None
         return self.clock() - started
 
+    def _made_before_the_end(self, stamp: float) -> Optional[float]:
+        """A trial's end [s since its start] for a selection stamped before its goal was judged met; else None."""
+        if self.flow.phase != Phase.DONE:
+            return None
+        with self._lock:
+            judged_until = self._judged_until
+        return self.flow.outcome[1] if 0.0 < stamp <= judged_until else None
+
     def _on_tree(self, message: BehaviourTree) -> None:
         view = tree_view(message)
         with self._lock:
             self._trees_heard += 1
             if self._judge is not None:
                 self._judge.tree(view)
+                self._heard_until = max(self._heard_until, message.header.stamp.to_sec())
 
     def _on_eigenvalues(self, message: Vector3Stamped) -> None:
         values = (message.vector.x, message.vector.y, message.vector.z)
@@ -174,6 +190,7 @@ class StudyRos:
         with self._lock:
             if self._judge is not None:
                 self._judge.stiffness(self.clock(), values)
+                self._heard_until = max(self._heard_until, message.header.stamp.to_sec())
             if self._metrics is not None and since is not None:
                 self._metrics.eigenvalues(since, values)
 
@@ -182,9 +199,13 @@ class StudyRos:
         with self._lock:
             if self._judge is not None:
                 self._judge.scene_products(self.clock(), poses)
+                stamps = [marker.header.stamp.to_sec() for marker in message.markers]
+                self._heard_until = max([self._heard_until, *stamps])
 
     def _on_selection(self, message: Selection) -> None:
         since = self._since_start()
+        if since is None:
+            since = self._made_before_the_end(message.header.stamp.to_sec())
         with self._lock:
             if self._metrics is not None and since is not None:
                 self._metrics.selection(since, message.tab, message.step, message.choice)
