@@ -85,18 +85,28 @@ class StiffnessBridgeTest(unittest.TestCase):
             bridge.send_values(math.nan, 1.0, 1.0)
             if bridge.wait("logs", 1, timeout=1.2):
                 break
+        rospy.sleep(1.2)
         bridge.send_values(1.0, -5.0, 1.0)
+        bridge.wait_for_log("negative stiffness", timeout=5.0)
+        rospy.sleep(1.2)
         bridge.send_vectors(0.0, 0.0, 0.0, 0.0)
+        bridge.wait_for_log("eigenvectors is zero", timeout=5.0)
         rospy.sleep(1.2)
         bridge.send_values(1.0, 1.0, 1.0, frame="world")
-        logs = bridge.wait("logs", 2)
+        logs = bridge.wait_for_log("frame 'world' is wrong", timeout=5.0)
         bridge.send_values(500.0, 600.0, 700.0)
         received = bridge.wait("received", 2)
         self.assertEqual(len(received), 2, received)
         np.testing.assert_allclose(received[1][:3], [600.0, 500.0, 700.0], atol=1e-3)
         rejections = [line for line in logs if "rejected" in line]
-        self.assertTrue(any("eigenvalues: eigenvalues contains NaN or inf" in line for line in rejections), logs)
-        self.assertTrue(any("frame 'world' is wrong" in line for line in rejections), logs)
+        # Expect each of the four rejections logged, on its topic, with its reason
+        for said in (
+            "on eigenvalues: eigenvalues contains NaN or inf",
+            "on eigenvalues: negative stiffness: [1.0, -5.0, 1.0] N/m",
+            "on eigenvectors: eigenvectors is zero",
+            "on eigenvalues: frame 'world' is wrong",
+        ):
+            self.assertTrue(any(said in line for line in rejections), (said, logs))
         # Expect: a turned ellipsoid (45 degrees about z) sends its diagonal and says what the controller cannot take
         bridge.send_vectors(0.0, 0.0, math.sin(math.pi / 8), math.cos(math.pi / 8))
         received = bridge.wait("received", 3)
