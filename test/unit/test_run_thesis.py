@@ -307,6 +307,8 @@ def test_full_launch_includes_the_parts_by_its_args():
     everything |= {"/sigma7_node", "/ellipsoid_marker", "/rviz", "/shared_control"}
     assert launch_nodes() == everything
     assert launch_nodes("shared_control:=false") == everything - {"/shared_control"}
+    # the device on another machine of the same ROS network (docs/real_robot.md: several machines)
+    assert launch_nodes("device_node:=false") == everything - {"/sigma7_node"}
     # headless: no RViz (the ellipsoid marker stays for bags and a later RViz); record: the session recorder
     assert launch_nodes("headless:=true", "record:=true") == everything - {"/rviz"} | {"/session_recorder"}
     # a real robot: no simulation (franka_control.launch brings robot_state_publisher); the skill servers and the
@@ -316,6 +318,21 @@ def test_full_launch_includes_the_parts_by_its_args():
     assert launch_nodes("real_robot:=true", "gui:=false", "rviz:=false", "static_scene:=true") == real | {
         "/static_scene"
     }
+
+
+@pytest.mark.parametrize(
+    "args, required",
+    [([], True), (["device:=scenario"], False), (["device:=scenario", "device_required:=true"], True)],
+)
+def test_the_device_node_ends_the_launch_for_an_operator_s_own_device_or_when_asked(args, required):
+    import roslaunch.config
+    import roslaunch.xmlloader
+
+    config = roslaunch.config.ROSLaunchConfig()
+    argv = ["roslaunch", "headless:=true", *args]  # roslaunch's command line: what the loader reads the args from
+    roslaunch.xmlloader.XmlLoader().load(str(ROOT / "launch" / "full.launch"), config, argv=argv, verbose=False)
+    (device,) = [node for node in config.nodes if node.name == "sigma7_node"]
+    assert device.required is required
 
 
 def test_full_launch_passes_its_args_to_the_parts():
