@@ -5,13 +5,43 @@ published tree and its saved file), and the other way round; each namespace has 
 robot_1 publishes /clock."""
 
 import pathlib
+import threading
+import time
 import unittest
 
+import numpy as np
 import rosgraph
 import rospy
 import rostest
 import yaml
 from bt_ros_support import TreeView
+from sensor_msgs.msg import JointState
+
+ARM = [f"panda_joint{number}" for number in range(1, 8)]
+MOVED = 0.2  # [rad] an arm whose joints went this far from where they were first heard moved under its skills
+
+
+class Arm:
+    """One robot's arm as its own /<ns>/joint_states says: the first and the farthest joint positions heard."""
+
+    def __init__(self, namespace):
+        self.lock = threading.Lock()
+        self.first = None
+        self.farthest = 0.0
+        rospy.Subscriber(f"{namespace}/joint_states", JointState, self._on_joints, queue_size=1)
+
+    def _on_joints(self, message):
+        if not set(ARM) <= set(message.name):
+            return
+        positions = np.array([message.position[message.name.index(joint)] for joint in ARM])
+        with self.lock:
+            if self.first is None:
+                self.first = positions
+            self.farthest = max(self.farthest, float(np.max(np.abs(positions - self.first))))
+
+    def moved(self):
+        with self.lock:
+            return self.farthest
 
 
 def publishers():
@@ -35,7 +65,8 @@ def services():
 class TwoSystemsTest(unittest.TestCase):
     def test_an_edit_of_one_tree_leaves_the_other_alone(self):
         one, two = TreeView("/robot_1"), TreeView("/robot_2")
-        # Expect: both trees ran their first skill on their own robot (LookToShelf is judged from that robot's joints)
+        arms = {"robot_1": Arm("/robot_1"), "robot_2": Arm("/robot_2")}
+        # Expect: both trees ran their first skill (each robot's own arm is checked at the end)
         for name, view in (("robot_1", one), ("robot_2", two)):
             view.wait_for(lambda view=view: view.status("LookToShelf") == "SUCCESS", 300, f"{name}'s LookToShelf")
         self.assertIn("PlaceItem", one.children("BehaviorExecution"))
@@ -79,6 +110,13 @@ class TwoSystemsTest(unittest.TestCase):
         self.assertTrue("PlaceItem" not in saved["robot_1"] and "MoveBase2" in saved["robot_1"], saved)
         self.assertTrue("PlaceItem" in saved["robot_2"] and "MoveBase2" not in saved["robot_2"], saved)
         self.assertFalse((trees / "current_tree.yaml").exists())
+        # Expect: each robot's own arm moved under its tree's skills (a tree driving the other namespace's robot would
+        # leave its own arm where it was first heard)
+        deadline = time.monotonic() + 300.0
+        while min(arm.moved() for arm in arms.values()) < MOVED and time.monotonic() < deadline:
+            time.sleep(0.2)
+        moved = {name: arm.moved() for name, arm in arms.items()}
+        self.assertGreaterEqual(min(moved.values()), MOVED, moved)
 
 
 if __name__ == "__main__":
