@@ -110,3 +110,86 @@ def test_robot_sim_keeps_the_last_good_command(robot_sim):
             call()
     np.testing.assert_allclose(controller.stiffness_target, stiffness)
     np.testing.assert_allclose(controller.equilibrium_position, position)
+
+
+LIMITS = (panda.ARM_JOINTS, panda.LOWER_LIMITS, panda.UPPER_LIMITS)
+READY = [0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0]
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda: v.check_stamp(math.nan, 12.5, 1.0), "stamp is not finite (nan)"),
+        (lambda: v.check_stamp(10.0, 12.5, 1.0), "stale stamp: +2.500 s away from the current time (limit 1.000 s)"),
+        (lambda: v.check_stamp(15.0, 12.5, 1.0), "stale stamp: -2.500 s away from the current time (limit 1.000 s)"),
+        (lambda: v.check_frame("map", "world"), "frame 'map' is wrong: expected 'world'"),
+        (lambda: v.finite_vector([1.0, 2.0], 3, "position"), "position must have 3 values, got 2"),
+        (lambda: v.finite_vector([[1.0, 2.0, 3.0]], 3, "position"), "position must have 3 values, got 3"),
+        (
+            lambda: v.finite_vector([1.0, -math.inf, 3.0], 3, "position"),
+            "position contains NaN or inf: [1.0, -inf, 3.0]",
+        ),
+        (lambda: v.validate_eigenvalues([1.0, -0.1, 2.0], 3000.0), "negative stiffness: [1.0, -0.1, 2.0] N/m"),
+        (lambda: v.validate_quaternion([0.0, 0.0, 0.0, 0.0], "eigenvectors"), "eigenvectors is zero"),
+        (lambda: v.validate_quaternion([0.0, 0.0, 0.0, 1.0011]), "quaternion is not unit (norm 1.001100)"),
+        (lambda: v.validate_pose("base_link", "base_link", [0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 0.5]), "orientation is"),
+        (
+            lambda: v.validate_base_goal("world", [1.0, 0.0, 0.0], [0.0011, 0.0, 0.0, 1.0]),
+            "base goal orientation must be a rotation about z only",
+        ),
+    ],
+)
+def test_each_rejection_says_exactly_what_was_wrong(call, message):
+    with pytest.raises(v.InvalidCommandError) as error:
+        call()
+    assert str(error.value).startswith(message)
+
+
+def test_the_bounds_themselves_are_accepted():
+    v.check_stamp(11.5, 12.5, 1.0)  # exactly max_age old, and ahead
+    v.check_stamp(13.5, 12.5, 1.0)
+    v.check_frame("/world", "world")
+    np.testing.assert_allclose(v.validate_eigenvalues([0.0, 3000.0, 2999.0], 3000.0), [0.0, 3000.0, 2999.0])
+    np.testing.assert_allclose(v.validate_quaternion([0.0, 0.0, 0.0, 1.0009]), [0.0, 0.0, 0.0, 1.0])
+    np.testing.assert_allclose(v.validate_quaternion([0.0, 0.0, 0.0, 0.9991]), [0.0, 0.0, 0.0, 1.0])
+    x, y, yaw = v.validate_base_goal("world", [1.0, -2.0, 0.3], [0.0009, 0.0, 0.0, 1.0])
+    assert (x, y, yaw) == (1.0, -2.0, pytest.approx(0.0, abs=1e-9))
+    assert v.validate_base_goal("world", [0.0, 0.0, 0.0], [0.0, 0.0, math.sin(0.3), math.cos(0.3)])[2] == pytest.approx(
+        0.6
+    )
+
+
+def test_a_pose_is_its_position_and_its_normalised_orientation():
+    position, orientation = v.validate_pose("base_link", "base_link", [0.1, 0.2, 0.3], [0.0, 0.0, 0.0, 1.0005])
+    np.testing.assert_allclose(position, [0.1, 0.2, 0.3])
+    np.testing.assert_allclose(orientation, [0.0, 0.0, 0.0, 1.0])
+
+
+@pytest.mark.parametrize(
+    ("names", "points", "message"),
+    [
+        ([*panda.ARM_JOINTS[:6], "panda_joint1"], [(READY, [], 1.0)], "joint names"),
+        (panda.ARM_JOINTS, [(READY, [], -0.1)], "time_from_start of point 0 is invalid (-0.1)"),
+        (panda.ARM_JOINTS, [(READY, [], math.nan)], "time_from_start of point 0 is invalid (nan)"),
+        (panda.ARM_JOINTS, [(READY, [], 1.0), (READY, [], 0.5)], "time_from_start must increase strictly (point 1)"),
+        (panda.ARM_JOINTS, [(READY, [], 1.0), (READY[:6], [], 2.0)], "positions of point 1 must have 7 values, got 6"),
+        (panda.ARM_JOINTS, [(READY, [0.0] * 6, 1.0)], "velocities of point 0 must have 7 values, got 6"),
+        (panda.ARM_JOINTS, [(READY, [], 1.0), (READY, [0.0] * 7, 2.0)], "velocities must be given for every point"),
+        (panda.ARM_JOINTS, [([*READY[:3], -3.2, *READY[4:]], [], 1.0)], "point 0 is outside the joint limits"),
+    ],
+)
+def test_each_trajectory_rejection_names_the_point_and_what_was_wrong(names, points, message):
+    with pytest.raises(v.InvalidCommandError) as error:
+        v.validate_joint_trajectory(names, points, *LIMITS)
+    assert str(error.value).startswith(message)
+
+
+def test_a_trajectory_may_start_at_zero_touch_its_limits_and_carry_velocities_reordered():
+    lower, upper = list(panda.LOWER_LIMITS), list(panda.UPPER_LIMITS)
+    names = list(reversed(panda.ARM_JOINTS))
+    velocities = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7]
+    points = [(list(reversed(lower)), list(reversed(velocities)), 0.0), (list(reversed(upper)), [0.0] * 7, 1.5)]
+    times, positions, speeds = v.validate_joint_trajectory(names, points, *LIMITS)
+    assert times.tolist() == [0.0, 1.5]
+    np.testing.assert_allclose(positions, [lower, upper])
+    np.testing.assert_allclose(speeds, [velocities, [0.0] * 7])
