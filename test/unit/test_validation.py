@@ -123,6 +123,7 @@ READY = [0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0]
         (lambda: v.check_stamp(10.0, 12.5, 1.0), "stale stamp: +2.500 s away from the current time (limit 1.000 s)"),
         (lambda: v.check_stamp(15.0, 12.5, 1.0), "stale stamp: -2.500 s away from the current time (limit 1.000 s)"),
         (lambda: v.check_frame("map", "world"), "frame 'map' is wrong: expected 'world'"),
+        (lambda: v.check_frame("Xworld", "world"), "frame 'Xworld' is wrong"),  # only leading slashes are dropped
         (lambda: v.finite_vector([1.0, 2.0], 3, "position"), "position must have 3 values, got 2"),
         (lambda: v.finite_vector([[1.0, 2.0, 3.0]], 3, "position"), "position must have 3 values, got 3"),
         (
@@ -135,6 +136,10 @@ READY = [0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0]
         (lambda: v.validate_pose("base_link", "base_link", [0.0, 0.0, 0.5], [0.0, 0.0, 0.0, 0.5]), "orientation is"),
         (
             lambda: v.validate_base_goal("world", [1.0, 0.0, 0.0], [0.0011, 0.0, 0.0, 1.0]),
+            "base goal orientation must be a rotation about z only",
+        ),
+        (
+            lambda: v.validate_base_goal("world", [1.0, 0.0, 0.0], [0.0, 0.0011, 0.0, 1.0]),
             "base goal orientation must be a rotation about z only",
         ),
     ],
