@@ -6,7 +6,7 @@ from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceSample
 from teleteach.gui.selection import SelectionFlow, Step
 from teleteach.gui.study import Page, StudyScreen, StudyStatus, Submission
-from teleteach.study.questionnaire import NASA_TLX, Item
+from teleteach.questionnaire import NASA_TLX, Item
 
 CONFIG = GuiConfig.load()
 LIKERT = Item("in_control", "Control", "I felt in control.", "Strongly disagree", "Strongly agree", 7, 1.0, 7.0)

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from teleteach.questionnaire import NASA_TLX, AnswerError, check_answers, raw_tlx
 from teleteach.scene import load_scene
 from teleteach.study.goals import Goal, GoalJudge, PlacementGoal, StiffnessGoal, TreeGoal, TreeView
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import session_plan
-from teleteach.study.questionnaire import NASA_TLX, AnswerError, check_answers, raw_tlx
 from teleteach.study.schema import load_study
 from teleteach.study.trial import StudyFlow
 from teleteach.study_phase import Phase

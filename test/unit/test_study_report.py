@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from teleteach.questionnaire import TLX_NAMES
 from teleteach.study.ordering import QUESTIONNAIRE
-from teleteach.study.questionnaire import TLX_NAMES
 from teleteach.study.report import ReportError, make_report, rank_biserial
 from teleteach.study.schema import load_study
 from teleteach.study.storage import ParticipantStore

@@ -6,8 +6,8 @@ import textwrap
 import pytest
 import yaml
 
+from teleteach.questionnaire import TLX_NAMES
 from teleteach.study.parameters import check_parameter, launch_value, parameters_file
-from teleteach.study.questionnaire import TLX_NAMES
 from teleteach.study.schema import StudyError, load_study, parse_study
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]

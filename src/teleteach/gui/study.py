@@ -19,7 +19,7 @@ from typing import List, Optional, Tuple
 
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceSample, scale_to_index
-from teleteach.study.questionnaire import Item
+from teleteach.questionnaire import Item
 
 
 @dataclasses.dataclass(frozen=True)

@@ -34,8 +34,8 @@ from teleteach.gui.shared_tab import SharedStatus
 from teleteach.gui.study import StudyStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState, TreeExecution
 from teleteach.perception.observed import WORLD_FRAME, ObservedScene, observed_from_markers
+from teleteach.questionnaire import Item
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
-from teleteach.study.questionnaire import Item
 from teleteach.study_phase import Phase, phase_name
 from teleteach.trajectories import Trajectory
 

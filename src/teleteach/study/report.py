@@ -32,7 +32,7 @@ import numpy as np
 from scipy import stats
 
 from teleteach.datadir import atomic_write_bytes, atomic_write_text
-from teleteach.study.questionnaire import TLX_NAMES, raw_tlx
+from teleteach.questionnaire import TLX_NAMES, raw_tlx
 
 TRIAL_COLUMNS = (
     "participant",

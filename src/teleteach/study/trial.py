@@ -11,9 +11,9 @@ import dataclasses
 import threading
 from typing import Dict, Optional, Sequence, Tuple
 
+from teleteach.questionnaire import AnswerError, Item, check_answers
 from teleteach.study.goals import Judgement
 from teleteach.study.ordering import Step
-from teleteach.study.questionnaire import AnswerError, Item, check_answers
 from teleteach.study.schema import Study
 from teleteach.study_phase import Phase
 

@@ -4,6 +4,8 @@ NASA-TLX (Hart & Staveland 1988; NASA Task Load Index, paper-and-pencil version)
 in steps of 5; the raw TLX (Hart 2006) is their unweighted mean, without the 15 pairwise comparisons. Performance is
 the one subscale whose low end is good ("Perfect" .. "Failure"): raw TLX averages the ratings as given, so a high
 score always means a high workload.
+
+A word the study (which asks and scores) and the GUI (which shows the items) share, so it lives below both.
 """
 
 import dataclasses
