@@ -77,6 +77,23 @@ def test_the_library_has_no_import_cycle_at_module_level():
     assert find_cycle(graph) is None
 
 
+def part(module):
+    """The part of the house a module belongs to: its subpackage (teleteach.gui), or itself at the top."""
+    return ".".join(module.split(".")[:2])
+
+
+def test_no_import_runs_back_up_between_the_parts():
+    # Expect the parts (subpackages, and the shared modules at the top) to import each other without a loop, even
+    # through imports inside functions: a word two parts share lives below both (docs/architecture.md)
+    library = modules()
+    graph = {}
+    for name, (_, tree) in library.items():
+        targets = {part(target) for target in imported_names(tree, top_level_only=False) if target in library}
+        graph.setdefault(part(name), set()).update(targets - {part(name)})
+    assert {"teleteach.gui", "teleteach.study", "teleteach.sim", "teleteach.perception"} <= set(graph)
+    assert find_cycle(graph) is None
+
+
 def test_a_cycle_is_found_when_there_is_one():
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
 
