@@ -1,11 +1,12 @@
-"""Runs every rostest launch file in test/rostest: real nodes over a real roscore (started by rostest)."""
+"""Runs every rostest launch file in test/ros (each beside its check): real nodes over a real roscore (started by
+rostest)."""
 
 import subprocess
 
 import pytest
 from conftest import ROOT
 
-ROSTESTS = sorted((ROOT / "test" / "rostest").glob("*.test"))
+ROSTESTS = sorted((ROOT / "test" / "ros").glob("*.test"))  # each beside its check; CMakeLists.txt globs the same
 
 
 @pytest.mark.rostest

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""rostest check of the sigma7 node playing test/rostest/sigma7_scenario.yaml: values at the keyframes, twist on a
+"""rostest check of the sigma7 node playing test/ros/sigma7_scenario.yaml: values at the keyframes, twist on a
 linear segment, gripper, and exactly one rising edge on /sigma7/button for the one scripted flick."""
 
 import bisect

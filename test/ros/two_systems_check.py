@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Two simulated systems on one master, in /robot_1 and /robot_2 (test/rostest/two_systems.test): both trees run their
+"""Two simulated systems on one master, in /robot_1 and /robot_2 (test/ros/two_systems.test): both trees run their
 skills on their own robots; robot_1's tree is edited through /robot_1/change_tree and robot_2's is not touched (its
 published tree and its saved file), and the other way round; each namespace has its own TF and services, and only
 robot_1 publishes /clock."""
