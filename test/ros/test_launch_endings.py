@@ -10,6 +10,7 @@ from conftest import ROOT
 from ros_processes import Processes, start_roscore, start_xvfb, wait_until
 
 from teleteach import skill_file
+from teleteach.run.processes import required_death
 
 RECORDED = "add_skill DemonstratedPlace_1: added"  # the tree logs it once III-C's demonstration is a skill
 
@@ -27,13 +28,14 @@ def test_ctrl_c_of_a_recording_session_is_quiet_and_its_bag_is_learned_from(tmp_
                 "full.launch",
                 "headless:=true",
                 "device:=scenario",
+                "device_required:=true",  # a scripted operator whose wait fails ends the launch, saying why
                 "record:=true",
                 f"data_dir:={data}",
             ],
         )
         # the thesis scenario (config/scenarios/thesis_full.yaml): III-B, then III-C's recording in LOW-LEVEL
         wait_until(lambda: RECORDED in processes.log("full") or launch.poll() is not None, 600, "the recorded skill")
-        assert launch.poll() is None, processes.log("full")[-3000:]
+        assert launch.poll() is None, required_death(processes.log("full")) or processes.log("full")[-3000:]
         launch.send_signal(signal.SIGINT)
         launch.wait(120)
         output = processes.log("full")
