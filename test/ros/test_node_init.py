@@ -1,6 +1,6 @@
 """teleteach.node.init_node against a real roscore: the rosout parameter that keeps rospy's logging cheap is set
-to its default when missing, and a value the user chose is kept; a node without its yaml, or static_scene with a
-broken scene file, names what is wrong in one line."""
+to its default when missing, and a value the user chose is kept; static_scene with a broken scene file names what is
+wrong in one line (a node without its parameters: test/unit/test_node_start.py)."""
 
 import subprocess
 import sys
@@ -40,24 +40,6 @@ def test_init_node_sets_the_rosout_parameter_only_when_missing(tmp_path):
         assert rosparam(processes, "set", ROSOUT_TOPICS_PARAM, "true")[0] == 0
         assert run_probe(processes) == "True"
         assert rosparam(processes, "get", ROSOUT_TOPICS_PARAM) == (0, "true")
-
-
-def test_shared_control_without_its_yaml_names_the_missing_parameters_in_one_line(tmp_path):
-    node = subprocess.run(["rospack", "find", "teleteach"], capture_output=True, text=True, check=True).stdout.strip()
-    with Processes(tmp_path / "logs") as processes:
-        start_roscore(processes)
-        result = subprocess.run(
-            [sys.executable, f"{node}/nodes/shared_control", "_rate:=50.0"],
-            env=processes.env,
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
-    # Expect an exit with one fatal line naming what is missing (the yaml holds every value; no code defaults)
-    fatal = [line for line in result.stderr.splitlines() + result.stdout.splitlines() if "[FATAL]" in line]
-    assert result.returncode == 1
-    assert len(fatal) == 1, result.stdout + result.stderr
-    assert "shared_control: bad parameter: missing parameter ~plane, ~boundary, ~initial_state" in fatal[0]
 
 
 def test_static_scene_with_a_broken_scene_file_names_it_in_one_line(tmp_path):
