@@ -153,3 +153,49 @@ def test_exp_map_is_spd_for_large_steps_and_near_singular_bases(rng):
 def test_check_spd_names_the_problem(matrix, message):
     with pytest.raises(spd.SPDError, match=message):
         spd.check_spd(np.array([np.eye(matrix.shape[0]), matrix]), "stiffness")
+
+
+@pytest.mark.parametrize(
+    ("matrices", "message"),
+    [
+        (np.ones(3), "matrix must be square matrices, got shape (3,)"),
+        (np.ones((2, 3)), "matrix must be square matrices, got shape (2, 3)"),
+        (np.ones((2, 3, 2)), "matrix must be square matrices, got shape (2, 3, 2)"),
+        (np.ones((2, 0, 0)), "matrix must be square matrices, got shape (2, 0, 0)"),
+        (np.array([np.eye(2), np.eye(2), [[1.0, np.inf], [np.inf, 1.0]]]), "matrix sample 2 is not finite"),
+        (np.array([np.eye(2), [[1.0, 0.25], [0.0, 1.0]]]), "matrix sample 1 is not symmetric"),
+        (np.array([np.eye(2), np.diag([2.0, -0.5])]), "matrix sample 1 is not positive definite (smallest eigenvalue"),
+    ],
+)
+def test_check_spd_names_the_sample_and_the_shape_it_got(matrices, message):
+    with pytest.raises(spd.SPDError) as error:
+        spd.check_spd(matrices, tolerance=0.1)
+    assert str(error.value).startswith(message)
+
+
+def test_check_spd_judges_asymmetry_relative_to_each_sample_s_own_largest_entry():
+    # tolerance x (1 + largest entry): 0.1 x 2 = 0.2 for a unit matrix, whatever another sample's size
+    slightly = np.array([[1.0, 0.15], [0.0, 1.0]])
+    assert spd.check_spd(np.array([np.eye(2), slightly]), tolerance=0.1).shape == (2, 2, 2)
+    too_much = np.array([[1.0, 0.25], [0.0, 1.0]])
+    with pytest.raises(spd.SPDError, match="sample 1 is not symmetric"):
+        spd.check_spd(np.array([1000.0 * np.eye(2), too_much]), tolerance=0.1)
+    np.testing.assert_array_equal(spd.check_spd(np.eye(3)), np.eye(3))  # one matrix, no stack: returned as given
+
+
+def test_symmetric_and_inner_product_work_on_stacks(rng):
+    a = rng.standard_normal((4, 3, 3))
+    np.testing.assert_allclose(spd.symmetric(a), 0.5 * (a + np.transpose(a, (0, 2, 1))))
+    bases = np.array([random_spd(rng, 3) for _ in range(4)])
+    u, v = spd.symmetric(rng.standard_normal((2, 4, 3, 3)))
+    expected = [np.trace(np.linalg.inv(x) @ p @ np.linalg.inv(x) @ q) for x, p, q in zip(bases, u, v)]
+    np.testing.assert_allclose(spd.inner_product(bases, u, v), expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize("size", [1, 2, 4, 6, 10])
+def test_mandel_sizes_round_trip_and_other_lengths_are_refused(rng, size):
+    a = random_symmetric(rng, size)
+    assert spd.mandel_size(size * (size + 1) // 2) == size
+    np.testing.assert_allclose(spd.unmandel(spd.mandel(a)), a, rtol=1e-14)
+    with pytest.raises(ValueError, match=f"{size * (size + 1) // 2 + 1} is not the length of a Mandel vector"):
+        spd.mandel_size(size * (size + 1) // 2 + 1)

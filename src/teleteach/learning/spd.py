@@ -43,9 +43,9 @@ def check_spd(matrices, what: str = "matrix", tolerance: float = 1e-6):
         tolerance: accepted asymmetry relative to the largest entry.
     """
     array = np.asarray(matrices, dtype=float)
-    stack = array.reshape((-1, *array.shape[-2:])) if array.ndim >= 2 else array
-    if stack.ndim != 3 or stack.shape[-1] != stack.shape[-2] or stack.shape[-1] < 1:
+    if array.ndim < 2 or array.shape[-1] != array.shape[-2] or array.shape[-1] < 1:
         raise SPDError(f"{what} must be square matrices, got shape {array.shape}")
+    stack = array.reshape((-1, *array.shape[-2:]))
     bad = np.flatnonzero(~np.isfinite(stack).all(axis=(1, 2)))
     if bad.size:
         raise SPDError(f"{what} sample {bad[0]} is not finite")
