@@ -162,6 +162,7 @@ def test_the_bounds_themselves_are_accepted():
     np.testing.assert_allclose(v.validate_quaternion([0.0, 0.0, 0.0, 1.0009]), [0.0, 0.0, 0.0, 1.0])
     np.testing.assert_allclose(v.validate_quaternion([0.0, 0.0, 0.0, 0.9991]), [0.0, 0.0, 0.0, 1.0])
     x, y, yaw = v.validate_base_goal("world", [1.0, -2.0, 0.3], [0.0009, 0.0, 0.0, 1.0])
+    v.validate_base_goal("world", [0.0, 0.0, 0.0], [0.001, 0.0, 0.0, math.sqrt(1.0 - 1e-6)])  # tilted exactly 1e-3
     assert (x, y, yaw) == (1.0, -2.0, pytest.approx(0.0, abs=1e-9))
     assert v.validate_base_goal("world", [0.0, 0.0, 0.0], [0.0, 0.0, math.sin(0.3), math.cos(0.3)])[2] == pytest.approx(
         0.6
