@@ -29,6 +29,7 @@ def test_ctrl_c_of_a_recording_session_is_quiet_and_its_bag_is_learned_from(tmp_
                 "headless:=true",
                 "device:=scenario",
                 "device_required:=true",  # a scripted operator whose wait fails ends the launch, saying why
+                "device_rate:=250",  # as the main job plays it (run/thesis.py): a 1 kHz loop starves the 2 cores
                 "record:=true",
                 f"data_dir:={data}",
             ],
