@@ -181,6 +181,9 @@ def test_check_spd_judges_asymmetry_relative_to_each_sample_s_own_largest_entry(
     with pytest.raises(spd.SPDError, match="sample 1 is not symmetric"):
         spd.check_spd(np.array([1000.0 * np.eye(2), too_much]), tolerance=0.1)
     np.testing.assert_array_equal(spd.check_spd(np.eye(3)), np.eye(3))  # one matrix, no stack: returned as given
+    # exactly at the bound (0.5 x (1 + 1) = 1.0) is accepted, and a 1 x 1 stiffness is a matrix too
+    assert spd.check_spd(np.array([[1.0, 1.0], [0.0, 1.0]]), tolerance=0.5).shape == (2, 2)
+    assert spd.check_spd(np.full((4, 1, 1), 300.0)).shape == (4, 1, 1)
 
 
 def test_symmetric_and_inner_product_work_on_stacks(rng):
