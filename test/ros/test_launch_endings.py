@@ -44,6 +44,8 @@ def test_ctrl_c_of_a_recording_session_is_quiet_and_its_bag_is_learned_from(tmp_
     assert "Traceback" not in output, output[output.find("Traceback") - 2000 :][:6000]
     errors = [line for line in output.splitlines() if "[ERROR]" in line]
     assert errors == [], "\n".join(errors)
+    # Expect the taught skill in the launch's data_dir, not in the user's default one
+    assert (data / "skills" / "DemonstratedPlace_1.npz").is_file(), list((data / "skills").iterdir())
     # Expect learn_skill to learn from the bag that full.launch record:=true wrote (stamps of simulated time)
     bags = sorted((data / "bags").glob("session_*.bag"))
     assert len(bags) == 1, list((data / "bags").iterdir())

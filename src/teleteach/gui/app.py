@@ -566,13 +566,15 @@ def run() -> int:
 
     A bad parameter ends it with one line (exit status 2).
     """
+    parameters = dict(rospy.get_param("~", {}))
+    data_root = parameters.pop("data_dir", None)  # the launch's data directory (auto: $TELETEACH_DATA or the default)
     try:
-        config = GuiConfig.load(**rospy.get_param("~", {}))
+        config = GuiConfig.load(**parameters)
     except GuiConfigError as error:
         rospy.logfatal(f"teaching_gui cannot start: {error}")
         return 2
     app = QApplication.instance() or QApplication(list(sys.argv[:1]))
-    window = MainWindow(config)
+    window = MainWindow(config, data_root=data_root)
     window.show()
     watchdog = QTimer()
     watchdog.timeout.connect(lambda: rospy.is_shutdown() and window.close())
