@@ -248,3 +248,9 @@ def required_death(launch_log: str) -> str:
         if said:
             return f"{cause}: {said[-1]}"
     return cause
+
+
+def with_required_death(reason: str, launch_log: pathlib.Path) -> str:
+    """``reason`` a launch ended for, led by the required node that died in its log (if one did)."""
+    cause = required_death(launch_log.read_text(errors="replace")) if launch_log.exists() else ""
+    return f"{cause}; {reason}" if cause else reason

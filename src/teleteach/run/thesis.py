@@ -38,10 +38,10 @@ from teleteach.run.processes import (
     ProcessError,
     Processes,
     own_master,
-    required_death,
     ros_environment,
     screenshot,
     start_xvfb,
+    with_required_death,
 )
 from teleteach.scene import SceneError, load_scene
 
@@ -402,9 +402,9 @@ class ThesisRun:
 
     def _ended_early(self, launch) -> Tuple[bool, str]:
         """The reason a launch ended before the scenario did: the required node that died first, if one did."""
-        cause = required_death((self.folder / "launch.log").read_text(errors="replace"))
-        reason = f"roslaunch ended early (exit {launch.returncode}); see launch.log"
-        reason = f"{cause}; {reason}" if cause else reason
+        reason = with_required_death(
+            f"roslaunch ended early (exit {launch.returncode}); see launch.log", self.folder / "launch.log"
+        )
         self.say(f"run_thesis: stopped waiting: {reason}")
         return False, reason
 

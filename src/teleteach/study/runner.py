@@ -33,10 +33,10 @@ from teleteach.run.processes import (
     ProcessError,
     Processes,
     own_master,
-    required_death,
     ros_environment,
     screenshot,
     start_xvfb,
+    with_required_death,
 )
 from teleteach.scene import load_scene
 from teleteach.study.metrics import TrialMetrics
@@ -69,9 +69,7 @@ class TrialError(RuntimeError):
 
 def _ended(launch: subprocess.Popen, log: pathlib.Path) -> str:
     """Why a trial's system ended early: the required node that died and its last words (roslaunch's log), first."""
-    cause = required_death(log.read_text(errors="replace")) if log.exists() else ""
-    ended = f"the trial's system ended (roslaunch exit {launch.returncode}); see {log}"
-    return f"{cause}; {ended}" if cause else ended
+    return with_required_death(f"the trial's system ended (roslaunch exit {launch.returncode}); see {log}", log)
 
 
 @dataclasses.dataclass(frozen=True)
