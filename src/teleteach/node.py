@@ -1,9 +1,10 @@
-"""Starting a teleteach ROS node: ``--help`` without a master, the pinned libraries checked, then rospy.init_node.
+"""Starting a teleteach ROS node (``--help`` without a master, pins checked, init_node), and ending one quietly.
 
 Every executable in nodes/ starts through :func:`start`: its usage says what the node does and lists its parameters
 with their defaults and meanings, read from the node's ``config/*.yaml`` (the one place of defaults), so ``rosrun
 teleteach <node> --help`` answers at once, with or without a roscore. Then the libraries teleteach pins are checked
 (:mod:`teleteach.pins`): a wrong version that another install put first on the path stops the node in one line.
+At Ctrl-C, :func:`publish` drops what a timer sends while rospy closes the topics.
 """
 
 import argparse
@@ -168,3 +169,27 @@ def node_parameters(
         get_param = rospy.get_param
     defaults = yaml.safe_load(config_file(defaults_file).read_text()) or {}
     return {name: get_param(f"~{name}", value) for name, value in defaults.items()}
+
+
+def shutting_down() -> bool:
+    """True from the first moment of a shutdown: rospy closes every topic in a pre-shutdown hook, before is_shutdown."""
+    import rospy
+    import rospy.core
+
+    return rospy.core.is_shutdown_requested() or rospy.is_shutdown()
+
+
+def publish(publisher: typing.Any, message: typing.Any) -> None:
+    """``publisher.publish(message)``, or nothing during a shutdown: Ctrl-C closes every topic, maybe mid-publish.
+
+    Outside a shutdown a closed topic (or a bad message) still raises.
+    """
+    import rospy
+
+    if shutting_down():
+        return
+    try:
+        publisher.publish(message)
+    except (rospy.ROSException, ValueError, OSError):
+        if not shutting_down():
+            raise

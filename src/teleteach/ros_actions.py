@@ -57,12 +57,14 @@ class WallStatusTimer:
     def _run(self) -> None:
         import rospy
 
+        from teleteach.node import shutting_down
+
         while not self._stop.wait(self._period):
             for server in self._servers:
                 try:
                     server.publish_status_async(None)
                 except rospy.ROSException:
-                    if not rospy.is_shutdown():
+                    if not shutting_down():
                         raise
                     return  # Ctrl-C closed the topics while this cycle was sending: nothing to report
 

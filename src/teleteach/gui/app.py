@@ -35,9 +35,10 @@ from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.study import Page, StudyScreen, StudyStatus
 from teleteach.gui.study_page import StudyPage
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
-from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer, send
+from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.haptics.guidance import Guidance
 from teleteach.msg import HapticGuidance, Selection, TreeExecution
+from teleteach.node import publish
 from teleteach.skill_file import TARGET_FRAME
 from teleteach.srv import (
     AddSkill,
@@ -74,7 +75,7 @@ class MainWindow(QMainWindow):
         self._tab_publisher = rospy.Publisher("teleteach/active_tab", Int8, queue_size=1, latch=True)
         self._pause_publisher = rospy.Publisher("behaviour_tree/pause", Bool, queue_size=1, latch=True)
         self._recording_publisher = rospy.Publisher("teleteach/recording", Bool, queue_size=1, latch=True)
-        send(self._recording_publisher, Bool(False))
+        publish(self._recording_publisher, Bool(False))
         self._shared_control_publisher = rospy.Publisher("shared_control/enable", Bool, queue_size=1, latch=True)
         self._guidance_publisher = rospy.Publisher("sigma7/guidance", HapticGuidance, queue_size=1, latch=True)
         self._guidance = GuidanceDesigner(config)
@@ -82,7 +83,7 @@ class MainWindow(QMainWindow):
         self._device_sample = None
         self._sent_guidance: Optional[Guidance] = None
         self._guidance_sent_at = -math.inf
-        send(self._shared_control_publisher, Bool(False))
+        publish(self._shared_control_publisher, Bool(False))
         self._selection_publisher = rospy.Publisher("teleteach/selection", Selection, queue_size=20)
         self.study = StudyScreen(config)
         equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
@@ -189,8 +190,8 @@ class MainWindow(QMainWindow):
             Action.START_STIFFNESS_RECORDING: self._start_recording,
             Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
             Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,
-            Action.SHARED_CONTROL_ON: lambda: send(self._shared_control_publisher, Bool(True)),
-            Action.SHARED_CONTROL_OFF: lambda: send(self._shared_control_publisher, Bool(False)),
+            Action.SHARED_CONTROL_ON: lambda: publish(self._shared_control_publisher, Bool(True)),
+            Action.SHARED_CONTROL_OFF: lambda: publish(self._shared_control_publisher, Bool(False)),
             Action.START_SHARED_RECORDING: self._start_shared_recording,
             Action.STOP_SHARED_RECORDING: self._stop_shared_recording,
             Action.SAVE_SHARED_SKILL: self._save_shared_skill,
@@ -296,7 +297,7 @@ class MainWindow(QMainWindow):
         """A confirmed choice, for studies and bags (teleteach/Selection)."""
         message = Selection(tab=tab.name, step=step, choice=choice)
         message.header.stamp = rospy.Time.now()
-        send(self._selection_publisher, message)
+        publish(self._selection_publisher, message)
 
     def _on_health(self, problems: str) -> None:
         self.health_label.setText(problems)
@@ -325,7 +326,7 @@ class MainWindow(QMainWindow):
             return
         message = HapticGuidance(**guidance_fields(guidance))
         message.header.stamp = rospy.Time.now()
-        send(self._guidance_publisher, message)
+        publish(self._guidance_publisher, message)
         self._sent_guidance, self._guidance_sent_at = guidance, now
 
     # tabs -----------------------------------------------------------------------------------------
@@ -337,7 +338,7 @@ class MainWindow(QMainWindow):
         self.worker.reset_device_filter()
         for position, tab in enumerate(self._tab_widgets):
             tab.active = position == index
-        send(self._tab_publisher, Int8(index))
+        publish(self._tab_publisher, Int8(index))
         self._carry_out(self.session.tab_changed(index))
 
     def _carry_out(self, actions) -> None:
@@ -397,7 +398,7 @@ class MainWindow(QMainWindow):
         self.services.call("switch:" + start, SWITCH_SERVICE, SwitchController, request)
 
     def _pause_tree(self, paused: bool) -> None:
-        send(self._pause_publisher, Bool(paused))
+        publish(self._pause_publisher, Bool(paused))
 
     def _toggle_recording(self) -> None:
         self._carry_out(self.session.toggle_stiffness_recording())
@@ -423,7 +424,7 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage("recording not started: no /cartesian_pose of the arm yet", 15000)
             return
         self.recorder.start()
-        send(self._recording_publisher, Bool(True))
+        publish(self._recording_publisher, Bool(True))
         self.player.start(trajectory.resolve(self._teaching_target and self._teaching_target[1], hand))
         self.low_level.recording_since = time.monotonic()
         where = f" at {trajectory.target}" if trajectory.frame == TARGET_FRAME else ""
@@ -431,7 +432,7 @@ class MainWindow(QMainWindow):
 
     def _stop_recording(self) -> None:
         self.recorder.stop()
-        send(self._recording_publisher, Bool(False))
+        publish(self._recording_publisher, Bool(False))
         self.player.stop()
         self.low_level.recording_since = None
 
@@ -482,13 +483,13 @@ class MainWindow(QMainWindow):
 
     def _start_shared_recording(self) -> None:
         self.shared_recorder.start()
-        send(self._recording_publisher, Bool(True))
+        publish(self._recording_publisher, Bool(True))
         self.shared_control.recording_since = time.monotonic()
         self.statusBar().showMessage("recording the shared-control trajectory", 5000)
 
     def _stop_shared_recording(self) -> None:
         self.shared_recorder.stop()
-        send(self._recording_publisher, Bool(False))
+        publish(self._recording_publisher, Bool(False))
         self.shared_control.recording_since = None
         self.shared_control.show_status(self.shared_control.status)
 
@@ -553,7 +554,7 @@ class MainWindow(QMainWindow):
         """Idempotent: what closing the window does (the device is left without guidance: no force)."""
         if self.thread.isRunning():
             self._guidance_timer.stop()
-            send(self._guidance_publisher, HapticGuidance(**guidance_fields(self._guidance.free())))
+            publish(self._guidance_publisher, HapticGuidance(**guidance_fields(self._guidance.free())))
             self._carry_out(self.session.shutdown())
             self.player.stop()
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)

@@ -33,6 +33,7 @@ from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.gui.study import StudyStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState, TreeExecution
+from teleteach.node import publish, shutting_down
 from teleteach.perception.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.questionnaire import Item
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
@@ -47,17 +48,6 @@ def pose_to_array(pose) -> np.ndarray:
 
 
 DEVICE_LOST = "device lost (/sigma7/pose silent)"
-
-
-def send(publisher: rospy.Publisher, message) -> None:
-    """Publish, unless ROS is shutting down: Ctrl-C closes every topic, and the window closes within 0.2 s after."""
-    if rospy.is_shutdown():
-        return
-    try:
-        publisher.publish(message)
-    except (rospy.ROSException, ValueError, OSError):  # closed between the check and the write
-        if not rospy.is_shutdown():
-            raise
 
 
 def study_status(message: StudyState) -> StudyStatus:
@@ -145,7 +135,7 @@ class TrajectoryPlayer:
             p.x, p.y, p.z, q.x, q.y, q.z, q.w = (float(value) for value in pose)
             with self._lock:
                 self._current = pose
-            send(self._publisher, message)
+            publish(self._publisher, message)
             self._stop.wait(self._period)
 
 
@@ -598,7 +588,7 @@ class RosWorker(QObject):
     # worker thread timers -----------------------------------------------------------------------
     def _publish_stiffness(self) -> None:
         """The steady stream (and the recording's samples) at publish_rate while LOW-LEVEL is active."""
-        if rospy.is_shutdown():
+        if shutting_down():
             return  # Ctrl-C closed the publishers; the window closes within the watchdog's period
         if self.active_tab == Tab.SHARED_CONTROL:
             self._send_stiffness(self.config.shared_control_stiffness, (0.0, 0.0, 0.0, 1.0))
@@ -628,8 +618,8 @@ class RosWorker(QObject):
         eigenvectors.header = eigenvalues.header
         q = eigenvectors.quaternion
         q.x, q.y, q.z, q.w = quaternion
-        send(self._eigenvalues, eigenvalues)
-        send(self._eigenvectors, eigenvectors)
+        publish(self._eigenvalues, eigenvalues)
+        publish(self._eigenvectors, eigenvectors)
         return stamp
 
     def _emit_device(self) -> None:

@@ -53,6 +53,7 @@ from teleteach.haptics.scenario import (
 from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
+from teleteach.node import shutting_down
 from teleteach.paths import config_file
 from teleteach.study_phase import phase_name
 
@@ -172,7 +173,7 @@ class Sigma7Publisher:
         try:
             self._publish(state)
         except (rospy.ROSException, ValueError, OSError):
-            if not rospy.is_shutdown():
+            if not shutting_down():
                 raise
 
     def _publish(self, state: DeviceState) -> None:
