@@ -156,7 +156,8 @@ def node_parameters(
 ) -> typing.Dict[str, typing.Any]:
     """The node's parameters: the keys of ``config/<defaults_file>``, each overridden by its private parameter.
 
-    The yaml is the one place of their defaults; a launch file's ``<param>`` or ``_name:=value`` overrides one.
+    The yaml is the one place of their defaults; a launch file's ``<param>`` or ``_name:=value`` overrides one. A
+    mapping is overridden key by key (``~plane/origin`` alone keeps the yaml's ``plane/normal``).
     ``get_param(name, default)`` is ``rospy.get_param`` unless given.
     """
     import yaml
@@ -168,7 +169,38 @@ def node_parameters(
 
         get_param = rospy.get_param
     defaults = yaml.safe_load(config_file(defaults_file).read_text()) or {}
-    return {name: get_param(f"~{name}", value) for name, value in defaults.items()}
+    return {name: merged(value, get_param(f"~{name}", value)) for name, value in defaults.items()}
+
+
+def merged(default: typing.Any, override: typing.Any) -> typing.Any:
+    """``override``, except that two mappings merge key by key (nested)."""
+    if not (isinstance(default, dict) and isinstance(override, dict)):
+        return override
+    values = dict(default)
+    for key, value in override.items():
+        values[key] = merged(values[key], value) if key in values else value
+    return values
+
+
+def exit_on_bad_parameter(name: str, build: typing.Callable[[], typing.Any]) -> typing.Any:
+    """``build()``; a TypeError or ValueError (a bad parameter) ends the node with one fatal line (exit status 1)."""
+    import rospy
+
+    try:
+        return build()
+    except (TypeError, ValueError) as error:
+        rospy.logfatal(f"{name} cannot start: {error}")
+        sys.exit(1)
+
+
+def since_process_start() -> float:
+    """[s] since this process started (Linux: /proc), interpreter and imports included: a node's start-up time."""
+    import os
+    import pathlib
+
+    started_ticks = int(pathlib.Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[19])
+    uptime = float(pathlib.Path("/proc/uptime").read_text().split()[0])
+    return uptime - started_ticks / os.sysconf("SC_CLK_TCK")
 
 
 def shutting_down() -> bool:
@@ -193,3 +225,22 @@ def publish(publisher: typing.Any, message: typing.Any) -> None:
     except (rospy.ROSException, ValueError, OSError):
         if not shutting_down():
             raise
+
+
+def end_parent_launch(name: str) -> None:
+    """Ask the roslaunch that started this node to stop, as Ctrl-C would: a normal end, not a process that died.
+
+    (roslaunch ends a launch when a required node dies, but says so in red as a failure.)
+    """
+    import os
+    import pathlib
+    import signal
+
+    import rospy
+
+    parent = os.getppid()
+    command = pathlib.Path(f"/proc/{parent}/cmdline").read_bytes().replace(b"\0", b" ")
+    if b"roslaunch" in command:
+        os.kill(parent, signal.SIGINT)
+    else:
+        rospy.logwarn(f"{name}: end_launch, but no roslaunch started this node: nothing to end")

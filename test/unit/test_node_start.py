@@ -11,7 +11,7 @@ import yaml
 from conftest import ROOT
 
 from teleteach import pins
-from teleteach.node import parameters_help, yaml_parameters
+from teleteach.node import node_parameters, parameters_help, yaml_parameters
 
 NODES = sorted(path for path in (ROOT / "nodes").iterdir() if path.is_file())
 PARAMETER_FILES = {  # each node's yaml: every key must show in its --help
@@ -112,6 +112,30 @@ def test_shared_control_without_a_launch_file_runs_on_its_yaml(roscore, tmp_path
         process.wait(60)
     text = log.read_text()
     assert "shared_control: running" in text and "KeyError" not in text and "Traceback" not in text, text
+
+
+def test_a_nested_parameter_is_overridden_key_by_key():
+    """A launch that sets only ~plane/origin keeps the yaml's plane/normal (the server answers with what is set)."""
+    defaults = yaml.safe_load((ROOT / "config" / "shared_control.yaml").read_text())
+    overrides = {"~plane": {"origin": [0.5, 0.0, 0.4]}, "~twist_scale": 3.0}
+    parameters = node_parameters("shared_control.yaml", lambda name, default: overrides.get(name, default))
+    assert parameters["plane"] == {**defaults["plane"], "origin": [0.5, 0.0, 0.4]}
+    assert parameters["twist_scale"] == 3.0
+    assert parameters["boundary"] == defaults["boundary"]
+
+
+def test_a_bad_parameter_ends_the_node_in_one_fatal_line(roscore):
+    result = subprocess.run(
+        [str(ROOT / "nodes" / "shared_control"), "_solver:=fast", "_twist_projection:=[[1.0, 0.0]]"],
+        env=roscore,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    fatal = [line for line in result.stderr.splitlines() if "[FATAL]" in line]
+    assert result.returncode == 1 and len(fatal) == 1, result.stdout + result.stderr
+    assert "shared_control cannot start: twist_projection must be a finite 2 x 3 matrix" in fatal[0]
+    assert "Traceback" not in result.stdout + result.stderr
 
 
 def test_a_node_without_a_required_parameter_names_it_in_one_line(roscore):

@@ -43,9 +43,11 @@ from teleteach.haptics.guidance import (
 )
 from teleteach.haptics.hand import HandModelBackend, HandParameters
 from teleteach.haptics.loop import Decimated, DeviceLoop, DeviceState, ThrottledLog, WallRate
+from teleteach.haptics.monitor import DeviceMonitor
 from teleteach.haptics.scenario import (
     AT_END_CHOICES,
     ScenarioBackend,
+    ScenarioError,
     SystemState,
     check_clicks,
     load_scenario,
@@ -53,7 +55,7 @@ from teleteach.haptics.scenario import (
 from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
-from teleteach.node import shutting_down
+from teleteach.node import end_parent_launch, shutting_down
 from teleteach.paths import config_file
 from teleteach.study_phase import phase_name
 
@@ -487,3 +489,58 @@ def _study_phase(message: StudyState) -> str:
 
 def _running_nodes(message: BehaviourTree) -> frozenset:
     return frozenset(b.name for b in message.behaviours if b.status == Behaviour.RUNNING)
+
+
+class DeviceMonitorNode:
+    """Listens to /sigma7/* for the length of a scenario (from the sigma7 node's start time), then summarises it."""
+
+    def __init__(self, duration: float, start_param: str, margin: float, end_launch: bool):
+        self.duration, self.start_param, self.margin, self.end_launch = duration, start_param, margin, end_launch
+        self.monitor = DeviceMonitor()
+
+    @classmethod
+    def from_params(cls) -> "DeviceMonitorNode":
+        """From the private parameters; a missing or unreadable ~scenario raises ValueError naming it."""
+        if not rospy.has_param("~scenario"):
+            raise ValueError("missing parameter ~scenario (the scenario file to listen for)")
+        try:
+            duration = load_scenario(rospy.get_param("~scenario")).duration
+        except ScenarioError as error:
+            raise ValueError(str(error)) from None
+        return cls(
+            duration,
+            rospy.get_param("~start_param", "sigma7_node/scenario_start"),
+            float(rospy.get_param("~margin", 0.5)),
+            bool(rospy.get_param("~end_launch", False)),
+        )
+
+    def run(self) -> None:
+        """Subscribe, wait for the scenario's start and end, print the summary (and end the launch if asked)."""
+        monitor = self.monitor
+        rospy.Subscriber(
+            "sigma7/pose",
+            PoseStamped,
+            lambda msg: monitor.on_pose(
+                msg.header.stamp.to_sec(),
+                (msg.pose.position.x, msg.pose.position.y, msg.pose.position.z),
+                (msg.pose.orientation.x, msg.pose.orientation.y, msg.pose.orientation.z, msg.pose.orientation.w),
+            ),
+        )
+        rospy.Subscriber(
+            "sigma7/twist",
+            TwistStamped,
+            lambda msg: monitor.on_twist(
+                msg.header.stamp.to_sec(), (msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z)
+            ),
+        )
+        rospy.Subscriber("sigma7/gripper_angle", Float64, lambda msg: monitor.on_gripper(rospy.get_time(), msg.data))
+        rospy.Subscriber("sigma7/button", Bool, lambda msg: monitor.on_button(rospy.get_time(), msg.data))
+        while not rospy.has_param(self.start_param) and not rospy.is_shutdown():
+            rospy.sleep(0.05)
+        monitor.start_time = rospy.get_param(self.start_param)
+        end = monitor.start_time + self.duration + self.margin
+        while rospy.get_time() < end and not rospy.is_shutdown():
+            rospy.sleep(0.05)
+        print(monitor.summary(), flush=True)
+        if self.end_launch:
+            end_parent_launch("device_monitor")

@@ -203,6 +203,34 @@ class SharedControlNode:
 
     WARN_PERIOD = 5.0
 
+    @classmethod
+    def from_params(cls) -> "SharedControlNode":
+        """From the private parameters (defaults: config/shared_control.yaml, see launch/shared_control.launch)."""
+        from teleteach.node import node_parameters
+
+        parameters = node_parameters("shared_control.yaml")
+        boundary = parameters["boundary"]
+        return cls(
+            SharedControlConfig.from_parameters(parameters),
+            TaskPlane(**parameters["plane"]),
+            Box(*(float(v) for v in boundary)) if boundary else None,
+            tuple(float(v) for v in parameters["initial_state"]),
+            source=str(parameters["input"]),
+            twist_projection=parameters["twist_projection"],
+            twist_scale=float(parameters["twist_scale"]),
+            joy_axes=[int(v) for v in parameters["joy_axes"]],
+            joy_scale=[float(v) for v in parameters["joy_scale"]],
+            command_timeout=float(parameters["command_timeout"]),
+            command_delay=float(parameters["command_delay"]),
+            obstacle_timeout=float(parameters["obstacle_timeout"]),
+            frame_id=str(parameters["frame_id"]),
+            twist_deadband=float(parameters["twist_deadband"]),
+            enabled=bool(parameters["enabled"]),
+            approach_speed=float(parameters["approach_speed"]),
+            approach_turn_rate=float(parameters["approach_turn_rate"]),
+            state_from_arm=bool(parameters["state_from_arm"]),
+        )
+
     def __init__(
         self,
         config: SharedControlConfig,

@@ -8,7 +8,8 @@ from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from visualization_msgs.msg import Marker
 
 from teleteach.control.validation import InvalidCommandError
-from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder, drawn_as
+from teleteach.node import node_parameters
+from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder, EllipsoidScale, drawn_as
 
 
 class EllipsoidMarkerPublisher:
@@ -34,6 +35,17 @@ class EllipsoidMarkerPublisher:
 
     WARN_PERIOD = 5.0
     """Seconds between two warnings about the same topic's bad messages."""
+
+    @classmethod
+    def from_params(cls) -> "EllipsoidMarkerPublisher":
+        """Build from the private parameters (defaults: config/ellipsoid_marker.yaml)."""
+        params = node_parameters("ellipsoid_marker.yaml")
+        scale = EllipsoidScale(
+            metres_per_stiffness=float(params["metres_per_stiffness"]),
+            min_diameter=float(params["min_diameter"]),
+            max_diameter=float(params["max_diameter"]),
+        )
+        return cls(EllipsoidMarkerBuilder(scale, frame_id=params["frame_id"]), rate=float(params["rate"]))
 
     def __init__(self, builder: EllipsoidMarkerBuilder, rate: float):
         if not (math.isfinite(rate) and rate > 0.0):
