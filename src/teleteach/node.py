@@ -183,14 +183,14 @@ def merged(default: typing.Any, override: typing.Any) -> typing.Any:
 
 
 def exit_on_bad_parameter(name: str, build: typing.Callable[[], typing.Any]) -> typing.Any:
-    """``build()``; a TypeError or ValueError (a bad parameter) ends the node with one fatal line (exit status 1)."""
+    """``build()``; a TypeError or ValueError (a bad parameter or file) ends the node in one fatal line, status 2."""
     import rospy
 
     try:
         return build()
     except (TypeError, ValueError) as error:
         rospy.logfatal(f"{name} cannot start: {error}")
-        sys.exit(1)
+        sys.exit(2)
 
 
 def since_process_start() -> float:

@@ -133,9 +133,24 @@ def test_a_bad_parameter_ends_the_node_in_one_fatal_line(roscore):
         timeout=120,
     )
     fatal = [line for line in result.stderr.splitlines() if "[FATAL]" in line]
-    assert result.returncode == 1 and len(fatal) == 1, result.stdout + result.stderr
+    assert result.returncode == 2 and len(fatal) == 1, result.stdout + result.stderr
     assert "shared_control cannot start: twist_projection must be a finite 2 x 3 matrix" in fatal[0]
     assert "Traceback" not in result.stdout + result.stderr
+
+
+def test_a_bad_motion_file_ends_the_skill_server_in_one_fatal_line(roscore, tmp_path):
+    motion = tmp_path / "motion.yaml"
+    motion.write_text("speeds: fast\n")
+    result = subprocess.run(
+        [str(ROOT / "nodes" / "skill_server"), f"_motion_file:={motion}"],
+        env=roscore,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    fatal = [line for line in result.stderr.splitlines() + result.stdout.splitlines() if "[FATAL]" in line]
+    assert result.returncode == 2 and len(fatal) == 1, result.stdout + result.stderr
+    assert f"skill_server cannot start: {motion}" in fatal[0], fatal
 
 
 def test_a_node_without_a_required_parameter_names_it_in_one_line(roscore):
@@ -143,7 +158,7 @@ def test_a_node_without_a_required_parameter_names_it_in_one_line(roscore):
         [str(ROOT / "nodes" / "device_monitor")], env=roscore, capture_output=True, text=True, timeout=120
     )
     fatal = [line for line in result.stderr.splitlines() if "[FATAL]" in line]
-    assert result.returncode == 1 and len(fatal) == 1, result.stdout + result.stderr
+    assert result.returncode == 2 and len(fatal) == 1, result.stdout + result.stderr
     assert fatal[0].endswith(
         "device_monitor cannot start: missing parameter ~scenario (the scenario file to listen for)"
     )

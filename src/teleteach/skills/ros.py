@@ -440,6 +440,24 @@ class SkillServer:
         self._status = WallStatusTimer(self.servers.values())
         rospy.loginfo(f"skill_server: serving {', '.join(f'{namespace}/{name}' for name in SKILL_NAMES)}")
 
+    @classmethod
+    def from_params(cls) -> "SkillServer":
+        """From the private parameters: the site, the motion config and the robot (defaults: skill_server.yaml).
+
+        A bad scene or motion file raises its ValueError (SceneError, MotionConfigError) naming the file.
+        """
+        from teleteach.node import node_parameters
+        from teleteach.scene import load_site
+        from teleteach.sim.kinematics import PandaKinematics
+        from teleteach.skills.config import load_motion_config
+
+        site = load_site(rospy.get_param("~scene_file", None) or None)
+        config = load_motion_config(
+            rospy.get_param("~motion_file", None) or None, rospy.get_param("~controllers", None)
+        )
+        robot = RosRobot(config.position_controller, float(node_parameters("skill_server.yaml")["idle_after"]))
+        return cls(SkillRunner(robot, config, site, PandaKinematics(site.robot.mount_height)))
+
     def _execute(self, name, goal):
         server = self.servers[name]
         last = {"phase": None, "time": 0.0}
