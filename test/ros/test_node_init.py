@@ -58,4 +58,4 @@ def test_static_scene_with_a_broken_scene_file_names_it_in_one_line(tmp_path):
     # Expect: exit 2 with one fatal line naming the file and the missing section
     fatal = [line for line in result.stderr.splitlines() + result.stdout.splitlines() if "[FATAL]" in line]
     assert result.returncode == 2, result.stdout + result.stderr
-    assert len(fatal) == 1 and f"static_scene: {broken}: KeyError('pick_table')" in fatal[0], fatal
+    assert len(fatal) == 1 and f"static_scene cannot start: {broken}: KeyError('pick_table')" in fatal[0], fatal

@@ -88,6 +88,20 @@ class StaticSceneNode:
         ]
         self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._tick)
 
+    @classmethod
+    def from_params(cls) -> "StaticSceneNode":
+        """From the private parameters (defaults: config/static_scene.yaml); a bad scene file raises SceneError."""
+        from teleteach.node import node_parameters
+        from teleteach.scene import load_objects
+
+        params = node_parameters("static_scene.yaml")
+        objects = load_objects(params["scene_file"] or None)
+        scene = StaticScene(objects, params["attach_distance"], params["release_margin"])
+        node = cls(scene, float(params["rate"]), params["tcp_frame"], params["finger_joints"])
+        source = params["scene_file"] or "config/supermarket.yaml"
+        rospy.loginfo(f"static_scene: {len(objects.products)} products, {len(objects.gaps)} gaps from {source}")
+        return node
+
     def _on_joint_states(self, msg):
         positions = dict(zip(msg.name, msg.position))
         if all(name in positions for name in self.finger_joints):
