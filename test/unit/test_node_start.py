@@ -153,6 +153,21 @@ def test_a_bad_motion_file_ends_the_skill_server_in_one_fatal_line(roscore, tmp_
     assert f"skill_server cannot start: {motion}" in fatal[0], fatal
 
 
+def test_a_bad_uncertainty_file_ends_the_simulator_in_one_fatal_line(roscore, tmp_path):
+    uncertainty = tmp_path / "uncertainty.yaml"
+    uncertainty.write_text("seed: -3\n")
+    result = subprocess.run(
+        [str(ROOT / "nodes" / "robot_sim"), f"_uncertainty_file:={uncertainty}"],
+        env=roscore,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    fatal = [line for line in result.stderr.splitlines() + result.stdout.splitlines() if "[FATAL]" in line]
+    assert result.returncode == 2 and len(fatal) == 1, result.stdout + result.stderr
+    assert "robot_sim cannot start: " in fatal[0] and str(uncertainty) in fatal[0], fatal
+
+
 def test_a_node_without_a_required_parameter_names_it_in_one_line(roscore):
     result = subprocess.run(
         [str(ROOT / "nodes" / "device_monitor")], env=roscore, capture_output=True, text=True, timeout=120
