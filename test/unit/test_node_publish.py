@@ -1,5 +1,5 @@
-"""The GUI's publishes during a shutdown: rospy closes every topic in a pre-shutdown hook, before is_shutdown() turns
-true, and a timer that fires in that window must stay quiet (CI saw 'publish() to a closed topic' at Ctrl-C)."""
+"""node.publish during a shutdown: rospy closes every topic in a pre-shutdown hook, before is_shutdown() turns true,
+and a timer that fires in that window must stay quiet (CI saw the GUI's 'publish() to a closed topic' at Ctrl-C)."""
 
 import subprocess
 import sys
@@ -11,14 +11,14 @@ SHUTDOWN_RACE = """
 import rospy
 import rospy.core
 from std_msgs.msg import String
-from teleteach.node import publish as send
+from teleteach.node import publish
 
 rospy.core.set_initialized(True)
 publisher = rospy.Publisher("/gui_send_race", String, queue_size=1)
 def closed_then_published(reason):
     publisher.impl.close()
     assert not rospy.is_shutdown()
-    send(publisher, String(data="late"))
+    publish(publisher, String(data="late"))
     print("sent quietly")
 rospy.core.add_preshutdown_hook(closed_then_published)
 rospy.signal_shutdown("test")
@@ -29,12 +29,12 @@ CLOSED_WITHOUT_SHUTDOWN = """
 import rospy
 import rospy.core
 from std_msgs.msg import String
-from teleteach.node import publish as send
+from teleteach.node import publish
 
 rospy.core.set_initialized(True)
 publisher = rospy.Publisher("/gui_send_closed", String, queue_size=1)
 publisher.impl.close()
-send(publisher, String(data="lost"))
+publish(publisher, String(data="lost"))
 """
 
 
