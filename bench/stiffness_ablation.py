@@ -45,6 +45,7 @@ from teleteach.run.ablation import (
     INSERTION_START,
     PROFILES,
     SWEEP,
+    across_contrast,
     goals,
     insertion_stiffness,
     stiffness_profiles,
@@ -65,7 +66,9 @@ REPORTED_SEEDS = 1000  # trial k uses seed REPORTED_SEEDS + k (held out); --tuni
 DEFAULT_TRIALS = 30
 
 
-def run_cells(skills: Dict[str, skill_file.Skill], seeds: List[int], processes: int) -> Dict[str, List[dict]]:
+def run_cells(
+    skills: Dict[str, skill_file.Skill], seeds: List[int], processes: int, uncertainty_file: pathlib.Path
+) -> Dict[str, List[dict]]:
     """Every cell's trials (one per seed), spread over processes; prints progress."""
     with tempfile.TemporaryDirectory() as folder:
         paths = {name: skill_file.save(skill, pathlib.Path(folder) / skill.name) for name, skill in skills.items()}
@@ -74,7 +77,7 @@ def run_cells(skills: Dict[str, skill_file.Skill], seeds: List[int], processes: 
             for seed in seeds
             for name in skills
         ]
-        return run_trials(jobs, processes, lambda line: print(line, flush=True))
+        return run_trials(jobs, processes, lambda line: print(line, flush=True), str(uncertainty_file))
 
 
 def plot(results: dict, path: pathlib.Path) -> None:
@@ -151,6 +154,20 @@ def print_table(results: dict) -> None:
         )
 
 
+def print_contrast(contrasts: List[dict]) -> None:
+    """Compliant against stiff across the gap, on the trials that touched a neighbour (paired by seed)."""
+    print("\ncompliant vs stiff across the gap, on the trials where either moved a neighbour > 0.5 mm (same seeds):")
+    for row in contrasts:
+        moves, offsets = row["neighbour_move_m"], row["lateral_offset_m"]
+        print(
+            f"  {row['compliant']} vs {row['stiff']}: {row['touched']} of {row['trials']} trials touched; "
+            f"the compliant one moved the neighbour less in {row['compliant_moved_less']} "
+            f"(sign test p = {row['sign_test_p']:.3f}); "
+            f"median neighbour move {1000 * moves[0]:.1f} vs {1000 * moves[1]:.1f} mm, product off the gap's centre "
+            f"{1000 * offsets[0]:.1f} vs {1000 * offsets[1]:.1f} mm"
+        )
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
@@ -169,6 +186,13 @@ def main():
         help=f"insertion stiffnesses swept along and across the gap (default {' '.join(f'{v:g}' for v in SWEEP)})",
     )
     parser.add_argument("--skill", type=pathlib.Path, default=SKILL_FILE, help="the taught skill (in gap_1's frame)")
+    parser.add_argument(
+        "--uncertainty",
+        type=pathlib.Path,
+        default=DEFAULT_UNCERTAINTY_FILE,
+        help="what the robot gets wrong (format: config/uncertainty.yaml; default: that file)",
+    )
+    parser.add_argument("--output", type=pathlib.Path, default=None, help=f"the results (default {RESULTS})")
     options = parser.parse_args()
     started = time.perf_counter()
     scene = load_scene()
@@ -179,7 +203,7 @@ def main():
     first = 0 if options.tuning else REPORTED_SEEDS
     seeds = list(range(first, first + options.trials))
     print(f"{len(skills)} cells x {options.trials} trials on {options.processes} processes", flush=True)
-    trials = run_cells(skills, seeds, options.processes)
+    trials = run_cells(skills, seeds, options.processes, options.uncertainty)
     gap = scene.gap(GAP)
     sim_total = sum(trial["sim_s"] for cell in trials.values() for trial in cell)
     wall = time.perf_counter() - started
@@ -202,18 +226,20 @@ def main():
             "clearance_m": (gap.width - scene.product(PRODUCT).size[1]) / 2.0,
             "insertion_start_s": INSERTION_START,
             "high_stiffness_n_per_m": HIGH_STIFFNESS,
-            "uncertainty_file": str(DEFAULT_UNCERTAINTY_FILE),
+            "uncertainty_file": str(options.uncertainty),
             "total_wall_s": wall,
         },
         "trials": trials,
     }
     results["goals"] = goals(results)
+    results["across_contrast"] = across_contrast(trials, options.sweep)
     print_table(results)
+    print_contrast(results["across_contrast"])
     print(f"\nreal-time factor per process: {results['real_time_factor']:.1f} ({wall / 60:.1f} min wall)")
     for line in results["goals"]:
         print(line)
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    path = RESULTS if not options.tuning else RESULTS.with_name("stiffness_ablation_tuning.json")
+    path = options.output or (RESULTS if not options.tuning else RESULTS.with_name("stiffness_ablation_tuning.json"))
     path.write_text(json.dumps(results, indent=2))
     plot(results, path.with_suffix(".png"))
     print(f"wrote {path} and {path.with_suffix('.png')}")

@@ -8,12 +8,12 @@ from scipy.spatial.transform import Rotation
 
 from teleteach import skill_file
 from teleteach.learning.synthetic import placement_on_trajectory
-from teleteach.run.trials import TrialSetup, hold_product, run_trial, scene_around
+from teleteach.run.trials import TrialJob, TrialSetup, hold_product, run_trial, run_trials, scene_around
 from teleteach.scene import load_scene
 from teleteach.sim import panda
 from teleteach.sim.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import RobotSim
-from teleteach.sim.uncertainty import load_uncertainty
+from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, UncertaintyError, load_uncertainty
 from teleteach.skills.config import load_motion_config
 from teleteach.skills.runner import SkillRunner
 from teleteach.skills.sim_robot import SimRobot
@@ -125,3 +125,23 @@ def test_a_trial_that_pushes_a_neighbour_fails_in_the_world_whatever_the_skill_s
     )
     assert not result["success"]
     assert result["peak_neighbour_force_n"] > 1.0
+
+
+def test_the_trials_processes_meet_the_uncertainty_file_they_are_given(tmp_path):
+    """bench/stiffness_ablation.py --uncertainty: the file reaches every simulation process, a bad one stops all."""
+    exact = tmp_path / "exact.yaml"
+    text = DEFAULT_UNCERTAINTY_FILE.read_text()
+    exact.write_text(text.replace("  enabled: true ", "  enabled: false"))
+    assert exact.read_text().count("enabled: false") == 2  # MoveBase and perception
+    skill = skill_file.save(placement_on_trajectory("perpendicular"), tmp_path / "Place")
+    job = TrialJob("place", TrialSetup("product_pick_1", "gap_3", "place_gap_3", seed=5), str(skill))
+    results = run_trials([job], 1, progress=lambda line: None, uncertainty_file=str(exact))
+    (result,) = results["place"]
+    # Expect: the base stopped on its goal and perception saw the gap where it is: nothing left of the default errors
+    assert np.linalg.norm(result["base_error"]) == 0.0
+    assert np.linalg.norm(result["gap_perception_error"]) == 0.0
+    assert result["success"], result["message"]
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("seed: -1\n")
+    with pytest.raises(UncertaintyError, match=str(broken)):
+        run_trials([job], 1, progress=lambda line: None, uncertainty_file=str(broken))

@@ -10,6 +10,7 @@ from teleteach.run.ablation import (
     HIGH_STIFFNESS,
     INSERTION_START,
     SWEEP,
+    across_contrast,
     goals,
     insertion_stiffness,
     stiffness_profiles,
@@ -126,3 +127,37 @@ def test_the_goals_are_judged_from_the_figures():
     lines = goals(results_with({"constant_low": same, "constant_high": same, "taught": same, "sweep_a": same}))
     assert lines[0].startswith("not met: the world tells profiles apart (0 pairs")
     assert lines[1].startswith("not met: taught places at 100 %")  # its force is constant high's, not half of it
+
+
+def contact(seed, move, lateral):
+    return {"seed": seed, "neighbour_max_move_m": move, "lateral_m": lateral}
+
+
+def test_across_the_gap_compliant_and_stiff_are_compared_on_the_trials_that_touched_a_neighbour():
+    # seeds 0-5 touched: the compliant cell moved the neighbour less in five, more in one; seeds 6-9 touched nothing
+    compliant_moves = [0.0002, 0.0003, 0.0001, 0.0004, 0.0002, 0.003, 0.0001, 0.0001, 0.0, 0.0001]
+    stiff_moves = [0.0028, 0.0011, 0.0026, 0.0009, 0.0014, 0.001, 0.0001, 0.0002, 0.0001, 0.0]
+    compliant = [contact(seed, move, -0.005) for seed, move in enumerate(compliant_moves)]
+    stiff = [contact(seed, move, 0.007) for seed, move in enumerate(stiff_moves)]
+    trials = {
+        "sweep_150_150": compliant,
+        "sweep_150_3000": stiff,
+        "sweep_3000_150": compliant,
+        "sweep_3000_3000": list(reversed(stiff)),  # listed in another order: paired by seed, not by position
+        "constant_low": stiff,
+        "constant_high": compliant,  # the other way round: the compliant one is the stiffer here
+    }
+    first, second, profiles = across_contrast(trials, [3000.0, 150.0])
+    assert (first["compliant"], first["stiff"]) == ("sweep_150_150", "sweep_150_3000")
+    assert (second["compliant"], second["stiff"]) == ("sweep_3000_150", "sweep_3000_3000")
+    assert (profiles["compliant"], profiles["stiff"]) == ("constant_low", "constant_high")
+    for contrast in (first, second):
+        assert contrast["trials"] == 10 and contrast["touched"] == 6 and contrast["compliant_moved_less"] == 5
+        assert contrast["sign_test_p"] == pytest.approx(stats.binomtest(5, 6).pvalue)
+        assert contrast["neighbour_move_m"] == pytest.approx([0.00025, 0.00125])
+        assert contrast["lateral_offset_m"] == pytest.approx([0.005, 0.007])
+    assert profiles["compliant_moved_less"] == 1 and profiles["touched"] == 6
+    # a pair where no trial touched a neighbour says nothing
+    untouched = {name: [contact(seed, 0.0001, 0.0) for seed in range(5)] for name in trials}
+    quiet = across_contrast(untouched, [150.0, 3000.0])[0]
+    assert quiet["touched"] == 0 and quiet["sign_test_p"] == 1.0 and np.isnan(quiet["neighbour_move_m"][0])

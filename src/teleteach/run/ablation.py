@@ -10,6 +10,7 @@ import dataclasses
 from typing import Dict, List, Tuple
 
 import numpy as np
+from scipy.stats import binomtest
 
 from teleteach import skill_file
 from teleteach.run.outcome import PHASES
@@ -22,6 +23,8 @@ PROFILES = ("constant_low", "constant_high", "taught")
 # the other's, with non-overlapping intervals either way (issue 28's bar).
 SUCCESS_APART = 0.2
 FORCE_APART = 2.0
+# A trial touched a neighbour when it moved one more than this [m] (a product left alone settles by a tenth of a mm).
+CONTACT_MOVE = 0.0005
 GOAL_SUCCESS = 0.9  # the best taught profile places at least this often ...
 GOAL_FORCE_SHARE = 0.5  # ... with a median peak force of at most this share of constant high's
 
@@ -106,3 +109,48 @@ def goals(results: dict) -> List[str]:
             f"high's {high:.1f} N (goal: >= 90 %, <= 50 %)"
         )
     return lines
+
+
+def across_contrast(trials: Dict[str, List[dict]], sweep) -> List[dict]:
+    """Compliant against stiff across the gap, paired trial by trial (the same seed: the same errors and grasp).
+
+    For each stiffness along the gap, the sweep's softest and stiffest cells across it; and constant low against
+    constant high. Only the trials where either cell moved a neighbour (CONTACT_MOVE) say anything: in the others the
+    product never met the gap's sides. Per pair: those trials, how often the compliant cell moved the neighbour less,
+    a two-sided sign test, and the median neighbour move and lateral offset of each.
+    """
+    softest, stiffest = min(sweep), max(sweep)
+    pairs = [(sweep_name(along, softest), sweep_name(along, stiffest)) for along in sorted(set(sweep))]
+    pairs.append(("constant_low", "constant_high"))
+    contrasts = []
+    for compliant, stiff in pairs:
+        by_seed = {trial["seed"]: trial for trial in trials[stiff]}
+        paired = [(trial, by_seed[trial["seed"]]) for trial in trials[compliant] if trial["seed"] in by_seed]
+        touched = [
+            (a, b) for a, b in paired if max(a["neighbour_max_move_m"], b["neighbour_max_move_m"]) > CONTACT_MOVE
+        ]
+        less = sum(a["neighbour_max_move_m"] < b["neighbour_max_move_m"] for a, b in touched)
+        more = sum(a["neighbour_max_move_m"] > b["neighbour_max_move_m"] for a, b in touched)
+
+        def median(values):
+            return float(np.median(values)) if values else float("nan")
+
+        contrasts.append(
+            {
+                "compliant": compliant,
+                "stiff": stiff,
+                "trials": len(paired),
+                "touched": len(touched),
+                "compliant_moved_less": less,
+                "sign_test_p": binomtest(less, less + more).pvalue if less + more else 1.0,
+                "neighbour_move_m": [
+                    median([a["neighbour_max_move_m"] for a, _ in touched]),
+                    median([b["neighbour_max_move_m"] for _, b in touched]),
+                ],
+                "lateral_offset_m": [
+                    median([abs(a["lateral_m"]) for a, _ in touched]),
+                    median([abs(b["lateral_m"]) for _, b in touched]),
+                ],
+            }
+        )
+    return contrasts

@@ -277,12 +277,12 @@ class TrialJob:
 _process: dict = {}
 
 
-def _start_process() -> None:
+def _start_process(uncertainty_file: Optional[str]) -> None:
     scene = load_scene()
     _process.update(
         scene=scene,
         config=load_motion_config(),
-        uncertainty=load_uncertainty(),
+        uncertainty=load_uncertainty(uncertainty_file),
         kinematics=PandaKinematics(scene.robot.mount_height),
     )
 
@@ -301,14 +301,23 @@ def _run_job(job: TrialJob):
     return job.group, result
 
 
-def run_trials(jobs: Sequence[TrialJob], processes: int, progress: Callable[[str], None] = print) -> Dict[str, list]:
+def run_trials(
+    jobs: Sequence[TrialJob],
+    processes: int,
+    progress: Callable[[str], None] = print,
+    uncertainty_file: Optional[str] = None,
+) -> Dict[str, list]:
     """Run every job on ``processes`` parallel simulations; returns each group's results, ordered by seed.
 
-    Each process loads the default scene, motion configuration and uncertainty once.
+    Each process loads the default scene and motion configuration once, and the uncertainty of ``uncertainty_file``
+    (default: config/uncertainty.yaml).
     """
+    load_uncertainty(uncertainty_file)  # a bad file is named here, once, not in every process
     results: Dict[str, List[dict]] = {job.group: [] for job in jobs}
     step = max(1, len(jobs) // 20)
-    with multiprocessing.get_context("spawn").Pool(processes, initializer=_start_process) as pool:
+    with multiprocessing.get_context("spawn").Pool(
+        processes, initializer=_start_process, initargs=(uncertainty_file,)
+    ) as pool:
         for done, (group, result) in enumerate(pool.imap_unordered(_run_job, jobs), start=1):
             results[group].append(result)
             if done % step == 0 or done == len(jobs):
