@@ -44,10 +44,16 @@ def start(
         init: ``rospy.init_node`` (False: the caller inits later, e.g. robot_sim, whose --urdf only prints).
 
     A library at a version other than the pinned one ends the process with one line (exit status 1).
+
+    The node's log lines go out as they are written: rospy writes INFO to stdout without flushing, and Python
+    buffers a stdout that is a file or a pipe (``roslaunch ... | tee``, a CI log) by 8 KB, so a quiet node's lines
+    showed up minutes late or only at its exit.
     """
     import rospy
 
     from teleteach import pins
+
+    sys.stdout.reconfigure(line_buffering=True)
 
     parser = parser or argparse.ArgumentParser()
     parser.prog = name

@@ -95,11 +95,16 @@ def test_the_yaml_defaults_are_the_node_defaults_in_the_help():
 
 
 def test_shared_control_without_a_launch_file_runs_on_its_yaml(roscore, tmp_path):
-    """rosrun teleteach shared_control died with KeyError: '~'; its parameters now come from its yaml."""
+    """rosrun teleteach shared_control died with KeyError: '~'; its parameters now come from its yaml.
+
+    Its stdout is a file and PYTHONUNBUFFERED is unset, as in a CI log or ``roslaunch ... | tee``: the log line must
+    be there while the node runs, not only once it exits (CI waited 600 s for a quiet node's line).
+    """
     log = tmp_path / "shared_control.log"
+    env = {key: value for key, value in roscore.items() if key != "PYTHONUNBUFFERED"}
     with open(log, "w") as output:
         process = subprocess.Popen(
-            [str(ROOT / "nodes" / "shared_control"), "_solver:=fast"], env=roscore, stdout=output, stderr=output
+            [str(ROOT / "nodes" / "shared_control"), "_solver:=fast"], env=env, stdout=output, stderr=output
         )
     try:
         deadline = time.monotonic() + 120
@@ -107,11 +112,13 @@ def test_shared_control_without_a_launch_file_runs_on_its_yaml(roscore, tmp_path
             time.monotonic() < deadline and process.poll() is None and "shared_control: running" not in log.read_text()
         ):
             time.sleep(0.2)
+        running = process.poll() is None and "shared_control: running" in log.read_text()
     finally:
         process.send_signal(signal.SIGINT)
         process.wait(60)
     text = log.read_text()
-    assert "shared_control: running" in text and "KeyError" not in text and "Traceback" not in text, text
+    assert running, f"no log line while the node ran:\n{text}"
+    assert "KeyError" not in text and "Traceback" not in text, text
 
 
 def test_a_nested_parameter_is_overridden_key_by_key():
