@@ -131,56 +131,37 @@ def test_a_nested_parameter_is_overridden_key_by_key():
     assert parameters["boundary"] == defaults["boundary"]
 
 
-def test_a_bad_parameter_ends_the_node_in_one_fatal_line(roscore):
+def fatal_start(env, node, *arguments) -> str:
+    """Run a node that must not start: it exits with status 2 and one fatal line, returned."""
     result = subprocess.run(
-        [str(ROOT / "nodes" / "shared_control"), "_solver:=fast", "_twist_projection:=[[1.0, 0.0]]"],
-        env=roscore,
-        capture_output=True,
-        text=True,
-        timeout=120,
+        [str(ROOT / "nodes" / node), *arguments], env=env, capture_output=True, text=True, timeout=120
     )
-    fatal = [line for line in result.stderr.splitlines() if "[FATAL]" in line]
-    assert result.returncode == 2 and len(fatal) == 1, result.stdout + result.stderr
-    assert "shared_control cannot start: twist_projection must be a finite 2 x 3 matrix" in fatal[0]
-    assert "Traceback" not in result.stdout + result.stderr
+    output = result.stdout + result.stderr
+    fatal = [line for line in output.splitlines() if "[FATAL]" in line]
+    assert result.returncode == 2 and len(fatal) == 1, output
+    assert "Traceback" not in output, output
+    return fatal[0]
+
+
+def test_a_bad_parameter_ends_the_node_in_one_fatal_line(roscore):
+    fatal = fatal_start(roscore, "shared_control", "_solver:=fast", "_twist_projection:=[[1.0, 0.0]]")
+    assert "shared_control cannot start: twist_projection must be a finite 2 x 3 matrix" in fatal
 
 
 def test_a_bad_motion_file_ends_the_skill_server_in_one_fatal_line(roscore, tmp_path):
     motion = tmp_path / "motion.yaml"
     motion.write_text("speeds: fast\n")
-    result = subprocess.run(
-        [str(ROOT / "nodes" / "skill_server"), f"_motion_file:={motion}"],
-        env=roscore,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    fatal = [line for line in result.stderr.splitlines() + result.stdout.splitlines() if "[FATAL]" in line]
-    assert result.returncode == 2 and len(fatal) == 1, result.stdout + result.stderr
-    assert f"skill_server cannot start: {motion}" in fatal[0], fatal
+    assert f"skill_server cannot start: {motion}" in fatal_start(roscore, "skill_server", f"_motion_file:={motion}")
 
 
 def test_a_bad_uncertainty_file_ends_the_simulator_in_one_fatal_line(roscore, tmp_path):
     uncertainty = tmp_path / "uncertainty.yaml"
     uncertainty.write_text("seed: -3\n")
-    result = subprocess.run(
-        [str(ROOT / "nodes" / "robot_sim"), f"_uncertainty_file:={uncertainty}"],
-        env=roscore,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    fatal = [line for line in result.stderr.splitlines() + result.stdout.splitlines() if "[FATAL]" in line]
-    assert result.returncode == 2 and len(fatal) == 1, result.stdout + result.stderr
-    assert "robot_sim cannot start: " in fatal[0] and str(uncertainty) in fatal[0], fatal
+    fatal = fatal_start(roscore, "robot_sim", f"_uncertainty_file:={uncertainty}")
+    assert "robot_sim cannot start: " in fatal and str(uncertainty) in fatal, fatal
 
 
 def test_a_node_without_a_required_parameter_names_it_in_one_line(roscore):
-    result = subprocess.run(
-        [str(ROOT / "nodes" / "device_monitor")], env=roscore, capture_output=True, text=True, timeout=120
-    )
-    fatal = [line for line in result.stderr.splitlines() if "[FATAL]" in line]
-    assert result.returncode == 2 and len(fatal) == 1, result.stdout + result.stderr
-    assert fatal[0].endswith(
+    assert fatal_start(roscore, "device_monitor").endswith(
         "device_monitor cannot start: missing parameter ~scenario (the scenario file to listen for)"
     )

@@ -131,10 +131,6 @@ def across_contrast(trials: Dict[str, List[dict]], sweep) -> List[dict]:
         ]
         less = sum(a["neighbour_max_move_m"] < b["neighbour_max_move_m"] for a, b in touched)
         more = sum(a["neighbour_max_move_m"] > b["neighbour_max_move_m"] for a, b in touched)
-
-        def median(values):
-            return float(np.median(values)) if values else float("nan")
-
         contrasts.append(
             {
                 "compliant": compliant,
@@ -143,14 +139,15 @@ def across_contrast(trials: Dict[str, List[dict]], sweep) -> List[dict]:
                 "touched": len(touched),
                 "compliant_moved_less": less,
                 "sign_test_p": binomtest(less, less + more).pvalue if less + more else 1.0,
-                "neighbour_move_m": [
-                    median([a["neighbour_max_move_m"] for a, _ in touched]),
-                    median([b["neighbour_max_move_m"] for _, b in touched]),
-                ],
-                "lateral_offset_m": [
-                    median([abs(a["lateral_m"]) for a, _ in touched]),
-                    median([abs(b["lateral_m"]) for _, b in touched]),
-                ],
+                "neighbour_move_m": _medians(touched, lambda trial: trial["neighbour_max_move_m"]),
+                "lateral_offset_m": _medians(touched, lambda trial: abs(trial["lateral_m"])),
             }
         )
     return contrasts
+
+
+def _medians(pairs, value) -> List[float]:
+    """The median of ``value`` over the first and over the second trial of each pair (NaN without pairs)."""
+    if not pairs:
+        return [float("nan"), float("nan")]
+    return [float(np.median([value(pair[side]) for pair in pairs])) for side in (0, 1)]
