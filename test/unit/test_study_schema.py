@@ -6,8 +6,13 @@ import textwrap
 import pytest
 import yaml
 
+import teleteach.node
+from teleteach.gui.config import GuiConfig
+from teleteach.haptics.ros import Sigma7Config
+from teleteach.node import node_parameters
 from teleteach.questionnaire import TLX_NAMES
-from teleteach.study.parameters import check_parameter, launch_value, parameters_file
+from teleteach.shared_control.ros import SharedControlNode
+from teleteach.study.parameters import check_parameter, launch_value, node_defaults, parameters_file
 from teleteach.study.schema import StudyError, load_study, parse_study
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -221,3 +226,86 @@ def test_every_node_parameter_a_condition_may_set_is_one_its_node_reads():
     assert check_parameter("sigma7_node/hand/tremor_rms", 0) is None
     assert check_parameter("behaviour_tree/tick_rate", 20) is None
     assert check_parameter("sigma7_node/hand/seed", 2.5).startswith("sigma7_node/hand/seed must be integer")
+
+
+def changed(value):
+    """A value of the same type as ``value`` and different from it."""
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, (int, float)):
+        return value * 2 + 1
+    if isinstance(value, str):
+        return value + "_changed"
+    if isinstance(value, list):
+        return [changed(item) for item in value] if value else [1.0]
+    raise TypeError(value)
+
+
+def nested(flat):
+    """``{"a/b": 1}`` -> ``{"a": {"b": 1}}``: the parameters as the node finds them under its private namespace."""
+    tree = {}
+    for name, value in flat.items():
+        *groups, leaf = name.split("/")
+        node = tree
+        for group in groups:
+            node = node.setdefault(group, {})
+        node[leaf] = value
+    return tree
+
+
+def build_gui(parameters):
+    return GuiConfig.load(**parameters)
+
+
+def build_sigma7(parameters):
+    # backend and scenario are full.launch's arguments, not the yaml's
+    values = {"backend": "virtual", "scenario": "operator.yaml", **node_defaults("sigma7_node"), **parameters}
+    return Sigma7Config.from_params(lambda name, default: values.get(name.lstrip("~"), default))
+
+
+def built_node(node_class, parameters, monkeypatch):
+    """The arguments ``node_class.from_params`` builds its node with, its parameters overridden as a launch would."""
+    overrides = nested(parameters)
+    real = node_parameters
+
+    def from_yaml_and_overrides(defaults_file, get_param=None):
+        return real(defaults_file, lambda name, default: overrides.get(name.lstrip("~"), default))
+
+    monkeypatch.setattr(teleteach.node, "node_parameters", from_yaml_and_overrides)
+
+    class Captured(node_class):
+        def __init__(self, *args, **kwargs):
+            self.arguments = repr((args, kwargs))
+
+    return Captured.from_params().arguments
+
+
+@pytest.mark.parametrize("node", ["teaching_gui", "sigma7_node", "shared_control"])
+def test_every_parameter_a_study_may_set_reaches_its_node(node, monkeypatch):
+    # Expect: each parameter check_parameter accepts changes what the node is built with (or the node refuses the
+    # value), so that a condition setting it is never silently ignored
+    build = {
+        "teaching_gui": build_gui,
+        "sigma7_node": build_sigma7,
+        "shared_control": lambda parameters: built_node(SharedControlNode, parameters, monkeypatch),
+    }[node]
+    ignored = []
+    for name, value in node_defaults(node).items():
+        if isinstance(value, dict):
+            continue
+        assert check_parameter(f"{node}/{name}", value) is None
+        # a backend's axes are read when that backend runs, the hand model's parameters when it is on
+        context = (
+            {
+                "axes": {"backend": name.split("/")[-1]},
+                "hand": {"hand/enabled": True} if name != "hand/enabled" else {},
+            }.get(name.split("/")[0], {})
+            if node == "sigma7_node"
+            else {}
+        )
+        try:
+            if build({**context, name: changed(value)}) == build(context):
+                ignored.append(name)
+        except ValueError:
+            pass  # the node reads the value and refuses it
+    assert ignored == []
