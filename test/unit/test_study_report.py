@@ -9,7 +9,7 @@ from scipy import stats
 
 from teleteach.questionnaire import TLX_NAMES
 from teleteach.study.ordering import QUESTIONNAIRE
-from teleteach.study.report import ReportError, make_report, rank_biserial
+from teleteach.study.report import ReportError, compare, describe, make_report, rank_biserial
 from teleteach.study.schema import load_study
 from teleteach.study.storage import ParticipantStore
 
@@ -144,6 +144,39 @@ def test_the_rank_biserial_correlation_by_hand():
     # |d| ranks 1, 2, 3, 4: positive ranks 1 + 2 + 3 = 6, negative 4 -> (6 - 4) / 10; zeros are dropped
     assert rank_biserial([0.5, 1.0, 0.0, 2.0, -3.0]) == pytest.approx(0.2)
     assert rank_biserial([0.0, 0.0]) == 0.0
+    # ties share their rank: |d| 1, 1, 2 -> ranks 1.5, 1.5, 3: (1.5 + 3 - 1.5) / 6
+    assert rank_biserial([1.0, -1.0, 2.0]) == pytest.approx(0.5)
+    assert rank_biserial([2.0, 0.5]) == 1.0 and rank_biserial([-2.0, -0.5]) == -1.0
+
+
+def test_a_description_by_hand_leaves_out_what_is_missing_and_says_none_where_undefined():
+    # 1, 2, 6: mean 3, sd sqrt((4 + 1 + 9) / 2) = sqrt(7) (n - 1), median 2
+    assert describe([1.0, None, 2.0, float("nan"), 6.0]) == pytest.approx(
+        {"n": 3, "mean": 3.0, "sd": np.sqrt(7.0), "median": 2.0}
+    )
+    assert describe([1.0, 2.0]) == pytest.approx({"n": 2, "mean": 1.5, "sd": np.sqrt(0.5), "median": 1.5})
+    assert describe([5.0]) == {"n": 1, "mean": 5.0, "sd": None, "median": 5.0}
+    assert describe([None]) == {"n": 0, "mean": None, "sd": None, "median": None}
+
+
+def test_the_wilcoxon_comparison_by_hand():
+    pairs = {"P1": (3, 1), "P2": (5, 2), "P4": (2, 6), "P5": (7, 1), "P6": (1, 2), "P7": (9, 3)}
+    result = compare("task_time_s", "remove", "guided", "unguided", pairs)
+    assert (result.measure, result.task, result.first, result.second) == ("task_time_s", "remove", "guided", "unguided")
+    # medians of 1 2 3 5 7 9, of 1 1 2 2 3 6 and of the differences -4 -1 2 3 6 6
+    assert (result.n, result.median_first, result.median_second, result.median_difference) == (6, 4.0, 2.0, 2.5)
+    # |d| ranks: 2 -> 2, 3 -> 3, 4 -> 4, 6 -> 5.5, 1 -> 1, 6 -> 5.5: W+ = 16, W- = 5; exact two-sided p: 10 of the
+    # 64 sign patterns have W <= 5, so p = 2 * 10 / 64; r = (16 - 5) / 21
+    assert result.statistic == 5.0 and result.p_value == pytest.approx(20 / 64)
+    assert result.effect_size_r == pytest.approx(11 / 21) and result.note == ""
+    one = compare("task_time_s", "remove", "guided", "unguided", {"P1": (1, 1), "P2": (2, 2), "P3": (3, 4)})
+    assert (one.n, one.median_first, one.median_second, one.median_difference) == (3, 2.0, 2.0, 0.0)
+    assert one.statistic is None and one.p_value is None and one.effect_size_r is None
+    assert one.note == "no test: 1 participant(s) with a difference (of 3 paired)"
+    two = compare("task_time_s", "remove", "guided", "unguided", {"P1": (1, 2), "P2": (2, 4)})
+    assert two.p_value == pytest.approx(0.5) and two.effect_size_r == -1.0  # W = 0 of n = 2: p = 2 * 1 / 4
+    none = compare("task_time_s", "remove", "guided", "unguided", {})
+    assert (none.n, none.median_first, none.median_second, none.median_difference) == (0, None, None, None)
 
 
 def test_too_few_pairs_are_said_not_tested_and_incomplete_participants_are_named(tmp_path):
