@@ -1,7 +1,9 @@
 """study_report: the numbers of a study folder, checked against independent computations of the same data."""
 
 import csv
+import dataclasses
 import pathlib
+import textwrap
 
 import numpy as np
 import pytest
@@ -9,7 +11,17 @@ from scipy import stats
 
 from teleteach.questionnaire import TLX_NAMES
 from teleteach.study.ordering import QUESTIONNAIRE
-from teleteach.study.report import ReportError, compare, describe, make_report, rank_biserial
+from teleteach.study.report import (
+    Comparison,
+    Report,
+    ReportError,
+    StudyData,
+    compare,
+    describe,
+    make_report,
+    markdown,
+    rank_biserial,
+)
 from teleteach.study.schema import load_study
 from teleteach.study.storage import ParticipantStore
 
@@ -194,3 +206,110 @@ def test_a_folder_without_a_study_is_one_error(tmp_path):
         make_report(tmp_path / "nothing")
     with pytest.raises(ReportError, match=r"holds no participant \(no \*/plan.json\)"):
         make_report(tmp_path)
+
+
+def test_the_markdown_report_by_hand():
+    tlx = {name: 50.0 for name in TLX_NAMES}
+    data = StudyData(
+        name="demo",
+        folder=pathlib.Path("/study"),
+        trials=[{}, {}, {}],
+        questionnaires=[{"answers": {**tlx, "in_control": 4}}],
+        participants={"P01": (2, 2), "P02": (1, 2)},
+        conditions=["guided", "unguided"],
+        tasks=["remove"],
+    )
+    summary = {
+        "condition": "guided",
+        "task": "remove",
+        "trials": 3,
+        "successes": 2,
+        "task_time_s_mean": 12.345,
+        "task_time_s_sd": 1.25,
+        "task_time_s_median": 12.0,
+        "wrong_selections_mean": 0.333,
+        "wrong_selections_sd": None,
+        "wrong_selections_median": 0.0,
+        "undo_count_mean": 1.0,
+        "help_requests_mean": 0.5,
+        "peak_force_n_mean": 7.06,
+    }
+    tlx_row = {
+        "condition": "guided",
+        "participants": 1,
+        "raw_tlx_mean": 41.66,
+        "raw_tlx_sd": None,
+        "raw_tlx_median": 41.66,
+        **{f"{name}_mean": float(index) for index, name in enumerate(TLX_NAMES)},
+        "in_control_mean": 4.0,
+        "in_control_sd": None,
+        "in_control_median": 4.0,
+    }
+    tested = Comparison("task_time_s", "remove", "guided", "unguided", 6, 4.0, 2.0, 2.5, 5.0, 0.3125, 0.5238, "")
+    approximate = dataclasses.replace(tested, measure="wrong_selections", note="normal approximation")
+    untested = Comparison(
+        "raw_tlx", "all", "guided", "unguided", 1, 40.0, 45.0, -5.0, None, None, None, "no test: 1 participant(s)"
+    )
+    report = Report(
+        data,
+        [summary],
+        [],
+        [tlx_row],
+        [tested, approximate, untested],
+        pathlib.Path("/out"),
+        {"task_time": pathlib.Path("/out/task_time.png")},
+    )
+    subscales = " | ".join(TLX_NAMES)
+    assert markdown(report) == textwrap.dedent(
+        f"""\
+        # Study demo
+
+        2 participants (1 complete: P01), 3 trials, 1 questionnaires. Conditions: guided, unguided; tasks: remove.
+        Incomplete: P02 (1 of 2 steps); their finished trials are included, comparisons use the participants with \
+data in both conditions.
+
+        ## Per condition and task
+
+        | condition | task | trials | successes | task time mean [s] | sd | median | wrong selections mean | sd | \
+median | undo mean | help requests mean | peak force mean [N] |
+        |---|---|---|---|---|---|---|---|---|---|---|---|---|
+        | guided | remove | 3 | 2 | 12.3 | 1.2 | 12.0 | 0.33 | - | 0.0 | 1.00 | 0.50 | 7.1 |
+
+        Task time over successful trials; the other columns over all trials.
+
+        ## NASA-TLX (raw) per condition
+
+        | condition | participants | raw TLX mean | sd | median | {subscales} |
+        |---|---|---|---|---|---|---|---|---|---|---|
+        | guided | 1 | 41.7 | - | 41.7 | 0.0 | 1.0 | 2.0 | 3.0 | 4.0 | 5.0 |
+
+        Subscale columns: means (0-100; performance: 0 perfect, 100 failure).
+
+        ## Other questionnaire items per condition
+
+        | item | condition | participants | mean | sd | median |
+        |---|---|---|---|---|---|
+        | in_control | guided | 1 | 4.00 | - | 4.0 |
+
+        ## Paired comparisons (Wilcoxon signed-rank, two-sided)
+
+        | measure | task | conditions | n | medians | median difference | W | p | effect size r |
+        |---|---|---|---|---|---|---|---|---|
+        | task_time_s | remove | guided vs unguided | 6 | 4.00 vs 2.00 | 2.50 | 5.0 | 0.312 | 0.52 |
+        | wrong_selections | remove | guided vs unguided | 6 | 4.00 vs 2.00 | 2.50 | 5.0 | 0.312 (normal \
+approximation) | 0.52 |
+        | raw_tlx | all | guided vs unguided | 1 | 40.00 vs 45.00 | -5.00 | - | - | - (no test: 1 participant(s)) |
+
+        Each participant's mean under each condition (task time: successful trials) is one pair; zero differences are \
+dropped. Effect size: matched-pairs rank-biserial correlation (positive: higher under the first condition).
+
+        ## Figures and files
+
+        - `task_time.png`
+        - `trials.csv`
+        - `questionnaires.csv`
+        - `tlx.csv`
+        - `summary.csv`
+        - `comparisons.csv`
+        """
+    )
