@@ -16,6 +16,7 @@ from teleteach.study.report import (
     Report,
     ReportError,
     StudyData,
+    analyse,
     compare,
     describe,
     make_report,
@@ -313,3 +314,74 @@ dropped. Effect size: matched-pairs rank-biserial correlation (positive: higher 
         - `comparisons.csv`
         """
     )
+
+
+def test_the_analysis_by_hand():
+    def trial(participant, condition, task, success, time, wrong):
+        return {
+            "participant": participant,
+            "condition": condition,
+            "task": task,
+            "success": success,
+            "task_time_s": time,
+            "wrong_selections": wrong,
+            "undo_count": 0,
+            "help_requests": 1 if not success else 0,
+            "peak_force_n": 5.0,
+        }
+
+    def answers(participant, condition, tlx, in_control):
+        values = {name: tlx for name in TLX_NAMES} if tlx is not None else {}
+        return {"participant": participant, "condition": condition, "answers": {**values, "in_control": in_control}}
+
+    data = StudyData(
+        name="demo",
+        folder=pathlib.Path("/study"),
+        trials=[
+            trial("P1", "guided", "remove", True, 10.0, 1),
+            trial("P1", "unguided", "remove", True, 14.0, 2),
+            trial("P2", "guided", "remove", False, 30.0, 3),
+            trial("P2", "unguided", "remove", True, 12.0, 0),
+            trial("P1", "guided", "stiffen", True, 20.0, 0),
+            trial("P1", "unguided", "stiffen", True, 25.0, 0),
+        ],
+        questionnaires=[
+            answers("P1", "guided", 20.0, 5),
+            answers("P1", "unguided", 40.0, 3),
+            answers("P2", "guided", None, 4),  # the TLX left out: no raw TLX
+            answers("P2", "unguided", 60.0, 2),
+        ],
+        participants={"P1": (4, 4), "P2": (2, 4)},
+        conditions=["guided", "unguided"],
+        tasks=["remove", "stiffen"],
+    )
+    summary, tlx, tlx_summary, comparisons = analyse(data)
+    measures = ("task_time_s", "wrong_selections", "undo_count", "help_requests", "peak_force_n")
+    statistics = [f"{measure}_{statistic}" for measure in measures for statistic in ("mean", "sd", "median")]
+    assert [sorted(entry) for entry in summary] == [
+        sorted(["condition", "task", "trials", "successes", *statistics])
+    ] * 4
+    guided_remove = summary[0]
+    assert (guided_remove["condition"], guided_remove["task"], guided_remove["trials"]) == ("guided", "remove", 2)
+    # task time over the successful trial only; the other measures over both
+    assert (guided_remove["successes"], guided_remove["task_time_s_mean"], guided_remove["task_time_s_sd"]) == (
+        1,
+        10.0,
+        None,
+    )
+    assert (guided_remove["wrong_selections_mean"], guided_remove["help_requests_mean"]) == (2.0, 0.5)
+    assert [row["raw_tlx"] for row in tlx] == [20.0, 40.0, None, 60.0]
+    assert [
+        (row["condition"], row["participants"], row["in_control_mean"], row["raw_tlx_mean"]) for row in tlx_summary
+    ] == [
+        ("guided", 2, 4.5, 20.0),
+        ("unguided", 2, 2.5, 50.0),
+    ]
+    assert [(c.measure, c.task, c.first, c.second, c.n, c.median_first, c.median_second) for c in comparisons] == [
+        ("task_time_s", "remove", "guided", "unguided", 1, 10.0, 14.0),  # P2's guided trial failed: no pair
+        ("wrong_selections", "remove", "guided", "unguided", 2, 2.0, 1.0),
+        ("task_time_s", "stiffen", "guided", "unguided", 1, 20.0, 25.0),
+        ("wrong_selections", "stiffen", "guided", "unguided", 1, 0.0, 0.0),
+        ("raw_tlx", "(all)", "guided", "unguided", 1, 20.0, 40.0),
+        ("in_control", "(all)", "guided", "unguided", 2, 4.5, 2.5),
+    ]
