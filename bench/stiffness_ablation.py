@@ -10,8 +10,10 @@ config/scenarios/thesis_full.yaml as thesis III-C teaches it, stored in gap_1's 
 runner's ReplaySkill, relative to the perceived gap_1, with these stiffness profiles over the same trajectory:
 constant low (its first sample, the approach preset, throughout), constant high (3000 N/m on every axis), the taught
 profile, and a sweep of the insertion phase (from 5 s: thesis III-C's phase 3) over the stiffness along the
-insertion (the gap's x) and across the gap (its y), the approach and the alignment as taught. Every cell replays the
-same trials (trial k has the same base error, perception errors and grasp in every cell: a paired design).
+insertion (the gap's x) and across the gap (its y), the approach and the alignment as taught; with --vertical, also
+the taught profile with each given vertical stiffness (z) in the insertion: the axis that presses the product onto
+the shelf, where a placement's peak contact force comes from. Every cell replays the same trials (trial k has the
+same base error, perception errors and grasp in every cell: a paired design).
 
 Per cell: the success rate (judged from the true world: the product released upright in gap_1, no neighbour moved
 more than 1 cm) with its Wilson 95 % interval, the skill's own verdict (from its perceived scene) and how often it
@@ -23,6 +25,7 @@ Tuned on, held out: the trial seeds are 1000 + k. Seeds 0-99 (--tuning) are the 
 bench were developed on; the figures reported in the README come from the held-out seeds 1000 and up.
 
     source build/env.sh && python bench/stiffness_ablation.py [--trials 30] [--processes 2] [--tuning] [--sweep 150 ...]
+        [--vertical 300 1000 3000]
 """
 
 import os
@@ -50,6 +53,7 @@ from teleteach.run.ablation import (
     insertion_stiffness,
     stiffness_profiles,
     sweep_name,
+    vertical_name,
 )
 from teleteach.run.trials import TrialJob, TrialSetup, run_trials, summarise
 from teleteach.scene import load_scene
@@ -81,11 +85,13 @@ def run_cells(
 
 
 def plot(results: dict, path: pathlib.Path) -> None:
-    """Success and median peak force over the insertion sweep as heat maps, the three profiles marked beside."""
+    """Success and median peak force over the insertion sweep as heat maps, the three profiles marked beside, and over
+    the vertical stiffness when it was swept."""
     sweep = results["sweep"]
     values = sweep["stiffness_n_per_m"]
-    figure = Figure(figsize=(15, 5), layout="constrained")
-    success_axes, force_axes, profile_axes = figure.subplots(1, 3)
+    vertical = bool(results["vertical"]["cells"])
+    figure = Figure(figsize=(20 if vertical else 15, 5), layout="constrained")
+    success_axes, force_axes, profile_axes, *vertical_axes = figure.subplots(1, 4 if vertical else 3)
     for axes, key, title, colours, fmt in (
         (success_axes, "success_rate", "success rate (true world)", "RdYlGn", "{:.0%}"),
         (force_axes, "median_peak_force_n", "median peak contact force [N]", "viridis", "{:.0f}"),
@@ -132,7 +138,31 @@ def plot(results: dict, path: pathlib.Path) -> None:
     profile_axes.set_ylim(0.0, 1.05)
     profile_axes.set_ylabel("success rate, Wilson 95 %")
     profile_axes.set_title(f"the three profiles ({results['settings']['trials']} trials each)")
+    if vertical:
+        plot_vertical(vertical_axes[0], results["vertical"])
     figure.savefig(path, dpi=110)
+
+
+def plot_vertical(axes, vertical: dict) -> None:
+    """Success (Wilson 95 %) and median peak force (bootstrap 95 %) against the vertical insertion stiffness."""
+    values = vertical["stiffness_n_per_m"]
+    cells = [vertical["cells"][vertical_name(value)] for value in values]
+    rates = np.array([cell["success_rate"] for cell in cells])
+    intervals = np.array([cell["success_interval"] for cell in cells])
+    axes.errorbar(values, rates, yerr=[rates - intervals[:, 0], intervals[:, 1] - rates], fmt="s-", capsize=5)
+    axes.set_xscale("log")
+    axes.set_ylim(0.0, 1.05)
+    axes.set_xlabel("insertion stiffness vertical (z) [N/m]")
+    axes.set_ylabel("success rate, Wilson 95 % (squares)")
+    forces = axes.twinx()
+    medians = np.array([cell["median_peak_force_n"] for cell in cells])
+    force_intervals = np.array([cell["median_peak_force_interval"] for cell in cells])
+    forces.errorbar(
+        values, medians, yerr=[medians - force_intervals[:, 0], force_intervals[:, 1] - medians], fmt="ko-", capsize=5
+    )
+    forces.set_ylim(bottom=0.0)
+    forces.set_ylabel("median peak contact force [N] (dots)")
+    axes.set_title("the taught profile, vertical stiffness in the insertion")
 
 
 def print_table(results: dict) -> None:
@@ -143,7 +173,7 @@ def print_table(results: dict) -> None:
         f"side), seeds {settings['seeds'][0]}-{settings['seeds'][-1]}"
     )
     print(f"{'cell':22s} {'success':>17s} {'skill says':>10s} {'median peak force':>24s} {'max nb move':>11s}")
-    for name, row in {**results["profiles"], **results["sweep"]["cells"]}.items():
+    for name, row in {**results["profiles"], **results["sweep"]["cells"], **results["vertical"]["cells"]}.items():
         low, high = row["success_interval"]
         force_low, force_high = row["median_peak_force_interval"]
         print(
@@ -185,6 +215,14 @@ def main():
         metavar="N_PER_M",
         help=f"insertion stiffnesses swept along and across the gap (default {' '.join(f'{v:g}' for v in SWEEP)})",
     )
+    parser.add_argument(
+        "--vertical",
+        type=float,
+        nargs="*",
+        default=[],
+        metavar="N_PER_M",
+        help="vertical insertion stiffnesses, each a cell of the taught profile with it (default: none)",
+    )
     parser.add_argument("--skill", type=pathlib.Path, default=SKILL_FILE, help="the taught skill (in gap_1's frame)")
     parser.add_argument(
         "--uncertainty",
@@ -199,7 +237,8 @@ def main():
     taught = skill_file.load(options.skill)
     if taught.frame != skill_file.TARGET_FRAME:
         raise SystemExit(f"{options.skill}: a skill taught relative to a gap is needed (this one is in base_link)")
-    skills = stiffness_profiles(taught, sorted(options.sweep))
+    skills = stiffness_profiles(taught, sorted(options.sweep), sorted(options.vertical))
+    vertical_cells = [vertical_name(value) for value in sorted(options.vertical)]
     first = 0 if options.tuning else REPORTED_SEEDS
     seeds = list(range(first, first + options.trials))
     print(f"{len(skills)} cells x {options.trials} trials on {options.processes} processes", flush=True)
@@ -211,7 +250,13 @@ def main():
         "profiles": {name: summarise(trials[name]) for name in PROFILES},
         "sweep": {
             "stiffness_n_per_m": sorted(options.sweep),
-            "cells": {name: summarise(cell) for name, cell in trials.items() if name not in PROFILES},
+            "cells": {
+                name: summarise(cell) for name, cell in trials.items() if name not in (*PROFILES, *vertical_cells)
+            },
+        },
+        "vertical": {
+            "stiffness_n_per_m": sorted(options.vertical),
+            "cells": {name: summarise(trials[name]) for name in vertical_cells},
         },
         "profile_insertion_stiffness": {name: insertion_stiffness(skills[name]) for name in PROFILES},
         "real_time_factor": sim_total / (wall * options.processes),

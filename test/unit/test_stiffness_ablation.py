@@ -15,6 +15,7 @@ from teleteach.run.ablation import (
     insertion_stiffness,
     stiffness_profiles,
     sweep_name,
+    vertical_name,
 )
 from teleteach.run.trials import bootstrap_median_interval, summarise, wilson_interval
 
@@ -58,6 +59,21 @@ def test_the_profiles_change_only_the_stiffness_and_the_sweep_only_the_insertion
     )
     assert insertion_stiffness(cell) == (150.0, 3000.0)
     assert insertion_stiffness(taught) == (1900.0, 1900.0)
+
+
+def test_a_vertical_cell_is_the_taught_profile_with_its_z_stiffness_from_the_insertion_on():
+    taught = taught_skill()
+    profiles = stiffness_profiles(taught, sweep=(), vertical=(300.0, 1000.0))
+    assert list(profiles) == ["constant_low", "constant_high", "taught", "vertical_300", "vertical_1000"]
+    assert vertical_name(300.0) == "vertical_300"
+    cell = profiles["vertical_300"]
+    skill_file.validate(cell)
+    before = taught.time < INSERTION_START
+    np.testing.assert_array_equal(cell.stiffness[before], taught.stiffness[before])
+    np.testing.assert_array_equal(
+        cell.stiffness[~before], np.tile(np.diag([1900.0, 1900.0, 300.0]), ((~before).sum(), 1, 1))
+    )
+    np.testing.assert_array_equal(taught.stiffness[~before][:, 2, 2], 2000.0)  # the taught skill is left alone
 
 
 @pytest.mark.parametrize("successes, trials", [(0, 30), (3, 30), (27, 30), (30, 30), (10, 10), (0, 7), (12, 19)])
@@ -111,7 +127,8 @@ def results_with(cells):
     """Ablation results whose cells are summaries of the given (successes, peak force) per trial."""
     summaries = {name: summarise([trial(ok, peak) for ok, peak in rows]) for name, rows in cells.items()}
     profiles = {name: summaries.pop(name) for name in ("constant_low", "constant_high", "taught")}
-    return {"profiles": profiles, "sweep": {"cells": summaries}}
+    vertical = {name: summaries.pop(name) for name in list(summaries) if name.startswith("vertical_")}
+    return {"profiles": profiles, "sweep": {"cells": summaries}, "vertical": {"cells": vertical}}
 
 
 def test_the_goals_are_judged_from_the_figures():
@@ -127,6 +144,10 @@ def test_the_goals_are_judged_from_the_figures():
     lines = goals(results_with({"constant_low": same, "constant_high": same, "taught": same, "sweep_a": same}))
     assert lines[0].startswith("not met: the world tells profiles apart (0 pairs")
     assert lines[1].startswith("not met: taught places at 100 %")  # its force is constant high's, not half of it
+    soft = [(True, peak) for peak in rng.normal(6.0, 1.0, 30)]
+    lines = goals(results_with({"constant_low": same, "constant_high": same, "taught": same, "vertical_300": soft}))
+    assert lines[0].startswith("met: the world tells profiles apart (3 pairs")  # the vertical cell counts
+    assert lines[2].startswith("met: vertical_300 places at 100 %")
 
 
 def contact(seed, move, lateral):

@@ -2,8 +2,9 @@
 
 A profile replaces the translational stiffness of a taught skill (in its target's frame: x along the insertion, y
 across the gap) and keeps everything else: constant low (the skill's first sample, the operator's approach preset,
-throughout), constant high (the controller's maximum on every axis), the taught profile, and a sweep of the insertion
-phase (thesis III-C's phase 3) over the stiffness along and across the gap.
+throughout), constant high (the controller's maximum on every axis), the taught profile, a sweep of the insertion
+phase (thesis III-C's phase 3) over the stiffness along and across the gap, and (when asked) one over its vertical
+stiffness: the axis that sets the product down on the shelf, where the peak contact force of a placement comes from.
 """
 
 import dataclasses
@@ -29,12 +30,13 @@ GOAL_SUCCESS = 0.9  # the best taught profile places at least this often ...
 GOAL_FORCE_SHARE = 0.5  # ... with a median peak force of at most this share of constant high's
 
 
-def stiffness_profiles(taught: skill_file.Skill, sweep=SWEEP) -> Dict[str, skill_file.Skill]:
+def stiffness_profiles(taught: skill_file.Skill, sweep=SWEEP, vertical=()) -> Dict[str, skill_file.Skill]:
     """The skills compared, by cell name: the taught trajectory with its stiffness replaced.
 
     Only the translational stiffness differs: times, poses and the rotational stiffness are the taught ones. The
-    stiffness is in the skill's frame (gap_1's: x along the insertion, y across the gap). Sweep cells are named
-    ``sweep_<along>_<across>`` and keep the taught stiffness before INSERTION_START and its vertical stiffness after.
+    stiffness is in the skill's frame (gap_1's: x along the insertion, y across the gap, z up). Sweep cells are named
+    ``sweep_<along>_<across>`` and keep the taught stiffness before INSERTION_START and its vertical stiffness after;
+    vertical cells (``vertical_<z>``, one per value of ``vertical``) are the taught profile with z from INSERTION_START.
     """
     count = len(taught.time)
     stiffness = {
@@ -48,6 +50,10 @@ def stiffness_profiles(taught: skill_file.Skill, sweep=SWEEP) -> Dict[str, skill
             profile = taught.stiffness.copy()
             profile[insertion] = [np.diag([along, across, matrix[2, 2]]) for matrix in taught.stiffness[insertion]]
             stiffness[sweep_name(along, across)] = profile
+    for value in vertical:
+        profile = taught.stiffness.copy()
+        profile[insertion, 2, 2] = value
+        stiffness[vertical_name(value)] = profile
     return {
         name: dataclasses.replace(taught, name=f"{taught.name}_{name}", stiffness=matrices)
         for name, matrices in stiffness.items()
@@ -59,6 +65,11 @@ def sweep_name(along: float, across: float) -> str:
     return f"sweep_{along:.0f}_{across:.0f}"
 
 
+def vertical_name(stiffness: float) -> str:
+    """The cell of the vertical sweep with this insertion stiffness along z [N/m]."""
+    return f"vertical_{stiffness:.0f}"
+
+
 def insertion_stiffness(skill: skill_file.Skill) -> Tuple[float, float]:
     """Median stiffness along (x) and across (y) the gap [N/m] in the insertion phase of a skill in the gap's frame."""
     insertion = skill.time - skill.time[0] >= INSERTION_START
@@ -67,7 +78,7 @@ def insertion_stiffness(skill: skill_file.Skill) -> Tuple[float, float]:
 
 def goals(results: dict) -> List[str]:
     """Issue 28's two ablation goals, each judged from the figures: met / not met and why."""
-    cells = {**results["profiles"], **results["sweep"]["cells"]}
+    cells = {**results["profiles"], **results["sweep"]["cells"], **results["vertical"]["cells"]}
     lines = []
     apart = []
     for first in cells:
