@@ -151,6 +151,8 @@ def plot_vertical(axes, vertical: dict) -> None:
     intervals = np.array([cell["success_interval"] for cell in cells])
     axes.errorbar(values, rates, yerr=[rates - intervals[:, 0], intervals[:, 1] - rates], fmt="s-", capsize=5)
     axes.set_xscale("log")
+    axes.set_xticks(values, [f"{value:.0f}" for value in values])
+    axes.minorticks_off()
     axes.set_ylim(0.0, 1.05)
     axes.set_xlabel("insertion stiffness vertical (z) [N/m]")
     axes.set_ylabel("success rate, Wilson 95 % (squares)")
