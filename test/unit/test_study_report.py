@@ -186,6 +186,14 @@ def test_the_wilcoxon_comparison_by_hand():
     assert (one.n, one.median_first, one.median_second, one.median_difference) == (3, 2.0, 2.0, 0.0)
     assert one.statistic is None and one.p_value is None and one.effect_size_r is None
     assert one.note == "no test: 1 participant(s) with a difference (of 3 paired)"
+    assert (one.measure, one.task, one.first, one.second) == ("task_time_s", "remove", "guided", "unguided")
+    # a zero difference: scipy's normal approximation, both of its warnings in the note; d = 3, -4, 6, -1, 6 without
+    # the zero: |d| ranks 2, 3, 4.5, 1, 4.5, so W- = 3 + 1
+    zero = compare("task_time_s", "remove", "guided", "unguided", {**pairs, "P1": (3, 3)})
+    assert zero.statistic == 4.0 and zero.note == (
+        "Exact p-value calculation does not work if there are zeros. Switching to normal approximation.; "
+        "Sample size too small for normal approximation."
+    )
     two = compare("task_time_s", "remove", "guided", "unguided", {"P1": (1, 2), "P2": (2, 4)})
     assert two.p_value == pytest.approx(0.5) and two.effect_size_r == -1.0  # W = 0 of n = 2: p = 2 * 1 / 4
     none = compare("task_time_s", "remove", "guided", "unguided", {})
@@ -198,6 +206,10 @@ def test_too_few_pairs_are_said_not_tested_and_incomplete_participants_are_named
     assert all(comparison.p_value is None for comparison in report.comparisons)
     note = next(c for c in report.comparisons if (c.measure, c.task) == ("task_time_s", "remove_place_item")).note
     assert note == "no test: 0 participant(s) with a difference (of 0 paired)"
+    # Expect: an undefined value is an empty cell, lines end in a bare newline
+    written = (tmp_path / "out" / "comparisons.csv").read_bytes()
+    assert b"\r" not in written
+    assert {row["p_value"] for row in read_csv(tmp_path / "out" / "comparisons.csv")} == {""}
     markdown = (tmp_path / "out" / "report.md").read_text()
     assert "Incomplete: P01 (5 of 10 steps), P02 (5 of 10 steps)" in markdown
 
