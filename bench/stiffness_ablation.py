@@ -234,6 +234,9 @@ def main():
     )
     parser.add_argument("--output", type=pathlib.Path, default=None, help=f"the results (default {RESULTS})")
     options = parser.parse_args()
+    for value in (*options.sweep, *options.vertical):
+        if not 0.0 < value <= HIGH_STIFFNESS:
+            parser.error(f"a stiffness must lie in (0, {HIGH_STIFFNESS:g}] N/m (the controller's range), got {value:g}")
     started = time.perf_counter()
     scene = load_scene()
     taught = skill_file.load(options.skill)

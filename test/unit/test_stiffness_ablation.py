@@ -182,3 +182,7 @@ def test_across_the_gap_compliant_and_stiff_are_compared_on_the_trials_that_touc
     untouched = {name: [contact(seed, 0.0001, 0.0) for seed in range(5)] for name in trials}
     quiet = across_contrast(untouched, [150.0, 3000.0])[0]
     assert quiet["touched"] == 0 and quiet["sign_test_p"] == 1.0 and np.isnan(quiet["neighbour_move_m"][0])
+    # one stiffness swept: only the profiles are compared (a cell against itself says nothing)
+    assert [(c["compliant"], c["stiff"]) for c in across_contrast(trials, [3000.0])] == [
+        ("constant_low", "constant_high")
+    ]

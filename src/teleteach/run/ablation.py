@@ -132,6 +132,7 @@ def across_contrast(trials: Dict[str, List[dict]], sweep) -> List[dict]:
     """
     softest, stiffest = min(sweep), max(sweep)
     pairs = [(sweep_name(along, softest), sweep_name(along, stiffest)) for along in sorted(set(sweep))]
+    pairs = pairs if softest < stiffest else []  # one stiffness swept: no compliant and stiff cell across
     pairs.append(("constant_low", "constant_high"))
     contrasts = []
     for compliant, stiff in pairs:
