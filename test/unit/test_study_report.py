@@ -120,7 +120,24 @@ def test_the_report_s_numbers_are_those_of_the_trials(tmp_path):
     first = next(row for row in tlx if (row["participant"], row["condition"]) == ("P01", "guided"))
     assert float(first["raw_tlx"]) == pytest.approx(np.mean([float(first[name]) for name in TLX_NAMES]))
     assert len(read_csv(report.folder / "questionnaires.csv")) == 12 * 7
+    assert report.folder == folder / "report" and len(report.tlx) == 12
+    # Expect each CSV's columns: the answers one per line, the TLX with the study's own items after the subscales,
+    # the summary with every figure of report.summary
+    answers = read_csv(report.folder / "questionnaires.csv")
+    assert list(answers[0]) == ["participant", "condition", "item", "value"]
+    conditions = {"guided", "unguided"}
+    assert {(row["participant"], row["condition"]) for row in answers} == {
+        (p, c) for p in PARTICIPANTS for c in conditions
+    }
+    assert list(tlx[0])[: 3 + len(TLX_NAMES)] == ["participant", "condition", "raw_tlx", *TLX_NAMES]
+    assert list(tlx[0])[3 + len(TLX_NAMES) :] == sorted({row["item"] for row in answers} - set(TLX_NAMES))
+    assert list(read_csv(report.folder / "summary.csv")[0]) == list(report.summary[0])
+    again = make_report(folder)  # a report made again replaces the first
+    assert again.folder == report.folder and (again.folder / "report.md").is_file()
+    nested = make_report(folder, tmp_path / "a" / "b")  # an output folder is created with its parents
+    assert (nested.folder / "report.md").is_file()
     markdown = (report.folder / "report.md").read_text()
+    assert markdown.startswith(f"# Study {folder.name}\n")
     assert "6 participants (6 complete: P01, P02, P03, P04, P05, P06), 48 trials, 12 questionnaires" in markdown
     assert "| guided | remove_place_item | 12 | 11 |" in markdown
     for figure in ("task_time.png", "wrong_selections.png", "tlx.png", "learning_curves.png"):
@@ -241,9 +258,9 @@ def test_the_markdown_report_by_hand():
         "task_time_s_sd": 1.25,
         "task_time_s_median": 12.0,
         "wrong_selections_mean": 0.333,
-        "wrong_selections_sd": None,
+        "wrong_selections_sd": 0.4567,
         "wrong_selections_median": 0.0,
-        "undo_count_mean": 1.0,
+        "undo_count_mean": None,
         "help_requests_mean": 0.5,
         "peak_force_n_mean": 7.06,
     }
@@ -251,11 +268,11 @@ def test_the_markdown_report_by_hand():
         "condition": "guided",
         "participants": 1,
         "raw_tlx_mean": 41.66,
-        "raw_tlx_sd": None,
+        "raw_tlx_sd": 3.26,
         "raw_tlx_median": 41.66,
         **{f"{name}_mean": float(index) for index, name in enumerate(TLX_NAMES)},
         "in_control_mean": 4.0,
-        "in_control_sd": None,
+        "in_control_sd": 0.5,
         "in_control_median": 4.0,
     }
     tested = Comparison("task_time_s", "remove", "guided", "unguided", 6, 4.0, 2.0, 2.5, 5.0, 0.3125, 0.5238, "")
@@ -286,7 +303,7 @@ data in both conditions.
         | condition | task | trials | successes | task time mean [s] | sd | median | wrong selections mean | sd | \
 median | undo mean | help requests mean | peak force mean [N] |
         |---|---|---|---|---|---|---|---|---|---|---|---|---|
-        | guided | remove | 3 | 2 | 12.3 | 1.2 | 12.0 | 0.33 | - | 0.0 | 1.00 | 0.50 | 7.1 |
+        | guided | remove | 3 | 2 | 12.3 | 1.2 | 12.0 | 0.33 | 0.46 | 0.0 | - | 0.50 | 7.1 |
 
         Task time over successful trials; the other columns over all trials.
 
@@ -294,7 +311,7 @@ median | undo mean | help requests mean | peak force mean [N] |
 
         | condition | participants | raw TLX mean | sd | median | {subscales} |
         |---|---|---|---|---|---|---|---|---|---|---|
-        | guided | 1 | 41.7 | - | 41.7 | 0.0 | 1.0 | 2.0 | 3.0 | 4.0 | 5.0 |
+        | guided | 1 | 41.7 | 3.3 | 41.7 | 0.0 | 1.0 | 2.0 | 3.0 | 4.0 | 5.0 |
 
         Subscale columns: means (0-100; performance: 0 perfect, 100 failure).
 
@@ -302,7 +319,7 @@ median | undo mean | help requests mean | peak force mean [N] |
 
         | item | condition | participants | mean | sd | median |
         |---|---|---|---|---|---|
-        | in_control | guided | 1 | 4.00 | - | 4.0 |
+        | in_control | guided | 1 | 4.00 | 0.50 | 4.0 |
 
         ## Paired comparisons (Wilcoxon signed-rank, two-sided)
 
