@@ -49,6 +49,7 @@ from teleteach.run.ablation import (
     PROFILES,
     SWEEP,
     across_contrast,
+    all_cells,
     goals,
     insertion_stiffness,
     stiffness_profiles,
@@ -175,7 +176,7 @@ def print_table(results: dict) -> None:
         f"side), seeds {settings['seeds'][0]}-{settings['seeds'][-1]}"
     )
     print(f"{'cell':22s} {'success':>17s} {'skill says':>10s} {'median peak force':>24s} {'max nb move':>11s}")
-    for name, row in {**results["profiles"], **results["sweep"]["cells"], **results["vertical"]["cells"]}.items():
+    for name, row in all_cells(results).items():
         low, high = row["success_interval"]
         force_low, force_high = row["median_peak_force_interval"]
         print(

@@ -280,6 +280,19 @@ def built_node(node_class, parameters, monkeypatch):
     return Captured.from_params().arguments
 
 
+def read_when(node, name):
+    """The other parameters under which the node reads ``name``: a backend's axes when that backend runs, the hand
+    model's parameters when the model is on."""
+    if node != "sigma7_node":
+        return {}
+    group, _, leaf = name.partition("/")
+    if group == "axes":
+        return {"backend": leaf}
+    if group == "hand" and leaf != "enabled":
+        return {"hand/enabled": True}
+    return {}
+
+
 @pytest.mark.parametrize("node", ["teaching_gui", "sigma7_node", "shared_control"])
 def test_every_parameter_a_study_may_set_reaches_its_node(node, monkeypatch):
     # Expect: each parameter check_parameter accepts changes what the node is built with (or the node refuses the
@@ -294,15 +307,7 @@ def test_every_parameter_a_study_may_set_reaches_its_node(node, monkeypatch):
         if isinstance(value, dict):
             continue
         assert check_parameter(f"{node}/{name}", value) is None
-        # a backend's axes are read when that backend runs, the hand model's parameters when it is on
-        context = (
-            {
-                "axes": {"backend": name.split("/")[-1]},
-                "hand": {"hand/enabled": True} if name != "hand/enabled" else {},
-            }.get(name.split("/")[0], {})
-            if node == "sigma7_node"
-            else {}
-        )
+        context = read_when(node, name)
         try:
             if build({**context, name: changed(value)}) == build(context):
                 ignored.append(name)

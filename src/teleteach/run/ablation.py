@@ -76,9 +76,14 @@ def insertion_stiffness(skill: skill_file.Skill) -> Tuple[float, float]:
     return float(np.median(skill.stiffness[insertion, 0, 0])), float(np.median(skill.stiffness[insertion, 1, 1]))
 
 
+def all_cells(results: dict) -> Dict[str, dict]:
+    """Every cell's summary by name: the profiles, the sweep's cells, the vertical cells."""
+    return {**results["profiles"], **results["sweep"]["cells"], **results["vertical"]["cells"]}
+
+
 def goals(results: dict) -> List[str]:
     """Issue 28's two ablation goals, each judged from the figures: met / not met and why."""
-    cells = {**results["profiles"], **results["sweep"]["cells"], **results["vertical"]["cells"]}
+    cells = all_cells(results)
     lines = []
     apart = []
     for first in cells:
@@ -131,8 +136,10 @@ def across_contrast(trials: Dict[str, List[dict]], sweep) -> List[dict]:
     a two-sided sign test, and the median neighbour move and lateral offset of each.
     """
     softest, stiffest = min(sweep), max(sweep)
-    pairs = [(sweep_name(along, softest), sweep_name(along, stiffest)) for along in sorted(set(sweep))]
-    pairs = pairs if softest < stiffest else []  # one stiffness swept: no compliant and stiff cell across
+    # one stiffness swept: no compliant and stiff cell across, only the profiles
+    pairs = [
+        (sweep_name(along, softest), sweep_name(along, stiffest)) for along in sorted(set(sweep)) if softest < stiffest
+    ]
     pairs.append(("constant_low", "constant_high"))
     contrasts = []
     for compliant, stiff in pairs:
