@@ -6,11 +6,13 @@ import ast
 from conftest import ROOT
 
 PACKAGE = ROOT / "src" / "teleteach"
-# The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers, the actionlib helpers the ros.py layers
-# share (their status thread stops with rospy's shutdown), the main job, the learn_skill CLI and the study's trial
-# processes (docs/architecture.md: study/runner.py starts the study node, importing it in functions).
+# The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers and the nodes' entries, the actionlib
+# helpers the ros.py layers share (their status thread stops with rospy's shutdown), the main job, the learn_skill CLI
+# and the study's trial processes (docs/architecture.md: study/runner.py starts the study node, importing it in
+# functions).
 ROS_LAYERS = {
     "node.py",
+    "executables.py",
     "ros_actions.py",
     "gui/app.py",
     "gui/worker.py",
@@ -168,3 +170,24 @@ def test_a_chain_to_rospy_is_found_through_an_import_inside_a_function():
         "b/__init__.py": ["teleteach.b", "teleteach.b.ros", "rospy"],
         "b/ros.py": ["teleteach.b.ros", "rospy"],
     }
+
+
+def test_every_executable_is_its_usage_and_one_call_into_the_library():
+    # Expect each file of nodes/ to be its docstring and one library entry (docs/architecture.md): 20 lines at most
+    nodes = sorted(path for path in (ROOT / "nodes").iterdir() if path.is_file())
+    assert len(nodes) >= 16
+    too_long = {path.name: len(path.read_text().splitlines()) for path in nodes}
+    assert {name: lines for name, lines in too_long.items() if lines > 20} == {}
+    for path in nodes:
+        tree = ast.parse(path.read_text())
+        library = {node.module for node in tree.body if isinstance(node, ast.ImportFrom)}
+        assert len(library) == 1 and library.pop().startswith("teleteach."), path.name
+        assert not any(isinstance(node, (ast.FunctionDef, ast.ClassDef)) for node in tree.body), path.name
+
+
+def test_the_entries_load_nothing_heavy_before_their_node_checks_the_pinned_libraries():
+    library = modules()
+    light = {"argparse", "os", "sys", "typing", "dataclasses", "re"}
+    for module in ("teleteach.executables", "teleteach.node"):
+        names = set(imported_names(library[module][1], top_level_only=True))
+        assert names - light <= {name for name in names if name.startswith("teleteach.node")}, module
