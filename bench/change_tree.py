@@ -111,15 +111,15 @@ def measure_in_process(leaves, requests, workdir):
     import yaml
 
     from teleteach.bt.library import SkillLibrary
-    from teleteach.bt.ros import ActionClients, ActionSkill
+    from teleteach.bt.ros import ActionClients, ActionSkill, BehaviourTreeConfig
     from teleteach.bt.teaching import TeachingTree, TreeStore
     from teleteach.bt.tree import parse_tree
 
     library = SkillLibrary.load(ROOT / "config" / "skills.yaml")
     spec = parse_tree(yaml.safe_load(tree_yaml(leaves)), library)
-    clients = ActionClients()
+    clients, config = ActionClients(), BehaviourTreeConfig.from_yaml()
     store = TreeStore(workdir / f"in_process_{leaves}")
-    tree = TeachingTree(spec, library, lambda name, entry: ActionSkill(name, entry, clients), store=store)
+    tree = TeachingTree(spec, library, lambda name, entry: ActionSkill(name, entry, clients, config), store=store)
     latencies, cpu = [], []
     for i in range(requests):
         begin, begin_cpu = time.perf_counter(), time.thread_time()

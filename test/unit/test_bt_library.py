@@ -11,7 +11,7 @@ from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, thesis_t
 
 from teleteach import skill_file
 from teleteach.bt.library import CONDITION, PREDEFINED, LibraryError, SkillEntry, SkillLibrary
-from teleteach.bt.ros import ActionClients, ActionSkill
+from teleteach.bt.ros import ActionClients, ActionSkill, BehaviourTreeConfig
 from teleteach.bt.teaching import TreeStore
 from teleteach.bt.tree import create_root, describe, load_tree
 
@@ -108,11 +108,15 @@ def test_bad_library_files_are_rejected(data, message):
 
 def test_demonstrated_leaf_replays_through_replay_skill(tmp_path):
     path = str(save_skill(tmp_path / "wipe.npz"))
-    leaf = ActionSkill("Wipe_2", SkillEntry("Wipe", "stiffness", path), ActionClients("/skills"))
+    leaf = ActionSkill(
+        "Wipe_2", SkillEntry("Wipe", "stiffness", path), ActionClients("/skills"), BehaviourTreeConfig.from_yaml()
+    )
     # Expect the goal of the thesis contract: ReplaySkill, goal.skill = name, parameters = yaml {data_file, kind}
     assert leaf.server == "ReplaySkill" and leaf.goal.skill == "Wipe" and leaf.skill == "Wipe"
     assert yaml.safe_load(leaf.goal.parameters) == {"data_file": path, "kind": "stiffness"}
-    predefined = ActionSkill("PlaceItem_2", SkillEntry("PlaceItem"), ActionClients("/skills"))
+    predefined = ActionSkill(
+        "PlaceItem_2", SkillEntry("PlaceItem"), ActionClients("/skills"), BehaviourTreeConfig.from_yaml()
+    )
     assert (
         predefined.server == "PlaceItem" and predefined.goal.skill == "PlaceItem" and predefined.goal.parameters == ""
     )

@@ -9,7 +9,7 @@ from py_trees.common import Status
 
 from teleteach import skill_file
 from teleteach.bt.library import SkillEntry, SkillLibrary
-from teleteach.bt.ros import ActionClients, ActionSkill
+from teleteach.bt.ros import ActionClients, ActionSkill, BehaviourTreeConfig
 from teleteach.bt.teaching import TeachingTree, TreeStore
 from teleteach.bt.tree import create_root, load_tree
 
@@ -149,7 +149,7 @@ def test_a_skill_whose_file_went_bad_is_unavailable_and_refused(tmp_path, predef
 
 def test_a_leaf_of_an_unavailable_skill_fails_at_once_with_the_reason():
     entry = SkillEntry("Wipe", "stiffness", "/data/skills/wipe.npz", problem="skill file /data/skills/wipe.npz gone")
-    leaf = ActionSkill("Wipe", entry, ActionClients("/skills"))
+    leaf = ActionSkill("Wipe", entry, ActionClients("/skills"), BehaviourTreeConfig.from_yaml())
     leaf.initialise()
     # Expect a failure naming the file before any goal is sent (no server is asked to replay a missing file)
     assert leaf.update() == Status.FAILURE

@@ -2,16 +2,15 @@
 the same one, so that reading the code never misleads about what runs; a missing value is named in one line."""
 
 import dataclasses
-import inspect
 import xml.etree.ElementTree as ElementTree
 
 import pytest
 import yaml
 from conftest import ROOT
 
-from teleteach.bt.ros import ActionSkill, BehaviourTreeNode
+from teleteach.bt.ros import BehaviourTreeConfig
 from teleteach.control.impedance import ImpedanceParams
-from teleteach.gui.config import GuiConfig
+from teleteach.gui.config import GuiConfig, GuiConfigError
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.guidance import GuidanceLimits
 from teleteach.haptics.hand import HandParameters
@@ -48,17 +47,13 @@ def is_required(field):
     "parameters, yaml_values",
     [
         (ImpedanceParams, config("controllers.yaml", "cartesian_impedance_controller")),
-        (GuiConfig, config("gui.yaml")),
-        (Sigma7Config, config("device.yaml")),
         (ClickParameters, config("device.yaml", "click")),
         (GuidanceLimits, config("device.yaml", "guidance")),
         (HandParameters, config("device.yaml", "hand")),
-        (SharedControlConfig, config("shared_control.yaml")),
     ],
-    ids=["impedance", "gui", "sigma7", "click", "guidance", "hand", "shared_control"],
+    ids=["impedance", "click", "guidance", "hand"],
 )
 def test_no_code_default_disagrees_with_its_yaml(parameters, yaml_values):
-    # Sigma7Config's sections twist, virtual, topic, dhd and hand are flat fields, compared by parameter name below
     disagreeing = {}
     for field in dataclasses.fields(parameters):
         if field.name not in yaml_values:
@@ -74,56 +69,29 @@ def test_no_code_default_disagrees_with_its_yaml(parameters, yaml_values):
     assert disagreeing == {}
 
 
-def test_sigma7_defaults_are_the_yaml_s_values_of_the_parameters_they_stand_for():
-    # Expect each default the node passes to get_param (a flattened field such as topic_timeout for ~topic/timeout
-    # too) to be the yaml's value of that parameter, and every value of the yaml asked for
-    asked = {}
-    launch = {"~scenario": "scenario.yaml", "~hand/enabled": True}  # launch arguments: the yaml leaves them out
-
-    def get_param(name, default):
-        asked[name] = default
-        return launch.get(name, default)
-
-    Sigma7Config.from_params(get_param)
-    yaml_values = {}
-    for name, value in config("device.yaml").items():
-        items = value.items() if isinstance(value, dict) else [(None, value)]
-        yaml_values.update({f"~{name}/{key}" if key else f"~{name}": item for key, item in items})
-    axes = {name: yaml_values.pop(name) for name in list(yaml_values) if name.startswith("~axes/")}
-    assert set(yaml_values) <= set(asked)
-    assert {"~topic/timeout", "~twist/cutoff_frequency", "~virtual/click_duration", "~dhd/library"} <= set(asked)
-    # Expect each backend to ask for its own entry of ~axes only, with the yaml's value as the default
-    for name, value in axes.items():
-        backend = name.split("/")[1]
-        launch.update({"~backend": backend, "~hand/enabled": backend != "dhd"})
-        asked.clear()
-        Sigma7Config.from_params(get_param)
-        assert [key for key in asked if key.startswith("~axes/")] == [name]
-        assert asked[name] == value
-    disagreeing = {
-        name: (asked[name], value)
-        for name, value in yaml_values.items()
-        if comparable(asked[name]) != comparable(value)
-    }
-    assert disagreeing == {}
+def test_the_sigma7_config_is_its_yaml_key_by_key_and_names_what_is_missing():
+    # Expect every nested key of the yaml to reach its field (a private parameter overriding a section's key alone),
+    # and a key missing from the yaml to be named, section and all
+    server = {"~backend": "virtual", "~topic": {"timeout": 5.0}}
+    built = Sigma7Config.from_params(lambda name, default: server.get(name, default))
+    values = config("device.yaml")
+    hand = values.pop("hand")
+    expected = dict(values, backend="virtual", scenario="", hand={"enabled": hand.pop("enabled"), "model": hand})
+    expected["topic"] = dict(expected["topic"], timeout=5.0)
+    assert comparable(built) == comparable(expected)
+    del values["twist"]["cutoff_frequency"], values["rate"]
+    with pytest.raises(ValueError, match=r"\(config/device.yaml\): missing backend, scenario, rate; missing twist/cut"):
+        Sigma7Config.from_mapping(dict(values, hand=dict(hand, enabled=False)))
 
 
-def test_the_behaviour_tree_node_s_argument_defaults_are_the_yaml_s():
-    yaml_values = config("behaviour_tree.yaml")
-    defaults = {}
-    for function in (BehaviourTreeNode.__init__, ActionSkill.__init__):
-        for name, parameter in inspect.signature(function).parameters.items():
-            if name in yaml_values and parameter.default is not inspect.Parameter.empty:
-                defaults[name] = parameter.default
-    # ActionClients' namespace has its own name; the pause's two are read from the yaml alone and handed to
-    # TeachingTree, whose own defaults are the library's (started, never preempted) for in-process trees
-    from_yaml_alone = {"skill_namespace", "start_paused", "pause_preempt_after"}
-    assert set(defaults) == set(yaml_values) - from_yaml_alone
-    source = inspect.getsource(BehaviourTreeNode.from_params)
-    assert all(f'params["{name}"]' in source for name in from_yaml_alone)
-    disagreeing = {name: (default, yaml_values[name]) for name, default in defaults.items()}
-    disagreeing = {name: pair for name, pair in disagreeing.items() if pair[0] != pair[1]}
-    assert disagreeing == {}
+def test_the_behaviour_tree_config_is_its_yaml_and_names_what_is_missing():
+    values = config("behaviour_tree.yaml")
+    assert comparable(BehaviourTreeConfig.from_mapping(values)) == comparable(values)
+    del values["lost_timeout"]
+    with pytest.raises(
+        ValueError, match=r"^behaviour_tree's parameters \(config/behaviour_tree.yaml\): missing lost_t"
+    ):
+        BehaviourTreeConfig.from_mapping(dict(values, tick_hz=10.0))
 
 
 def test_the_impedance_gains_come_only_from_the_yaml_and_a_missing_one_is_named():
@@ -177,10 +145,33 @@ def test_node_parameters_are_the_yaml_unless_a_private_parameter_overrides_them(
     assert values == expected
 
 
+@pytest.mark.parametrize(
+    "parameters, outside_the_yaml",
+    [(GuiConfig, []), (SharedControlConfig, ["cache_dir"]), (Sigma7Config, []), (BehaviourTreeConfig, [])],
+)
+def test_a_config_read_from_its_yaml_has_no_default_in_code(parameters, outside_the_yaml):
+    assert [field.name for field in dataclasses.fields(parameters) if not is_required(field)] == outside_the_yaml
+
+
+def test_a_gui_parameter_missing_from_the_yaml_is_named_in_one_line():
+    values = config("gui.yaml")
+    assert GuiConfig.from_mapping(values).repaint_rate == values["repaint_rate"]
+    del values["repaint_rate"], values["edit_push"]
+    with pytest.raises(GuiConfigError, match=r"^GUI parameters \(config/gui.yaml\): missing repaint_rate, edit_push$"):
+        GuiConfig.from_mapping(values)
+
+
 def test_shared_control_config_comes_from_its_yaml_and_names_what_is_missing():
     values = config("shared_control.yaml")
-    # Expect the yaml to give the node's configuration, the rate as the cycle period
-    assert SharedControlConfig.from_parameters(values) == dataclasses.replace(SharedControlConfig(), dt=0.02)
-    del values["switch_hold"], values["rate"]
-    with pytest.raises(ValueError, match=r"^missing parameter ~rate, ~switch_hold \(see config/shared_control.yaml\)$"):
+    built = SharedControlConfig.from_parameters(values)
+    # Expect each field to be the yaml's value, the rate as the cycle period
+    assert built.dt == pytest.approx(1.0 / values["rate"])
+    fields = {name: value for name, value in dataclasses.asdict(built).items() if name not in ("dt", "cache_dir")}
+    assert len(fields) > 20 and comparable(fields) == comparable({name: values[name] for name in fields})
+    assert SharedControlConfig.from_yaml(solver="fast") == dataclasses.replace(built, solver="fast")
+    del values["switch_hold"]
+    with pytest.raises(ValueError, match=r"^config/shared_control.yaml: missing switch_hold$"):
+        SharedControlConfig.from_parameters(values)
+    del values["rate"]
+    with pytest.raises(ValueError, match=r"^config/shared_control.yaml: missing rate$"):
         SharedControlConfig.from_parameters(values)

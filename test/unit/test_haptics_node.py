@@ -27,7 +27,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def params(**values):
-    return lambda name, default: values.get(name.lstrip("~").replace("/", "_"), default)
+    """``get_param`` of a parameter server holding ``values`` (a section as a mapping of the keys it overrides)."""
+    return lambda name, default: values.get(name.lstrip("~"), default)
 
 
 def echo_once(topic, env):
@@ -38,16 +39,20 @@ def echo_once(topic, env):
 def test_config_reads_every_param():
     config = Sigma7Config.from_params(
         params(
-            backend="dhd", rate=500, click_close_threshold=0.05, click_release_threshold=0.15, dhd_native_button=True
+            backend="dhd",
+            rate=500,
+            click={"close_threshold": 0.05, "release_threshold": 0.15},
+            dhd={"native_button": True},
         )
     )
     assert config.backend == "dhd"
     assert config.rate == 500.0
     assert (config.click.close_threshold, config.click.release_threshold) == (0.05, 0.15)
-    assert config.dhd_native_button is True
+    assert config.dhd.native_button is True and config.dhd.library == ""
+    assert config.click.max_duration == 0.5  # the yaml's, the rest of the section overridden
     assert Sigma7Config.from_params(params(scenario="x.yaml")).rate == 1000.0
     assert Sigma7Config.from_params(params(scenario="x.yaml")).hand_model is None
-    hand = Sigma7Config.from_params(params(scenario="x.yaml", hand_enabled=True, hand_tremor_rms=0.002, hand_seed=7))
+    hand = Sigma7Config.from_params(params(scenario="x.yaml", hand={"enabled": True, "tremor_rms": 0.002, "seed": 7}))
     assert (hand.hand_model.tremor_rms, hand.hand_model.seed, hand.hand_model.mass) == (0.002, 7, 0.3)
 
 
@@ -58,9 +63,13 @@ def test_config_reads_every_param():
         ({"backend": "scenario"}, "needs ~scenario"),
         ({"scenario": "x.yaml", "rate": 0}, "~rate must be a positive number"),
         ({"scenario": "x.yaml", "at_end": "loop"}, "~at_end must be one of hold, exit"),
-        ({"scenario": "x.yaml", "click_close_threshold": 0.3}, "close_threshold < release_threshold"),
-        ({"backend": "dhd", "hand_enabled": True}, "~hand/enabled models a hand for the scenario, virtual and topic"),
-        ({"scenario": "x.yaml", "hand_enabled": True, "hand_mass": -1.0}, "hand mass must be a positive number"),
+        ({"scenario": "x.yaml", "click": {"close_threshold": 0.3}}, "close_threshold < release_threshold"),
+        (
+            {"backend": "dhd", "hand": {"enabled": True}},
+            "~hand/enabled models a hand for the scenario, virtual and topic",
+        ),
+        ({"scenario": "x.yaml", "hand": {"enabled": True, "mass": -1.0}}, "hand mass must be a positive number"),
+        ({"scenario": "x.yaml", "twist": {"cutoff": 5.0}}, r"\(config/device.yaml\): unknown twist/cutoff$"),
         ({"scenario": "x.yaml", "force_rate": 2000.0}, r"~force_rate must be in \(0, ~rate\]"),
         ({"scenario": "x.yaml", "publish_rate": 0.0}, "~publish_rate must be a positive number"),
     ],

@@ -153,7 +153,7 @@ def test_a_boundary_tighter_than_the_margin_is_kept_and_the_margin_said_lost(con
 
 def test_operator_pushing_into_the_boundary_stays_shared_and_slides_along_it():
     # The operator waves towards -x at 5 cm/s and keeps pushing 10 s after meeting the boundary at x = -0.1 m.
-    controller = SharedControl(SharedControlConfig(solver="fast"), (0.0, 0.0), Box(-0.1, -0.15, 0.25, 0.15))
+    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), (0.0, 0.0), Box(-0.1, -0.15, 0.25, 0.15))
     commands = synthetic_commands(
         "wave", (0.015, 14.0, 0.0), math.pi, 0.05, np.arange(0, 12.0, DT), 0.008, np.random.default_rng(3)
     )
@@ -169,7 +169,7 @@ def test_operator_pushing_into_the_boundary_stays_shared_and_slides_along_it():
 
 
 def test_coasting_follows_the_previous_plan_and_keeps_the_window_on_the_grid():
-    controller = SharedControl(SharedControlConfig(solver="fast"), (0.0, 0.0))
+    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), (0.0, 0.0))
     commands = wave(3.0)
     for command in commands[:100]:
         record = controller.step(command)
@@ -377,7 +377,9 @@ def test_recency_weighting_identifies_a_pattern_change_sooner_than_the_uniform_w
     commands = np.vstack([synthetic_commands(s, rho, 0.0, 0.05, times, 0.01, rng) for s in ("cycloid", "wave")])
     delays = {}
     for half_life in (0.4, 0.0):
-        controller = SharedControl(SharedControlConfig(solver="fast", recency_half_life=half_life), (0.0, 0.0))
+        controller = SharedControl(
+            SharedControlConfig.from_yaml(solver="fast", recency_half_life=half_life), (0.0, 0.0)
+        )
         skills = identified_skills(controller, commands)
         switch = len(skills) - len(times)
         found = skills.index("wave", switch)
@@ -389,7 +391,7 @@ def test_recency_weighting_identifies_a_pattern_change_sooner_than_the_uniform_w
 
 
 def test_a_skill_in_a_local_minimum_is_reseeded_before_the_identification_leaves_it():
-    controller = SharedControl(SharedControlConfig(solver="fast", reseed_period=0.0), (0.0, 0.0))
+    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast", reseed_period=0.0), (0.0, 0.0))
     commands = synthetic_commands(
         "wave", (0.03, 20.0, 0.0), 0.3, 0.05, np.arange(0, 3, DT), 0.01, np.random.default_rng(3)
     )

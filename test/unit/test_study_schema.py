@@ -259,7 +259,7 @@ def build_gui(parameters):
 
 def build_sigma7(parameters):
     # backend and scenario are full.launch's arguments, not the yaml's
-    values = {"backend": "virtual", "scenario": "operator.yaml", **node_defaults("sigma7_node"), **parameters}
+    values = nested({"backend": "virtual", "scenario": "operator.yaml", **parameters})
     return Sigma7Config.from_params(lambda name, default: values.get(name.lstrip("~"), default))
 
 

@@ -7,6 +7,7 @@ with ``parameters`` = yaml ``{data_file, kind}``). :class:`BehaviourTreeNode` ti
 changed something.
 """
 
+import dataclasses
 import io
 import struct
 import time
@@ -38,6 +39,7 @@ from teleteach.msg import (
     SkillLibrary as SkillLibraryMsg,
 )
 from teleteach.node import node_parameters
+from teleteach.parameters import from_mapping
 from teleteach.paths import config_file
 from teleteach.ros_actions import server_ready
 from teleteach.srv import AddSkill, AddSkillResponse, ChangeTree, ChangeTreeResponse
@@ -124,6 +126,35 @@ class ActionClients:
         return any(c.callerid_pub == server_id for c in client.status_sub.impl.connections)
 
 
+@dataclasses.dataclass(frozen=True)
+class BehaviourTreeConfig:
+    """The node's parameters: config/behaviour_tree.yaml's keys (the one place of their values and meanings)."""
+
+    tick_rate: float
+    skill_namespace: str
+    startup_timeout: float
+    server_timeout: float
+    lost_timeout: float
+    clock_timeout: float
+    start_paused: bool
+    pause_preempt_after: float
+
+    @classmethod
+    def from_mapping(cls, values: typing.Mapping[str, typing.Any]) -> "BehaviourTreeConfig":
+        """From the yaml's keys; a missing or unknown one is named."""
+        return from_mapping(cls, values, "behaviour_tree's parameters (config/behaviour_tree.yaml)")
+
+    @classmethod
+    def from_yaml(cls) -> "BehaviourTreeConfig":
+        """The yaml's values, as a node started without parameters has them."""
+        return cls.from_mapping(yaml.safe_load(config_file("behaviour_tree.yaml").read_text()))
+
+    @classmethod
+    def from_params(cls) -> "BehaviourTreeConfig":
+        """The yaml's keys, each overridden by its private parameter."""
+        return cls.from_mapping(node_parameters("behaviour_tree.yaml"))
+
+
 class ActionSkill(SkillLeaf):
     """A leaf that executes its skill as an action goal: sent in initialise, polled in update, cancelled on interrupt.
 
@@ -137,25 +168,17 @@ class ActionSkill(SkillLeaf):
         name: unique leaf name
         entry: the library skill
         clients: the shared action clients
-        server_timeout: [s] how long to wait for the server before failing
-        lost_timeout: [s] how long the server may be disconnected while it runs the goal
-        clock_timeout: [s] how long the ROS clock may stand still (simulated time only) while the goal runs
+        config: the node's parameters, of which the three timeouts [s]: how long to wait for the server before
+            failing, how long the server may be disconnected while it runs the goal, how long the ROS clock may
+            stand still (simulated time only) while the goal runs
     """
 
-    def __init__(
-        self,
-        name: str,
-        entry: SkillEntry,
-        clients: ActionClients,
-        server_timeout: float = 2.0,
-        lost_timeout: float = 1.0,
-        clock_timeout: float = 5.0,
-    ):
+    def __init__(self, name: str, entry: SkillEntry, clients: ActionClients, config: BehaviourTreeConfig):
         super().__init__(name, entry.name, entry.kind, entry.data_file)
         self.clients = clients
-        self.server_timeout = server_timeout
-        self.lost_timeout = lost_timeout
-        self.clock_timeout = clock_timeout
+        self.server_timeout = config.server_timeout
+        self.lost_timeout = config.lost_timeout
+        self.clock_timeout = config.clock_timeout
         self.problem = entry.problem
         self.server = REPLAY_SKILL if entry.demonstrated else entry.name
         self.goal = ExecuteSkillGoal(skill=entry.name)
@@ -253,10 +276,10 @@ class BehaviourTreeNode:
 
     Args:
         tree: the teaching tree
-        tick_rate: [Hz]
+        config: the node's parameters: its tick rate [Hz], and how long before the first tick to wait for the skill
+            servers to connect (``startup_timeout`` [s]: they start with the robot; py_trees_ros' setup timeout).
+            Servers still missing then fail their skills when run.
         clients: the action clients of the skill servers
-        startup_timeout: [s] before the first tick, how long to wait for the skill servers to connect (they start
-            with the robot; py_trees_ros' setup timeout). Servers still missing then fail their skills when run.
 
     ROS Publishers (all latched):
         * **/behaviour_tree/log/tree** (teleteach/BehaviourTree): every node with ids, type, status, message
@@ -278,17 +301,11 @@ class BehaviourTreeNode:
           (``start_paused``); an event, not the latched pause flag, so a restarted tree still waits
     """
 
-    def __init__(
-        self,
-        tree: TeachingTree,
-        tick_rate: float = 10.0,
-        clients: typing.Optional[ActionClients] = None,
-        startup_timeout: float = 30.0,
-    ):
+    def __init__(self, tree: TeachingTree, config: BehaviourTreeConfig, clients: typing.Optional[ActionClients] = None):
         self.tree = tree
-        self.tick_rate = tick_rate
+        self.tick_rate = config.tick_rate
         self.clients = clients
-        self.startup_timeout = startup_timeout
+        self.startup_timeout = config.startup_timeout
         latched = {"queue_size": 1, "latch": True}
         self.log_publisher = rospy.Publisher("behaviour_tree/log/tree", BehaviourTree, **latched)
         self.tip_publisher = rospy.Publisher("behaviour_tree/tip", Behaviour, **latched)
@@ -317,7 +334,7 @@ class BehaviourTreeNode:
         A node that finds ``~running`` set on the master is a restart after a crash (roslaunch's respawn): it
         resumes what was taught, whatever ``~resume`` says. A clean shutdown clears the flag.
         """
-        params = node_parameters("behaviour_tree.yaml")
+        config = BehaviourTreeConfig.from_params()
         library = SkillLibrary.load(rospy.get_param("~skills", "") or config_file("skills.yaml"))
         spec = load_tree(rospy.get_param("~tree", "") or config_file("tree.yaml"), library)
         data_root = datadir.data_dir(rospy.get_param("~data_dir", "") or None)
@@ -337,17 +354,12 @@ class BehaviourTreeNode:
             unavailable = [f"{entry.name} ({entry.problem})" for entry in library if not entry.available]
             if unavailable:
                 rospy.logwarn("behaviour_tree: unavailable skills (shown, not run): %s", "; ".join(unavailable))
-        clients = ActionClients(params["skill_namespace"])
+        clients = ActionClients(config.skill_namespace)
         for server in [entry.name for entry in library if not entry.demonstrated] + [REPLAY_SKILL]:
             clients.get(server)  # connect early: the first goal of each skill leaves without waiting
-        timeouts = {
-            "server_timeout": float(params["server_timeout"]),
-            "lost_timeout": float(params["lost_timeout"]),
-            "clock_timeout": float(params["clock_timeout"]),
-        }
 
         def make_leaf(name: str, entry: SkillEntry) -> ActionSkill:
-            return ActionSkill(name, entry, clients, **timeouts)
+            return ActionSkill(name, entry, clients, config)
 
         repairs, problems = store.restore_repairs()
         if problems:
@@ -359,20 +371,15 @@ class BehaviourTreeNode:
             store=store,
             data_root=data_root,
             repairs=repairs,
-            start_paused=bool(params["start_paused"]),
-            preempt_after=float(params["pause_preempt_after"]),
+            start_paused=config.start_paused,
+            preempt_after=config.pause_preempt_after,
         )
         if not tree.started:
             rospy.loginfo(
                 "behaviour_tree: started paused: nothing runs until the operator starts the tree (GUI START: handle"
                 " centred, click; or rosservice call /behaviour_tree/start)"
             )
-        return cls(
-            tree,
-            tick_rate=float(params["tick_rate"]),
-            clients=clients,
-            startup_timeout=float(params["startup_timeout"]),
-        )
+        return cls(tree, config, clients)
 
     def spin(self) -> None:
         """Tick at the tick rate (wall time) until shutdown, publishing whatever changed.

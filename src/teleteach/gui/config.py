@@ -7,6 +7,7 @@ from typing import Any, Dict, Mapping, Tuple
 
 import yaml
 
+from teleteach import parameters
 from teleteach.paths import config_file
 from teleteach.robot_controllers import ControllerNames, ControllerNamesError, controller_names
 
@@ -20,64 +21,64 @@ class GuiConfigError(ValueError):
 
 @dataclasses.dataclass(frozen=True)
 class GuiConfig:
-    """All GUI parameters; units as in ``config/gui.yaml``."""
+    """All GUI parameters; their values and units are in ``config/gui.yaml``, the one place of their defaults."""
 
-    device_range: float = 0.1
-    device_angle_range: float = 1.0
-    reject_position_beyond: float = 0.25
-    reject_angle_beyond: float = 3.2
-    deadband_position: float = 0.002
-    deadband_angle: float = 0.02
-    locked_axes: Tuple[str, ...] = ()
-    stiffness_per_pixel: float = 5.0
-    max_stiffness: float = 3000.0
-    min_stiffness: float = 50.0
-    initial_stiffness: float = 1525.0
-    takeover_tolerance: float = 50.0
-    takeover_angle: float = 0.05
-    rotational_stiffness: float = 30.0
-    rotation_gain: float = 1.0
-    double_click_window: float = 0.6
-    gripper_open_threshold: float = 0.45
-    gripper_rearm_below: float = 0.35
-    publish_rate: float = 200.0
-    device_ui_rate: float = 60.0
-    repaint_rate: float = 30.0
-    player_rate: float = 100.0
-    service_timeout: float = 5.0
-    device_timeout: float = 0.5
-    health_rate: float = 5.0
-    start_neutral_zone: float = 0.02
-    arm_rest_speed: float = 0.05
-    arm_free_timeout: float = 20.0
-    base_frame: str = "base_link"
-    controllers: str = ""
-    trajectory: str = "perpendicular"
-    skill_prefix: str = "DemonstratedPlace"
-    initial_tab: int = 0
-    shared_control_node: str = "shared_control"
-    shared_control_stiffness: Tuple[float, float, float] = (500.0, 500.0, 500.0)
-    shared_skill_prefix: str = "SharedControl"
-    shared_trail_length: int = 500
-    edit_push: float = 0.05
-    page_turn: float = 0.5
-    retry_attempts: Tuple[int, ...] = (1, 2, 3, 4, 5)
-    timeout_seconds: Tuple[float, ...] = (5.0, 10.0, 20.0, 30.0, 60.0, 120.0)
-    guidance: bool = True
-    guidance_detent_stiffness: float = 400.0
-    guidance_hold_stiffness: float = 100.0
-    guidance_angle_detent_stiffness: float = 2.0
-    guidance_angle_hold_stiffness: float = 0.5
-    guidance_damping: float = 2.0
-    guidance_angular_damping: float = 0.01
-    guidance_mode_angle_width: float = 0.4
-    guidance_mode_angle_stiffness: float = 4.0
-    guidance_click_stiffness: float = 1500.0
-    guidance_angle_click_stiffness: float = 4.0
-    guidance_max_force: float = 3.0
-    guidance_max_torque: float = 0.1
-    guidance_refresh: float = 0.2
-    study_start_radius: float = 0.02
+    device_range: float
+    device_angle_range: float
+    reject_position_beyond: float
+    reject_angle_beyond: float
+    deadband_position: float
+    deadband_angle: float
+    locked_axes: Tuple[str, ...]
+    stiffness_per_pixel: float
+    max_stiffness: float
+    min_stiffness: float
+    initial_stiffness: float
+    takeover_tolerance: float
+    takeover_angle: float
+    rotational_stiffness: float
+    rotation_gain: float
+    double_click_window: float
+    gripper_open_threshold: float
+    gripper_rearm_below: float
+    publish_rate: float
+    device_ui_rate: float
+    repaint_rate: float
+    player_rate: float
+    service_timeout: float
+    device_timeout: float
+    health_rate: float
+    start_neutral_zone: float
+    arm_rest_speed: float
+    arm_free_timeout: float
+    base_frame: str
+    controllers: str
+    trajectory: str
+    skill_prefix: str
+    initial_tab: int
+    shared_control_node: str
+    shared_control_stiffness: Tuple[float, float, float]
+    shared_skill_prefix: str
+    shared_trail_length: int
+    edit_push: float
+    page_turn: float
+    retry_attempts: Tuple[int, ...]
+    timeout_seconds: Tuple[float, ...]
+    guidance: bool
+    guidance_detent_stiffness: float
+    guidance_hold_stiffness: float
+    guidance_angle_detent_stiffness: float
+    guidance_angle_hold_stiffness: float
+    guidance_damping: float
+    guidance_angular_damping: float
+    guidance_mode_angle_width: float
+    guidance_mode_angle_stiffness: float
+    guidance_click_stiffness: float
+    guidance_angle_click_stiffness: float
+    guidance_max_force: float
+    guidance_max_torque: float
+    guidance_refresh: float
+    study_start_radius: float
 
     def __post_init__(self):
         positive = (
@@ -195,21 +196,12 @@ class GuiConfig:
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any]) -> "GuiConfig":
-        """Build from a dict (a yaml file or the node's private params); unknown keys are an error."""
-        names = {field.name for field in dataclasses.fields(cls)}
-        unknown = sorted(set(values) - names)
-        if unknown:
-            raise GuiConfigError(f"unknown GUI parameters: {', '.join(unknown)}")
+        """Build from a dict (a yaml file or the node's private params); a missing or unknown key is an error."""
         values = dict(values)
-        if "locked_axes" in values:
-            values["locked_axes"] = tuple(values["locked_axes"] or ())
-        for name in ("shared_control_stiffness", "retry_attempts", "timeout_seconds"):
+        for name in ("locked_axes", "shared_control_stiffness", "retry_attempts", "timeout_seconds"):
             if name in values:
                 values[name] = tuple(values[name] or ())
-        try:
-            return cls(**values)
-        except TypeError as error:
-            raise GuiConfigError(str(error)) from None
+        return parameters.from_mapping(cls, values, "GUI parameters (config/gui.yaml)", GuiConfigError)
 
     @classmethod
     def load(cls, path=None, **overrides) -> "GuiConfig":

@@ -21,10 +21,9 @@ import os
 import threading
 import time as wall_time
 import warnings
-from typing import Any, Callable, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Union
 
 import rospy
-import yaml
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from std_msgs.msg import Bool, Float64, Int8
 
@@ -55,41 +54,82 @@ from teleteach.haptics.scenario import (
 from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
-from teleteach.node import end_parent_launch, shutting_down
-from teleteach.paths import config_file
+from teleteach.node import end_parent_launch, node_parameters, shutting_down
+from teleteach.parameters import from_mapping
 from teleteach.study_phase import phase_name
 
 BACKENDS = ("dhd", "scenario", "virtual", "topic")
 
 
 @dataclasses.dataclass(frozen=True)
-class Sigma7Config:
-    """The node's parameters (see ``config/device.yaml`` for units and defaults)."""
+class TwistSettings:
+    """config/device.yaml's ``twist``."""
 
-    backend: str = "scenario"
-    scenario: str = ""
-    at_end: str = "hold"
-    rate: float = 1000.0
-    publish_rate: float = 200.0
-    max_catch_up: float = 1.0
-    frame_id: str = "sigma7"
-    click: ClickParameters = dataclasses.field(default_factory=ClickParameters)
-    twist_cutoff: float = 20.0
-    click_duration: float = 0.2
-    double_click_gap: float = 0.1
-    dhd_library: str = ""
-    dhd_native_button: bool = False
-    topic_timeout: float = 0.5
-    topic_gripper: float = 0.25
-    guidance: GuidanceLimits = dataclasses.field(default_factory=GuidanceLimits)
-    force_rate: float = 100.0
-    hand_model: Optional[HandParameters] = None  # None: no hand model (the backend's pose is the device's)
-    device_axes: Union[str, Sequence[Sequence[float]]] = "operator"  # the backend's entry of ~axes
+    cutoff_frequency: float
+
+
+@dataclasses.dataclass(frozen=True)
+class VirtualSettings:
+    """config/device.yaml's ``virtual``: the virtual window's scripted clicks."""
+
+    click_duration: float
+    double_click_gap: float
+
+
+@dataclasses.dataclass(frozen=True)
+class TopicSettings:
+    """config/device.yaml's ``topic``: the topic backend's input."""
+
+    timeout: float
+    gripper: float
+
+
+@dataclasses.dataclass(frozen=True)
+class DhdSettings:
+    """config/device.yaml's ``dhd``: the Force Dimension SDK."""
+
+    library: str
+    native_button: bool
+
+
+@dataclasses.dataclass(frozen=True)
+class HandSettings:
+    """config/device.yaml's ``hand``: whether a modelled hand holds the device, and the model."""
+
+    enabled: bool
+    model: HandParameters
+
+
+@dataclasses.dataclass(frozen=True)
+class Sigma7Config:
+    """The node's parameters: the keys of ``config/device.yaml`` (their values and units), the backend and its file."""
+
+    backend: str
+    scenario: str
+    at_end: str
+    rate: float
+    publish_rate: float
+    max_catch_up: float
+    frame_id: str
+    axes: Dict[str, Union[str, Sequence[Sequence[float]]]]
+    click: ClickParameters
+    twist: TwistSettings
+    virtual: VirtualSettings
+    topic: TopicSettings
+    dhd: DhdSettings
+    guidance: GuidanceLimits
+    force_rate: float
+    hand: HandSettings
 
     @property
     def axis_mapping(self) -> AxisMapping:
         """The backend's frame -> the operator frame (teleteach.haptics.axes)."""
-        return AxisMapping.from_config(self.device_axes, f"~axes/{self.backend}")
+        return AxisMapping.from_config(self.axes[self.backend], f"~axes/{self.backend}")
+
+    @property
+    def hand_model(self) -> Optional[HandParameters]:
+        """The hand that holds the device, or None (the backend's pose is the device's)."""
+        return self.hand.model if self.hand.enabled else None
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
@@ -102,7 +142,7 @@ class Sigma7Config:
             raise ValueError(f"~rate must be a positive number of Hz, got {self.rate}")
         if not self.max_catch_up >= 0.0:
             raise ValueError(f"~max_catch_up must be a number of seconds >= 0, got {self.max_catch_up}")
-        if self.hand_model is not None and self.backend == "dhd":
+        if self.hand.enabled and self.backend == "dhd":
             raise ValueError(
                 "~hand/enabled models a hand for the scenario, virtual and topic backends; a real device has one"
             )
@@ -110,49 +150,27 @@ class Sigma7Config:
             raise ValueError(f"~publish_rate must be a positive number of Hz, got {self.publish_rate}")
         if not 0.0 < self.force_rate <= self.rate:
             raise ValueError(f"~force_rate must be in (0, ~rate], got {self.force_rate}")
+        if self.backend not in self.axes:
+            raise ValueError(f"~axes has no entry for the {self.backend} backend (see config/device.yaml)")
         self.axis_mapping  # noqa: B018 - a bad ~axes entry is refused here, with its reason
 
     @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> "Sigma7Config":
+        """From config/device.yaml's keys with the backend and the scenario file; a missing or unknown key is named."""
+        values = dict(values)
+        if isinstance(values.get("hand"), Mapping):
+            hand = dict(values["hand"])
+            values["hand"] = {"enabled": hand.pop("enabled", None), "model": hand}
+        return from_mapping(cls, values, "sigma7_node's parameters (config/device.yaml)")
+
+    @classmethod
     def from_params(cls, get_param: Callable[[str, Any], Any]) -> "Sigma7Config":
-        """Reads the config through ``get_param(name, default)`` (``rospy.get_param`` with private names)."""
-        field_defaults = {field.name: field.default for field in dataclasses.fields(cls)}
+        """Through ``get_param(name, default)`` (``rospy.get_param``).
 
-        def param(name: str, field: str) -> Any:
-            return get_param(name, field_defaults[field])
-
-        click = ClickParameters()
-        backend = param("~backend", "backend")
-        return cls(
-            backend=backend,
-            scenario=param("~scenario", "scenario"),
-            at_end=param("~at_end", "at_end"),
-            rate=float(param("~rate", "rate")),
-            publish_rate=float(param("~publish_rate", "publish_rate")),
-            max_catch_up=float(param("~max_catch_up", "max_catch_up")),
-            frame_id=param("~frame_id", "frame_id"),
-            click=ClickParameters(
-                close_threshold=float(get_param("~click/close_threshold", click.close_threshold)),
-                release_threshold=float(get_param("~click/release_threshold", click.release_threshold)),
-                max_duration=float(get_param("~click/max_duration", click.max_duration)),
-                pulse_duration=float(get_param("~click/pulse_duration", click.pulse_duration)),
-            ),
-            twist_cutoff=float(param("~twist/cutoff_frequency", "twist_cutoff")),
-            click_duration=float(param("~virtual/click_duration", "click_duration")),
-            double_click_gap=float(param("~virtual/double_click_gap", "double_click_gap")),
-            dhd_library=param("~dhd/library", "dhd_library"),
-            dhd_native_button=bool(param("~dhd/native_button", "dhd_native_button")),
-            topic_timeout=float(param("~topic/timeout", "topic_timeout")),
-            topic_gripper=float(param("~topic/gripper", "topic_gripper")),
-            guidance=GuidanceLimits(
-                **{
-                    field.name: float(get_param(f"~guidance/{field.name}", getattr(GuidanceLimits(), field.name)))
-                    for field in dataclasses.fields(GuidanceLimits)
-                }
-            ),
-            force_rate=float(param("~force_rate", "force_rate")),
-            hand_model=_hand_parameters(get_param),
-            device_axes=get_param(f"~axes/{backend}", _configured_axes().get(backend, "operator")),
-        )
+        The yaml's keys, each overridden by its private parameter, and the launch's ``~backend`` and ``~scenario``.
+        """
+        launch = {"backend": get_param("~backend", "scenario"), "scenario": get_param("~scenario", "")}
+        return cls.from_mapping({**node_parameters("device.yaml", get_param), **launch})
 
 
 class Sigma7Publisher:
@@ -195,26 +213,6 @@ class Sigma7Publisher:
         self._twist.publish(twist)
         self._gripper.publish(Float64(state.gripper))
         self._button.publish(Bool(state.button))
-
-
-def _configured_axes() -> dict:
-    """config/device.yaml's ``axes``: what each backend's frame is when no ~axes parameter says otherwise."""
-    return (yaml.safe_load(config_file("device.yaml").read_text()) or {}).get("axes") or {}
-
-
-def _hand_parameters(get_param: Callable[[str, Any], Any]) -> Optional[HandParameters]:
-    """The hand model's parameters (``~hand/...``), or None when ``~hand/enabled`` is false."""
-    if not get_param("~hand/enabled", False):
-        return None
-    defaults = HandParameters()
-    return HandParameters(
-        **{
-            field.name: type(getattr(defaults, field.name))(
-                get_param(f"~hand/{field.name}", getattr(defaults, field.name))
-            )
-            for field in dataclasses.fields(HandParameters)
-        }
-    )
 
 
 def guidance_from_message(message: HapticGuidance) -> Guidance:
@@ -291,7 +289,7 @@ class Sigma7Node:
             Decimated(Sigma7Publisher(config.frame_id), round(config.rate / config.publish_rate)),
             clock=lambda: rospy.get_rostime().to_sec(),
             click_detector=ClickDetector(config.click),
-            twist_estimator=TwistEstimator(config.twist_cutoff),
+            twist_estimator=TwistEstimator(config.twist.cutoff_frequency),
             log_error=rospy.logerr,
             log_info=rospy.loginfo,
             guidance=self.guidance,
@@ -322,7 +320,7 @@ class Sigma7Node:
     def _make_input(self) -> DeviceBackend:
         config = self.config
         if config.backend == "dhd":
-            return DhdBackend(config.dhd_library, config.dhd_native_button)
+            return DhdBackend(config.dhd.library, config.dhd.native_button)
         if config.backend == "virtual":
             return self._open_virtual_window()
         if config.backend == "topic":
@@ -344,7 +342,7 @@ class Sigma7Node:
 
     def _subscribe_input(self) -> TopicInput:
         """The ``topic`` backend: the latest sigma7/input/pose and sigma7/input/gripper_angle."""
-        device = TopicInput(self.config.topic_timeout, self.config.topic_gripper)
+        device = TopicInput(self.config.topic.timeout, self.config.topic.gripper)
         refused = ThrottledLog(rospy.logwarn)
 
         def on_pose(message: PoseStamped) -> None:
@@ -396,7 +394,7 @@ class Sigma7Node:
         from teleteach.haptics.virtual import VirtualDevice, VirtualDeviceWindow
 
         self._application = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
-        device = VirtualDevice(self.config.click_duration, self.config.double_click_gap)
+        device = VirtualDevice(self.config.virtual.click_duration, self.config.virtual.double_click_gap)
         self._window = VirtualDeviceWindow(device)
         self._window.show()
         return device

@@ -14,7 +14,10 @@ import time
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
+import yaml
 
+from teleteach.parameters import from_mapping
+from teleteach.paths import config_file
 from teleteach.shared_control import constraints
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.models import SKILLS, ClothoidPath, ParameterLayout, skill_names
@@ -87,44 +90,50 @@ class SharedControlConfig:
             new pattern's skill can sit in a local minimum fitted to the old one (0: never) [s].
     """
 
-    dt: float = 0.02
-    window_time: float = 0.8
-    horizon_time: float = 1.0
-    skills: Tuple[str, ...] = ("wave", "cycloid")
-    n_segments: int = 1
-    estimation_curvature_bound: float = 2.0
-    estimation_curvature_rate_bound: float = 20.0
-    optimisation_curvature_bound: float = 30.0
-    optimisation_curvature_rate_bound: float = 300.0
-    speed_bounds: Tuple[float, float] = (0.005, 0.2)
-    heading_continuity: float = 0.001
-    speed_scale: float = 0.1
-    max_command_speed: float = 1.0
-    idle_speed: float = 0.005
-    regularisation_weights: Tuple[float, float, float, float] = (1e-3, 0.0, 1e-3, 1e-3)
-    curvature_weight: float = 1e-3
-    optimisation_weights: Tuple[float, float, float, float] = (1e-2, 0.0, 1.0, 10.0)
-    margin: float = 0.005
-    recovery_speed: float = 0.05
-    constraint_penalty: float = 1000.0
-    solver: str = "compiled"
-    skip_feasible_optimisation: bool = True
-    max_iterations_estimation: int = 10
-    max_iterations_optimisation: int = 3
+    dt: float
+    window_time: float
+    horizon_time: float
+    skills: Tuple[str, ...]
+    n_segments: int
+    estimation_curvature_bound: float
+    estimation_curvature_rate_bound: float
+    optimisation_curvature_bound: float
+    optimisation_curvature_rate_bound: float
+    speed_bounds: Tuple[float, float]
+    heading_continuity: float
+    speed_scale: float
+    max_command_speed: float
+    idle_speed: float
+    regularisation_weights: Tuple[float, float, float, float]
+    curvature_weight: float
+    optimisation_weights: Tuple[float, float, float, float]
+    margin: float
+    recovery_speed: float
+    constraint_penalty: float
+    solver: str
+    skip_feasible_optimisation: bool
+    max_iterations_estimation: int
+    max_iterations_optimisation: int
+    switch_confidence: float
+    switch_hold: float
+    reseed_period: float
+    recency_half_life: float
+    blend_authority: bool
+    authority_confidence: float
+    authority_residual: Tuple[float, float]
     cache_dir: Optional[str] = None
-    switch_confidence: float = 0.08
-    switch_hold: float = 0.04
-    reseed_period: float = 0.2
-    recency_half_life: float = 0.4
-    blend_authority: bool = True
-    authority_confidence: float = 0.9
-    authority_residual: Tuple[float, float] = (0.05, 0.2)
 
     @classmethod
     def paper(cls, **changes) -> "SharedControlConfig":
         """The RSS paper's controller: a 1 s window and the plan always in control (no blend, no UNKNOWN)."""
         paper = {"window_time": 1.0, "blend_authority": False, "recency_half_life": 0.0}
-        return dataclasses.replace(cls(), **{**paper, **changes})
+        return cls.from_yaml(**{**paper, **changes})
+
+    @classmethod
+    def from_yaml(cls, **changes) -> "SharedControlConfig":
+        """The node's configuration of config/shared_control.yaml (the one place of the values), with ``changes``."""
+        parameters = yaml.safe_load(config_file("shared_control.yaml").read_text())
+        return dataclasses.replace(cls.from_parameters(parameters), **changes)
 
     @classmethod
     def from_parameters(cls, parameters: Dict[str, object]) -> "SharedControlConfig":
@@ -132,16 +141,12 @@ class SharedControlConfig:
 
         Each field must be there, so the yaml is the one place of the values; a missing one is a ValueError naming it.
         """
-        names = [field.name for field in dataclasses.fields(cls) if field.name not in ("dt", "cache_dir")]
-        missing = [f"~{name}" for name in ["rate", *names] if name not in parameters]
-        if missing:
-            raise ValueError(f"missing parameter {', '.join(missing)} (see config/shared_control.yaml)")
-        values: Dict[str, object] = {"dt": 1.0 / float(parameters["rate"])}
-        reference = cls()
-        for name in names:
-            value, kind = parameters[name], type(getattr(reference, name))
-            values[name] = tuple(value) if kind is tuple else kind(value)
-        return cls(**values)
+        if "rate" not in parameters:
+            raise ValueError("config/shared_control.yaml: missing rate")
+        fields = {field.name for field in dataclasses.fields(cls)}
+        values = {name: value for name, value in parameters.items() if name in fields}  # the node reads the others
+        values["dt"] = 1.0 / float(parameters["rate"])
+        return from_mapping(cls, values, "config/shared_control.yaml", optional=("cache_dir",))
 
     @property
     def n_window(self) -> int:
@@ -253,10 +258,8 @@ class SharedControl:
         box: boundary (None: unbounded).
     """
 
-    def __init__(
-        self, config: SharedControlConfig = None, initial_state: Sequence[float] = (0.0, 0.0), box: Box = None
-    ):
-        self.config = config or SharedControlConfig()
+    def __init__(self, config: SharedControlConfig, initial_state: Sequence[float] = (0.0, 0.0), box: Box = None):
+        self.config = config
         cfg = self.config
         self.skills = skill_names(cfg.skills)
         if not self.skills:

@@ -4,12 +4,12 @@ The ROS node (teleteach.sim.ros) calls these methods from its callbacks and `tic
 benchmarks call them directly.
 """
 
-import dataclasses
 import pathlib
 
 import numpy as np
 import yaml
 
+from teleteach import parameters
 from teleteach.control import validation
 from teleteach.control.impedance import CartesianImpedanceController, ImpedanceParams
 from teleteach.control.joint_trajectory import JointTrajectoryController
@@ -41,18 +41,8 @@ def load_controller_config(path=None):
 
 def impedance_params(config) -> ImpedanceParams:
     """The impedance controller's gains from the controller settings (every one must be there: no code defaults)."""
-    values = dict(config.get(IMPEDANCE) or {})
-    fields = [field.name for field in dataclasses.fields(ImpedanceParams)]
-    missing = [name for name in fields if name not in values]
-    unknown = sorted(set(values) - set(fields))
-    if missing or unknown:
-        said = [f"missing {', '.join(missing)}" if missing else "", f"unknown {', '.join(unknown)}" if unknown else ""]
-        raise ControllerConfigError(f"controller settings, {IMPEDANCE}: {'; '.join(filter(None, said))}")
-    values["initial_eigenvalues"] = tuple(values["initial_eigenvalues"])
-    try:
-        return ImpedanceParams(**values)
-    except ValueError as error:
-        raise ControllerConfigError(f"controller settings, {IMPEDANCE}: {error}") from None
+    where = f"controller settings, {IMPEDANCE}"
+    return parameters.from_mapping(ImpedanceParams, config.get(IMPEDANCE) or {}, where, ControllerConfigError)
 
 
 class RobotSim:
