@@ -55,6 +55,34 @@ from teleteach.trajectories import Trajectory
 SWITCH_SERVICE = "controller_manager/switch_controller"
 
 
+class WindowTopics:
+    """Every topic the window publishes itself, in one place (the worker sends the stiffness, the player the pose).
+
+    The recording and shared-control flags start false, latched, so that a late subscriber knows.
+    """
+
+    def __init__(self):
+        latched = {"queue_size": 1, "latch": True}
+        self.active_tab = rospy.Publisher("teleteach/active_tab", Int8, **latched)
+        self.pause = rospy.Publisher("behaviour_tree/pause", Bool, **latched)
+        self.recording = rospy.Publisher("teleteach/recording", Bool, **latched)
+        self.shared_control = rospy.Publisher("shared_control/enable", Bool, **latched)
+        self.guidance = rospy.Publisher("sigma7/guidance", HapticGuidance, **latched)
+        self.selection = rospy.Publisher("teleteach/selection", Selection, queue_size=20)
+        self.equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
+        publish(self.recording, Bool(False))
+        publish(self.shared_control, Bool(False))
+
+
+def _banner(background_size_padding: str) -> QLabel:
+    """A coloured line across the window, hidden until it has something to say; long texts wrap."""
+    banner = QLabel()
+    banner.setWordWrap(True)  # a long status must not widen the window beyond the screen
+    banner.setStyleSheet(f"{background_size_padding} color: white; font-weight: bold;")
+    banner.hide()
+    return banner
+
+
 class MainWindow(QMainWindow):
     """START / HIGH-LEVEL / LOW-LEVEL / SHARED CONTROL tabs."""
 
@@ -70,50 +98,58 @@ class MainWindow(QMainWindow):
         self.saved_skills: List[str] = []
         self._teaching_target: Optional[Tuple[str, Transform]] = None  # the gap the recording places at
         self.session = TeachingSession()
+        self.study = StudyScreen(config)
         self._tab = -1
-
-        self._tab_publisher = rospy.Publisher("teleteach/active_tab", Int8, queue_size=1, latch=True)
-        self._pause_publisher = rospy.Publisher("behaviour_tree/pause", Bool, queue_size=1, latch=True)
-        self._recording_publisher = rospy.Publisher("teleteach/recording", Bool, queue_size=1, latch=True)
-        publish(self._recording_publisher, Bool(False))
-        self._shared_control_publisher = rospy.Publisher("shared_control/enable", Bool, queue_size=1, latch=True)
-        self._guidance_publisher = rospy.Publisher("sigma7/guidance", HapticGuidance, queue_size=1, latch=True)
         self._guidance = GuidanceDesigner(config)
         self._held_pose = HeldPose()
         self._device_sample = None
         self._sent_guidance: Optional[Guidance] = None
         self._guidance_sent_at = -math.inf
-        publish(self._shared_control_publisher, Bool(False))
-        self._selection_publisher = rospy.Publisher("teleteach/selection", Selection, queue_size=20)
-        self.study = StudyScreen(config)
-        equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
-        self.player = TrajectoryPlayer(self.trajectory, config.player_rate, equilibrium)
+        self._arm_deadline = math.inf
+        self._arm_timer = QTimer(self)  # while a session waits for the arm to be free
+        self._arm_timer.timeout.connect(self._check_arm)
 
+        self.topics = WindowTopics()
+        self.player = TrajectoryPlayer(self.trajectory, config.player_rate, self.topics.equilibrium)
+        self.services = ServiceCaller(config.service_timeout)
+        self.services.finished.connect(self._on_service)
+        self.worker = RosWorker(config, self.command, self.recorder, self.shared_recorder, self.player.current)
+        self._build_window()
+        self._connect_tabs()
+        self._actions = self._session_actions()
+        self._start_worker()
+        self.tabs.setCurrentIndex(config.initial_tab)
+        self._on_tab_changed(config.initial_tab)
+        self._guidance_timer = QTimer(self)  # 20 Hz: a new step or mode is felt at once, the same one is refreshed
+        self._guidance_timer.timeout.connect(self._send_guidance)
+        self._guidance_timer.start(50)
+
+    def _build_window(self) -> None:
+        """The banners, the four tabs (or the study's page) and the status bar."""
+        config = self.config
         self.setWindowTitle("teleteach: teleoperated teaching")
         self.resize(1180, 880)
         central = QWidget()
         column = QVBoxLayout(central)
-        self.help_banner = QLabel()
-        self.help_banner.setWordWrap(True)
-        self.help_banner.setStyleSheet(
+        self.help_banner = _banner(
             "background: #d22828; color: white; font-size: 15pt; font-weight: bold; padding: 8px;"
         )
-        self.help_banner.hide()
-        self.study_banner = QLabel()
-        self.study_banner.setStyleSheet(
+        self.study_banner = _banner(
             "background: #1a237e; color: white; font-size: 14pt; font-weight: bold; padding: 6px;"
         )
-        self.study_banner.setWordWrap(True)  # a long status must not widen the window beyond the screen
-        self.study_banner.hide()
         column.addWidget(self.study_banner)
         column.addWidget(self.help_banner)
         self.tabs = QTabWidget()
         self.start_tab = StartTab(config)
         self.high_level = HighLevelTab(config)
-        self.low_level = LowLevelTab(config, self.command)
-        self.low_level.recorded_samples = lambda: len(self.recorder)
-        self.shared_control = SharedControlTab(config)
-        self.shared_control.recorded_samples = lambda: len(self.shared_recorder)
+        self.low_level = LowLevelTab(
+            config,
+            self.command,
+            recorded_samples=lambda: len(self.recorder),
+            last_click=lambda: self.worker.last_click,
+            device_time=lambda: self.worker.device_time,
+        )
+        self.shared_control = SharedControlTab(config, recorded_samples=lambda: len(self.shared_recorder))
         self._tab_widgets: List[QWidget] = []
         for tab, index in (
             (self.start_tab, Tab.START),
@@ -133,16 +169,22 @@ class MainWindow(QMainWindow):
         self.statusBar().addPermanentWidget(self.health_label)
         self.tree_label = QLabel("tree: -")
         self.statusBar().addPermanentWidget(self.tree_label)
-        self._arm_timer = QTimer(self)  # while a session waits for the arm to be free
-        self._arm_timer.timeout.connect(self._check_arm)
-        self._arm_deadline = math.inf
 
-        self.services = ServiceCaller(config.service_timeout)
-        self.services.finished.connect(self._on_service)
-        self.worker = RosWorker(config, self.command, self.recorder, self.shared_recorder)
-        self.worker.equilibrium = self.player.current
-        self.low_level.last_click = lambda: self.worker.last_click
-        self.low_level.device_time = lambda: self.worker.device_time
+    def _connect_tabs(self) -> None:
+        """What the operator does in a tab reaches the window."""
+        self.start_tab.start_requested.connect(lambda: self._carry_out(self.session.start_requested()))
+        self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
+        self.start_tab.mode_chosen.connect(lambda tab: self._publish_selection(Tab.START, "mode", Tab(tab).name))
+        self.high_level.request_ready.connect(self._send_change)
+        self.high_level.selection_confirmed.connect(
+            lambda step, choice: self._publish_selection(Tab.HIGH_LEVEL, step, choice)
+        )
+        self.low_level.recording_toggled.connect(self._toggle_recording)
+        self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
+        self.tabs.currentChanged.connect(self._on_tab_changed)
+
+    def _start_worker(self) -> None:
+        """The ROS worker in its own thread; its signals reach the window and the tabs in the GUI thread."""
         self.thread = QThread(self)
         self.thread.setObjectName("ros_worker")
         self.worker.moveToThread(self.thread)
@@ -162,18 +204,12 @@ class MainWindow(QMainWindow):
         self.worker.shared_arm.connect(self.shared_control.on_arm, queued)
         self.worker.study_state.connect(self._on_study_state, queued)
         self.worker.execution_changed.connect(self._on_execution, queued)
-        self.start_tab.start_requested.connect(lambda: self._carry_out(self.session.start_requested()))
-        self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
-        self.start_tab.mode_chosen.connect(lambda tab: self._publish_selection(Tab.START, "mode", Tab(tab).name))
-        self.high_level.request_ready.connect(self._send_change)
-        self.high_level.selection_confirmed.connect(
-            lambda step, choice: self._publish_selection(Tab.HIGH_LEVEL, step, choice)
-        )
-        self.low_level.recording_toggled.connect(self._toggle_recording)
-        self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
-        self.tabs.currentChanged.connect(self._on_tab_changed)
-        controllers = config.controller_names
-        self._actions = {  # what each of the teaching session's actions does here
+        self.thread.start()
+
+    def _session_actions(self):
+        """What each of the teaching session's actions (teleteach.gui.session) does here."""
+        controllers = self.config.controller_names
+        return {
             Action.ENTER_LOW_LEVEL: self.low_level.on_enter,
             Action.LEAVE_LOW_LEVEL: self.low_level.on_leave,
             Action.RESET_HIGH_LEVEL: self.high_level.reset,
@@ -190,18 +226,12 @@ class MainWindow(QMainWindow):
             Action.START_STIFFNESS_RECORDING: self._start_recording,
             Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
             Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,
-            Action.SHARED_CONTROL_ON: lambda: publish(self._shared_control_publisher, Bool(True)),
-            Action.SHARED_CONTROL_OFF: lambda: publish(self._shared_control_publisher, Bool(False)),
+            Action.SHARED_CONTROL_ON: lambda: publish(self.topics.shared_control, Bool(True)),
+            Action.SHARED_CONTROL_OFF: lambda: publish(self.topics.shared_control, Bool(False)),
             Action.START_SHARED_RECORDING: self._start_shared_recording,
             Action.STOP_SHARED_RECORDING: self._stop_shared_recording,
             Action.SAVE_SHARED_SKILL: self._save_shared_skill,
         }
-        self.thread.start()
-        self.tabs.setCurrentIndex(config.initial_tab)
-        self._on_tab_changed(config.initial_tab)
-        self._guidance_timer = QTimer(self)  # 20 Hz: a new step or mode is felt at once, the same one is refreshed
-        self._guidance_timer.timeout.connect(self._send_guidance)
-        self._guidance_timer.start(50)
 
     def add_tab(self, tab: QWidget, title: str) -> int:
         """Append a tab; returns its index.
@@ -297,7 +327,7 @@ class MainWindow(QMainWindow):
         """A confirmed choice, for studies and bags (teleteach/Selection)."""
         message = Selection(tab=tab.name, step=step, choice=choice)
         message.header.stamp = rospy.Time.now()
-        publish(self._selection_publisher, message)
+        publish(self.topics.selection, message)
 
     def _on_health(self, problems: str) -> None:
         self.health_label.setText(problems)
@@ -326,7 +356,7 @@ class MainWindow(QMainWindow):
             return
         message = HapticGuidance(**guidance_fields(guidance))
         message.header.stamp = rospy.Time.now()
-        publish(self._guidance_publisher, message)
+        publish(self.topics.guidance, message)
         self._sent_guidance, self._guidance_sent_at = guidance, now
 
     # tabs -----------------------------------------------------------------------------------------
@@ -338,7 +368,7 @@ class MainWindow(QMainWindow):
         self.worker.reset_device_filter()
         for position, tab in enumerate(self._tab_widgets):
             tab.active = position == index
-        publish(self._tab_publisher, Int8(index))
+        publish(self.topics.active_tab, Int8(index))
         self._carry_out(self.session.tab_changed(index))
 
     def _carry_out(self, actions) -> None:
@@ -398,7 +428,7 @@ class MainWindow(QMainWindow):
         self.services.call("switch:" + start, SWITCH_SERVICE, SwitchController, request)
 
     def _pause_tree(self, paused: bool) -> None:
-        publish(self._pause_publisher, Bool(paused))
+        publish(self.topics.pause, Bool(paused))
 
     def _toggle_recording(self) -> None:
         self._carry_out(self.session.toggle_stiffness_recording())
@@ -424,7 +454,7 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage("recording not started: no /cartesian_pose of the arm yet", 15000)
             return
         self.recorder.start()
-        publish(self._recording_publisher, Bool(True))
+        publish(self.topics.recording, Bool(True))
         self.player.start(trajectory.resolve(self._teaching_target and self._teaching_target[1], hand))
         self.low_level.recording_since = time.monotonic()
         where = f" at {trajectory.target}" if trajectory.frame == TARGET_FRAME else ""
@@ -432,7 +462,7 @@ class MainWindow(QMainWindow):
 
     def _stop_recording(self) -> None:
         self.recorder.stop()
-        publish(self._recording_publisher, Bool(False))
+        publish(self.topics.recording, Bool(False))
         self.player.stop()
         self.low_level.recording_since = None
 
@@ -483,13 +513,13 @@ class MainWindow(QMainWindow):
 
     def _start_shared_recording(self) -> None:
         self.shared_recorder.start()
-        publish(self._recording_publisher, Bool(True))
+        publish(self.topics.recording, Bool(True))
         self.shared_control.recording_since = time.monotonic()
         self.statusBar().showMessage("recording the shared-control trajectory", 5000)
 
     def _stop_shared_recording(self) -> None:
         self.shared_recorder.stop()
-        publish(self._recording_publisher, Bool(False))
+        publish(self.topics.recording, Bool(False))
         self.shared_control.recording_since = None
         self.shared_control.show_status(self.shared_control.status)
 
@@ -554,7 +584,7 @@ class MainWindow(QMainWindow):
         """Idempotent: what closing the window does (the device is left without guidance: no force)."""
         if self.thread.isRunning():
             self._guidance_timer.stop()
-            publish(self._guidance_publisher, HapticGuidance(**guidance_fields(self._guidance.free())))
+            publish(self.topics.guidance, HapticGuidance(**guidance_fields(self._guidance.free())))
             self._carry_out(self.session.shutdown())
             self.player.stop()
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)

@@ -11,7 +11,7 @@ import collections
 import dataclasses
 import math
 import time
-from typing import Optional, Sequence, Tuple
+from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 from PyQt5.QtCore import QPointF, QRectF, Qt, pyqtSignal
@@ -205,12 +205,12 @@ class SharedControlTab(QWidget):
 
     recording_toggled = pyqtSignal()
 
-    def __init__(self, config: GuiConfig):
+    def __init__(self, config: GuiConfig, recorded_samples: Callable[[], int]):
         super().__init__()
         self.config = config
         self.active = False
         self.recording_since: Optional[float] = None
-        self.recorded_samples = lambda: 0
+        self.recorded_samples = recorded_samples  # how many samples the recording holds
         self.status: Optional[SharedStatus] = None
         self.clicks = ClickClassifier(config.double_click_window)
         row = QHBoxLayout(self)

@@ -546,16 +546,28 @@ class LowLevelTab(QWidget):
 
     recording_toggled = pyqtSignal()
 
-    def __init__(self, config: GuiConfig, command: EllipsoidCommand):
+    def __init__(
+        self,
+        config: GuiConfig,
+        command: EllipsoidCommand,
+        recorded_samples: Callable[[], int],
+        last_click: Callable[[], float],
+        device_time: Callable[[], float],
+    ):
+        """A LOW-LEVEL tab over ``command``.
+
+        ``recorded_samples``: how many samples the recording holds; ``last_click`` and ``device_time``: when the
+        last click arrived and the time now, both on the device's clock (a double click is told from two clicks).
+        """
         super().__init__()
         self.config = config
         self.command = command
         self._active = False
         self.recording_since: Optional[float] = None
-        self.recorded_samples = lambda: 0
+        self.recorded_samples = recorded_samples
         self.clicks = ClickClassifier(config.double_click_window)
-        self.last_click: Callable[[], float] = lambda: -math.inf  # when the last click arrived (the device's clock)
-        self.device_time: Callable[[], float] = time.monotonic  # the device's clock now (the worker's, when wired)
+        self.last_click = last_click
+        self.device_time = device_time
         self._drawn_version = -1
 
         layout = QHBoxLayout(self)

@@ -229,13 +229,15 @@ class RosWorker(QObject):
         config: GuiConfig,
         command: EllipsoidCommand,
         recorder: StiffnessRecorder,
-        shared_recorder: Optional[StiffnessRecorder] = None,
+        shared_recorder: StiffnessRecorder,
+        equilibrium: Callable[[], Optional[np.ndarray]],
     ):
+        """``equilibrium``: the pose the player commands now (recorded with each stiffness sample), or None."""
         super().__init__()
         self.config = config
         self.command = command
         self.recorder = recorder
-        self.shared_recorder = StiffnessRecorder() if shared_recorder is None else shared_recorder
+        self.shared_recorder = shared_recorder
         self._plane: Optional[TaskPlane] = None
         self._plane_checked = -1e9
         self._plane_lock = threading.Lock()
@@ -243,7 +245,7 @@ class RosWorker(QObject):
         self._active_tab = 0
         self._publish_timer: Optional[QTimer] = None
         self._tab_changed.connect(self._follow_tab, Qt.QueuedConnection)
-        self.equilibrium: Callable[[], Optional[np.ndarray]] = lambda: None
+        self.equilibrium = equilibrium
         self._filter = DeviceFilter(config)
         self._button = EdgeDetector(0.5, 0.5)
         self._gripper = EdgeDetector(config.gripper_open_threshold, config.gripper_rearm_below)
