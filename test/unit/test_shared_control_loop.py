@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from teleteach.msg import SharedControlState
 from teleteach.shared_control.constraints import Box, StraightEdge, violation
-from teleteach.shared_control.loop import DIRECT, FALLBACK, SHARED, UNKNOWN, SharedControl, SharedControlConfig
+from teleteach.shared_control.loop import DIRECT, FALLBACK, SHARED, UNKNOWN, Mode, SharedControl, SharedControlConfig
 from teleteach.shared_control.models import synthetic_commands
 from teleteach.shared_control.problems import recency_weights
 
@@ -413,3 +414,9 @@ def test_recency_weights_halve_at_the_half_life_and_keep_a_mean_of_one():
     assert weights[-1] / weights[-21] == pytest.approx(2.0)  # 20 cycles = 0.4 s older: half the weight
     assert np.all(np.diff(weights) > 0)  # the newest command counts most
     assert np.array_equal(recency_weights(40, DT, 0.0), np.ones(40))  # the paper's uniform window
+
+
+def test_the_modes_are_the_state_message_s_constants():
+    assert {mode.name: int(mode) for mode in Mode} == {
+        name: getattr(SharedControlState, name) for name in ("DIRECT", "SHARED", "FALLBACK", "UNKNOWN")
+    }

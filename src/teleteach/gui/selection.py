@@ -16,6 +16,7 @@ from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple
 from teleteach.bt.editor import EditRequest
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceSample, scale_to_index
+from teleteach.msg import Behaviour
 
 # Bottom to top on the vertical slider: moving the device towards -Y goes towards "remove" (thesis Fig. 5, phase C).
 OPERATIONS = ("remove", "insert", "prepend", "add")
@@ -38,7 +39,12 @@ REPAIR_CHOICE = "Repair as last time"
 DEFAULT_PARENT = "BehaviorExecution"
 COMPOSITE_TYPES = (2, 3, 4)  # teleteach/Behaviour SEQUENCE, SELECTOR, PARALLEL: what add, prepend and insert can fill
 
-STATUS_NAMES = {1: "invalid", 2: "running", 3: "success", 4: "failure"}
+STATUS_NAMES = {
+    Behaviour.INVALID: "invalid",
+    Behaviour.RUNNING: "running",
+    Behaviour.SUCCESS: "success",
+    Behaviour.FAILURE: "failure",
+}
 
 
 class LibrarySkill(NamedTuple):

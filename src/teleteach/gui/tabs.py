@@ -45,12 +45,20 @@ from teleteach.gui.selection import (
     Step,
     TreeSnapshot,
 )
+from teleteach.msg import Behaviour
 
-STATUS_COLOURS = {2: QColor(40, 90, 220), 3: QColor(30, 150, 50), 4: QColor(210, 40, 40)}
+STATUS_COLOURS = {
+    Behaviour.RUNNING: QColor(40, 90, 220),
+    Behaviour.SUCCESS: QColor(30, 150, 50),
+    Behaviour.FAILURE: QColor(210, 40, 40),
+}
 NOT_VISITED = QColor(150, 150, 150)
 PAUSE_CONDITION = "PauseCondition"  # its FAILURE is "not paused" (the tree runs), its SUCCESS "paused": no error
-PAUSE_STATES = {3: ("paused", QColor(230, 81, 0)), 4: ("not paused", QColor(30, 150, 50))}
-COMPOSITE_KINDS = {2: "sequence", 3: "selector", 4: "parallel"}  # teleteach/Behaviour types: what the operator sees
+PAUSE_STATES = {
+    Behaviour.SUCCESS: ("paused", QColor(230, 81, 0)),
+    Behaviour.FAILURE: ("not paused", QColor(30, 150, 50)),
+}
+COMPOSITE_KINDS = {Behaviour.SEQUENCE: "sequence", Behaviour.SELECTOR: "selector", Behaviour.PARALLEL: "parallel"}
 SELECTED_STYLE = "QPushButton { background: #ffd54f; border: 3px solid #e65100; font-weight: bold; padding: 6px; }"
 BUTTON_STYLE = "QPushButton { padding: 6px; }"
 UNAVAILABLE_STYLE = "QPushButton { padding: 6px; color: #9e9e9e; background: #eeeeee; }"
@@ -216,7 +224,7 @@ class TreeView(QTreeWidget):
         items = {}
         for _, node in tree.depth_first():
             parent = items.get(node.parent_id)
-            state = STATUS_NAMES.get(node.status, "not visited") if node.status != 1 else "not visited"
+            state = STATUS_NAMES.get(node.status, "not visited") if node.status != Behaviour.INVALID else "not visited"
             colour = STATUS_COLOURS.get(node.status, NOT_VISITED)
             if node.class_name == PAUSE_CONDITION and node.status in PAUSE_STATES:
                 state, colour = PAUSE_STATES[node.status]

@@ -8,6 +8,7 @@ is infeasible it falls back (previous plan, hold, nearest free point) and says s
 
 import collections
 import dataclasses
+import enum
 import itertools
 import math
 import time
@@ -23,11 +24,18 @@ from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.models import SKILLS, ClothoidPath, ParameterLayout, skill_names
 from teleteach.shared_control.problems import SkillEstimation, SolveResult, TrajectoryOptimisation
 
-DIRECT = 0
-SHARED = 1
-FALLBACK = 2
-UNKNOWN = 3
-MODE_NAMES = {DIRECT: "DIRECT", SHARED: "SHARED", FALLBACK: "FALLBACK", UNKNOWN: "UNKNOWN"}
+
+class Mode(enum.IntEnum):
+    """Who drove a cycle; the values of teleteach/SharedControlState's mode constants."""
+
+    DIRECT = 0  # the operator alone, while the first window fills
+    SHARED = 1  # the plan of the recognised skill (blended with the operator's step by its authority)
+    FALLBACK = 2  # an optimisation failed or its plan was infeasible: the previous plan, hold or the nearest free point
+    UNKNOWN = 3  # no skill explains the commands: the operator's step, kept inside the constraints
+
+
+DIRECT, SHARED, FALLBACK, UNKNOWN = Mode
+MODE_NAMES = {mode: mode.name for mode in Mode}
 
 # A box so large that it never binds: the default when no boundary is given [m].
 UNBOUNDED = Box(-1e3, -1e3, 1e3, 1e3)
