@@ -36,6 +36,7 @@ from teleteach.bt.tree import (
     COMPOSITE_DEFAULTS,
     COMPOSITES,
     DECORATORS,
+    EditRecord,
     LeafFactory,
     Spec,
     TreeSpecError,
@@ -56,7 +57,7 @@ HISTORY_LIMIT = 100  # edits kept for undo, and undone edits kept for redo
 _COPY_SUFFIX = re.compile(r"_\d+$")
 _INVERSE = {"insert": "remove", "remove": "insert", "wrap": "unwrap", "unwrap": "wrap", "convert": "convert"}
 
-History = typing.Dict[str, typing.List[Spec]]
+History = typing.Dict[str, typing.List[EditRecord]]
 
 
 class ChangeResult(typing.NamedTuple):
@@ -95,8 +96,8 @@ class TreeEditor:
         self.execution = self.nodes[execution]
         self._next_suffix: typing.Dict[str, int] = {}
         history = history or {}
-        self.undo_edits: typing.List[Spec] = list(history.get("undo", []))[-HISTORY_LIMIT:]
-        self.redo_edits: typing.List[Spec] = list(history.get("redo", []))[-HISTORY_LIMIT:]
+        self.undo_edits: typing.List[EditRecord] = list(history.get("undo", []))[-HISTORY_LIMIT:]
+        self.redo_edits: typing.List[EditRecord] = list(history.get("redo", []))[-HISTORY_LIMIT:]
 
     @property
     def history(self) -> History:
@@ -137,7 +138,7 @@ class TreeEditor:
 
     def apply_requests(self, requests: typing.Sequence["EditRequest"]) -> ChangeResult:
         """Apply several requests as one edit (one undo reverts them all); if one fails, none stays applied."""
-        applied: typing.List[Spec] = []
+        applied: typing.List[EditRecord] = []
         messages: typing.List[str] = []
         for number, request in enumerate(requests, start=1):
             result, edit = self._request(request)
@@ -154,11 +155,11 @@ class TreeEditor:
         self._remember({"edit": "group", "edits": applied})
         return ChangeResult(True, "; ".join(messages))
 
-    def _remember(self, edit: Spec) -> None:
+    def _remember(self, edit: EditRecord) -> None:
         self.undo_edits = [*self.undo_edits, edit][-HISTORY_LIMIT:]
         self.redo_edits = []
 
-    def _request(self, request: "EditRequest") -> typing.Tuple[ChangeResult, Spec]:
+    def _request(self, request: "EditRequest") -> typing.Tuple[ChangeResult, EditRecord]:
         """Carry out one request that is not undo, redo or repair: the result, and the edit that undo replays."""
         node_name, operation = request.node_name, request.operation
         if operation not in OPERATIONS or operation in ("undo", "redo", "repair"):
@@ -166,7 +167,7 @@ class TreeEditor:
         if not node_name:
             return ChangeResult(False, "empty node name"), {}
         if operation == "remove":
-            edit: typing.Union[Spec, ChangeResult] = {
+            edit: typing.Union[EditRecord, ChangeResult] = {
                 "edit": "remove",
                 "node": {"name": node_name},
                 "parent": request.parent,
@@ -203,7 +204,7 @@ class TreeEditor:
         del other[:-HISTORY_LIMIT]
         return ChangeResult(True, f"{operation}: {result.message}", result.new_node_name)
 
-    def _apply(self, edit: Spec) -> ChangeResult:
+    def _apply(self, edit: EditRecord) -> ChangeResult:
         """Carry out one edit (completing its record with what it found), or say why not and change nothing."""
         apply = {
             "group": self._group,
@@ -221,7 +222,9 @@ class TreeEditor:
             return ChangeResult(False, f"the edit {json.dumps(edit)} cannot be applied: {error!r}")
 
     # --------------------------------------------------------------------------------------------- requests
-    def _addition(self, node_name: str, operation: str, index: int, parent: str) -> typing.Union[Spec, ChangeResult]:
+    def _addition(
+        self, node_name: str, operation: str, index: int, parent: str
+    ) -> typing.Union[EditRecord, ChangeResult]:
         source = self.nodes.get(node_name)
         if source is not None:
             reason = self.protected_reason(source)
@@ -238,7 +241,7 @@ class TreeEditor:
         position = {"add": None, "prepend": 0, "insert": index}[operation]  # None: the end, once known
         return {"edit": "insert", "parent": parent, "index": position, "node": spec}
 
-    def _conversion(self, node_name: str, kind: str) -> typing.Union[Spec, ChangeResult]:
+    def _conversion(self, node_name: str, kind: str) -> typing.Union[EditRecord, ChangeResult]:
         if kind not in COMPOSITES:
             return ChangeResult(False, f"cannot convert to '{kind}'; expected node_type {' | '.join(COMPOSITES)}")
         node = self.nodes.get(node_name)
@@ -249,7 +252,7 @@ class TreeEditor:
         after = {"type": kind, "name": node_name, **EDITED_COMPOSITE[kind]}
         return {"edit": "convert", "before": describe_shallow(node), "after": after}
 
-    def _wrapping(self, node_name: str, kind: str, parameter: float) -> typing.Union[Spec, ChangeResult]:
+    def _wrapping(self, node_name: str, kind: str, parameter: float) -> typing.Union[EditRecord, ChangeResult]:
         if kind not in WRAPPERS:
             return ChangeResult(False, f"cannot wrap in '{kind}'; expected node_type {' | '.join(WRAPPERS)}")
         node = self.nodes.get(node_name)
@@ -267,7 +270,7 @@ class TreeEditor:
         return {"edit": "wrap", "node": node_name, "wrapper": {"type": kind, "name": name, **settings}}
 
     # ------------------------------------------------------------------------------------------------ edits
-    def _group(self, edit: Spec) -> ChangeResult:
+    def _group(self, edit: EditRecord) -> ChangeResult:
         """Several edits as one (an applied repair): all of them, or none."""
         applied, messages = [], []
         for part in edit["edits"]:
@@ -290,7 +293,7 @@ class TreeEditor:
             return ChangeResult(False, f"cannot {verb} {reason}")
         return node
 
-    def _remove(self, edit: Spec) -> ChangeResult:
+    def _remove(self, edit: EditRecord) -> ChangeResult:
         node_name = edit["node"]["name"]
         node = self._editable(node_name, "remove")
         if isinstance(node, ChangeResult):
@@ -324,7 +327,7 @@ class TreeEditor:
         elif isinstance(parent, py_trees.composites.Selector):
             parent.stop(Status.INVALID)  # re-decide from the highest priority on the next tick
 
-    def _insert(self, edit: Spec) -> ChangeResult:
+    def _insert(self, edit: EditRecord) -> ChangeResult:
         parent_name, spec = edit["parent"], edit["node"]
         if parent_name:
             parent = self.nodes.get(parent_name)
@@ -352,7 +355,7 @@ class TreeEditor:
         self._run_first_if_in_front_of_failed(parent, new_node, position)
         return ChangeResult(True, f"inserted '{new_node.name}' in '{parent.name}' at index {position}", new_node.name)
 
-    def _convert(self, edit: Spec) -> ChangeResult:
+    def _convert(self, edit: EditRecord) -> ChangeResult:
         before, after = edit["before"], edit["after"]
         node = self.nodes.get(before["name"])
         if node is None or not isinstance(node, py_trees.composites.Composite):
@@ -382,7 +385,7 @@ class TreeEditor:
             self.execution = converted
         return ChangeResult(True, f"converted '{node.name}' from a {before['type']} to a {after['type']}")
 
-    def _wrap(self, edit: Spec) -> ChangeResult:
+    def _wrap(self, edit: EditRecord) -> ChangeResult:
         wrapper_spec, node = edit["wrapper"], self._editable(edit["node"], "wrap")
         if isinstance(node, ChangeResult):
             return node
@@ -404,7 +407,7 @@ class TreeEditor:
         what = "".join(f", {key} {value}" for key, value in settings.items())
         return ChangeResult(True, f"wrapped '{node.name}' in the {kind} '{name}'{what}", name)
 
-    def _unwrap(self, edit: Spec) -> ChangeResult:
+    def _unwrap(self, edit: EditRecord) -> ChangeResult:
         name = edit["wrapper"]["name"]
         wrapper = self._editable(name, "unwrap")
         if isinstance(wrapper, ChangeResult):
@@ -518,7 +521,7 @@ class EditRequest(typing.NamedTuple):
         return text
 
 
-def inverse(edit: Spec) -> Spec:
+def inverse(edit: EditRecord) -> EditRecord:
     """The edit that undoes ``edit`` (a copy: the history keeps the original)."""
     if edit["edit"] == "group":
         return {"edit": "group", "edits": [inverse(part) for part in reversed(edit["edits"])]}

@@ -47,7 +47,8 @@ COMPOSITE_DEFAULTS = {  # what a composite written without these fields (or conv
 }
 PARALLEL_POLICIES = ("success_on_all", "success_on_one")
 
-Spec = typing.Dict[str, typing.Any]
+Spec = typing.Dict[str, typing.Any]  # a tree node as a tree file writes it: type, name, its children or skill
+EditRecord = typing.Dict[str, typing.Any]  # an applied edit as the history keeps it: {"edit": kind, ...}
 LeafFactory = typing.Callable[[str, SkillEntry], SkillLeaf]
 
 _Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -62,7 +63,7 @@ class TreeSpec(typing.NamedTuple):
 
     root: Spec
     execution: str
-    history: typing.Optional[typing.Dict[str, typing.List[Spec]]] = None  # {"undo": [edit, ...], "redo": [...]}
+    history: typing.Optional[typing.Dict[str, typing.List[EditRecord]]] = None  # {"undo": [edit, ...], "redo": [...]}
 
 
 def parse_tree(data: typing.Any, library: SkillLibrary, source: str = "tree") -> TreeSpec:
@@ -82,13 +83,13 @@ def parse_tree(data: typing.Any, library: SkillLibrary, source: str = "tree") ->
     return TreeSpec(root=root, execution=execution, history=_parse_history(data.get("history"), source))
 
 
-def _parse_history(data: typing.Any, source: str) -> typing.Optional[typing.Dict[str, typing.List[Spec]]]:
+def _parse_history(data: typing.Any, source: str) -> typing.Optional[typing.Dict[str, typing.List[EditRecord]]]:
     """The saved undo/redo edits: checked for shape here, for meaning when an undo or redo applies one."""
     if data is None:
         return None
     if not isinstance(data, dict) or set(data) - {"undo", "redo"}:
         raise TreeSpecError(f"{source}: history must be a mapping with 'undo' and 'redo' lists of edits")
-    history: typing.Dict[str, typing.List[Spec]] = {}
+    history: typing.Dict[str, typing.List[EditRecord]] = {}
     for key in ("undo", "redo"):
         edits = data.get(key) or []
         if not isinstance(edits, list) or not all(
@@ -302,7 +303,7 @@ def dump_live_yaml(
     root: py_trees.behaviour.Behaviour,
     execution: str,
     header: str = "",
-    history: typing.Optional[typing.Dict[str, typing.List[Spec]]] = None,
+    history: typing.Optional[typing.Dict[str, typing.List[EditRecord]]] = None,
 ) -> str:
     """:func:`dump_yaml` of a live tree in linear time, without building its description (leaf lines are cached)."""
     lines = _header(execution, header)
@@ -323,7 +324,7 @@ def dump_live_yaml(
     return _with_history(lines, history)
 
 
-def _with_history(lines: typing.List[str], history: typing.Optional[typing.Dict[str, typing.List[Spec]]]) -> str:
+def _with_history(lines: typing.List[str], history: typing.Optional[typing.Dict[str, typing.List[EditRecord]]]) -> str:
     """The tree's lines, then its edit history (one JSON edit per line, which yaml reads)."""
     if history and (history.get("undo") or history.get("redo")):
         lines.append("history:")
