@@ -5,8 +5,9 @@ import pytest
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceSample
 from teleteach.gui.selection import SelectionFlow, Step
-from teleteach.gui.study import Page, StudyScreen, StudyStatus, Submission
+from teleteach.gui.study import Page, StudyScreen, Submission
 from teleteach.questionnaire import NASA_TLX, Item
+from teleteach.study_phase import Phase, StudyView
 
 CONFIG = GuiConfig.load()
 LIKERT = Item("in_control", "Control", "I felt in control.", "Strongly disagree", "Strongly agree", 7, 1.0, 7.0)
@@ -25,24 +26,30 @@ def screen():
 def test_the_study_s_page_shows_between_trials_and_the_tabs_while_one_runs(screen):
     assert screen.page is Page.TABS  # no study: the GUI as always
     for phase, page in (
-        ("PREPARING", Page.STUDY),
-        ("INSTRUCTIONS", Page.STUDY),
-        ("RUNNING", Page.TABS),
-        ("DONE", Page.STUDY),
-        ("QUESTIONNAIRE", Page.STUDY),
-        ("FINISHED", Page.STUDY),
+        (Phase.PREPARING, Page.STUDY),
+        (Phase.INSTRUCTIONS, Page.STUDY),
+        (Phase.RUNNING, Page.TABS),
+        (Phase.DONE, Page.STUDY),
+        (Phase.QUESTIONNAIRE, Page.STUDY),
+        (Phase.FINISHED, Page.STUDY),
     ):
-        screen.on_status(StudyStatus(phase))
+        screen.on_status(StudyView(phase))
         assert screen.page is page, phase
-    running = StudyStatus(
-        "RUNNING", trial=3, trials=8, title="Remove PlaceItem", elapsed=75.4, timeout=90.0, status="PlaceItem is there"
+    running = StudyView(
+        Phase.RUNNING,
+        trial=3,
+        trials=8,
+        title="Remove PlaceItem",
+        elapsed=75.4,
+        timeout=90.0,
+        status="PlaceItem is there",
     )
     screen.on_status(running)
     assert screen.banner() == "Trial 3 of 8: Remove PlaceItem   1:15 of 1:30\nPlaceItem is there"
 
 
 def test_the_start_gesture_is_a_click_with_the_handle_at_the_centre(screen):
-    screen.on_status(StudyStatus("INSTRUCTIONS", trial=1))
+    screen.on_status(StudyView(Phase.INSTRUCTIONS, trial=1))
     screen.on_device(at(0.05, 0.0, 0.0))
     assert screen.on_click() is None
     assert screen.message == "Bring the handle to the centre (the dot into the ring), then click."
@@ -55,7 +62,7 @@ def test_the_start_gesture_is_a_click_with_the_handle_at_the_centre(screen):
 
 
 def test_the_questionnaire_is_answered_with_device_x_and_clicks_and_one_item_back(screen):
-    screen.on_status(StudyStatus("QUESTIONNAIRE", items=ITEMS))
+    screen.on_status(StudyView(Phase.QUESTIONNAIRE, items=ITEMS))
     assert (screen.item_index, screen.item) == (0, NASA_TLX[0])
     screen.on_device(at(x=-0.1))
     assert screen.position == 0
@@ -80,12 +87,12 @@ def test_the_questionnaire_is_answered_with_device_x_and_clicks_and_one_item_bac
 
 
 def test_a_new_questionnaire_starts_at_its_first_item(screen):
-    screen.on_status(StudyStatus("QUESTIONNAIRE", items=ITEMS))
+    screen.on_status(StudyView(Phase.QUESTIONNAIRE, items=ITEMS))
     screen.on_click()
-    screen.on_status(StudyStatus("QUESTIONNAIRE", items=ITEMS))  # the same state again: nothing changes
+    screen.on_status(StudyView(Phase.QUESTIONNAIRE, items=ITEMS))  # the same state again: nothing changes
     assert screen.item_index == 1
-    screen.on_status(StudyStatus("PREPARING"))
-    screen.on_status(StudyStatus("QUESTIONNAIRE", items=ITEMS))
+    screen.on_status(StudyView(Phase.PREPARING))
+    screen.on_status(StudyView(Phase.QUESTIONNAIRE, items=ITEMS))
     assert screen.item_index == 0 and screen.answers == [None, None]
 
 

@@ -32,7 +32,7 @@ from teleteach.gui.recording import StiffnessRecorder, unique_skill_name
 from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, TeachingSession
 from teleteach.gui.shared_tab import SharedControlTab
-from teleteach.gui.study import Page, StudyScreen, StudyStatus
+from teleteach.gui.study import Page, StudyScreen
 from teleteach.gui.study_page import StudyPage
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
@@ -50,6 +50,7 @@ from teleteach.srv import (
     SwitchController,
     SwitchControllerRequest,
 )
+from teleteach.study_phase import StudyView
 from teleteach.trajectories import Trajectory
 
 SWITCH_SERVICE = "controller_manager/switch_controller"
@@ -298,7 +299,7 @@ class MainWindow(QMainWindow):
         self.statusBar().showMessage(f"help requested by {node_name}: {reason}", 30000)
 
     # user study ---------------------------------------------------------------------------------------
-    def _on_study_state(self, status: StudyStatus) -> None:
+    def _on_study_state(self, status: StudyView) -> None:
         """The study's page between trials, the tabs with a banner while one runs."""
         self.study.on_status(status)
         study_page = self.study.page is Page.STUDY

@@ -20,26 +20,7 @@ from typing import List, Optional, Tuple
 from teleteach.gui.config import GuiConfig
 from teleteach.gui.device import DeviceSample, scale_to_index
 from teleteach.questionnaire import Item
-
-
-@dataclasses.dataclass(frozen=True)
-class StudyStatus:
-    """study/state as the GUI needs it (the fields of teleteach/StudyState; items as questionnaire Items)."""
-
-    phase: str
-    study: str = ""
-    participant: str = ""
-    condition_label: str = ""
-    task: str = ""
-    title: str = ""
-    instructions: str = ""
-    trial: int = 0
-    trials: int = 0
-    elapsed: float = 0.0
-    timeout: float = 0.0
-    status: str = ""
-    success: bool = False
-    items: Tuple[Item, ...] = ()
+from teleteach.study_phase import Phase, StudyView
 
 
 @dataclasses.dataclass(frozen=True)
@@ -63,7 +44,7 @@ class StudyScreen:
 
     def __init__(self, config: GuiConfig):
         self.config = config
-        self.status: Optional[StudyStatus] = None
+        self.status: Optional[StudyView] = None
         self.sample = DeviceSample(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         self.item_index = 0
         self.answers: List[Optional[int]] = []  # confirmed scale position of each item
@@ -74,15 +55,15 @@ class StudyScreen:
         self._items_key: Tuple[str, ...] = ()
 
     # inputs -------------------------------------------------------------------------------------------------
-    def on_status(self, status: StudyStatus) -> None:
+    def on_status(self, status: StudyView) -> None:
         """A new study/state."""
         previous = self.status
         self.status = status
         if previous is None or previous.phase != status.phase or previous.trial != status.trial:
             self.message, self.sending, self.sent = "", False, False
         key = tuple(item.name for item in status.items)
-        fresh = previous is None or previous.phase != "QUESTIONNAIRE" or key != self._items_key
-        if status.phase == "QUESTIONNAIRE" and fresh:
+        fresh = previous is None or previous.phase != Phase.QUESTIONNAIRE or key != self._items_key
+        if status.phase == Phase.QUESTIONNAIRE and fresh:
             self._items_key = key
             self.item_index = 0
             self.answers = [None] * len(status.items)
@@ -91,20 +72,20 @@ class StudyScreen:
     def on_device(self, sample: DeviceSample) -> None:
         """A device sample (only while the study's page is shown)."""
         self.sample = sample
-        if self.phase == "INSTRUCTIONS" and self.centred and self.message.startswith("Bring"):
+        if self.phase == Phase.INSTRUCTIONS and self.centred and self.message.startswith("Bring"):
             self.message = ""  # the handle is where it should be now
         self._follow_device()
 
     def on_click(self) -> Optional[Submission]:
         """A click on the study's page; returns what to send to study/input, if anything."""
         phase = self.phase
-        if phase == "INSTRUCTIONS" and not self.sending:
+        if phase == Phase.INSTRUCTIONS and not self.sending:
             if not self.centred:
                 self.message = "Bring the handle to the centre (the dot into the ring), then click."
                 return None
             self.sending, self.message = True, "starting..."
             return Submission("start")
-        if phase != "QUESTIONNAIRE" or self.sending or self.sent:
+        if phase != Phase.QUESTIONNAIRE or self.sending or self.sent:
             return None
         if self.sample.z < -self.config.edit_push:  # back one item
             self.item_index = max(0, self.item_index - 1)
@@ -127,21 +108,21 @@ class StudyScreen:
         """study/input's answer (or why there was none)."""
         self.sending = False
         if success:
-            self.sent = self.phase == "QUESTIONNAIRE"
+            self.sent = self.phase == Phase.QUESTIONNAIRE
             self.message = "Thank you." if self.sent else ""
         else:
             self.message = f"not taken: {message}"
 
     # what to show -------------------------------------------------------------------------------------------
     @property
-    def phase(self) -> str:
-        """The study's phase ("" without a study)."""
-        return self.status.phase if self.status else ""
+    def phase(self) -> Optional[Phase]:
+        """The study's phase (None without a study)."""
+        return self.status.phase if self.status else None
 
     @property
     def page(self) -> Page:
         """The study's page, or the tabs (no study, or a trial running)."""
-        return Page.STUDY if self.phase and self.phase != "RUNNING" else Page.TABS
+        return Page.STUDY if self.phase is not None and self.phase != Phase.RUNNING else Page.TABS
 
     @property
     def centred(self) -> bool:
@@ -158,7 +139,7 @@ class StudyScreen:
     @property
     def reviewing(self) -> bool:
         """Every item answered: the summary waits for the click that sends them."""
-        return self.phase == "QUESTIONNAIRE" and self.item is None
+        return self.phase == Phase.QUESTIONNAIRE and self.item is None
 
     def summary(self) -> List[Tuple[str, float]]:
         """(title, answer) of every answered item."""
@@ -169,7 +150,7 @@ class StudyScreen:
     def banner(self) -> str:
         """RUNNING: the task and the time; on a second line what the world shows."""
         status = self.status
-        if status is None or status.phase != "RUNNING":
+        if status is None or status.phase != Phase.RUNNING:
             return ""
         minutes, seconds = divmod(int(status.elapsed), 60)
         limit_minutes, limit_seconds = divmod(int(status.timeout), 60)

@@ -11,6 +11,7 @@ from PyQt5.QtGui import QColor, QFont, QPainter, QPen
 from PyQt5.QtWidgets import QHBoxLayout, QLabel, QSizePolicy, QVBoxLayout, QWidget
 
 from teleteach.gui.study import StudyScreen
+from teleteach.study_phase import Phase
 
 TITLE_STYLE = "color: #1a237e;"
 DONE_STYLE = "color: #1b5e20;"
@@ -157,10 +158,10 @@ class StudyPage(QWidget):
         column.addWidget(self.hint)
         self._slider_shown: Optional[bool] = None
         self._screens = {
-            "INSTRUCTIONS": self._instructions,
-            "DONE": self._done,
-            "QUESTIONNAIRE": self._questionnaire,
-            "FINISHED": self._finished,
+            Phase.INSTRUCTIONS: self._instructions,
+            Phase.DONE: self._done,
+            Phase.QUESTIONNAIRE: self._questionnaire,
+            Phase.FINISHED: self._finished,
         }
 
     def _questionnaire_widgets(self, shown: bool) -> None:
@@ -177,14 +178,14 @@ class StudyPage(QWidget):
             return
         phase = status.phase
         header = f"Study {status.study} \u00b7 participant {status.participant}"
-        if status.trials and phase in ("PREPARING", "INSTRUCTIONS", "DONE"):
+        if status.trials and phase in (Phase.PREPARING, Phase.INSTRUCTIONS, Phase.DONE):
             header += f" \u00b7 trial {max(status.trial, 1)} of {status.trials}"
         if status.condition_label:
             header += f" \u00b7 {status.condition_label}"
         self.header.setText(header)
         self.message.setText(screen.message)
-        self.target.setVisible(phase == "INSTRUCTIONS")
-        self._questionnaire_widgets(phase == "QUESTIONNAIRE" and not screen.reviewing and not screen.sent)
+        self.target.setVisible(phase == Phase.INSTRUCTIONS)
+        self._questionnaire_widgets(phase == Phase.QUESTIONNAIRE and not screen.reviewing and not screen.sent)
         self.title.setStyleSheet(TITLE_STYLE)
         self._screens.get(phase, self._preparing)(screen)
 

@@ -31,13 +31,12 @@ from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.shared_tab import SharedStatus
-from teleteach.gui.study import StudyStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState, TreeExecution
 from teleteach.node import publish, shutting_down
 from teleteach.perception.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.questionnaire import Item
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
-from teleteach.study_phase import Phase, phase_name
+from teleteach.study_phase import Phase, StudyView
 from teleteach.trajectories import Trajectory
 
 
@@ -50,7 +49,7 @@ def pose_to_array(pose) -> np.ndarray:
 DEVICE_LOST = "device lost (/sigma7/pose silent)"
 
 
-def study_status(message: StudyState) -> StudyStatus:
+def study_view(message: StudyState) -> StudyView:
     """The GUI's view of a teleteach/StudyState."""
     items = tuple(
         Item(*fields)
@@ -65,10 +64,11 @@ def study_status(message: StudyState) -> StudyStatus:
             message.item_maximum,
         )
     )
-    return StudyStatus(
-        phase=phase_name(message.phase, Phase.PREPARING.name),
+    return StudyView(
+        phase=Phase(message.phase) if message.phase in tuple(Phase) else Phase.PREPARING,  # a newer study's phase
         study=message.study,
         participant=message.participant,
+        condition=message.condition,
         condition_label=message.condition_label,
         task=message.task,
         title=message.title,
@@ -220,7 +220,7 @@ class RosWorker(QObject):
     shared_boundary = pyqtSignal(object)  # n x 2 task-plane points [m]
     shared_obstacle = pyqtSignal(object)  # (x, y, yaw) in the task plane
     shared_arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
-    study_state = pyqtSignal(object)  # StudyStatus of a user study (study/state)
+    study_state = pyqtSignal(object)  # StudyView of a user study (study/state)
     _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
     execution_changed = pyqtSignal(int, str)  # the tree's TreeExecution state and its message
 
@@ -288,7 +288,7 @@ class RosWorker(QObject):
             ("shared_control/boundary", PolygonStamped, self._on_shared_boundary),
             ("shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
             ("equilibrium_pose", PoseStamped, self._on_equilibrium),
-            ("study/state", StudyState, lambda message: self.study_state.emit(study_status(message))),
+            ("study/state", StudyState, lambda message: self.study_state.emit(study_view(message))),
             ("behaviour_tree/execution", TreeExecution, self._on_execution),
         ]
         for topic, message_class, callback in subscriptions:

@@ -11,32 +11,11 @@ import dataclasses
 import threading
 from typing import Dict, Optional, Sequence, Tuple
 
-from teleteach.questionnaire import AnswerError, Item, check_answers
+from teleteach.questionnaire import AnswerError, check_answers
 from teleteach.study.goals import Judgement
 from teleteach.study.ordering import Step
 from teleteach.study.schema import Study
-from teleteach.study_phase import Phase
-
-
-@dataclasses.dataclass(frozen=True)
-class StudyView:
-    """What study/state says (the fields of teleteach/StudyState)."""
-
-    phase: Phase
-    study: str
-    participant: str
-    condition: str = ""
-    condition_label: str = ""
-    task: str = ""
-    title: str = ""
-    instructions: str = ""
-    trial: int = 0
-    trials: int = 0
-    elapsed: float = 0.0
-    timeout: float = 0.0
-    status: str = ""
-    success: bool = False
-    items: Tuple[Item, ...] = ()
+from teleteach.study_phase import Phase, StudyView
 
 
 class StudyFlow:
