@@ -22,12 +22,15 @@ from teleteach.run import outcome
 from teleteach.run.processes import (
     ProcessError,
     Processes,
+    closed_bag,
     free_port,
+    full_launch,
     master_pid,
     own_master,
     parent_pid,
     required_death,
     screenshot,
+    scripted_device,
     start_xvfb,
 )
 from teleteach.run.thesis import options_for
@@ -333,6 +336,38 @@ def test_the_device_node_ends_the_launch_for_an_operator_s_own_device_or_when_as
     roslaunch.xmlloader.XmlLoader().load(str(ROOT / "launch" / "full.launch"), config, argv=argv, verbose=False)
     (device,) = [node for node in config.nodes if node.name == "sigma7_node"]
     assert device.required is required
+
+
+def test_a_scripted_system_s_command_line_reaches_its_device_node(tmp_path):
+    import roslaunch.config
+    import roslaunch.xmlloader
+
+    scenario = tmp_path / "operator.yaml"
+    command = full_launch({**scripted_device(scenario, 250.0), "headless": True, "data_dir": tmp_path}, port=11999)
+    assert command[:5] == ["roslaunch", "-p", "11999", "teleteach", "full.launch"]
+    assert "headless:=true" in command and "device_required:=true" in command
+    result = subprocess.run(["roslaunch", "--dump-params", *command[3:]], capture_output=True, text=True, check=True)
+    params = yaml.safe_load(result.stdout)
+    assert (params["/sigma7_node/backend"], params["/sigma7_node/scenario"]) == ("scenario", str(scenario))
+    assert params["/sigma7_node/rate"] == 250
+    config = roslaunch.config.ROSLaunchConfig()
+    argv = ["roslaunch", *command[5:]]
+    roslaunch.xmlloader.XmlLoader().load(str(ROOT / "launch" / "full.launch"), config, argv=argv, verbose=False)
+    (device,) = [node for node in config.nodes if node.name == "sigma7_node"]
+    assert device.required  # a scripted operator that fails its script ends the system
+
+
+def test_a_bag_is_taken_once_rosbag_closed_it(tmp_path):
+    bags = tmp_path / "bags"
+    bags.mkdir()
+    (bags / "trial_1.bag.active").write_bytes(b"recording")
+    assert closed_bag(bags, "trial", tmp_path, timeout=0.3) is None  # still open: nothing to take
+    (bags / "trial_1.bag.active").rename(bags / "trial_1.bag")
+    (bags / "session_2.bag").write_bytes(b"another recorder's")
+    assert closed_bag(bags, "trial", tmp_path, timeout=5.0, name="trial.bag") == tmp_path / "trial.bag"
+    assert (tmp_path / "trial.bag").read_bytes() == b"recording"
+    assert sorted(path.name for path in bags.iterdir()) == ["session_2.bag"]
+    assert closed_bag(bags, "session", tmp_path, timeout=5.0) == tmp_path / "session_2.bag"  # its own name
 
 
 def test_full_launch_passes_its_args_to_the_parts():

@@ -11,8 +11,9 @@ from teleteach.gui.config import GuiConfig
 from teleteach.haptics.ros import Sigma7Config
 from teleteach.node import node_parameters
 from teleteach.questionnaire import TLX_NAMES
+from teleteach.run.processes import launch_value
 from teleteach.shared_control.ros import SharedControlNode
-from teleteach.study.parameters import check_parameter, launch_value, node_defaults, parameters_file
+from teleteach.study.parameters import check_parameter, node_defaults, parameters_file
 from teleteach.study.schema import StudyError, load_study, parse_study
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]

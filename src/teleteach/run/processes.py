@@ -1,4 +1,4 @@
-"""Child processes of a run: an X server when there is no display, roslaunch, RViz, screenshots.
+"""Child processes of a run: an X server when there is no display, roslaunch of a whole system, RViz, screenshots.
 
 Processes are started in their own session and stopped by PID, in reverse order of starting (RViz before Xvfb),
 first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL. A process
@@ -17,7 +17,9 @@ import socket
 import subprocess
 import time
 import xmlrpc.client
-from typing import IO, Callable, Dict, List, Optional, Sequence, Tuple
+from typing import IO, Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import yaml
 
 PR_SET_PDEATHSIG = 1  # prctl option (linux/prctl.h)
 
@@ -174,6 +176,54 @@ def ros_environment(master_uri: str, display: str, data_root: pathlib.Path) -> D
         env["ROS_IP"] = "127.0.0.1"
     env.update(ROS_MASTER_URI=master_uri, DISPLAY=display, TELETEACH_DATA=str(data_root), PYTHONUNBUFFERED="1")
     return env
+
+
+def launch_value(value: Any) -> str:
+    """A yaml value as a roslaunch argument (``true``, ``0.5``, ``[product_pick_1]``)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, dict)):
+        return yaml.safe_dump(value, default_flow_style=True).strip()
+    return str(value)
+
+
+def full_launch(arguments: Mapping[str, Any], port: Optional[int] = None) -> List[str]:
+    """``roslaunch [-p port] teleteach full.launch name:=value ...``: the whole system.
+
+    As the main job and a study's trials start it; with ``port``, roslaunch starts a master of its own there.
+    """
+    command = ["roslaunch", *(["-p", str(port)] if port is not None else []), "teleteach", "full.launch"]
+    return command + [f"{name}:={launch_value(value)}" for name, value in arguments.items()]
+
+
+def scripted_device(scenario: pathlib.Path, rate: float) -> Dict[str, Any]:
+    """full.launch's arguments for a scripted operator playing ``scenario`` with its device loop at ``rate`` [Hz].
+
+    The device is required: an operator that fails its script (a keyframe waited for the system in vain) ends the
+    whole system at once, and the run says why (:func:`required_death`).
+    """
+    return {"device": "scenario", "scenario": scenario, "device_rate": f"{rate:g}", "device_required": True}
+
+
+def closed_bag(
+    folder: pathlib.Path, prefix: str, into: pathlib.Path, timeout: float, name: Optional[str] = None
+) -> Optional[pathlib.Path]:
+    """The newest ``<prefix>_*.bag`` of ``folder``, moved into ``into`` once rosbag closed it (None: none closed).
+
+    It keeps its name unless ``name`` is given. A recorder told to stop closes its bag (renames ``.bag.active`` to
+    ``.bag``) a moment after its wrapper exits, so the bag is waited for, up to ``timeout`` seconds.
+    """
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if sorted(folder.glob(f"{prefix}_*.bag")) and not list(folder.glob(f"{prefix}_*.bag.active")):
+            break
+        time.sleep(0.2)
+    found = sorted(folder.glob(f"{prefix}_*.bag"))
+    if not found:
+        return None
+    target = into / (name or found[-1].name)
+    shutil.move(str(found[-1]), target)
+    return target
 
 
 def start_xvfb(

@@ -37,9 +37,12 @@ from teleteach.run.pictures import background_colour, rviz_picture
 from teleteach.run.processes import (
     ProcessError,
     Processes,
+    closed_bag,
+    full_launch,
     own_master,
     ros_environment,
     screenshot,
+    scripted_device,
     start_xvfb,
     with_required_death,
 )
@@ -311,25 +314,18 @@ class ThesisRun:
             self.say(f"run_thesis: started Xvfb on {display}")
 
         def start_launch(port: int):
+            arguments = {
+                **scripted_device(options.scenario, options.device_rate),
+                "headless": True,
+                "tree": options.tree,
+                "trajectory": options.trajectory,
+                "record": True,
+                "record_prefix": self.prefix,
+                "data_dir": self.root,
+            }
             return self.processes.start(
                 "roslaunch",
-                [
-                    "roslaunch",
-                    "-p",
-                    str(port),
-                    "teleteach",
-                    "full.launch",
-                    "headless:=true",
-                    "device:=scenario",
-                    f"scenario:={options.scenario}",
-                    f"device_rate:={options.device_rate:g}",
-                    "device_required:=true",  # a scripted operator that fails its scenario ends the run at once
-                    f"tree:={options.tree}",
-                    f"trajectory:={options.trajectory}",
-                    "record:=true",
-                    f"record_prefix:={self.prefix}",
-                    f"data_dir:={self.root}",
-                ],
+                full_launch(arguments, port),
                 self.folder / "launch.log",
                 ros_environment(f"http://localhost:{port}", display, self.root),
                 parent_death_signal=signal.SIGINT,  # a run_thesis killed (even by SIGKILL) leaves no system running
@@ -447,23 +443,10 @@ class ThesisRun:
             )
         self.processes.stop(rviz, grace=5.0)
 
-    def _collect_bag(self) -> Optional[pathlib.Path]:
-        bags = self.root / "bags"
-        deadline = time.monotonic() + 15.0
-        while time.monotonic() < deadline:
-            active = list(bags.glob(f"{self.prefix}_*.bag.active"))
-            found = sorted(bags.glob(f"{self.prefix}_*.bag"))
-            if found and not active:
-                target = self.folder / found[-1].name
-                shutil.move(str(found[-1]), target)
-                return target
-            time.sleep(0.5)
-        return None
-
     def _results(self, monitor: Monitor, finished: bool, reason: str, screenshot_errors: List[str]) -> RunSummary:
         options, folder = self.options, self.folder
         problems: List[str] = [] if finished else [reason]
-        bag = self._collect_bag()
+        bag = closed_bag(self.root / "bags", self.prefix, self.folder, timeout=15.0)
         if bag is None:
             problems.append("no bag was written")
         initial = execution_children(load_tree(options.tree, SkillLibrary.load(SKILLS_FILE)))

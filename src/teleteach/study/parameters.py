@@ -120,15 +120,6 @@ def check_launch_argument(name: str, value: Any) -> Optional[str]:
     return None
 
 
-def launch_value(value: Any) -> str:
-    """A yaml value as a roslaunch argument (``true``, ``0.5``, ``[product_pick_1]``)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (list, dict)):
-        return yaml.safe_dump(value, default_flow_style=True).strip()
-    return str(value)
-
-
 def parameters_file(parameters: Dict[str, Any]) -> str:
     """A rosparam yaml setting ``<node>/<parameter>`` values in the root namespace (full.launch study_parameters)."""
     nested: Dict[str, Any] = {}

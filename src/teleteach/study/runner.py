@@ -16,7 +16,6 @@ import functools
 import json
 import os
 import pathlib
-import shutil
 import signal
 import subprocess
 import threading
@@ -32,16 +31,19 @@ from teleteach.recording.bags import record_command
 from teleteach.run.processes import (
     ProcessError,
     Processes,
+    closed_bag,
+    full_launch,
     own_master,
     ros_environment,
     screenshot,
+    scripted_device,
     start_xvfb,
     with_required_death,
 )
 from teleteach.scene import load_scene
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import QUESTIONNAIRE, Step, participant_number
-from teleteach.study.parameters import launch_value, parameters_file
+from teleteach.study.parameters import parameters_file
 from teleteach.study.schema import Study
 from teleteach.study.scripted import compose
 from teleteach.study.storage import ParticipantStore
@@ -299,16 +301,28 @@ class StudyRunner:
 
     def _launch(self, step: Step, folder: pathlib.Path) -> subprocess.Popen:
         task = self.study.task(step.task)
-        arguments = {**self.study.system, **task.system}
-        command = ["roslaunch", "teleteach", "full.launch", f"device:={self.options.device}"]
-        command += [f"headless:={launch_value(self.options.headless)}", f"data_dir:={folder / 'data'}"]
-        command += [f"study_parameters:={folder / 'parameters.yaml'}"]
-        if self.options.device == "scenario":
-            command += [f"scenario:={folder / 'scenario.yaml'}", f"device_rate:={self.settings.scripted_device_rate:g}"]
-            command += ["device_required:=true"]  # a scripted participant that fails its script ends the trial at once
-        command += [f"{name}:={launch_value(value)}" for name, value in arguments.items()]
+        arguments = self._system(folder, scenario=folder / "scenario.yaml")
+        arguments.update({**self.study.system, **task.system})
         env = ros_environment(self._master_uri, self._display, folder / "data")
-        return self.processes.start("roslaunch", command, folder / "launch.log", env, parent_death_signal=signal.SIGINT)
+        return self.processes.start(
+            "roslaunch", full_launch(arguments), folder / "launch.log", env, parent_death_signal=signal.SIGINT
+        )
+
+    def _system(self, folder: pathlib.Path, scenario: pathlib.Path) -> Dict[str, Any]:
+        """full.launch's arguments every system of the session gets.
+
+        The device (a scripted one plays ``scenario``), headless or not, the folder's own data directory and the
+        trial's parameters, loaded last.
+        """
+        arguments: Dict[str, Any] = {"device": self.options.device}
+        if self.options.device == "scenario":
+            arguments.update(scripted_device(scenario, self.settings.scripted_device_rate))
+        arguments.update(
+            headless=self.options.headless,
+            data_dir=folder / "data",
+            study_parameters=folder / "parameters.yaml",
+        )
+        return arguments
 
     def _wait_until_ready(self, launch: subprocess.Popen, folder: pathlib.Path) -> subprocess.Popen:
         """Until the tree, the GUI and the device are up; then the recorder, until its bag is open."""
@@ -378,23 +392,12 @@ class StudyRunner:
             time.sleep(period)
 
     def _stop_recorder(self, recorder: subprocess.Popen, folder: pathlib.Path) -> Optional[pathlib.Path]:
-        """Close the bag (SIGINT) and move it into the trial's folder as trial.bag.
-
-        rosbag's wrapper passes SIGINT on to its recorder and exits at once; the recorder closes the bag (renames
-        ``.bag.active`` to ``.bag``) a moment later, so the bag is waited for.
-        """
+        """Close the bag (SIGINT: rosbag's wrapper passes it on) and move it into the trial's folder as trial.bag."""
         self.processes.stop(recorder, grace=15.0)
-        folder_bags = folder / "data" / "bags"
-        deadline = time.monotonic() + 20.0
-        while list(folder_bags.glob("trial_*.bag.active")) and time.monotonic() < deadline:
-            time.sleep(0.2)
-        bags = sorted(folder_bags.glob("trial_*.bag"))
-        if not bags:
+        bag = closed_bag(folder / "data" / "bags", "trial", folder, timeout=20.0, name="trial.bag")
+        if bag is None:
             self.say(f"study: WARNING: no bag was closed for {folder.name} (see record.log)")
-            return None
-        target = folder / "trial.bag"
-        shutil.move(str(bags[-1]), target)
-        return target
+        return bag
 
     # questionnaires ---------------------------------------------------------------------------------------------
     def _ask(self, step: Step, launch: subprocess.Popen, log: pathlib.Path) -> None:
@@ -442,17 +445,16 @@ class StudyRunner:
         clear_parameters(KEEP_PARAMETERS)
         parameters = self._parameters(step)
         atomic_write_text(folder / "parameters.yaml", parameters_file(parameters))
-        command = ["roslaunch", "teleteach", "full.launch", f"device:={self.options.device}", "real_robot:=true"]
-        command += ["shared_control:=false", f"headless:={launch_value(self.options.headless)}"]
-        command += [f"data_dir:={folder / 'data'}", f"study_parameters:={folder / 'parameters.yaml'}"]
         if self.options.device == "scenario":
-            scenario = self._questionnaire_scenario(step)
-            atomic_write_text(folder / "scenario.yaml", scenario)
-            command += [f"scenario:={folder / 'scenario.yaml'}", f"device_rate:={self.settings.scripted_device_rate:g}"]
-            command += ["device_required:=true"]  # a scripted participant that fails its script ends the trial at once
+            atomic_write_text(folder / "scenario.yaml", self._questionnaire_scenario(step))
+        arguments = {
+            **self._system(folder, scenario=folder / "scenario.yaml"),
+            "real_robot": True,
+            "shared_control": False,
+        }
         env = ros_environment(self._master_uri, self._display, folder / "data")
         log = folder / "launch.log"
-        launch = self.processes.start("roslaunch", command, log, env, parent_death_signal=signal.SIGINT)
+        launch = self.processes.start("roslaunch", full_launch(arguments), log, env, parent_death_signal=signal.SIGINT)
         try:
             deadline = time.monotonic() + self.settings.prepare_timeout
             while not gui_listens():
