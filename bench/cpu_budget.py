@@ -90,7 +90,7 @@ def process_name(pid):
 
 def children(parent):
     """Process ids whose parent is ``parent``."""
-    from teleteach.run.processes import parent_pid
+    from teleteach.processes import parent_pid
 
     return [
         int(entry.name)
@@ -187,7 +187,7 @@ class System:
     """One full.launch on its own master (and Xvfb when there is no display), stopped in reverse order."""
 
     def __init__(self, name, launch_args, log):
-        from teleteach.run.processes import Processes, own_master, ros_environment, start_xvfb
+        from teleteach.processes import Processes, own_master, ros_environment, start_xvfb
 
         self.name = name
         self.processes = Processes()
@@ -211,13 +211,13 @@ class System:
 
     def start_floor(self):
         """The do-nothing node, once roslaunch has set /use_sim_time (rospy reads it when the node starts)."""
-        from teleteach.run.processes import ros_environment
+        from teleteach.processes import ros_environment
 
         env = ros_environment(self.master_uri, self.display, self.data)
         self.floor = self.processes.start("floor", [sys.executable, "-c", FLOOR], env=env)
 
     def master_pid(self):
-        from teleteach.run.processes import master_pid
+        from teleteach.processes import master_pid
 
         return master_pid(self.master_uri)
 

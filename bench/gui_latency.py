@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from teleteach.run.processes import own_master
+from teleteach.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "bench" / "results" / "gui_latency.json"

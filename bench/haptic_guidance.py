@@ -328,8 +328,8 @@ class Bench:
     application; with ``own_master``, on a roscore of its own (else rospy is initialised on a master already)."""
 
     def __init__(self, log_dir: pathlib.Path, own_master: bool = True) -> None:
-        from teleteach.run.processes import Processes
-        from teleteach.run.processes import own_master as start_own_master
+        from teleteach.processes import Processes
+        from teleteach.processes import own_master as start_own_master
 
         self.log_dir = log_dir
         self.own_master = own_master

@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from teleteach.run.processes import own_master
+from teleteach.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -30,7 +30,7 @@ def stop(process, timeout=10.0):
 
 @pytest.fixture(scope="session")
 def ros_master(tmp_path_factory):
-    """A roscore on a free port of its own (teleteach.run.processes.own_master); this process becomes the rospy node
+    """A roscore on a free port of its own (teleteach.processes.own_master); this process becomes the rospy node
     'gui_test'."""
     import rospy
 

@@ -14,7 +14,7 @@ from teleteach import skill_file
 from teleteach.learning import spd
 from teleteach.learning.command import main
 from teleteach.learning.synthetic import placement_demo
-from teleteach.run.processes import own_master
+from teleteach.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 COMMAND = ROOT / "nodes" / "learn_skill"

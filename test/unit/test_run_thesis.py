@@ -18,8 +18,7 @@ from teleteach.gui.device import scale_to_index
 from teleteach.gui.selection import OPERATIONS
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.scenario import check_clicks, load_scenario
-from teleteach.run import outcome
-from teleteach.run.processes import (
+from teleteach.processes import (
     ProcessError,
     Processes,
     closed_bag,
@@ -33,6 +32,7 @@ from teleteach.run.processes import (
     scripted_device,
     start_xvfb,
 )
+from teleteach.run import outcome
 from teleteach.run.thesis import options_for
 from teleteach.skill_file import Skill, save
 

@@ -10,8 +10,8 @@ import teleteach.node
 from teleteach.gui.config import GuiConfig
 from teleteach.haptics.ros import Sigma7Config
 from teleteach.node import node_parameters
+from teleteach.processes import launch_value
 from teleteach.questionnaire import TLX_NAMES
-from teleteach.run.processes import launch_value
 from teleteach.shared_control.ros import SharedControlNode
 from teleteach.study.parameters import check_parameter, node_defaults, parameters_file
 from teleteach.study.schema import StudyError, load_study, parse_study

@@ -29,12 +29,7 @@ from teleteach.datadir import atomic_write_text, data_dir
 from teleteach.haptics.scenario import load_scenario
 from teleteach.paths import config_file, share_dir
 from teleteach.perception.observed import TRUE_SCENE_TOPIC, product_positions
-from teleteach.recording.report import make_report
-from teleteach.recording.session import SessionError, read_session
-from teleteach.run import outcome
-from teleteach.run.outcome import RunSummary
-from teleteach.run.pictures import background_colour, rviz_picture
-from teleteach.run.processes import (
+from teleteach.processes import (
     ProcessError,
     Processes,
     closed_bag,
@@ -46,6 +41,11 @@ from teleteach.run.processes import (
     start_xvfb,
     with_required_death,
 )
+from teleteach.recording.report import make_report
+from teleteach.recording.session import SessionError, read_session
+from teleteach.run import outcome
+from teleteach.run.outcome import RunSummary
+from teleteach.run.pictures import background_colour, rviz_picture
 from teleteach.scene import SceneError, load_scene
 
 DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")

@@ -27,8 +27,7 @@ import yaml
 from teleteach.datadir import atomic_write_text
 from teleteach.gui.config import GuiConfig
 from teleteach.paths import config_file
-from teleteach.recording.bags import record_command
-from teleteach.run.processes import (
+from teleteach.processes import (
     ProcessError,
     Processes,
     closed_bag,
@@ -40,6 +39,7 @@ from teleteach.run.processes import (
     start_xvfb,
     with_required_death,
 )
+from teleteach.recording.bags import record_command
 from teleteach.scene import load_scene
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import QUESTIONNAIRE, Step, participant_number
