@@ -75,11 +75,11 @@ class WindowTopics:
         publish(self.shared_control, Bool(False))
 
 
-def _banner(background_size_padding: str) -> QLabel:
+def _banner(style: str) -> QLabel:
     """A coloured line across the window, hidden until it has something to say; long texts wrap."""
     banner = QLabel()
     banner.setWordWrap(True)  # a long status must not widen the window beyond the screen
-    banner.setStyleSheet(f"{background_size_padding} color: white; font-weight: bold;")
+    banner.setStyleSheet(style)
     banner.hide()
     return banner
 
