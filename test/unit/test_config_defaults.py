@@ -82,6 +82,8 @@ def test_the_sigma7_config_is_its_yaml_key_by_key_and_names_what_is_missing():
     del values["twist"]["cutoff_frequency"], values["rate"]
     with pytest.raises(ValueError, match=r"\(config/device.yaml\): missing backend, scenario, rate; missing twist/cut"):
         Sigma7Config.from_mapping(dict(values, hand=dict(hand, enabled=False)))
+    with pytest.raises(ValueError, match=r"\(config/device.yaml\): missing hand/enabled$"):
+        Sigma7Config.from_mapping(dict(config("device.yaml"), backend="virtual", scenario="", hand=hand))
 
 
 def test_the_behaviour_tree_config_is_its_yaml_and_names_what_is_missing():

@@ -158,9 +158,9 @@ class Sigma7Config:
     def from_mapping(cls, values: Mapping[str, Any]) -> "Sigma7Config":
         """From config/device.yaml's keys with the backend and the scenario file; a missing or unknown key is named."""
         values = dict(values)
-        if isinstance(values.get("hand"), Mapping):
-            hand = dict(values["hand"])
-            values["hand"] = {"enabled": hand.pop("enabled", None), "model": hand}
+        if isinstance(values.get("hand"), Mapping):  # the yaml's hand/enabled beside the model's own keys
+            model = dict(values["hand"])
+            values["hand"] = {"model": model, **({"enabled": model.pop("enabled")} if "enabled" in model else {})}
         return from_mapping(cls, values, "sigma7_node's parameters (config/device.yaml)")
 
     @classmethod
