@@ -461,6 +461,21 @@ def test_entering_low_level_keeps_the_ellipsoid_until_the_handle_meets_it():
     assert all(np.isnan(value) for value in command.waiting()[0])
 
 
+def test_a_handle_that_passed_the_held_value_unseen_takes_it_over():
+    # The thesis run's preset: LOW-LEVEL opens with the handle where START's button left it (x right), and the next
+    # sample the GUI gets (a busy GUI thread saw none while the handle moved) is far left, past the held X
+    moved = sample(x=-0.076, y=-0.076, z=0.032)
+    command = EllipsoidCommand(CONFIG)
+    command.hold(sample(x=0.05))
+    command.device(moved)
+    assert command.stiffness()[0] == pytest.approx([404.0, 404.0, 1997.0])
+    # Expect, without knowing where the handle was on entering, every value held: nothing says it was passed
+    unknown = EllipsoidCommand(CONFIG)
+    unknown.hold()
+    unknown.device(moved)
+    assert unknown.stiffness()[0] == pytest.approx([1525.0] * 3)
+
+
 def test_a_mode_holds_the_axis_it_makes_live_until_the_handle_meets_it():
     command = EllipsoidCommand(CONFIG)
     command.device(sample(x=0.0, y=0.0, z=0.0))

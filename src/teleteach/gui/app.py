@@ -211,7 +211,7 @@ class MainWindow(QMainWindow):
         """What each of the teaching session's actions (teleteach.gui.session) does here."""
         controllers = self.config.controller_names
         return {
-            Action.ENTER_LOW_LEVEL: self.low_level.on_enter,
+            Action.ENTER_LOW_LEVEL: lambda: self.low_level.on_enter(self.worker.latest_sample()),
             Action.LEAVE_LOW_LEVEL: self.low_level.on_leave,
             Action.RESET_HIGH_LEVEL: self.high_level.reset,
             Action.PAUSE_TREE: lambda: self._pause_tree(True),

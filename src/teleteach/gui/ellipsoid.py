@@ -13,7 +13,7 @@ handle meets the initial ellipsoid (``initial_stiffness`` is the centre of the r
 """
 
 import threading
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -40,10 +40,16 @@ class EllipsoidCommand:
         self._side = [0.0] * 6  # on which side of the held value the handle was (sign), while not taken
         self._handle = [float("nan")] * 6  # the value the handle maps to, for the display
 
-    def hold(self) -> None:
-        """Keep every value until the handle meets it (entering LOW-LEVEL)."""
+    def hold(self, handle: Optional[DeviceSample] = None) -> None:
+        """Keep every value until the handle meets it (entering LOW-LEVEL).
+
+        ``handle``: where the device is as the tab opens. A value it is already at is taken at once, and one it has
+        passed by its next sample counts as met, even when no sample came while it moved (a busy GUI thread).
+        """
         with self._lock:
             self._release(range(3))
+        if handle is not None:
+            self.device(handle)
 
     def _release(self, axes) -> None:
         for axis in axes:

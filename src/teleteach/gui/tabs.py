@@ -651,9 +651,12 @@ class LowLevelTab(QWidget):
         """Say that the device is gone (the ellipsoid, and the stiffness sent, stay as they were) or back."""
         self.device_lost_label.setVisible(lost)
 
-    def on_enter(self) -> None:
-        """Keep the ellipsoid as it is until the handle meets it (no jump to wherever the handle is)."""
-        self.command.hold()
+    def on_enter(self, handle: Optional[DeviceSample]) -> None:
+        """Keep the ellipsoid as it is until the handle meets it (no jump to wherever the handle is).
+
+        ``handle``: the device's latest sample (None before the first).
+        """
+        self.command.hold(handle)
 
     def on_leave(self) -> None:
         """Drop a pending click."""
