@@ -3,7 +3,7 @@ yaml's spellings made the field's types, and a missing or unknown key named in o
 section."""
 
 import dataclasses
-from typing import Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import pytest
 
@@ -28,6 +28,8 @@ class Device:
     bounds: tuple
     enabled: bool
     filter: Filter
+    labels: Dict[str, str]
+    samples: List[float]
     cache: Optional[str] = None
 
 
@@ -42,12 +44,18 @@ VALUES = {
     "bounds": [0.1, 0.2],
     "enabled": True,
     "filter": {"cutoff": 20, "order": 2},
+    "labels": {"x": "right"},
+    "samples": [1.0, 2.0],
 }
 
 
 def test_every_value_comes_from_the_mapping_in_the_field_s_type():
     device = from_mapping(Device, VALUES, "device", optional=("cache",))
-    assert device == Device("sigma7", 1000.0, ("x", "y"), (0.1, 0.2), True, Filter(20.0, 2))
+    assert device == Device("sigma7", 1000.0, ("x", "y"), (0.1, 0.2), True, Filter(20.0, 2), {"x": "right"}, [1.0, 2.0])
+    # Expect a mapping that is not a dataclass's, a list that is not a tuple's, a section already built, as given
+    assert isinstance(device.labels, dict) and isinstance(device.samples, list)
+    built = from_mapping(Device, dict(VALUES, filter=Filter(5.0, 1)), "device", optional=("cache",))
+    assert built.filter == Filter(5.0, 1)
     assert isinstance(device.rate, float) and isinstance(device.filter.cutoff, float)
     assert isinstance(device.filter.order, int) and device.enabled is True
     # Expect a yes that is not a bool, or a number that is text, to reach the dataclass as given (its checks decide)
@@ -56,9 +64,9 @@ def test_every_value_comes_from_the_mapping_in_the_field_s_type():
 
 
 def test_missing_and_unknown_keys_are_named_in_one_line_nested_ones_with_their_section():
-    values = dict(VALUES, colour="red", filter={"cutoff": 20.0, "width": 3})
+    values = dict(VALUES, colour="red", size=3, filter={"cutoff": 20.0, "width": 3})
     del values["rate"], values["axes"]
-    expected = r"^device: missing rate, axes, cache; unknown colour; missing filter/order; unknown filter/width$"
+    expected = r"^device: missing rate, axes, cache; unknown colour, size; missing filter/order; unknown filter/width$"
     with pytest.raises(DeviceError, match=expected):
         from_mapping(Device, values, "device", DeviceError)
     assert key_problems(Device, VALUES, optional=("cache",)) == ""
