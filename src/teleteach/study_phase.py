@@ -6,7 +6,7 @@ live below all of them, as the GUI's tabs do in active_tab.py.
 
 import dataclasses
 import enum
-from typing import Tuple
+from typing import Optional, Tuple
 
 from teleteach.questionnaire import Item
 
@@ -25,9 +25,15 @@ class Phase(enum.IntEnum):
 PHASE_NAMES = tuple(phase.name for phase in Phase)
 
 
+def known_phase(number: int) -> Optional[Phase]:
+    """The phase of a StudyState phase number; None for a number this version does not know."""
+    return Phase(number) if 0 <= number < len(PHASE_NAMES) else None
+
+
 def phase_name(number: int, default: str) -> str:
     """The name of a StudyState phase number; ``default`` for a number this version does not know."""
-    return Phase(number).name if 0 <= number < len(PHASE_NAMES) else default
+    phase = known_phase(number)
+    return default if phase is None else phase.name
 
 
 @dataclasses.dataclass(frozen=True)

@@ -199,8 +199,8 @@ class GuiConfig:
         """Build from a dict (a yaml file or the node's private params); a missing or unknown key is an error."""
         values = dict(values)
         for name in ("locked_axes", "shared_control_stiffness", "retry_attempts", "timeout_seconds"):
-            if name in values:
-                values[name] = tuple(values[name] or ())
+            if name in values and values[name] is None:
+                values[name] = ()  # a yaml key left empty: an empty list (lists become tuples in from_mapping)
         return parameters.from_mapping(cls, values, "GUI parameters (config/gui.yaml)", GuiConfigError)
 
     @classmethod

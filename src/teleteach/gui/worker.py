@@ -36,7 +36,7 @@ from teleteach.node import publish, shutting_down
 from teleteach.perception.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.questionnaire import Item
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
-from teleteach.study_phase import Phase, StudyView
+from teleteach.study_phase import Phase, StudyView, known_phase
 from teleteach.trajectories import Trajectory
 
 
@@ -51,6 +51,7 @@ DEVICE_LOST = "device lost (/sigma7/pose silent)"
 
 def study_view(message: StudyState) -> StudyView:
     """The GUI's view of a teleteach/StudyState."""
+    phase = known_phase(message.phase)
     items = tuple(
         Item(*fields)
         for fields in zip(
@@ -65,7 +66,7 @@ def study_view(message: StudyState) -> StudyView:
         )
     )
     return StudyView(
-        phase=Phase(message.phase) if message.phase in tuple(Phase) else Phase.PREPARING,  # a newer study's phase
+        phase=phase if phase is not None else Phase.PREPARING,  # a newer study's phase: wait as when preparing
         study=message.study,
         participant=message.participant,
         condition=message.condition,
