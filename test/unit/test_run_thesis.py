@@ -33,7 +33,7 @@ from teleteach.processes import (
     start_xvfb,
 )
 from teleteach.run import outcome
-from teleteach.run.thesis import options_for
+from teleteach.run.thesis import RVIZ_STARTS, ThesisRun, options_for
 from teleteach.skill_file import Skill, save
 
 SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full", "remembered_repair"]
@@ -236,6 +236,25 @@ def test_free_port_and_xvfb_on_a_display_it_picked(tmp_path):
         assert (tmp_path / "screen.png").stat().st_size > 0
     finally:
         processes.stop_all()
+
+
+def test_an_rviz_that_dies_is_started_again_and_the_run_says_what_each_start_did(tmp_path, monkeypatch):
+    programs = tmp_path / "bin"
+    programs.mkdir()
+    (programs / "rviz").write_text(f"#!/bin/sh\necho started >> {tmp_path / 'starts'}\nexit 3\n")
+    (programs / "rviz").chmod(0o755)
+    monkeypatch.setenv("PATH", f"{programs}:{os.environ['PATH']}")
+    said = []
+    run = ThesisRun(options_for(ROOT / "config" / "scenarios" / "thesis_full.yaml", data_root=tmp_path), said.append)
+    try:
+        missing = run.rviz_view(dict(os.environ))
+    finally:
+        run.processes.stop_all()
+    # Expect: RViz started twice, each end told with its exit code, no picture
+    assert (tmp_path / "starts").read_text().count("started") == RVIZ_STARTS == 2
+    assert missing.startswith("rviz.png: start 1: RViz exited (code 3)"), missing
+    assert "start 2: RViz exited (code 3)" in missing, missing
+    assert len(said) == 2 and not (run.folder / "rviz.png").exists()
 
 
 def test_own_master_moves_to_another_port_when_someone_else_took_the_probed_one(tmp_path):

@@ -54,6 +54,7 @@ SKILLS_FILE = config_file("skills.yaml")
 RVIZ_CONFIG = share_dir() / "rviz" / "teleteach.rviz"
 RVIZ_SCREEN = "1200x846x24"  # the layout's window size: RViz fills its display
 RVIZ_TIMEOUT = 45.0  # [s] wall time for RViz to show its window and draw the scene (loaded 2-core machine: ~20 s)
+RVIZ_STARTS = 2  # RViz is started again once when it exited or showed nothing in time
 MASTER_GONE_WAIT = 30.0  # [s] for roslaunch to end once its master stopped answering (it stops its nodes first)
 EXECUTION = "BehaviorExecution"
 # teleteach/Behaviour's status constants (INVALID, RUNNING, SUCCESS, FAILURE) as py_trees' statuses
@@ -348,8 +349,9 @@ class ThesisRun:
             self._mark("scenario_done")
             shots.stop()
             shots.take(self.folder / "gui_final.png")
-            if options.rviz and launch.poll() is None:
-                self._rviz_view(env, display, shots)
+            missing = self.rviz_view(env) if options.rviz and launch.poll() is None else ""
+            if missing:
+                shots.errors.append(missing)
             self._mark("screenshots_done")
         finally:
             shots.stop()
@@ -404,44 +406,64 @@ class ThesisRun:
         self.say(f"run_thesis: stopped waiting: {reason}")
         return False, reason
 
-    def _rviz_view(self, env, display: str, shots: TabScreenshots) -> None:
-        """RViz briefly, on a display of its own, for a picture of the robot, the shelf and the ellipsoid.
+    def rviz_view(self, env) -> str:
+        """Why rviz.png (RViz's picture of the robot, the shelf and the ellipsoid) was not taken; "" when it was.
 
-        Its own display: nothing else can lie on top of it. The picture is kept once it shows the 3D view with the
-        scene drawn, the same in two shots in a row (teleteach.run.pictures); else the run says what it showed.
+        Its own display: nothing else can lie on top of it. RViz is started a second time when the first one exited
+        or showed nothing in time (on llvmpipe it can die while it opens its window); what each start showed is said.
+        """
+        try:
+            screen = start_xvfb(self.processes, size=RVIZ_SCREEN, parent_death_signal=signal.SIGTERM)
+        except ProcessError as error:
+            return f"rviz.png: {error}"
+        tries = []
+        for start in range(1, RVIZ_STARTS + 1):
+            why = self._rviz_picture(dict(env, DISPLAY=screen), screen)
+            if not why:
+                return ""
+            tries.append(f"start {start}: {why}")
+            self.say(f"run_thesis: rviz.png: {tries[-1]}")
+        return "rviz.png: " + "; ".join(tries)
+
+    def _rviz_picture(self, env, screen: str) -> str:
+        """What RViz showed instead of the scene, or "" once rviz.png shows the 3D view with the scene drawn.
+
+        A picture is kept when it is drawn (teleteach.run.pictures) and the same in two shots in a row.
         """
         picture, attempt = self.folder / "rviz.png", self.folder / "rviz_attempt.png"
         try:
-            screen = start_xvfb(self.processes, size=RVIZ_SCREEN, parent_death_signal=signal.SIGTERM)
             rviz = self.processes.start(
                 "rviz",
                 ["rviz", "-d", str(RVIZ_CONFIG)],
                 self.folder / "rviz.log",
-                dict(env, DISPLAY=screen),
+                env,
                 parent_death_signal=signal.SIGTERM,
             )
         except ProcessError as error:
-            shots.errors.append(f"rviz.png: {error}")
-            return
+            return str(error)
         background, previous, why = background_colour(RVIZ_CONFIG), None, "no picture taken"
-        deadline = time.monotonic() + RVIZ_TIMEOUT
-        while time.monotonic() < deadline and rviz.poll() is None:
-            time.sleep(2.0)
-            error = screenshot(screen, attempt)
-            if error:
-                why = error
-                continue
-            drawn, share, why = rviz_picture(attempt, background)
-            if drawn and previous is not None and abs(share - previous) <= 0.1 * previous:
-                attempt.replace(picture)
-                break
-            previous = share if drawn else None
-        else:
-            shots.errors.append(
-                f"rviz.png: RViz did not show the robot and the scene within {RVIZ_TIMEOUT:.0f} s: {why} "
-                f"(its last picture: {attempt.name})"
-            )
-        self.processes.stop(rviz, grace=5.0)
+        started = time.monotonic()
+        try:
+            while time.monotonic() < started + RVIZ_TIMEOUT:
+                time.sleep(2.0)
+                if rviz.poll() is not None:
+                    return (
+                        f"RViz exited (code {rviz.returncode}) after {time.monotonic() - started:.0f} s before it "
+                        f"showed the scene (rviz.log; {why or 'its last picture was drawn'})"
+                    )
+                error = screenshot(screen, attempt)
+                if error:
+                    why = error
+                    continue
+                drawn, share, why = rviz_picture(attempt, background)
+                if drawn and previous is not None and abs(share - previous) <= 0.1 * previous:
+                    attempt.replace(picture)
+                    return ""
+                previous = share if drawn else None
+            shown = why or "drawn, but not the same in two shots in a row"
+            return f"RViz did not show the robot and the scene within {RVIZ_TIMEOUT:.0f} s: {shown} ({attempt.name})"
+        finally:
+            self.processes.stop(rviz, grace=5.0)
 
     def _results(self, monitor: Monitor, finished: bool, reason: str, screenshot_errors: List[str]) -> RunSummary:
         options, folder = self.options, self.folder
