@@ -26,20 +26,26 @@ Goals (issue 33): idle: total <= 60 %; skill_server, behaviour_tree, shared_cont
 each; teaching_gui <= 10 %; sigma7_node <= 15 %; robot_sim <= 30 % (at real-time factor 1). thesis: total <= 100 %.
 The table compares each figure with its goal and, with ``--baseline FILE`` (an earlier cpu_budget.json), with that.
 ``--launch-args`` adds full.launch arguments to every run (e.g. ``clock_rate:=100``: what a coarser clock would save).
+``--profile NODE ...`` samples those nodes with py-spy (100 Hz, running threads only) over every window: where their CPU
+goes, as the functions the samples were in (their own time, callees not included) and the share of the samples each
+took; the raw stacks go to bench/results/cpu_budget_profiles/<phase>_<node>.txt (flamegraph.pl's input).
 
 Writes bench/results/cpu_budget.json: {phase: {node: percent_of_one_core, "total": ...}} and, beside the phases,
 "context" (per phase: window, load average, real-time factor) and "outside" (per phase: the processes that are no
 node of the system: roslaunch, rosmaster, Xvfb, and ``floor``: a rospy node that does nothing on the same master,
-i.e. what any rospy node pays for /clock under /use_sim_time).
+i.e. what any rospy node pays for /clock under /use_sim_time) and, with --profile, "profiles" (per phase and node: the
+hottest functions, [function, % of the samples]).
 
     source build/env.sh && python bench/cpu_budget.py [--runs virtual teaching thesis] [--window 20]
-        [--baseline bench/results/cpu_budget_before.json]
+        [--baseline bench/results/cpu_budget_before.json] [--profile robot_sim teaching_gui]
 """
 
 import argparse
+import collections
 import json
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -69,6 +75,8 @@ GOALS = {
 }
 PHASES = ("tree_running", "idle", "low_level", "shared_control", "thesis")
 FLOOR = "import rospy; rospy.init_node('cpu_budget_floor'); rospy.spin()"
+PROFILES = RESULTS / "cpu_budget_profiles"
+HOT_FUNCTIONS = 8  # per node and phase in the printed profile
 
 
 def cpu_seconds(pid):
@@ -225,13 +233,15 @@ class System:
         self.processes.stop_all()
 
 
-def measure(system, watcher, seconds, phase, until=None):
-    """CPU of every node (and of roslaunch, rosmaster, Xvfb) over ``seconds`` of wall time, or until ``until()``."""
+def measure(system, watcher, seconds, phase, profiled, until=None):
+    """CPU of every node (and of roslaunch, rosmaster, Xvfb) over ``seconds`` of wall time, or until ``until()``;
+    the nodes in ``profiled`` sampled with py-spy meanwhile."""
     pids = {node: pid for node, pid in node_pids(system.master_uri).items() if pid != system.floor.pid}
     outside = {"roslaunch": system.launch.pid, "rosmaster": system.master_pid(), "floor": system.floor.pid}
     if system.xvfb_pid is not None:
         outside["Xvfb"] = system.xvfb_pid
     processes = {**{short_name(node): pid for node, pid in pids.items()}, **outside}
+    samplers = start_profiles({node: processes[node] for node in profiled if node in processes}, seconds, phase)
     started = time.monotonic()
     before = {name: cpu_seconds(pid) for name, pid in processes.items() if pid}
     end = started + seconds
@@ -239,6 +249,7 @@ def measure(system, watcher, seconds, phase, until=None):
         time.sleep(0.2)
     after = {name: cpu_seconds(pid) for name, pid in processes.items() if pid}
     wall = time.monotonic() - started
+    profiles = {node: hot_functions(stop_profile(sampler, raw)) for node, (sampler, raw) in samplers.items()}
     percent = {
         name: round(100.0 * (after[name] - before[name]) / wall, 1)
         for name in before
@@ -257,7 +268,52 @@ def measure(system, watcher, seconds, phase, until=None):
         f"load {context['load_average_1min']}, real-time factor {context['real_time_factor']}",
         flush=True,
     )
-    return nodes, {name: value for name, value in percent.items() if name in outside}, context
+    return nodes, {name: value for name, value in percent.items() if name in outside}, context, profiles
+
+
+def start_profiles(pids, seconds, phase):
+    """{node: (py-spy recording it for ``seconds``, its raw stack file)}; py-spy never pauses the node."""
+    if not pids:
+        return {}
+    spy = shutil.which("py-spy")
+    if spy is None:
+        raise RuntimeError("py-spy is not installed (requirements.txt; bash scripts/setup installs it)")
+    PROFILES.mkdir(parents=True, exist_ok=True)
+    samplers = {}
+    for node, pid in pids.items():
+        raw = PROFILES / f"{phase}_{node}.txt"
+        raw.unlink(missing_ok=True)
+        command = [spy, "record", "--pid", str(pid), "--duration", str(max(1, round(seconds))), "--rate", "100"]
+        command += ["--format", "raw", "--function", "--nonblocking", "--output", str(raw)]
+        log = raw.with_suffix(".log").open("w")
+        samplers[node] = (subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT), raw)
+        log.close()
+    return samplers
+
+
+def stop_profile(sampler, raw):
+    """The raw stacks of a recording, once py-spy wrote them (it is told to stop when the window ended early)."""
+    try:
+        sampler.wait(timeout=10.0)
+    except subprocess.TimeoutExpired:
+        sampler.send_signal(2)  # py-spy writes what it has on SIGINT
+        sampler.wait(timeout=10.0)
+    return raw.read_text() if raw.exists() else ""
+
+
+def hot_functions(stacks, count=HOT_FUNCTIONS):
+    """[[function (file), % of the samples]] of the functions the samples were in, hottest first.
+
+    ``stacks``: py-spy's raw format, one line per distinct stack: "outer (file:line);...;inner (file:line) samples".
+    """
+    own = collections.Counter()
+    for line in stacks.splitlines():
+        frames, _, samples = line.rpartition(" ")
+        if frames and samples.isdigit():
+            function, _, where = frames.rsplit(";", 1)[-1].partition(" (")
+            own[f"{function} ({pathlib.Path(where.rsplit(':', 1)[0]).name})"] += int(samples)
+    total = sum(own.values())
+    return [[function, round(100.0 * samples / total, 1)] for function, samples in own.most_common(count)]
 
 
 def wait_for(system, condition, timeout, what):
@@ -285,23 +341,25 @@ def start_system(name, launch_args, log):
     return system, Watcher()
 
 
-def run_virtual(window, log, extra):
+def run_virtual(window, log, extra, profiled):
     """tree_running and idle, with the virtual device."""
     system, watcher = start_system("virtual", ["device:=virtual", "rviz:=false", *extra], log)
     try:
         wait_for(system, lambda: watcher.running - {EXECUTION, "Root", "PauseCondition"}, 120, "running skill")
         time.sleep(3.0)  # the nodes' start-up is over
-        phases = {"tree_running": measure(system, watcher, window, "tree_running", until=lambda: watcher.finished)}
+        phases = {
+            "tree_running": measure(system, watcher, window, "tree_running", profiled, until=lambda: watcher.finished)
+        }
         wait_for(system, lambda: watcher.finished, 300, "end of the tree's program")
         time.sleep(3.0)
-        phases["idle"] = measure(system, watcher, window, "idle")
+        phases["idle"] = measure(system, watcher, window, "idle", profiled)
         return phases
     finally:
         watcher.close()
         system.stop()
 
 
-def run_teaching(window, log, extra):
+def run_teaching(window, log, extra, profiled):
     """low_level and shared_control, with the scripted operator of bench/data/cpu_budget_operator.yaml."""
     args = ["device:=scenario", f"scenario:={OPERATOR}", "rviz:=false", *extra]
     system, watcher = start_system("teaching", args, log)
@@ -309,10 +367,14 @@ def run_teaching(window, log, extra):
         recording = lambda: watcher.tab == LOW_LEVEL and watcher.recording  # noqa: E731
         wait_for(system, recording, 400, "LOW-LEVEL recording")
         time.sleep(2.0)  # the controller switch and the trajectory's start
-        phases = {"low_level": measure(system, watcher, window, "low_level", until=lambda: not watcher.recording)}
+        phases = {
+            "low_level": measure(system, watcher, window, "low_level", profiled, until=lambda: not watcher.recording)
+        }
         wait_for(system, lambda: watcher.tab == SHARED_CONTROL, 400, "SHARED CONTROL tab")
         time.sleep(4.0)  # the reference reaches the task plane, the wave begins
-        shared = measure(system, watcher, window, "shared_control", until=lambda: watcher.tab != SHARED_CONTROL)
+        shared = measure(
+            system, watcher, window, "shared_control", profiled, until=lambda: watcher.tab != SHARED_CONTROL
+        )
         phases["shared_control"] = shared
         return phases
     finally:
@@ -320,7 +382,7 @@ def run_teaching(window, log, extra):
         system.stop()
 
 
-def run_thesis(window, log, extra):
+def run_thesis(window, log, extra, profiled):
     """The main job's launch; one window from the scenario's start to the end of the scenario and the tree."""
     import rospy
 
@@ -329,7 +391,7 @@ def run_thesis(window, log, extra):
     try:
         wait_for(system, lambda: rospy.has_param("/sigma7_node/scenario_start"), 120, "scenario start")
         played = lambda: rospy.get_param("/sigma7_node/scenario_played", False) and watcher.finished  # noqa: E731
-        return {"thesis": measure(system, watcher, 600, "thesis", until=played)}
+        return {"thesis": measure(system, watcher, 600, "thesis", profiled, until=played)}
     finally:
         watcher.close()
         system.stop()
@@ -369,13 +431,27 @@ def table(results, baseline):
     return "\n".join(lines)
 
 
-def run_one(name, window, output, extra):
+def profile_text(results):
+    """Each profiled node's hottest functions, per phase, with the node's CPU in that phase."""
+    lines = []
+    for phase, nodes in results["profiles"].items():
+        for node, functions in nodes.items():
+            cpu = results[phase].get(node, results["outside"][phase].get(node, 0.0))
+            lines.append(f"{node} in {phase} ({cpu:.1f} % of one core), own time:")
+            lines.extend(f"  {share:5.1f} %  {function}" for function, share in functions)
+    return "\n".join(lines)
+
+
+def run_one(name, window, output, extra, profiled):
     """One run in this process (rospy talks to one master per process): its phases into ``output``."""
-    results = {"context": {}, "outside": {}}
-    for phase, (nodes, outside, context) in RUNS[name](window, output.with_suffix(".log"), extra).items():
+    results = {"context": {}, "outside": {}, "profiles": {}}
+    for phase, (nodes, outside, context, profiles) in RUNS[name](
+        window, output.with_suffix(".log"), extra, profiled
+    ).items():
         results[phase] = nodes
         results["outside"][phase] = outside
         results["context"][phase] = context
+        results["profiles"][phase] = profiles
     output.write_text(json.dumps(results, indent=2) + "\n")
     import rospy
 
@@ -389,17 +465,18 @@ def main(argv=None):
     parser.add_argument("--baseline", type=pathlib.Path, help="an earlier cpu_budget.json to compare with")
     parser.add_argument("--output", type=pathlib.Path, default=RESULTS / "cpu_budget.json")
     parser.add_argument("--launch-args", nargs="*", default=[], help="more full.launch arguments, e.g. clock_rate:=100")
+    parser.add_argument("--profile", nargs="*", default=[], metavar="NODE", help="nodes to sample with py-spy")
     parser.add_argument("--one", choices=sorted(RUNS), help=argparse.SUPPRESS)  # a child: one run, to --output
     options = parser.parse_args(argv)
     if options.one:
-        run_one(options.one, options.window, options.output, options.launch_args)
+        run_one(options.one, options.window, options.output, options.launch_args, options.profile)
         return 0
     options.output.parent.mkdir(parents=True, exist_ok=True)
-    results = {"context": {}, "outside": {}}
+    results = {"context": {}, "outside": {}, "profiles": {}}
     for name in options.runs:
         part = options.output.parent / f"{options.output.stem}_{name}.json"
         command = [sys.executable, __file__, "--one", name, "--window", str(options.window), "--output", str(part)]
-        command += ["--launch-args", *options.launch_args]
+        command += ["--launch-args", *options.launch_args, "--profile", *options.profile]
         part.unlink(missing_ok=True)
         if subprocess.run(command, check=False).returncode != 0 or not part.exists():
             print(f"cpu_budget: the {name} run failed (its log: {part.with_suffix('.log')})")
@@ -411,6 +488,7 @@ def main(argv=None):
                 results[key] = value
     baseline = json.loads(options.baseline.read_text()) if options.baseline else None
     print(table(results, baseline))
+    print(profile_text(results))
     results["launch_args"] = options.launch_args
     options.output.write_text(json.dumps(results, indent=2) + "\n")
     print(f"cpu_budget: wrote {options.output}")
