@@ -3,21 +3,16 @@ behaviour tree node, the sigma7 node with its hand model (2 mm tremor) and the r
 bench's scripted operator. Checked against what the world did: the tree's edits seen on /behaviour_tree/log/tree,
 the stiffness seen on /eigenvalues, the guidance's force on /sigma7/force."""
 
-import importlib.util
-
 import numpy as np
 import pytest
-from conftest import ROOT
+from bench_scripts import bench_module
 
 pytestmark = pytest.mark.gui
 
 
 @pytest.fixture(scope="module")
-def bench_module():
-    spec = importlib.util.spec_from_file_location("haptic_guidance", ROOT / "bench" / "haptic_guidance.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def guidance_bench():
+    return bench_module("haptic_guidance")
 
 
 def execution_children(message):
@@ -27,7 +22,7 @@ def execution_children(message):
 
 
 def test_one_trial_of_each_task_through_the_real_gui_and_device_node(
-    qapp, ros_master, data_root, topic_log, bench_module
+    qapp, ros_master, data_root, topic_log, guidance_bench
 ):
     from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 
@@ -36,14 +31,14 @@ def test_one_trial_of_each_task_through_the_real_gui_and_device_node(
     trees = topic_log("/behaviour_tree/log/tree", BehaviourTree)
     eigenvalues = topic_log("/eigenvalues", Vector3Stamped)
     forces = topic_log("/sigma7/force", WrenchStamped)
-    bench = bench_module.Bench(data_root, own_master=False)
+    bench = guidance_bench.Bench(data_root, own_master=False)
     try:
         baseline = list(bench.baseline)
-        session = bench_module.Session(bench, 0.002, guided=True)
+        session = guidance_bench.Session(bench, 0.002, guided=True)
         try:
             results = [
-                session.run(task, np.random.default_rng([bench_module.SEED, 0, number, 0]), 0)
-                for number, task in enumerate(bench_module.TASKS)
+                session.run(task, np.random.default_rng([guidance_bench.SEED, 0, number, 0]), 0)
+                for number, task in enumerate(guidance_bench.TASKS)
             ]
         finally:
             session.close()
@@ -73,5 +68,5 @@ def test_one_trial_of_each_task_through_the_real_gui_and_device_node(
     # Expect the hand to have felt the guidance (within the GUI's 3 N cap)
     magnitudes = [np.hypot(m.wrench.force.x, m.wrench.force.y) for m in forces.since(0)]
     assert max(magnitudes) > 0.5 and max(magnitudes) <= 3.0 + 1e-6
-    figures = bench_module.summarise(results)
+    figures = guidance_bench.summarise(results)
     assert figures["selections"] == 8 and figures["wrong_selections"] == 0

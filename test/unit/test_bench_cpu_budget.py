@@ -1,13 +1,12 @@
 """bench/cpu_budget.py's profile: py-spy (installed by scripts/setup) samples a running process from outside and the
 bench names the function its CPU went to."""
 
-import importlib.util
 import subprocess
 import sys
 import time
 
 import pytest
-from conftest import ROOT
+from bench_scripts import bench_module
 
 BUSY = """
 import time
@@ -29,10 +28,7 @@ while time.monotonic() - start < 20.0:
 
 @pytest.fixture(scope="module")
 def cpu_budget():
-    spec = importlib.util.spec_from_file_location("bench_cpu_budget", ROOT / "bench" / "cpu_budget.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("cpu_budget")
 
 
 def test_a_profile_names_the_function_the_cpu_went_to(cpu_budget, tmp_path, monkeypatch):

@@ -1,9 +1,8 @@
 """scripts/mutation's own logic (bench/mutation.py): its config, mutmut's results and diffs read, the figures and
 the results file merged. mutmut itself never runs here (minutes per module; not part of the suite)."""
 
-import importlib.util
-
 import pytest
+from bench_scripts import bench_module
 from conftest import ROOT
 
 SOURCE = '''"""A module."""
@@ -32,10 +31,7 @@ class Detector:
 
 @pytest.fixture(scope="module")
 def mutation():
-    spec = importlib.util.spec_from_file_location("bench_mutation", ROOT / "bench" / "mutation.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("mutation")
 
 
 def test_every_module_of_the_issue_is_configured_with_existing_tests(mutation):
