@@ -2,10 +2,11 @@
 
 import numpy as np
 import pytest
+import scipy.sparse
 from scipy.spatial.transform import Rotation
 
 from teleteach.learning import spd
-from teleteach.learning.dmp import DMP, SPDDMP, DMPParameters
+from teleteach.learning.dmp import DMP, SPDDMP, Basis, DMPParameters, Regression, uniform_step
 from teleteach.learning.synthetic import minimum_jerk
 
 DT = 0.02
@@ -162,3 +163,134 @@ def test_bad_parameters_and_grids_are_rejected():
     grid = np.arange(5) * 0.1
     with pytest.raises(spd.SPDError, match="sample 2 is not positive definite"):
         SPDDMP.learn(grid, np.array([np.eye(2), np.eye(2), np.diag([1.0, -1.0]), np.eye(2), np.eye(2)]))
+
+
+def dense_features(phase, parameters):
+    """Eq C.4-C.5 with every one of the N Gaussians (Basis keeps only the nearest ones): centres equally spaced in
+    time, each sigma ``width`` times the spacing to the next centre (the last one's repeated)."""
+    centres = np.exp(-parameters.alpha_x * np.linspace(0.0, 1.0, parameters.basis_count))
+    spacing = np.abs(np.diff(centres))
+    sigma = parameters.width * np.append(spacing, spacing[-1])
+    exponent = -((phase[:, None] - centres) ** 2) / (2.0 * sigma**2)
+    psi = np.exp(exponent - exponent.max(axis=1, keepdims=True))
+    return psi / psi.sum(axis=1, keepdims=True) * phase[:, None]
+
+
+@pytest.mark.parametrize("basis_count, width", [(30, 0.75), (150, 0.75), (40, 0.4)])
+def test_sparse_features_are_eq_c4_with_all_basis_functions(basis_count, width):
+    parameters = DMPParameters(basis_count=basis_count, width=width)
+    basis = Basis(parameters)
+    # from the start of a demonstration to twice its duration (a rollout may run past tau)
+    phase = basis.phase(np.linspace(0.0, 2.0, 801), 1.0)
+    np.testing.assert_allclose(basis.features(phase).toarray(), dense_features(phase, parameters), rtol=0, atol=1e-12)
+    # a stretch near the start alone still has one column per basis function
+    early = basis.phase(np.linspace(0.0, 0.05, 11), 1.0)
+    np.testing.assert_allclose(basis.features(early).toarray(), dense_features(early, parameters), rtol=0, atol=1e-12)
+
+
+def test_regression_is_ridge_least_squares_relative_to_the_mean_diagonal():
+    rng = np.random.default_rng(3)
+    design = 0.1 * rng.random((40, 6))  # mean diagonal of A^T A below 1
+    targets = rng.normal(size=(40, 2))
+    normal = design.T @ design
+    ridge = 0.5
+    expected = np.linalg.solve(normal + ridge * np.mean(np.diag(normal)) * np.eye(6), design.T @ targets)
+    weights = Regression(scipy.sparse.csr_matrix(design), ridge).fit(targets)
+    np.testing.assert_allclose(weights, expected, rtol=1e-10)
+
+
+def test_uniform_step_takes_three_samples_and_refuses_a_still_or_jittered_grid():
+    assert uniform_step([1.0, 1.02, 1.04]) == pytest.approx(0.02)
+    refusal = r"^a DMP is learned from a uniform, increasing time grid \(resample first\)$"
+    with pytest.raises(ValueError, match=refusal):
+        uniform_step([1.0, 1.0, 1.0])
+    jittered = np.arange(10) * 0.02
+    jittered[5] += 1e-6  # 50 ppm of a step: more than rounding
+    with pytest.raises(ValueError, match=refusal):
+        uniform_step(jittered)
+
+
+def test_a_demonstration_learns_the_same_whenever_it_was_recorded():
+    times = np.arange(0.0, 6.0 + DT / 2, DT)
+    parameters = DMPParameters(basis_count=20)
+    # recordings carry ROS time stamps: learning from t = 100 s must give the model learned from t = 0
+    for kind, demo in ((DMP, smooth_curve(times)), (SPDDMP, smooth_spd_demo(times, 2))):
+        at_zero, later = kind.learn(times, demo, parameters), kind.learn(times + 100.0, demo, parameters)
+        assert later.duration == pytest.approx(6.0)
+        np.testing.assert_allclose(later.weights, at_zero.weights, rtol=1e-6, atol=1e-9 * np.abs(at_zero.weights).max())
+        np.testing.assert_allclose(later.rollout(dt=DT)[1], at_zero.rollout(dt=DT)[1], rtol=1e-6, atol=1e-9)
+
+
+def test_a_dmp_starts_where_its_demonstration_starts_and_heads_for_where_it_ends():
+    times = np.arange(0.0, 6.0 + DT / 2, DT)
+    demo = smooth_curve(times) + np.array([0.0, 0.05, 0.0]) * times[:, None]  # moving at the start
+    model = DMP.learn(times, demo, DMPParameters(basis_count=20))
+    np.testing.assert_array_equal(model.start, demo[0])
+    np.testing.assert_array_equal(model.goal, demo[-1])
+    # z(0) = tau y'(0), the demonstration's first velocity (one-sided difference)
+    np.testing.assert_allclose(model.start_velocity, 6.0 * (demo[1] - demo[0]) / DT, rtol=1e-9)
+    matrices = smooth_spd_demo(times, 2)
+    spd_model = SPDDMP.learn(times, matrices, DMPParameters(basis_count=20))
+    np.testing.assert_array_equal(spd_model.start, matrices[0])
+    np.testing.assert_array_equal(spd_model.goal, matrices[-1])
+    first_velocity = spd.mandel(spd.Frame(matrices[0]).log(matrices[1])) / DT
+    np.testing.assert_allclose(spd_model.start_velocity, 6.0 * first_velocity, rtol=1e-9)
+
+
+def test_a_dmp_rolls_out_to_a_new_goal_and_samples_where_asked():
+    times = np.arange(0.0, 10.0 + DT / 2, DT)
+    model = DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=25))
+    new_goal = [0.45, 0.05, 0.3]
+    _, moved = model.rollout(goal=new_goal, dt=DT)
+    np.testing.assert_allclose(moved[-1], new_goal, atol=2e-3)
+    default_times, _ = model.rollout()
+    np.testing.assert_allclose(np.diff(default_times), 0.01)  # 100 Hz unless asked
+    # a coarse output step is integrated in sub-steps: the same path, sampled at the coarse times, from the start
+    coarse_times, coarse = model.rollout(dt=0.5)
+    fine_times, fine = model.rollout(dt=DT)
+    np.testing.assert_array_equal(coarse[0], model.start)
+    for time, sample in zip(coarse_times, coarse):
+        np.testing.assert_allclose(sample, fine[np.argmin(np.abs(fine_times - time))], atol=2e-3)
+    short_times, short = model.rollout(duration=0.01, dt=DT)  # shorter than one step: its start and its end
+    assert short_times.tolist() == [0.0, 0.01] and len(short) == 2
+    assert np.diff(SPDDMP.learn(times, smooth_spd_demo(times, 2)).rollout()[0]) == pytest.approx(0.02)
+
+
+@pytest.mark.parametrize(
+    "duration, dt, refusal",
+    [
+        (0.0, DT, "duration must be finite and > 0, got 0.0"),
+        (np.inf, DT, "duration must be finite and > 0, got inf"),
+        (0.5, 0.0, "time step must be finite and > 0, got 0.0"),
+        (0.5, np.nan, "time step must be finite and > 0, got nan"),
+    ],
+)
+def test_a_rollout_refuses_a_bad_duration_or_step(duration, dt, refusal):
+    times = np.arange(0.0, 2.0 + DT / 2, DT)
+    model = DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=10))
+    with pytest.raises(ValueError, match=f"^{refusal}$"):
+        model.rollout(duration=duration, dt=dt)
+    assert model.rollout(duration=0.5, dt=DT)[0][-1] == pytest.approx(0.5)  # half a second is a duration
+
+
+def test_models_name_their_type_and_what_was_wrong():
+    times = np.arange(0.0, 2.0 + DT / 2, DT)
+    matrices = smooth_spd_demo(times, 2)
+    assert DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=10)).to_dict()["type"] == "dmp"
+    model = SPDDMP.learn(times, matrices, DMPParameters(basis_count=10))
+    description = model.to_dict()
+    assert description["type"] == "spd_dmp"
+    not_spd = np.diag([1.0, -1.0])
+    for key, name in (("start", "DMP start"), ("goal", "DMP goal")):
+        with pytest.raises(spd.SPDError, match=f"^{name} sample 0 is not positive definite"):
+            SPDDMP.from_dict(dict(description, **{key: not_spd.tolist()}))
+    with pytest.raises(spd.SPDError, match="^stiffness sample 1 is not symmetric"):
+        SPDDMP.learn(times[:3], np.array([np.eye(2), [[1.0, 0.5], [0.0, 1.0]], np.eye(2)]))
+    with pytest.raises(ValueError, match=r"^need one matrix per time sample, got \(100, 2, 2\) for 101 times$"):
+        SPDDMP.learn(times, matrices[:-1])
+    with pytest.raises(spd.SPDError, match="^goal stiffness sample 0 is not positive definite"):
+        model.rollout(goal=not_spd)
+    with pytest.raises(ValueError, match=r"^goal must be 2x2, got \(3, 3\)$"):
+        model.rollout(goal=np.eye(3))
+    with pytest.raises(spd.SPDError, match="^new goal stiffness sample 0 is not positive definite"):
+        model.rollout(switch=(0.5, not_spd))
