@@ -153,8 +153,15 @@ def test_models_round_trip_through_their_description():
 def test_bad_parameters_and_grids_are_rejected():
     with pytest.raises(ValueError, match="basis_count"):
         DMPParameters(basis_count=1)
+    assert DMPParameters(basis_count=2).basis_count == 2
     with pytest.raises(ValueError, match="alpha_z"):
         DMPParameters(alpha_z=-1.0)
+    for name in ("alpha_z", "alpha_x", "width", "alpha_goal"):
+        with pytest.raises(ValueError, match=f"^{name} must be finite and > 0, got 0.0$"):
+            DMPParameters(**{name: 0.0})
+    for ridge in (0.0, -1.0, np.inf):
+        with pytest.raises(ValueError, match=f"^ridge must be finite and > 0, got {ridge}$"):
+            DMPParameters(ridge=ridge)
     times = np.array([0.0, 0.1, 0.3, 0.4])
     with pytest.raises(ValueError, match="uniform"):
         DMP.learn(times, np.zeros((4, 1)))
@@ -176,7 +183,7 @@ def dense_features(phase, parameters):
     return psi / psi.sum(axis=1, keepdims=True) * phase[:, None]
 
 
-@pytest.mark.parametrize("basis_count, width", [(30, 0.75), (150, 0.75), (40, 0.4)])
+@pytest.mark.parametrize("basis_count, width", [(30, 0.75), (150, 0.75), (40, 0.4), (20, 2.0)])
 def test_sparse_features_are_eq_c4_with_all_basis_functions(basis_count, width):
     parameters = DMPParameters(basis_count=basis_count, width=width)
     basis = Basis(parameters)
@@ -208,6 +215,9 @@ def test_uniform_step_takes_three_samples_and_refuses_a_still_or_jittered_grid()
     jittered[5] += 1e-6  # 50 ppm of a step: more than rounding
     with pytest.raises(ValueError, match=refusal):
         uniform_step(jittered)
+    stamped = 100.0 + np.arange(10) * 0.001
+    stamped[5] += 1e-9  # a ROS stamp's nanosecond rounding on a 1 kHz grid is still uniform
+    assert uniform_step(stamped) == pytest.approx(0.001)
 
 
 def test_a_demonstration_learns_the_same_whenever_it_was_recorded():
@@ -294,3 +304,19 @@ def test_models_name_their_type_and_what_was_wrong():
         model.rollout(goal=np.eye(3))
     with pytest.raises(spd.SPDError, match="^new goal stiffness sample 0 is not positive definite"):
         model.rollout(switch=(0.5, not_spd))
+
+
+def test_a_coarse_demonstration_is_reproduced_on_its_own_grid():
+    """41 samples at 10 Hz: the regression's phase spans exactly the demonstration (tau = last - first stamp), and the
+    SPD velocity at the last sample is its backward difference (a geodesic at constant speed, reproduced to 1e-5)."""
+    step = 0.1
+    times = np.arange(0.0, 4.0 + step / 2, step)
+    s = times / times[-1]
+    curve = np.column_stack([np.sin(2.0 * s), s**2])
+    model = DMP.learn(times, curve, DMPParameters(basis_count=10))
+    assert np.abs(model.rollout(dt=step)[1] - curve).max() < 1e-2  # about 5e-3; tau one step short: 4e-2
+    start = np.diag([400.0, 900.0])
+    direction = np.array([[0.5, 0.3], [0.3, -0.4]])
+    geodesic = np.array([spd.Frame(start).exp(fraction * direction) for fraction in s])
+    spd_model = SPDDMP.learn(times, geodesic, DMPParameters(basis_count=10))
+    assert spd.distance(spd_model.rollout(dt=step)[1], geodesic).max() < 1e-5  # about 3e-6; a still last sample: 4e-5

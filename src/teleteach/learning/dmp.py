@@ -71,9 +71,12 @@ class DMPParameters:
 class Basis:
     """The normalised, phase-weighted Gaussian features of eq C.4, centres equally spaced in time.
 
-    Each Gaussian is negligible (< exp(-32)) beyond 8 widths, so a sample only gets the features of the centres
-    within that window of the nearest one: the feature matrix is sparse and banded, which keeps learning hundreds of
-    basis functions from thousands of samples well under a second.
+    Each Gaussian is negligible (< exp(-32)) beyond 8 of its widths, so a sample only gets the features of the centres
+    within a window of the nearest one: the feature matrix is sparse and banded, which keeps learning hundreds of
+    basis functions from thousands of samples well under a second. The spacing of the centres in x shrinks by a
+    constant factor from one to the next, so an early (wide) Gaussian spans more of the later centres: the window is
+    the number of centres its 8 widths span, all of them for a wide basis of few functions, whose early Gaussians
+    never fall below exp(-32) (20 functions 2 spacings wide: exp(-11)).
     """
 
     def __init__(self, parameters: DMPParameters):
@@ -83,7 +86,11 @@ class Basis:
         spacing = np.abs(np.diff(self.centres))
         sigmas = parameters.width * np.append(spacing, spacing[-1])
         self.widths = 1.0 / (2.0 * sigmas**2)
-        self.window = int(np.ceil(8.0 * parameters.width)) + 2
+        # c_i - c_(i+k) = sigma_i (1 - shrink^k) / ((1 - shrink) width): 8 sigma_i after k centres, or never
+        shrink = np.exp(-parameters.alpha_x / (self.count - 1))
+        reach = 1.0 - 8.0 * parameters.width * (1.0 - shrink)
+        spanned = self.count if reach <= 0.0 else int(np.ceil(np.log(reach) / np.log(shrink)))
+        self.window = min(spanned, self.count) + 2  # 2 more: the nearest centre is found by rounding
 
     def phase(self, times, tau: float):
         """Eq C.3 integrated: x(t) = exp(-alpha_x t / tau)."""
