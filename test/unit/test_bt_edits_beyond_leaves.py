@@ -477,3 +477,24 @@ def test_a_paused_composite_is_still_refused_with_advice_the_operator_can_follow
     tree.set_pause(False)
     run(tree)
     assert tree.completed and world.names("start").count("MoveBase") == 1
+
+
+@pytest.mark.parametrize(
+    "requests, message",
+    [
+        ((), "no edits to apply"),
+        ((EditRequest("Idle", "undo"),), "edit 1 of 1 (undo Idle) failed: 'undo' cannot be part of a repair"),
+        ((EditRequest("Idle", "prepend"), EditRequest("", "redo")), "edit 2 of 2 (redo ) failed: 'redo' cannot be"),
+        ((EditRequest("PickItem", "repair"),), "edit 1 of 1 (repair PickItem) failed: 'repair' cannot be part of"),
+        ((EditRequest("PickItem", "swap"),), "edit 1 of 1 (swap PickItem) failed: 'swap' cannot be part of a repair"),
+        ((EditRequest("Idle", "prepend"), EditRequest("", "remove")), "edit 2 of 2 (remove ) failed: empty node name"),
+    ],
+)
+def test_a_group_of_edits_that_cannot_all_be_applied_changes_nothing(requests, message):
+    tree = thesis_tree(SkillWorld())
+    before, names = snapshot(tree.root), dict(tree.editor.nodes)
+    result = tree.editor.apply_requests(requests)
+    # Expect failure with the exact reason, the tree, its index and its history as before (a first edit undone)
+    assert not result.success and result.message.startswith(message), result.message
+    assert snapshot(tree.root) == before and tree.editor.nodes == names
+    assert tree.editor.undo_edits == [] and tree.editor.redo_edits == []
