@@ -498,3 +498,21 @@ def test_a_group_of_edits_that_cannot_all_be_applied_changes_nothing(requests, m
     assert not result.success and result.message.startswith(message), result.message
     assert snapshot(tree.root) == before and tree.editor.nodes == names
     assert tree.editor.undo_edits == [] and tree.editor.redo_edits == []
+
+
+@pytest.mark.parametrize(
+    "request_, words",
+    [
+        (EditRequest("PickItem", "wrap", node_type="retry", parameter=3.0), "wrap PickItem in a retry (3)"),
+        (EditRequest("PickItem", "wrap", node_type="timeout", parameter=2.5), "wrap PickItem in a timeout (2.5)"),
+        (EditRequest("PickItem", "wrap", node_type="inverter"), "wrap PickItem in an inverter"),
+        (EditRequest("PickItem", "wrap", node_type="sequence", parameter=4.0), "wrap PickItem in a sequence"),
+        (EditRequest("Shelf", "convert", node_type="selector", parent="Root"), "convert Shelf to a selector in Root"),
+        (EditRequest("Idle", "insert", index=3, parent="Shelf"), "insert Idle at index 3 in Shelf"),
+        (EditRequest("Idle", "add", index=3, parent="Shelf"), "add Idle in Shelf"),
+        (EditRequest("Idle", "prepend"), "prepend Idle"),
+        (EditRequest("PickItem", "remove", parent="BehaviorExecution"), "remove PickItem"),
+    ],
+)
+def test_a_request_is_told_to_the_operator_in_one_line(request_, words):
+    assert request_.describe() == words
