@@ -439,6 +439,8 @@ def profile_text(results):
             cpu = results[phase].get(node, results["outside"][phase].get(node, 0.0))
             lines.append(f"{node} in {phase} ({cpu:.1f} % of one core), own time:")
             lines.extend(f"  {share:5.1f} %  {function}" for function, share in functions)
+            if not functions:
+                lines.append(f"  no samples: see {PROFILES / f'{phase}_{node}.log'}")
     return "\n".join(lines)
 
 
