@@ -89,8 +89,8 @@ class Basis:
         # c_i - c_(i+k) = sigma_i (1 - shrink^k) / ((1 - shrink) width): 8 sigma_i after k centres, or never
         shrink = np.exp(-parameters.alpha_x / (self.count - 1))
         reach = 1.0 - 8.0 * parameters.width * (1.0 - shrink)
-        spanned = self.count if reach <= 0.0 else min(int(np.ceil(np.log(reach) / np.log(shrink))), self.count)
-        self.window = spanned + 2  # 2 more: the nearest centre is found by rounding
+        spanned = self.count if reach <= 0.0 else int(np.ceil(np.log(reach) / np.log(shrink)))
+        self.window = min(spanned, self.count) + 2  # 2 more: the nearest centre is found by rounding
 
     def phase(self, times, tau: float):
         """Eq C.3 integrated: x(t) = exp(-alpha_x t / tau)."""
