@@ -119,6 +119,32 @@ def test_low_level_publishes_the_commanded_ellipsoid(qapp, device, make_window, 
     assert len(values_log.messages) - count < 5
 
 
+def test_a_pose_arriving_as_low_level_opens_does_not_take_the_held_ellipsoid(qapp, device, make_window, topic_log):
+    # The race a loaded machine hit (a recorded session's X at the handle's 2262 N/m, its replay's at 1525): a device
+    # pose handled by the rospy thread while the GUI thread opens LOW-LEVEL, just before the ellipsoid is held
+    from geometry_msgs.msg import PoseStamped
+
+    values_log = topic_log("/eigenvalues", Vector3Stamped)
+    window = make_window()
+    command = window.low_level.command
+    hold = command.hold
+
+    def pose_arrives_then_hold(handle=None):
+        message = PoseStamped()
+        message.pose.position.x, message.pose.orientation.w = 0.05, 1.0
+        window.worker._on_pose(message)
+        hold(handle)
+
+    command.hold = pose_arrives_then_hold
+    open_low_level(qapp, window, device)
+    pump_until(qapp, lambda: values_log.last() is not None, 5, "/eigenvalues")
+    pump(qapp, 0.5)
+    vector = values_log.last().vector
+    # Expect the initial ellipsoid kept, X waiting for the handle (at 0.05 m: 2262.5 N/m) to meet it
+    assert np.allclose([vector.x, vector.y, vector.z], [window.config.initial_stiffness] * 3, rtol=0.01)
+    assert "waits for the handle (now 2263 N/m)" in window.low_level.axis_labels[0].text()
+
+
 def test_gui_without_the_other_nodes_reports_why(qapp, make_window, device, topic_log, artifacts_dir):
     """No BT node, no controller manager: the status bar says so and the GUI keeps working."""
     recording_log = topic_log("/teleteach/recording", Bool)

@@ -365,12 +365,14 @@ class MainWindow(QMainWindow):
         if index == self._tab:
             return
         self._tab = index
-        self.worker.active_tab = index
         self.worker.reset_device_filter()
         for position, tab in enumerate(self._tab_widgets):
             tab.active = position == index
         publish(self.topics.active_tab, Int8(index))
         self._carry_out(self.session.tab_changed(index))
+        # The worker hears the new tab last: a pose arriving while LOW-LEVEL opens must find the ellipsoid already
+        # held, or it would set it to wherever the handle is (the soft takeover bypassed)
+        self.worker.active_tab = index
 
     def _carry_out(self, actions) -> None:
         """Do what the teaching session says (teleteach.gui.session), in its order."""
