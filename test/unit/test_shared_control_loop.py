@@ -44,6 +44,24 @@ def test_static_boundary_is_never_crossed_while_direct_control_crosses(controlle
             assert violation(record.plan, box, None) <= TOLERANCE
 
 
+def test_a_plan_is_shown_as_the_robot_follows_it_stopped_at_the_constraints():
+    # The rostest's run (the node's configuration): a wave drifting up into y = 0.08, then an edge below. One cycle's
+    # optimisation stops at its iteration cap with a last iterate 21 mm past the boundary (CI showed such a plan).
+    box, edge = Box(-0.25, -0.05, 0.25, 0.08), StraightEdge(0.0, -0.02, math.pi / 2)
+    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), box=box)
+    commands = synthetic_commands("wave", (0.03, 20.0, 0.0), math.pi - 0.5, 0.05, np.arange(0, 5.0, DT))
+    margin, worst, planned = controller.config.margin, 0.0, 0
+    for k, command in enumerate(commands):
+        obstacle = edge if k >= 150 else None
+        controller.set_obstacle(obstacle)
+        record = controller.step(command)
+        if record.plan.size:
+            planned += 1
+            worst = max(worst, violation(record.plan, box, obstacle, margin))
+        assert violation(np.array(record.state), box, obstacle) <= TOLERANCE
+    assert planned > 150 and worst <= TOLERANCE
+
+
 def test_moving_straight_edge_is_never_crossed(controller):
     box = Box(-1.0, -0.08, 1.0, 0.2)
     controller.reset((0.5, 0.0))

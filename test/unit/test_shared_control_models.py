@@ -7,7 +7,15 @@ import numpy as np
 import pytest
 from scipy import integrate, special
 
-from teleteach.shared_control.constraints import Box, StraightEdge, free_polygon, nearest_free_point, violation
+from teleteach.shared_control.constraints import (
+    Box,
+    StraightEdge,
+    free_polygon,
+    nearest_free_point,
+    stopped_at_constraints,
+    violation,
+    violations,
+)
 from teleteach.shared_control.models import (
     SKILLS,
     ClothoidPath,
@@ -164,6 +172,25 @@ def test_no_free_region_when_the_edge_covers_the_box():
     edge = StraightEdge(2.0, 0.0, 0.0)  # free side is x >= 2
     assert free_polygon(box, edge, 0.0) == []
     assert nearest_free_point(np.array([0.5, 0.5]), box, edge, 0.0) is None
+
+
+def test_violations_are_per_point_and_the_largest_is_the_violation():
+    box, edge = Box(0.0, 0.0, 1.0, 1.0), StraightEdge(0.0, 0.5, math.pi / 2)  # free side: y >= 0.5
+    points = np.array([[0.5, 1.2, 0.5, -0.1, float("nan")], [0.7, 0.7, 0.4, 0.9, 0.5]])
+    assert violations(points, box, edge) == pytest.approx([0.0, 0.2, 0.1, 0.1, math.inf])
+    assert violations(points[:, :4], box, edge, 0.05) == pytest.approx([0.0, 0.25, 0.15, 0.15])
+    assert violation(points[:, :4], box, edge) == pytest.approx(0.2)
+    assert violation(np.zeros((2, 0)), box, None) == 0.0
+
+
+def test_a_path_stopped_at_the_constraints_keeps_its_free_points_and_moves_the_others_to_the_nearest_free_one():
+    box, edge = Box(0.0, 0.0, 1.0, 1.0), StraightEdge(0.0, 0.5, math.pi / 2)
+    path = np.array([[0.5, 1.2, 0.3], [0.7, 0.7, 0.3]])
+    stopped = stopped_at_constraints(path, box, edge, 0.05)
+    assert stopped == pytest.approx(np.array([[0.5, 0.95, 0.3], [0.7, 0.7, 0.55]]))
+    assert path[0, 1] == 1.2  # the input is not changed
+    covered = StraightEdge(2.0, 0.0, 0.0)  # no free region: nothing to stop at
+    assert stopped_at_constraints(path, box, covered, 0.0) == pytest.approx(path)
 
 
 def test_bad_geometry_is_rejected():

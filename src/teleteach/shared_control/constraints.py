@@ -63,20 +63,31 @@ class StraightEdge:
 INACTIVE_OBSTACLE = np.array([0.0, 0.0, 0.0, 0.0])
 
 
-def violation(points: np.ndarray, box: Box, obstacle: Optional[StraightEdge], margin: float = 0.0) -> float:
-    """Largest constraint violation [m] of points (2 x n) against the box and obstacle shrunk by ``margin``."""
+def violations(points: np.ndarray, box: Box, obstacle: Optional[StraightEdge], margin: float = 0.0) -> np.ndarray:
+    """Constraint violation [m] of each of the points (2 x n) against the box and obstacle shrunk by ``margin``.
+
+    0 for a point inside, inf for a non-finite one.
+    """
     points = np.asarray(points, dtype=float).reshape(2, -1)
-    if not np.all(np.isfinite(points)):
-        return math.inf
-    worst = max(
-        float(np.max(box.x_min + margin - points[0])),
-        float(np.max(points[0] - box.x_max + margin)),
-        float(np.max(box.y_min + margin - points[1])),
-        float(np.max(points[1] - box.y_max + margin)),
+    worst = np.max(
+        [
+            box.x_min + margin - points[0],
+            points[0] - box.x_max + margin,
+            box.y_min + margin - points[1],
+            points[1] - box.y_max + margin,
+        ],
+        axis=0,
     )
     if obstacle is not None:
-        worst = max(worst, float(np.max(margin - obstacle.distance(points))))
-    return max(worst, 0.0)
+        worst = np.maximum(worst, margin - obstacle.distance(points))
+    worst = np.maximum(worst, 0.0)
+    worst[~np.all(np.isfinite(points), axis=0)] = math.inf
+    return worst
+
+
+def violation(points: np.ndarray, box: Box, obstacle: Optional[StraightEdge], margin: float = 0.0) -> float:
+    """Largest constraint violation [m] of points (2 x n) against the box and obstacle shrunk by ``margin``."""
+    return float(np.max(violations(points, box, obstacle, margin), initial=0.0))
 
 
 def free_polygon(box: Box, obstacle: Optional[StraightEdge], margin: float) -> List[np.ndarray]:
@@ -101,6 +112,20 @@ def free_polygon(box: Box, obstacle: Optional[StraightEdge], margin: float) -> L
         elif d_previous >= 0:
             clipped.append(previous + (current - previous) * d_previous / (d_previous - d_current))
     return clipped
+
+
+def stopped_at_constraints(points: np.ndarray, box: Box, obstacle: Optional[StraightEdge], margin: float) -> np.ndarray:
+    """Points (2 x n) as the robot, which stops at the constraints, would follow them.
+
+    Each point outside the free region moves to its nearest free point; none moves when there is no free region.
+    """
+    points = np.array(points, dtype=float).reshape(2, -1)
+    for index in np.flatnonzero(violations(points, box, obstacle, margin) > 0.0):
+        free = nearest_free_point(points[:, index], box, obstacle, margin)
+        if free is None:
+            break
+        points[:, index] = free
+    return points
 
 
 def nearest_free_point(

@@ -185,7 +185,8 @@ class SharedControlRecord:
         message: what happened, in words.
         iterations: (estimation iterations summed over skills, optimisation iterations).
         cpu_times: CPU time of (all estimations, optimisation) [s] (load-independent, as the paper reports).
-        plan: planned states (2 x (n_horizon + 1)) [m], empty in direct control.
+        plan: planned states (2 x (n_horizon + 1)) [m] as the robot follows them (a state in the margin stopped at
+            the constraint, as an executed step is), empty in direct control.
         velocity: velocity of the executed state (x, y) [m/s]: the plan's at that state, else the direct step's
             (the impedance controller's x_dot_r, so the arm follows a moving reference without lag).
         confidence: ``identification_confidence`` of this cycle's fitting errors [-] (0 in direct control).
@@ -780,6 +781,13 @@ class SharedControl:
             FALLBACK, report, "; ".join(report.notes), velocity=offset * (step / distance) / self.config.dt
         )
 
+    def _as_followed(self, plan) -> np.ndarray:
+        """The plan as the robot follows it: each state stopped at the constraint, as an executed step is.
+
+        A plan enters the margin when no plan keeps it or the optimisation stopped at its iteration cap.
+        """
+        return constraints.stopped_at_constraints(plan, self.box, self.obstacle, self.config.margin)
+
     def _safe_state(self, point) -> Optional[np.ndarray]:
         return constraints.nearest_free_point(point, self.box, self.obstacle, self.config.margin)
 
@@ -800,7 +808,7 @@ class SharedControl:
             message=message,
             iterations=(int(report.iterations[0]), int(report.iterations[1])),
             cpu_times=(float(self._cpu[0]), float(self._cpu[1])),
-            plan=np.zeros((2, 0)) if plan is None else np.array(plan),
+            plan=np.zeros((2, 0)) if plan is None else self._as_followed(plan),
             velocity=(float(velocity[0]), float(velocity[1])),
             confidence=float(report.confidence),
             authority=float(authority),
