@@ -28,8 +28,8 @@ class WallStatusTimer:
     """Publishes the status of several actionlib servers from one thread that sleeps on wall time.
 
     actionlib gives each server a ``rospy.Timer`` for its status (5 Hz by default). Under /use_sim_time that timer
-    sleeps on ROS time, and rospy wakes every thread sleeping on ROS time at each /clock message (250 Hz here): the
-    skill server's 13 servers woke 3250 times a second to send 65 messages. This thread sends the same messages
+    sleeps on ROS time, and rospy wakes every thread sleeping on ROS time at each /clock message: at 250 Hz the skill
+    server's 13 servers woke 3250 times a second to send 65 messages. This thread sends the same messages
     (``ActionServer.publish_status_async``, at the servers' own ``status_frequency``) on wall time; the servers'
     timers are shut down. Status changes are still published by the servers themselves, at once, and latched.
 

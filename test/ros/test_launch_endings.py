@@ -6,6 +6,7 @@ import re
 import signal
 import subprocess
 
+import numpy as np
 from conftest import ROOT
 from ros_processes import Processes, start_roscore, start_xvfb, wait_until
 
@@ -46,6 +47,12 @@ def test_ctrl_c_of_a_recording_session_is_quiet_and_its_bag_is_learned_from(tmp_
     assert errors == [], "\n".join(errors)
     # Expect the taught skill in the launch's data_dir, not in the user's default one
     assert (data / "skills" / "DemonstratedPlace_1.npz").is_file(), list((data / "skills").iterdir())
+    # Expect the recording sampled at the GUI's 200 Hz (149 Hz measured on a loaded machine), each sample timed by its
+    # measured pose (/cartesian_pose: every 5 ms of simulated time, stamped to the millisecond), not by ROS time,
+    # which advances in the clock's 10 ms steps and could time at most 100 samples a second
+    taught = skill_file.load(data / "skills" / "DemonstratedPlace_1.npz")
+    assert len(taught.time) > 120 * taught.duration, (len(taught.time), taught.duration)
+    assert np.allclose(np.round(taught.time / 0.005) * 0.005, taught.time, rtol=0.0, atol=1e-6), taught.time[:20]
     # Expect learn_skill to learn from the bag that full.launch record:=true wrote (stamps of simulated time)
     bags = sorted((data / "bags").glob("session_*.bag"))
     assert len(bags) == 1, list((data / "bags").iterdir())

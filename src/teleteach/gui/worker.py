@@ -256,7 +256,7 @@ class RosWorker(QObject):
         self._emitted_seq = 0
         self._emitted: Optional[object] = None  # the DeviceSample last sent to the widgets
         self._pose: Optional[tuple] = None  # the newest /sigma7/pose not yet parsed: (position, quaternion)
-        self._cartesian: Optional[np.ndarray] = None
+        self._measured: Optional[Tuple[float, np.ndarray]] = None  # the arm's latest /cartesian_pose: (stamp, pose)
         self._publish_lock = threading.Lock()
         self._last_publish = -1.0
         self._last_seen = {}
@@ -350,7 +350,7 @@ class RosWorker(QObject):
                 subscriber = self._subscribers.pop(topic, None)
                 if subscriber is not None:
                     subscriber.unregister()
-            self._cartesian = None  # a recording must not start from where the arm was in another tab
+            self._measured = None  # a recording must not start from where the arm was in another tab
             self._arm_motion = (-math.inf, math.inf)  # nor an arm count as resting on what it did back then
         self._follow_target(self._active_tab == Tab.LOW_LEVEL)
 
@@ -434,8 +434,8 @@ class RosWorker(QObject):
         pose = pose_to_array(message.pose)
         if not np.all(np.isfinite(pose)):
             return
-        self._cartesian = pose
-        stamp = message.header.stamp.to_sec()
+        stamp = message.header.stamp.to_sec() or rospy.get_time()
+        self._measured = (stamp, pose)
         if self.active_tab == Tab.SHARED_CONTROL and abs(stamp - self._arm_stamp) >= self.ARM_TRAIL_PERIOD:
             planar = self._to_plane([pose[:3]])
             if planar is not None:
@@ -557,7 +557,7 @@ class RosWorker(QObject):
         if self.active_tab == Tab.SHARED_CONTROL and self.shared_recorder.active:
             stiffness = np.diag(np.asarray(self.config.shared_control_stiffness, dtype=float))
             self.shared_recorder.add(
-                message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self._cartesian
+                message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self._measured_pose()
             )
 
     def _on_scene(self, message: MarkerArray) -> None:
@@ -567,7 +567,12 @@ class RosWorker(QObject):
 
     def hand_pose(self) -> Optional[np.ndarray]:
         """The arm's latest /cartesian_pose (x y z qx qy qz qw, base_link), or None before the first."""
-        return None if self._cartesian is None else self._cartesian.copy()
+        pose = self._measured_pose()
+        return None if pose is None else pose.copy()
+
+    def _measured_pose(self) -> Optional[np.ndarray]:
+        measured = self._measured
+        return None if measured is None else measured[1]
 
     def target_in_base(self, gap: str) -> Tuple[Optional[Transform], str]:
         """base_link <- the perceived gap's frame, or (None, why not): needs the gap perceived and the base in TF."""
@@ -590,7 +595,12 @@ class RosWorker(QObject):
 
     # worker thread timers -----------------------------------------------------------------------
     def _publish_stiffness(self) -> None:
-        """The steady stream (and the recording's samples) at publish_rate while LOW-LEVEL is active."""
+        """The steady stream (and the recording's samples) at publish_rate while LOW-LEVEL is active.
+
+        On simulated time a sample is timed by the measured pose it holds, which the simulation stamps to the
+        millisecond, where ROS time advances in steps of 1/clock_rate: samples at publish_rate keep distinct times
+        under a coarser clock (the same measured pose twice is one sample). On the wall clock, the time now.
+        """
         if shutting_down():
             return  # Ctrl-C closed the publishers; the window closes within the watchdog's period
         if self.active_tab == Tab.SHARED_CONTROL:
@@ -598,20 +608,22 @@ class RosWorker(QObject):
             return
         if self.active_tab != Tab.LOW_LEVEL:
             return
-        stamp = self._publish(urgent=False)
-        if self.recorder.active:
-            self.recorder.add(stamp.to_sec(), self.command.stiffness_matrix(), self.equilibrium(), self._cartesian)
+        self._publish(urgent=False)
+        measured = self._measured
+        if self.recorder.active and measured is not None:
+            stamp = rospy.get_time() if rospy.rostime.is_wallclock() else measured[0]
+            self.recorder.add(stamp, self.command.stiffness_matrix(), self.equilibrium(), measured[1])
 
-    def _publish(self, urgent: bool) -> Optional[rospy.Time]:
+    def _publish(self, urgent: bool) -> None:
         """Send the ellipsoid; an urgent send (the device changed it) is skipped when one just went out."""
         now = time.monotonic()
         with self._publish_lock:
             if urgent and now - self._last_publish < 0.5 / self.config.publish_rate:
-                return None
+                return
             self._last_publish = now
-        return self._send_stiffness(*self.command.stiffness())
+        self._send_stiffness(*self.command.stiffness())
 
-    def _send_stiffness(self, values, quaternion) -> rospy.Time:
+    def _send_stiffness(self, values, quaternion) -> None:
         stamp = rospy.Time.now()
         eigenvalues = Vector3Stamped()
         eigenvalues.header.stamp = stamp
@@ -623,7 +635,6 @@ class RosWorker(QObject):
         q.x, q.y, q.z, q.w = quaternion
         publish(self._eigenvalues, eigenvalues)
         publish(self._eigenvectors, eigenvectors)
-        return stamp
 
     def _emit_device(self) -> None:
         """The latest device sample to the widgets, unless the last one sent was the same (a device at rest is free)."""
