@@ -191,10 +191,58 @@ def test_a_path_stopped_at_the_constraints_keeps_its_free_points_and_moves_the_o
     assert path[0, 1] == 1.2  # the input is not changed
     covered = StraightEdge(2.0, 0.0, 0.0)  # no free region: nothing to stop at
     assert stopped_at_constraints(path, box, covered, 0.0) == pytest.approx(path)
+    # a point inside the box but within the margin moves too; integer input gives float points, not truncated ones
+    assert stopped_at_constraints([[0.98], [0.7]], box, None, 0.05) == pytest.approx(np.array([[0.95], [0.7]]))
+    assert stopped_at_constraints(np.array([[2], [0]]), box, None, 0.25) == pytest.approx(np.array([[0.75], [0.25]]))
+
+
+def test_violations_count_the_margin_on_every_side():
+    box = Box(0.0, 0.0, 1.0, 1.0)
+    points = np.array([[0.02, 0.98, 0.5, 0.5, 0.5], [0.5, 0.5, 0.02, 0.98, 0.5]])
+    assert violations(points, box, None, 0.05) == pytest.approx([0.03, 0.03, 0.03, 0.03, 0.0])
+    assert violation(points, box, None, 0.05) == pytest.approx(0.03)
+    assert violation(points, box, None) == 0.0
+
+
+def test_free_polygon_is_the_box_shrunk_by_the_margin_and_cut_by_the_edge():
+    box = Box(0.0, 0.0, 1.0, 2.0)
+    expected = [(0.1, 0.1), (0.9, 0.1), (0.9, 1.9), (0.1, 1.9)]
+    assert np.array(free_polygon(box, None, 0.1)) == pytest.approx(np.array(expected))
+    # an edge along the box's side, free side inward, cuts nothing: its vertices on the edge are free
+    side = StraightEdge(0.0, 0.0, 0.0)
+    assert np.array(free_polygon(box, side, 0.0)) == pytest.approx(np.array([(0, 0), (1, 0), (1, 2), (0, 2)]))
+    half = StraightEdge(0.5, 0.0, 0.0)  # free side x >= 0.5
+    assert sorted(map(tuple, np.round(free_polygon(box, half, 0.0), 9))) == [(0.5, 0.0), (0.5, 2.0), (1, 0), (1, 2)]
+    # an edge touching the box from outside leaves one side free, each of its vertices once
+    square, touching = Box(0.0, 0.0, 1.0, 1.0), StraightEdge(1.0, 0.0, 0.0)  # free side x >= 1
+    assert np.array(free_polygon(square, touching, 0.0)) == pytest.approx(np.array([(1, 0), (1, 1)]))
+    assert nearest_free_point(np.array([0.2, 0.5]), square, touching, 0.0) == pytest.approx([1.0, 0.5])
+    # a box narrower than two margins has no free region; one exactly two margins wide has one free point
+    assert free_polygon(square, None, 0.6) == []
+    assert len(free_polygon(square, None, 0.5)) == 4
+    assert nearest_free_point(np.array([0.9, 0.2]), square, None, 0.5) == pytest.approx([0.5, 0.5])
+
+
+def test_nearest_free_point_keeps_the_margin_and_sends_a_non_finite_point_to_the_middle():
+    box = Box(0.0, 0.0, 1.0, 2.0)
+    assert nearest_free_point(np.array([0.05, 1.0]), box, None, 0.1) == pytest.approx([0.1, 1.0])
+    assert nearest_free_point(np.array([0.5, 1.5]), box, None, 0.1) == pytest.approx([0.5, 1.5])
+    assert nearest_free_point(np.array([float("nan"), 1.0]), box, None, 0.1) == pytest.approx([0.5, 1.0])
+
+
+def test_the_optimisation_s_parameters_of_the_box_and_the_edge():
+    assert Box(-0.2, -0.1, 0.3, 0.25).as_array() == pytest.approx([-0.2, -0.1, 0.3, 0.25])
+    assert StraightEdge(0.05, -0.02, 2.3).as_array() == pytest.approx([0.05, -0.02, 2.3, 1.0])  # (px, py, yaw, active)
 
 
 def test_bad_geometry_is_rejected():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="x_min < x_max and y_min < y_max"):
         Box(1.0, 0.0, 0.0, 1.0)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="x_min < x_max and y_min < y_max"):
+        Box(0.0, 0.0, 0.0, 1.0)
+    with pytest.raises(ValueError, match="x_min < x_max and y_min < y_max"):
+        Box(0.0, 1.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match="box bounds must be finite"):
+        Box(0.0, 0.0, float("inf"), 1.0)
+    with pytest.raises(ValueError, match="obstacle pose must be finite"):
         StraightEdge(float("nan"), 0.0, 0.0)

@@ -99,17 +99,17 @@ def free_polygon(box: Box, obstacle: Optional[StraightEdge], margin: float) -> L
     vertices = [lo, np.array([hi[0], lo[1]]), hi, np.array([lo[0], hi[1]])]
     if obstacle is None:
         return vertices
-    # Sutherland-Hodgman clipping of the rectangle by d(x) >= margin.
+    # Sutherland-Hodgman clipping of the rectangle by d(x) >= margin; a vertex on the edge is its own crossing point.
     clipped = []
     for k, current in enumerate(vertices):
         previous = vertices[k - 1]
         d_current = float(obstacle.distance(current)[0]) - margin
         d_previous = float(obstacle.distance(previous)[0]) - margin
         if d_current >= 0:
-            if d_previous < 0:
+            if d_previous < 0 < d_current:
                 clipped.append(previous + (current - previous) * d_previous / (d_previous - d_current))
             clipped.append(current)
-        elif d_previous >= 0:
+        elif d_previous > 0:
             clipped.append(previous + (current - previous) * d_previous / (d_previous - d_current))
     return clipped
 
