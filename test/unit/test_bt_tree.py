@@ -8,8 +8,11 @@ from py_trees.common import Status
 
 from teleteach.bt.behaviours import EditableSequence, PausableSelector, PauseCondition
 from teleteach.bt.editor import snapshot
-from teleteach.bt.library import SkillLibrary
+from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.tree import (
+    EDIT_KINDS,
+    PARALLEL_POLICIES,
+    TYPES,
     TreeSpec,
     TreeSpecError,
     create_root,
@@ -83,6 +86,133 @@ def test_dumped_yaml_loads_back_to_the_same_tree(library):
     # and a leaf's parameters reach the leaf that sends the goal
     moved = next(node for node in root.iterate() if node.name == "MoveBase45")
     assert moved.skill == "MoveBase2" and moved.parameters == {"base_pose": "place_45deg"}
+
+
+def test_every_node_type_and_the_history_are_written_as_yaml_and_read_back(library):
+    history = {"undo": [{"edit": "remove", "node": "Idle"}], "redo": [{"edit": "wrap", "node": "PickItem"}]}
+    data = {
+        "execution": "Work",
+        "root": {
+            "type": "sequence",
+            "name": "Work",
+            "memory": False,
+            "children": [
+                {"type": "retry", "name": "Again", "attempts": 1, "children": ["PickItem"]},
+                {"type": "timeout", "name": "Soon", "seconds": 2.5, "children": ["PlaceItem"]},
+                {"type": "inverter", "name": "Not", "children": ["Idle"]},
+                {"type": "parallel", "name": "Both", "synchronise": False, "children": ["DropItem"]},
+                {"type": "sequence", "name": "Empty"},
+                {"name": "MoveBase45", "skill": "MoveBase2", "parameters": {"base_pose": "place_45deg", "z": "a"}},
+            ],
+        },
+        "history": history,
+    }
+    spec = parse_tree(data, library)
+    assert spec.history == history
+    assert spec.root["children"][4]["children"] == []  # a composite written without children has none
+    root = create_root(spec.root, library, SkillWorld().make_leaf)
+    text = dump_yaml(TreeSpec(describe(root), spec.execution, spec.history))
+    assert parse_tree(yaml.safe_load(text), library) == spec
+    assert dump_live_yaml(root, spec.execution, history=spec.history) == text
+    # Expect yaml's own words for the flags and JSON for numbers, names and parameters, with no header by default
+    lines = text.splitlines()
+    assert lines[:2] == ['execution: "Work"', "root:"]
+    for line in ("  memory: false", "      seconds: 2.5", "      synchronise: false", "      attempts: 1"):
+        assert line in lines, text
+    leaf = '{type: skill, name: "MoveBase45", skill: "MoveBase2", parameters: {"base_pose": "place_45deg", "z": "a"}}'
+    assert f"    - {leaf}" in lines, text
+    assert lines[-5:] == [
+        "history:",
+        "  undo:",
+        '    - {"edit": "remove", "node": "Idle"}',
+        "  redo:",
+        '    - {"edit": "wrap", "node": "PickItem"}',
+    ]
+    # a history with only redo edits is written too, an empty list as []
+    redo_only = dump_yaml(TreeSpec(spec.root, spec.execution, {"redo": history["redo"]})).splitlines()
+    assert redo_only[-4:] == ["history:", "  undo: []", "  redo:", '    - {"edit": "wrap", "node": "PickItem"}']
+
+
+def test_a_skill_missing_from_the_library_or_a_node_without_a_yaml_form_is_named(library):
+    with pytest.raises(TreeSpecError, match="^Gone: skill 'Fly' is not in the skill library$"):
+        create_root({"type": "skill", "name": "Gone", "skill": "Fly"}, library, SkillWorld().make_leaf)
+    with pytest.raises(TreeSpecError, match="^Done: Success has no yaml form$"):
+        describe(py_trees.behaviours.Success("Done"))
+
+
+def sequence(*children, **fields):
+    """A tree whose root and execution is the sequence S of these children."""
+    return {"root": {"type": "sequence", "name": "S", "children": list(children), **fields}, "execution": "S"}
+
+
+def test_parameters_are_refused_for_a_demonstrated_skill(library, tmp_path):
+    taught = SkillEntry("PlaceStiff", "stiffness", str(tmp_path / "place.npz"))
+    with_taught = SkillLibrary([*library, taught])
+    data = sequence({"name": "P", "skill": "PlaceStiff", "parameters": {"base_pose": "start"}})
+    with pytest.raises(TreeSpecError, match="^tree: root/S/P: parameters are for predefined skills; 'PlaceStiff' is a"):
+        parse_tree(data, with_taught)
+
+
+def test_a_tree_file_s_problem_is_named_with_its_path(library, tmp_path):
+    path = tmp_path / "tree.yaml"
+    path.write_text("execution: S\nroot: {type: sequence, name: S, children: [Fly]}\n")
+    with pytest.raises(TreeSpecError, match=f"^{path}: root/S/Fly: skill 'Fly' is not in the skill library$"):
+        load_tree(path, library)
+    with pytest.raises(TreeSpecError, match=f"^cannot read tree {tmp_path / 'none.yaml'}: "):
+        load_tree(tmp_path / "none.yaml", library)
+
+
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        ({"execution": "S"}, "tree: expected a mapping with 'root' (and 'execution')"),
+        ({"root": {"type": "sequence", "name": "S"}}, "tree: execution '' must name a composite of the tree"),
+        ({**sequence(), "history": []}, "tree: history must be a mapping with 'undo' and 'redo' lists of edits"),
+        ({**sequence(), "history": {"undo": [], "later": []}}, "tree: history must be a mapping with 'undo'"),
+        (
+            {**sequence(), "history": {"redo": [{"edit": "fly"}]}},
+            f"tree: history/redo must be a list of edits of kind {', '.join(EDIT_KINDS)}",
+        ),
+        ({**sequence(), "history": {"undo": {"edit": "remove"}}}, "tree: history/undo must be a list of edits"),
+        ({**sequence(), "history": {"undo": ["remove"]}}, "tree: history/undo must be a list of edits"),
+        (sequence(5), "tree: root/S: a node is a skill name or a mapping, got 5"),
+        (sequence({"name": 5}), "tree: root/S: node without a name: {'name': 5}"),
+        (
+            {"root": {"type": "loop", "name": "L"}, "execution": "L"},
+            f"tree: root/L: unknown type 'loop'; expected one of {', '.join(TYPES)} or fallback",
+        ),
+        (
+            {"root": {"type": "parallel", "name": "P", "policy": "most"}, "execution": "P"},
+            f"tree: root/P: unknown policy 'most'; expected one of {', '.join(PARALLEL_POLICIES)}",
+        ),
+        (
+            {"root": {"type": "parallel", "name": "P", "synchronise": "yes"}, "execution": "P"},
+            "tree: root/P: synchronise must be true or false, got 'yes'",
+        ),
+        (sequence(memory="yes"), "tree: root/S: memory must be true or false, got 'yes'"),
+        (sequence(children="Idle"), "tree: root/S: children must be a list"),
+        (
+            sequence({"name": "M", "skill": "MoveBase2", "parameters": {"base_pose": 1}}),
+            "tree: root/S/M: parameters must map names to names",
+        ),
+        (
+            sequence({"type": "inverter", "name": "I", "children": ["Idle", "PickItem"]}),
+            "tree: root/S/I: a inverter decorates exactly one child, got 2",
+        ),
+        (
+            sequence({"type": "timeout", "name": "T", "seconds": True, "children": ["Idle"]}),
+            "tree: root/S/T: a timeout needs seconds, a finite number > 0, got True",
+        ),
+        (
+            sequence({"type": "retry", "name": "R", "attempts": 0, "children": ["Idle"]}),
+            "tree: root/S/R: a retry needs attempts, a whole number >= 1, got 0",
+        ),
+    ],
+)
+def test_bad_tree_descriptions_are_rejected_with_the_whole_reason(library, data, message):
+    with pytest.raises(TreeSpecError) as error:
+        parse_tree(data, library)
+    assert str(error.value).startswith(message), str(error.value)
 
 
 @pytest.mark.parametrize(

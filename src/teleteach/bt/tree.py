@@ -27,6 +27,7 @@ base_pose, gap; see config/skills_motion.yaml). Names are unique in the tree. Sa
 """
 
 import json
+import math
 import pathlib
 import typing
 
@@ -177,7 +178,7 @@ def decorator_parameters(node_type: str, data: Spec, where: str) -> Spec:
         return {"attempts": attempts}
     if node_type == "timeout":
         seconds = data.get("seconds")
-        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds < float("inf"):
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds < math.inf:
             raise TreeSpecError(f"{where}: a timeout needs seconds, a finite number > 0, got {seconds!r}")
         return {"seconds": float(seconds)}
     return {}
@@ -345,7 +346,7 @@ def _header(execution: str, header: str) -> typing.List[str]:
 def _flow_leaf(name: str, skill: str, parameters: typing.Optional[typing.Dict[str, str]] = None) -> str:
     text = f"type: skill, name: {json.dumps(name)}, skill: {json.dumps(skill)}"
     if parameters:
-        text += ", parameters: " + json.dumps(parameters, separators=(", ", ": "))
+        text += ", parameters: " + json.dumps(parameters)
     return f"{{{text}}}"
 
 
