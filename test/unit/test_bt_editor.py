@@ -125,7 +125,7 @@ def test_removing_a_composite_that_holds_the_running_leaf_is_refused():
     before = snapshot(editor.root)
     result = editor.change("Fetch", "remove")
     # Expect a refusal naming the running leaf inside, nothing changed, nothing cancelled
-    assert not result.success
+    assert result.success is False
     assert result.message == (
         "cannot remove 'Fetch': it holds the running leaf 'LookToShelf'; removing it would abort its skill"
     )
@@ -178,7 +178,7 @@ def test_removing_the_running_leaf_or_its_composite_is_refused():
     before = snapshot(tree.root)
     result = tree.change("PickItem", "remove")
     # Expect a refusal that says why, and nothing changed
-    assert not result.success
+    assert result.success is False
     assert result.message == "cannot remove 'PickItem': it is running; removing it would abort its skill"
     assert snapshot(tree.root) == before
     assert world.names("cancel") == []
@@ -228,7 +228,7 @@ def test_bad_request_changes_nothing_and_says_what_was_wrong(request_, message):
     revision = tree.revision
     result = tree.change(*request_)
     # Expect failure, the precise reason, and the tree exactly as before (structure, statuses, memory, names)
-    assert not result.success
+    assert result.success is False
     assert message in result.message
     assert result.new_node_name == ""
     assert snapshot(tree.root) == before

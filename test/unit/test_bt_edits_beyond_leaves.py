@@ -12,7 +12,7 @@ from conftest import ROOT
 from py_trees.common import Status
 
 from teleteach.bt.editor import HISTORY_LIMIT, EditRequest, snapshot
-from teleteach.bt.library import SkillLibrary
+from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairMemory
 from teleteach.bt.teaching import TeachingTree, TreeStore
 from teleteach.bt.tree import describe, load_tree, parse_tree
@@ -290,6 +290,11 @@ def test_history_is_saved_with_the_tree_and_undo_works_after_a_restart(tmp_path)
     assert restarted.editor.nodes["RetryPickItem"].num_failures == 4
     assert restarted.change("", "undo").success and restarted.change("", "undo").success
     assert structure(restarted) == original
+    # and what was undone is redone after another restart
+    saved.write_text(restarted.tree_yaml())
+    py_trees.blackboard.Blackboard.clear()
+    again = TeachingTree(load_tree(saved, library), library, SkillWorld().make_leaf)
+    assert again.change("", "redo").message == "redo: wrapped 'PickItem' in the retry 'RetryPickItem', attempts 4"
 
 
 def test_undo_of_an_addition_that_now_runs_is_refused():
@@ -301,7 +306,7 @@ def test_undo_of_an_addition_that_now_runs_is_refused():
     assert status_of(tree, "Idle_2") == Status.RUNNING
     before = snapshot(tree.root)
     result = tree.change("", "undo")
-    assert not result.success
+    assert result.success is False
     assert result.message == (
         "cannot undo the last edit: cannot remove 'Idle_2': it is running; removing it would abort its skill"
     )
@@ -350,6 +355,14 @@ BAD_REQUESTS = [
     (("", "undo"), "nothing to undo"),
     (("", "redo"), "nothing to redo"),
     (("", "wrap", 0, "", "inverter"), "empty node name"),
+    (("Fly", "add"), "'Fly' is neither a node of the tree nor a skill in the library"),
+    (("Idle", "insert", 99), "index 99 is out of range for 'BehaviorExecution' (0..10)"),
+    (("Idle", "add", 0, "Shelf"), "no composite named 'Shelf' in the tree"),
+    (("Idle", "add", 0, "PickItem"), "'PickItem' is not a composite, nodes cannot be added to it"),
+    (("BehaviorExecution", "add"), "cannot copy 'BehaviorExecution' is the composite that /change_tree edits"),
+    (("PickItem", "remove", 0, "Root"), "'PickItem' is a child of 'BehaviorExecution', not of 'Root'"),
+    (("MoveBase", "remove"), "cannot remove 'MoveBase': it is running; removing it would abort its skill"),
+    (("PauseCondition", "remove"), "cannot remove 'PauseCondition' is the condition that pauses the tree"),
 ]
 
 
@@ -365,12 +378,144 @@ def test_bad_request_changes_nothing_and_says_what_was_wrong(request_, message):
     text = tree.tree_yaml()
     result = tree.change(*request_)
     # Expect failure, the precise reason, and the tree, its index, its history and its saved text as before
-    assert not result.success
+    assert result.success is False
     assert message in result.message
     assert result.new_node_name == ""
     assert snapshot(tree.root) == before and tree.editor.nodes == names and tree.revision == revision
     assert tree.tree_yaml() == text
     assert world.names("cancel") == []
+    # and it used up no name: the next copy of Idle is the first one
+    assert tree.change("Idle", "add").new_node_name == "Idle_2"
+
+
+DAMAGED_EDITS = [
+    ({"edit": "fly"}, 'unknown edit {"edit": "fly"}'),
+    (
+        {"edit": "convert", "before": {"type": "sequence", "name": "Shelf"}, "after": {"type": "selector"}},
+        "no composite named 'Shelf' in the tree",
+    ),
+    (
+        {
+            "edit": "convert",
+            "before": {"type": "selector", "name": "BehaviorExecution", "memory": False},
+            "after": {"type": "sequence", "name": "BehaviorExecution", "memory": True},
+        },
+        "'BehaviorExecution' is a sequence, not the selector it was",
+    ),
+    (
+        {"edit": "insert", "parent": "", "index": 0, "node": {"type": "skill", "name": "PickItem", "skill": "Idle"}},
+        "cannot insert 'PickItem': the name 'PickItem' is in the tree",
+    ),
+    (
+        {
+            "edit": "insert",
+            "parent": "",
+            "index": 0,
+            "node": {
+                "type": "sequence",
+                "name": "New",
+                "memory": True,
+                "children": [
+                    {"type": "skill", "name": "Fresh", "skill": "Idle"},
+                    {"type": "skill", "name": "Idle", "skill": "Idle"},
+                ],
+            },
+        },
+        "cannot insert 'New': the name 'Idle' is in the tree",
+    ),
+    (
+        {"edit": "wrap", "node": "PickItem", "wrapper": {"type": "inverter", "name": "MoveBase"}},
+        "cannot wrap 'PickItem': the name 'MoveBase' is in the tree",
+    ),
+    (
+        {"edit": "insert", "parent": "", "index": 0, "node": {"type": "skill", "name": "Lost", "skill": "Taught"}},
+        "cannot insert 'Lost': skill 'Taught' is unavailable: its file is missing",
+    ),
+]
+
+
+def tree_with_an_unavailable_skill():
+    """The thesis tree, its library holding Taught, a demonstrated skill whose file is missing."""
+    py_trees.blackboard.Blackboard.clear()
+    library = SkillLibrary.load(CONFIG / "skills.yaml")
+    taught = SkillEntry("Taught", "stiffness", "/nowhere/taught.npz", problem="its file is missing")
+    library = SkillLibrary([*library, taught])
+    return TeachingTree(load_tree(CONFIG / "tree.yaml", library), library, SkillWorld().make_leaf)
+
+
+def test_an_unavailable_skill_is_not_added_and_the_refusal_says_why():
+    tree = tree_with_an_unavailable_skill()
+    before = snapshot(tree.root)
+    result = tree.change("Taught", "add")
+    assert (result.success, result.message) == (
+        False,
+        "cannot add 'Taught': skill 'Taught' is unavailable: its file is missing",
+    )
+    assert snapshot(tree.root) == before
+
+
+def test_a_copy_is_named_after_its_skill_or_its_original_and_renames_what_it_holds():
+    world = SkillWorld()
+    tree = groceries_tree(world)
+    assert tree.change("PickItem", "wrap", node_type="retry", parameter=2).success
+    copy = tree.change("Fetch", "add")
+    assert copy.new_node_name == "Fetch_2"
+    copied = sorted(node.name for node in tree.editor.nodes["Fetch_2"].iterate())
+    assert copied == ["Fetch_2", "LookToShelf_2", "PickItem_2", "RetryPickItem_2"]
+    assert tree.change("Fetch_2", "add").new_node_name == "Fetch_3"  # a copy of a copy: after the original
+    renamed = parse_tree(
+        {
+            "execution": "Work",
+            "root": {"type": "sequence", "name": "Work", "children": [{"name": "Go", "skill": "MoveBase"}]},
+        },
+        tree.editor.library,
+    )
+    py_trees.blackboard.Blackboard.clear()
+    other = TeachingTree(renamed, tree.editor.library, world.make_leaf)
+    assert other.change("Go", "add").new_node_name == "MoveBase"  # a leaf's copy is named after its skill
+
+
+def test_a_snapshot_tells_two_leaves_apart_by_their_skill():
+    library = SkillLibrary.load(CONFIG / "skills.yaml")
+
+    def tree(skill):
+        py_trees.blackboard.Blackboard.clear()
+        data = {
+            "execution": "W",
+            "root": {"type": "sequence", "name": "W", "children": [{"name": "X", "skill": skill}]},
+        }
+        return TeachingTree(parse_tree(data, library), library, SkillWorld().make_leaf)
+
+    assert snapshot(tree("PickItem").root) != snapshot(tree("PlaceItem").root)
+
+
+@pytest.mark.parametrize("edit, message", DAMAGED_EDITS, ids=[message for _, message in DAMAGED_EDITS])
+def test_a_saved_edit_that_no_longer_fits_the_tree_is_refused_and_changes_nothing(edit, message):
+    tree = tree_with_an_unavailable_skill()
+    tree.editor.redo_edits.append(edit)  # a hand-edited history, or one saved with another tree
+    before = snapshot(tree.root)
+    result = tree.change("", "redo")
+    assert (result.success, result.message) == (False, f"cannot redo the last edit: {message}")
+    assert snapshot(tree.root) == before and tree.editor.redo_edits == [edit]
+
+
+def test_an_applied_insert_is_remembered_with_where_it_went_and_redone_there():
+    tree = thesis_tree(SkillWorld())
+    added = tree.change("Idle", "add")
+    assert added.message == "add: a copy of 'Idle' as 'Idle_2' in 'BehaviorExecution' at index 10"
+    assert tree.editor.undo_edits[-1] == {
+        "edit": "insert",
+        "parent": "BehaviorExecution",
+        "index": 10,
+        "node": {"type": "skill", "name": "Idle_2", "skill": "Idle"},
+    }
+    assert tree.change("", "undo").message == "undo: removed 'Idle_2' from 'BehaviorExecution' (it was at index 10)"
+    redone = tree.change("", "redo")
+    assert (redone.success, redone.message, redone.new_node_name) == (
+        True,
+        "redo: inserted 'Idle_2' in 'BehaviorExecution' at index 10",
+        "Idle_2",
+    )
 
 
 def test_decorators_are_visible_in_the_ascii_tree_and_the_saved_yaml():
@@ -430,7 +575,7 @@ def test_repair_without_a_suggestion_and_a_repair_that_no_longer_fits_change_not
     run(tree)
     before = snapshot(tree.root)
     result = tree.change("PickItem", "repair")
-    assert not result.success
+    assert result.success is False
     assert result.message == (
         "the remembered repair cannot be applied: edit 2 of 2 (remove Teleport) failed: "
         "no node named 'Teleport' in the tree"

@@ -131,20 +131,25 @@ class TreeEditor:
         if operation == "repair":
             return ChangeResult(False, "there is no remembered repair to apply: the open help request suggests none")
         request = EditRequest(node_name, operation, index, parent, node_type, parameter)
+        suffixes = dict(self._next_suffix)
         result, edit = self._request(request)
         if result.success:
             self._remember(edit)
+        else:
+            self._next_suffix = suffixes  # a refused request uses up no name: the next copy is still Idle_2
         return result
 
     def apply_requests(self, requests: typing.Sequence["EditRequest"]) -> ChangeResult:
         """Apply several requests as one edit (one undo reverts them all); if one fails, none stays applied."""
         applied: typing.List[EditRecord] = []
         messages: typing.List[str] = []
+        suffixes = dict(self._next_suffix)
         for number, request in enumerate(requests, start=1):
             result, edit = self._request(request)
             if not result.success:
                 for done in reversed(applied):
                     self._apply(inverse(done))
+                self._next_suffix = suffixes
                 return ChangeResult(
                     False, f"edit {number} of {len(requests)} ({request.describe()}) failed: {result.message}"
                 )
