@@ -643,6 +643,8 @@ def test_a_group_of_edits_that_cannot_all_be_applied_changes_nothing(requests, m
     assert not result.success and result.message.startswith(message), result.message
     assert snapshot(tree.root) == before and tree.editor.nodes == names
     assert tree.editor.undo_edits == [] and tree.editor.redo_edits == []
+    # and the undone first edit used up no name: the next copy of Idle is the first one
+    assert tree.change("Idle", "add").new_node_name == "Idle_2"
 
 
 @pytest.mark.parametrize(
