@@ -2,6 +2,7 @@
 
 import csv
 import dataclasses
+import json
 import pathlib
 import textwrap
 
@@ -19,6 +20,7 @@ from teleteach.study.report import (
     analyse,
     compare,
     describe,
+    draw_figures,
     make_report,
     markdown,
     rank_biserial,
@@ -131,6 +133,12 @@ def test_the_report_s_numbers_are_those_of_the_trials(tmp_path):
     }
     assert list(tlx[0])[: 3 + len(TLX_NAMES)] == ["participant", "condition", "raw_tlx", *TLX_NAMES]
     assert list(tlx[0])[3 + len(TLX_NAMES) :] == sorted({row["item"] for row in answers} - set(TLX_NAMES))
+    header = (report.folder / "tlx.csv").read_text().splitlines()[0]
+    assert header == ",".join(["participant", "condition", "raw_tlx", *TLX_NAMES, "in_control"])
+    in_control = {
+        (row["participant"], row["condition"]): row["value"] for row in answers if row["item"] == "in_control"
+    }
+    assert in_control[("P01", "guided")] == "6" and in_control[("P04", "unguided")] == "3"
     assert list(read_csv(report.folder / "summary.csv")[0]) == list(report.summary[0])
     again = make_report(folder)  # a report made again replaces the first
     assert again.folder == report.folder and (again.folder / "report.md").is_file()
@@ -140,6 +148,7 @@ def test_the_report_s_numbers_are_those_of_the_trials(tmp_path):
     assert markdown.startswith(f"# Study {folder.name}\n")
     assert "6 participants (6 complete: P01, P02, P03, P04, P05, P06), 48 trials, 12 questionnaires" in markdown
     assert "| guided | remove_place_item | 12 | 11 |" in markdown
+    assert "Conditions: guided, unguided; tasks: remove_place_item, stiffen_y." in markdown
     for figure in ("task_time.png", "wrong_selections.png", "tlx.png", "learning_curves.png"):
         assert (report.folder / figure).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
@@ -255,12 +264,12 @@ def test_the_markdown_report_by_hand():
         "trials": 3,
         "successes": 2,
         "task_time_s_mean": 12.345,
-        "task_time_s_sd": 1.25,
+        "task_time_s_sd": None,
         "task_time_s_median": 12.0,
         "wrong_selections_mean": 0.333,
         "wrong_selections_sd": 0.4567,
         "wrong_selections_median": 0.0,
-        "undo_count_mean": None,
+        "undo_count_mean": 0.333,
         "help_requests_mean": 0.5,
         "peak_force_n_mean": 7.06,
     }
@@ -303,7 +312,7 @@ data in both conditions.
         | condition | task | trials | successes | task time mean [s] | sd | median | wrong selections mean | sd | \
 median | undo mean | help requests mean | peak force mean [N] |
         |---|---|---|---|---|---|---|---|---|---|---|---|---|
-        | guided | remove | 3 | 2 | 12.3 | 1.2 | 12.0 | 0.33 | 0.46 | 0.0 | - | 0.50 | 7.1 |
+        | guided | remove | 3 | 2 | 12.3 | - | 12.0 | 0.33 | 0.46 | 0.0 | 0.33 | 0.50 | 7.1 |
 
         Task time over successful trials; the other columns over all trials.
 
@@ -400,6 +409,12 @@ def test_the_analysis_by_hand():
     )
     assert (guided_remove["wrong_selections_mean"], guided_remove["help_requests_mean"]) == (2.0, 0.5)
     assert [row["raw_tlx"] for row in tlx] == [20.0, 40.0, None, 60.0]
+    items = [
+        f"{item}_{statistic}"
+        for item in ("raw_tlx", *TLX_NAMES, "in_control")
+        for statistic in ("mean", "sd", "median")
+    ]
+    assert [sorted(entry) for entry in tlx_summary] == [sorted(["condition", "participants", *items])] * 2
     assert [
         (row["condition"], row["participants"], row["in_control_mean"], row["raw_tlx_mean"]) for row in tlx_summary
     ] == [
@@ -414,3 +429,179 @@ def test_the_analysis_by_hand():
         ("raw_tlx", "(all)", "guided", "unguided", 1, 20.0, 40.0),
         ("in_control", "(all)", "guided", "unguided", 2, 4.5, 2.5),
     ]
+
+
+def figure_trial(participant, condition, task, repetition, success, time, wrong):
+    return {
+        "participant": participant,
+        "condition": condition,
+        "task": task,
+        "repetition": repetition,
+        "success": success,
+        "task_time_s": time,
+        "wrong_selections": wrong,
+    }
+
+
+FIGURE_STUDY = StudyData(
+    name="demo",
+    folder=pathlib.Path("/study"),
+    trials=[
+        figure_trial("P1", "guided", "remove", 2, True, 8.0, 0),  # out of order: the curves sort by repetition
+        figure_trial("P1", "guided", "remove", 1, True, 10.0, 1),
+        figure_trial("P2", "guided", "remove", 1, False, 30.0, 3),
+        figure_trial("P2", "guided", "remove", 2, True, 14.0, 0),
+        figure_trial("P1", "unguided", "remove", 1, True, 14.0, 2),
+        figure_trial("P1", "unguided", "remove", 2, True, 11.0, 1),
+        figure_trial("P2", "unguided", "remove", 1, True, 12.0, 0),
+        figure_trial("P2", "unguided", "remove", 2, True, 9.0, 0),
+        figure_trial("P1", "guided", "stiffen", 1, False, 40.0, 2),  # no guided stiffen trial succeeded
+        figure_trial("P1", "unguided", "stiffen", 1, True, 25.0, 0),
+    ],
+    questionnaires=[],
+    participants={"P1": (5, 5), "P2": (4, 4)},
+    conditions=["guided", "unguided"],
+    tasks=["remove", "stiffen"],
+)
+FIGURE_TLX = [
+    {"participant": "P1", "condition": "guided", "raw_tlx": 20.0},
+    {"participant": "P2", "condition": "guided", "raw_tlx": None},  # the TLX left out
+    {"participant": "P1", "condition": "unguided", "raw_tlx": 40.0},
+    {"participant": "P2", "condition": "unguided", "raw_tlx": 60.0},
+]
+
+
+def drawn_values(axis):
+    """Per box of a box plot, the values drawn over it, each within its box's half width of the box's position."""
+    values = []
+    for position, points in enumerate(axis.collections, start=1):
+        offsets = np.asarray(points.get_offsets()).reshape(-1, 2)
+        assert np.all(np.abs(offsets[:, 0] - position) <= 0.08)
+        values.append(sorted(offsets[:, 1].tolist()))
+    return values
+
+
+def medians(axis):
+    """The box plot's medians: its two-point horizontal lines as wide as a box (caps are half as wide, boxes closed)."""
+    return [
+        float(line.get_ydata()[0])
+        for line in axis.get_lines()
+        if len(line.get_xdata()) == 2
+        and np.isclose(np.ptp(line.get_xdata()), 0.5)
+        and np.array_equal(line.get_ydata()[:1], line.get_ydata()[1:], equal_nan=True)
+    ]
+
+
+def test_the_figures_show_each_condition_s_values_by_hand():
+    figures = draw_figures(FIGURE_STUDY, FIGURE_TLX)
+    assert list(figures) == ["task_time", "wrong_selections", "tlx", "learning_curves"]
+    times = figures["task_time"]
+    assert times._suptitle.get_text() == "demo: task time per condition (successful trials)"
+    remove, stiffen = times.axes
+    assert [axis.get_title() for axis in times.axes] == ["remove", "stiffen"]
+    assert {axis.get_ylabel() for axis in times.axes} == {"Task time [s]"}
+    # successful trials only: P2's failed guided trial (30 s) is not drawn
+    assert drawn_values(remove) == [[8.0, 10.0, 14.0], [9.0, 11.0, 12.0, 14.0]]
+    assert medians(remove) == [10.0, 11.5]
+    assert [label.get_text() for label in remove.get_xticklabels()] == ["guided\n(n=3)", "unguided\n(n=4)"]
+    # a condition without a successful trial: an empty box, said n=0
+    assert drawn_values(stiffen) == [[], [25.0]]
+    assert np.isnan(medians(stiffen)[0]) and medians(stiffen)[1] == 25.0
+    assert [label.get_text() for label in stiffen.get_xticklabels()] == ["guided\n(n=0)", "unguided\n(n=1)"]
+    # the values are drawn over the boxes, once: the box plots draw no outliers of their own
+    assert min(points.get_zorder() for points in remove.collections) > max(line.get_zorder() for line in remove.lines)
+    for axis in (remove, stiffen):
+        assert {line.get_marker() for line in axis.get_lines()} <= {"", "None"}  # no marker
+    wrong = figures["wrong_selections"]
+    assert wrong._suptitle.get_text() == "demo: wrong selections per condition"
+    assert {axis.get_ylabel() for axis in wrong.axes} == {"Wrong selections [per trial]"}
+    assert [axis.get_title() for axis in wrong.axes] == ["remove", "stiffen"]
+    assert drawn_values(wrong.axes[0]) == [[0.0, 0.0, 1.0, 3.0], [0.0, 0.0, 1.0, 2.0]]  # all trials, failed too
+    assert drawn_values(wrong.axes[1]) == [[2.0], [0.0]]
+    (tlx,) = figures["tlx"].axes
+    assert (tlx.get_title(), tlx.get_ylabel(), tlx.get_ylim()) == (
+        "demo: workload per condition",
+        "raw NASA-TLX (0-100)",
+        (0.0, 100.0),
+    )
+    assert drawn_values(tlx) == [[20.0], [40.0, 60.0]] and medians(tlx) == [20.0, 50.0]
+    assert [label.get_text() for label in tlx.get_xticklabels()] == ["guided\n(n=1)", "unguided\n(n=2)"]
+
+
+def test_the_learning_curves_by_hand():
+    curves = draw_figures(FIGURE_STUDY, FIGURE_TLX)["learning_curves"]
+    assert curves._suptitle.get_text() == "demo: learning curves (thin: participants, thick: mean)"
+    remove, stiffen = curves.axes
+
+    def drawn(axis):
+        return [(line.get_label(), list(line.get_xdata()), list(line.get_ydata())) for line in axis.get_lines()]
+
+    # per condition its mean over the successful trials of each repetition, then each participant's own times
+    assert drawn(remove) == [
+        ("guided", [1, 2], [10.0, 11.0]),
+        ("_child1", [1, 2], [10.0, 8.0]),
+        ("_child2", [2], [14.0]),
+        ("unguided", [1, 2], [13.0, 10.0]),
+        ("_child4", [1, 2], [14.0, 11.0]),
+        ("_child5", [1, 2], [12.0, 9.0]),
+    ]
+    assert drawn(stiffen) == [("unguided", [1], [25.0]), ("_child1", [1], [25.0])]  # no guided curve: none succeeded
+    means = [line for line in remove.get_lines() if not line.get_label().startswith("_")]
+    participants = [line for line in remove.get_lines() if line.get_label().startswith("_")]
+    assert [line.get_marker() for line in means] == ["o", "o"] and {line.get_marker() for line in participants} == {"."}
+    assert min(line.get_linewidth() for line in means) > max(line.get_linewidth() for line in participants)
+    assert all(line.get_alpha() < 1.0 for line in participants) and all(line.get_alpha() is None for line in means)
+    assert [line.get_color() for line in participants] == [means[0].get_color()] * 2 + [means[1].get_color()] * 2
+    assert means[0].get_color() != means[1].get_color()
+    assert [text.get_text() for text in remove.get_legend().get_texts()] == ["guided", "unguided"]
+    assert [text.get_text() for text in stiffen.get_legend().get_texts()] == ["unguided"]
+    for axis, task, repetitions in ((remove, "remove", [1, 2]), (stiffen, "stiffen", [1])):
+        assert (axis.get_title(), axis.get_xlabel(), axis.get_ylabel()) == (
+            task,
+            "trial of the task (under one condition)",
+            "task time [s]",
+        )
+        assert axis.get_ylim()[0] == 0.0 and list(axis.get_xticks()) == repetitions
+
+
+def test_a_report_made_twice_draws_the_same_figures(tmp_path):
+    folder = fill(tmp_path, participants=("P01", "P02"))
+    first = {name: path.read_bytes() for name, path in make_report(folder, tmp_path / "first").figures.items()}
+    second = {name: path.read_bytes() for name, path in make_report(folder, tmp_path / "second").figures.items()}
+    assert first == second and set(first) == {"task_time", "wrong_selections", "tlx", "learning_curves"}
+
+
+def write_study(folder, steps, trials):
+    """A participant's study folder written by hand: its plan's steps and its trials' results."""
+    participant = folder / "P01"
+    participant.mkdir(parents=True)
+    (participant / "plan.json").write_text(json.dumps({"steps": steps}))
+    for index, trial in enumerate(trials):
+        (participant / "trials" / f"{index:02d}").mkdir(parents=True)
+        (participant / "trials" / f"{index:02d}" / "result.json").write_text(json.dumps(trial))
+    return folder
+
+
+def test_a_study_of_one_condition_and_task_and_one_of_questionnaires_only_are_reported(tmp_path):
+    trial = {
+        "participant": "P01",
+        "condition": "guided",
+        "task": "remove",
+        "repetition": 1,
+        "trial": 1,
+        "success": True,
+        "task_time_s": 9.5,
+        "wrong_selections": 0,
+        "undo_count": 0,
+        "help_requests": 0,
+        "peak_force_n": 1.0,
+        "contacts": 0,
+    }
+    one = make_report(write_study(tmp_path / "one", [{"condition": "guided", "task": "remove"}], [trial]))
+    (row,) = read_csv(one.folder / "summary.csv")
+    assert list(row) == list(one.summary[0])
+    assert (row["condition"], row["task"], row["trials"], row["task_time_s_mean"]) == ("guided", "remove", "1", "9.5")
+    none = make_report(write_study(tmp_path / "none", [{"condition": "guided", "task": ""}], []))
+    assert (none.folder / "summary.csv").read_text() == "condition,task\n"
+    assert "1 participants (0 complete: none), 0 trials" in (none.folder / "report.md").read_text()
+    assert list(none.figures) == ["tlx"]  # questionnaires only: no task to draw

@@ -26,13 +26,16 @@ import json
 import math
 import pathlib
 import warnings
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import TYPE_CHECKING, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy import stats
 
 from teleteach.datadir import atomic_write_bytes, atomic_write_text
 from teleteach.questionnaire import TLX_NAMES, raw_tlx
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 TRIAL_COLUMNS = (
     "participant",
@@ -390,17 +393,24 @@ def markdown(report: Report) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _plots(data: StudyData, tlx: List[dict], out: pathlib.Path) -> Dict[str, pathlib.Path]:
+def draw_figures(data: StudyData, tlx: List[dict]) -> Dict[str, "Figure"]:
+    """The report's figures, each under the name of its file (``task_time`` -> ``task_time.png``).
+
+    Box plots of the task time (successful trials) and of the wrong selections per condition, one panel per task; of
+    the raw TLX per condition; and the learning curves (a study without tasks has only the TLX's). Drawn with
+    matplotlib's Agg backend (no display).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     figures = {}
-    for key, name, title, unit, only_success in (
+    per_task = (
         ("task_time_s", "task_time", "Task time", "s", True),
         ("wrong_selections", "wrong_selections", "Wrong selections", "per trial", False),
-    ):
+    )
+    for key, name, title, unit, only_success in per_task if data.tasks else ():
         figure, axes = plt.subplots(1, len(data.tasks), figsize=(4.5 * len(data.tasks), 4.2), squeeze=False)
         for axis, task in zip(axes[0], data.tasks):
             groups = [
@@ -417,7 +427,7 @@ def _plots(data: StudyData, tlx: List[dict], out: pathlib.Path) -> Dict[str, pat
         which = " (successful trials)" if only_success else ""
         figure.suptitle(f"{data.name}: {title.lower()} per condition{which}")
         figure.tight_layout()
-        figures[key] = _save(figure, out / f"{name}.png", plt)
+        figures[name] = figure
     figure, axis = plt.subplots(figsize=(1.8 + 1.6 * len(data.conditions), 4.2))
     scores = [
         [row["raw_tlx"] for row in tlx if row["condition"] == condition and row["raw_tlx"] is not None]
@@ -428,16 +438,20 @@ def _plots(data: StudyData, tlx: List[dict], out: pathlib.Path) -> Dict[str, pat
     axis.set_ylim(0, 100)
     axis.set_title(f"{data.name}: workload per condition")
     figure.tight_layout()
-    figures["tlx"] = _save(figure, out / "tlx.png", plt)
-    figures["learning_curves"] = _learning_curves(data, out, plt)
+    figures["tlx"] = figure
+    if data.tasks:
+        figures["learning_curves"] = _learning_curves(data, plt)
     return figures
+
+
+def _plots(data: StudyData, tlx: List[dict], out: pathlib.Path) -> Dict[str, pathlib.Path]:
+    return {name: _save(figure, out / f"{name}.png") for name, figure in draw_figures(data, tlx).items()}
 
 
 def _box(axis, groups: List[List[float]], labels: List[str]) -> None:
     """Box plot with every value drawn over it (small studies: the points matter)."""
     positions = list(range(1, len(groups) + 1))
-    filled = [group if group else [np.nan] for group in groups]
-    axis.boxplot(filled, positions=positions, widths=0.5, showfliers=False)
+    axis.boxplot(groups, positions=positions, widths=0.5, showfliers=False)
     spread = np.random.default_rng(0)
     for position, group in zip(positions, groups):
         axis.scatter(position + spread.uniform(-0.08, 0.08, len(group)), group, s=18, alpha=0.7, zorder=3)
@@ -445,7 +459,7 @@ def _box(axis, groups: List[List[float]], labels: List[str]) -> None:
     axis.set_xticklabels([f"{label}\n(n={len(group)})" for label, group in zip(labels, groups)])
 
 
-def _learning_curves(data: StudyData, out: pathlib.Path, plt) -> pathlib.Path:
+def _learning_curves(data: StudyData, plt) -> "Figure":
     figure, axes = plt.subplots(1, len(data.tasks), figsize=(4.5 * len(data.tasks), 4.2), squeeze=False)
     for axis, task in zip(axes[0], data.tasks):
         for condition in data.conditions:
@@ -471,10 +485,12 @@ def _learning_curves(data: StudyData, out: pathlib.Path, plt) -> pathlib.Path:
         axis.legend()
     figure.suptitle(f"{data.name}: learning curves (thin: participants, thick: mean)")
     figure.tight_layout()
-    return _save(figure, out / "learning_curves.png", plt)
+    return figure
 
 
-def _save(figure, path: pathlib.Path, plt) -> pathlib.Path:
+def _save(figure, path: pathlib.Path) -> pathlib.Path:
+    import matplotlib.pyplot as plt
+
     stream = io.BytesIO()
     figure.savefig(stream, format="png", dpi=110)
     plt.close(figure)
