@@ -1,4 +1,4 @@
-"""Stress: the main job (run_thesis) several times while a busy loop holds one core, as a loaded machine would.
+"""Stress: the main job (run_thesis) several times while busy loops hold the cores, as a loaded machine would.
 
 Each run's stdout is read line by line and stamped with wall time; run_thesis prints the simulated time of every
 leaf that ends ("run_thesis: t = 12.3 s  PickItem: done"), so the real-time factor between two such lines at least
@@ -6,7 +6,7 @@ leaf that ends ("run_thesis: t = 12.3 s  PickItem: done"), so the real-time fact
 exit status and the lowest such factor, then the passes and the lowest factor of all runs; writes
 bench/results/stress.json. Exit status 0 when every run passed.
 
-    source build/env.sh && python bench/stress.py --runs 3      (or: bash scripts/stress)
+    source build/env.sh && python bench/stress.py --runs 3 --hogs 4      (or: bash scripts/stress --hogs 4)
 """
 
 import argparse
@@ -26,6 +26,12 @@ SIM_TIME = re.compile(r"run_thesis: t = +([0-9.]+) s ")
 def busy_loop(core: int) -> subprocess.Popen:
     """A process spinning on one core (taskset), the load other work would put on the machine."""
     return subprocess.Popen(["taskset", "-c", str(core), sys.executable, "-c", "while True: pass"])
+
+
+def hog_cores(hogs: int, cores: int) -> list:
+    """The core of each busy loop: spread evenly from the last core down, so one hog holds the last core and
+    four on two cores put two on each."""
+    return [(cores - 1 - index) % cores for index in range(hogs)]
 
 
 def lowest_real_time_factor(events, window: float):
@@ -64,21 +70,23 @@ def run_once(index: int, arguments, window: float) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=3, help="how many times to run the main job")
-    parser.add_argument("--busy-core", type=int, default=(os.cpu_count() or 1) - 1, help="core of the busy loop")
+    parser.add_argument("--hogs", type=int, default=1, help="how many busy loops, spread over the cores")
     parser.add_argument("--window", type=float, default=10.0, help="[s] wall time over which a factor is measured")
     options, arguments = parser.parse_known_args()
-    busy = busy_loop(options.busy_core)
+    cores = hog_cores(options.hogs, os.cpu_count() or 1)
+    hogs = [busy_loop(core) for core in cores]
     try:
         runs = [run_once(index, arguments, options.window) for index in range(1, options.runs + 1)]
     finally:
-        busy.kill()
-        busy.wait()
+        for hog in hogs:
+            hog.kill()
+            hog.wait()
     factors = [run["lowest_real_time_factor"] for run in runs if run["lowest_real_time_factor"] is not None]
     summary = {
         "runs": runs,
         "passes": sum(run["passed"] for run in runs),
         "lowest_real_time_factor": min(factors) if factors else None,
-        "busy_core": options.busy_core,
+        "busy_cores": cores,
     }
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "stress.json").write_text(json.dumps(summary, indent=2) + "\n")
@@ -89,7 +97,8 @@ def main() -> int:
     lowest = summary["lowest_real_time_factor"]
     shown = f"{lowest:.2f}" if lowest is not None else "-"
     print(
-        f"stress: {summary['passes']} of {len(runs)} passed, lowest real-time factor {shown} (busy core {busy.args[2]})"
+        f"stress: {summary['passes']} of {len(runs)} passed, lowest real-time factor {shown} "
+        f"({len(cores)} busy loops on cores {cores})"
     )
     return 0 if summary["passes"] == len(runs) else 1
 
