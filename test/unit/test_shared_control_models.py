@@ -78,11 +78,14 @@ def test_two_segments_keep_heading_continuous_and_match_closed_form():
     assert np.max(np.abs(np.diff(alpha))) < 0.05
 
 
+@pytest.mark.parametrize("segments", (1, 2))
 @pytest.mark.parametrize("skill", sorted(SKILLS))
-def test_control_is_the_derivative_of_the_state(skill):
-    # eq. 4 (product rule) against a Richardson-extrapolated central difference of eq. 3 (RK4 states).
-    lay = layout(skill)
-    theta = np.array([4.0, -30.0, 0.4, 0.05, 0.02, 15.0, 0.01])
+def test_control_is_the_derivative_of_the_state(skill, segments):
+    # eq. 4 (product rule) against a Richardson-extrapolated central difference of eq. 3 (RK4 states); the
+    # frequency is not a whole number, so S_i(0) differs from S_i(1)
+    lay = layout(skill, segments)
+    psi = [4.0, -30.0] + [2.0, 10.0] * (segments - 1) + [0.4, 0.05]
+    theta = np.array([*psi, 0.02, 12.5, 0.01])
     x_c = np.array([0.2, -0.1])
     n = 400
     length = 0.2
@@ -91,7 +94,7 @@ def test_control_is_the_derivative_of_the_state(skill):
     assert states[:, 0] == pytest.approx(x_c, abs=1e-12)
     h = length / n
     control = control_function(lay, length)
-    for j in (50, 200, 350):
+    for j in (50, 150, 350):  # away from the segments' joint at j = 200, where the curvature jumps
         fine = (states[:, j + 1] - states[:, j - 1]) / (2 * h)
         coarse = (states[:, j + 2] - states[:, j - 2]) / (4 * h)
         numeric = (4 * fine - coarse) / 3
@@ -145,8 +148,91 @@ def test_unknown_skill_and_bad_segment_count_are_rejected():
 
     with pytest.raises(ValueError, match="unknown skills"):
         skill_names(["wave", "spiral"])
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"^n_segments must be >= 1, got 0$"):
         ClothoidPath(0)
+
+
+def test_three_segments_curvature_heading_and_path_match_an_integration_of_eq_6():
+    psi = [2.0, 10.0, -4.0, 30.0, 1.0, -20.0, 0.3, 0.1]
+    length = 0.9  # segments start at 0, 0.3, 0.6
+    path = ClothoidPath(3)
+    assert path.psi_names == ["phi0_0", "phi1_0", "phi0_1", "phi1_1", "phi0_2", "phi1_2", "alpha_c", "v0"]
+
+    def curvature(s):  # eq. 6b per segment, the first reaching back, the last forward
+        k = 0 if s < 0.3 else 1 if s < 0.6 else 2
+        return psi[2 * k] + psi[2 * k + 1] * (s - 0.3 * k)
+
+    s = ca.SX.sym("s")
+    symbolic = ca.Function("c", [s], [path.curvature(s, ca.DM(psi), length), path.heading(s, ca.DM(psi), length)])
+    for value in (-0.1, 0.0, 0.1, 0.3, 0.45, 0.6, 0.75, 1.0):  # each segment's start exactly, before and after
+        modelled_curvature, modelled_heading = (float(v) for v in symbolic(value))
+        assert modelled_curvature == pytest.approx(curvature(value), abs=1e-12), value
+        heading = psi[6] + integrate.quad(curvature, 0.0, value, points=[0.3, 0.6], epsabs=1e-13)[0]
+        assert modelled_heading == pytest.approx(heading, abs=1e-10), value
+    u, alpha = rk4_path(psi, length, 90, segments=3)
+    for j in (20, 45, 70, 90):
+        s_end = j * length / 90
+
+        def heading(t):
+            return psi[6] + integrate.quad(curvature, 0.0, t, points=[0.3, 0.6], epsabs=1e-13)[0]
+
+        x = integrate.quad(lambda t: math.cos(heading(t)), 0, s_end, points=[0.3, 0.6], epsabs=1e-12)[0]
+        y = integrate.quad(lambda t: math.sin(heading(t)), 0, s_end, points=[0.3, 0.6], epsabs=1e-12)[0]
+        assert u[:, j] == pytest.approx([x, y], abs=1e-7) and alpha[j] == pytest.approx(heading(s_end), abs=1e-10)
+
+
+def test_control_function_s_inputs_are_named_and_its_segments_split_one_metre_by_default():
+    lay = layout("wave", 2)
+    theta = np.array([4.0, -30.0, -6.0, 10.0, 0.4, 0.05, 0.02, 12.5, 0.01])
+    by_name = np.asarray(control_function(lay)(s=0.7, theta=theta)["u"]).ravel()
+    assert by_name == pytest.approx(np.asarray(control_function(lay, 1.0)(0.7, theta)).ravel(), abs=1e-12)
+    assert by_name != pytest.approx(np.asarray(control_function(lay, 2.0)(0.7, theta)).ravel(), abs=1e-3)
+
+
+def test_the_layout_s_bounds_scales_and_guess_for_two_segments():
+    lay = ParameterLayout(SKILLS["cycloid"], ClothoidPath(2), 50.0, 500.0, (0.001, 1.0))
+    assert lay.names == ["phi0_0", "phi1_0", "phi0_1", "phi1_1", "alpha_c", "v0", "radius", "frequency", "phase"]
+    assert (lay.n, lay.i_alpha, lay.i_v0, lay.i_rho) == (9, 4, 5, 6)
+    assert list(lay.lower) == [-50.0, -500.0, -50.0, -500.0, -math.inf, 0.001, 0.005, 5.0, -0.25]
+    assert list(lay.upper) == [50.0, 500.0, 50.0, 500.0, math.inf, 1.0, 0.1, 60.0, 0.25]
+    assert list(lay.scale) == [50.0, 500.0, 50.0, 500.0, 1.0, 0.5, 0.03, 20.0, 0.05]
+    # a zero bound still gives the solver a scale to divide by
+    assert list(ParameterLayout(SKILLS["wave"], ClothoidPath(1), 0.0, 0.0, (0.0, 0.0)).scale[:4]) == [
+        1e-3,
+        1e-3,
+        1.0,
+        5e-4,
+    ]
+    # a straight line at the heading given, the speed within its bounds, the skill's own first guess
+    assert list(lay.guess(-7.0, 3.0)) == [0.0, 0.0, 0.0, 0.0, -7.0, 1.0, 0.03, 20.0, 0.0]
+    assert lay.guess(0.2, 0.0)[lay.i_v0] == 0.001
+    psi, rho = lay.split(lay.guess(0.2, 0.5))
+    assert list(psi) == [0.0, 0.0, 0.0, 0.0, 0.2, 0.5] and list(rho) == [0.03, 20.0, 0.0]
+
+
+def test_shift_wraps_the_phase_to_one_period_around_zero_and_keeps_numbers_as_floats():
+    lay = layout("wave")
+    # a frequency below 1 / m: period 2 m, phase 0.7 + 0.5 = 1.2 -> -0.8
+    shifted = lay.shift(np.array([0.0, 0.0, 0.0, 0.1, 0.02, 0.5, 0.7]), 0.5, 1.0)
+    assert shifted[lay.i_rho + 2] == pytest.approx(-0.8, abs=1e-12)
+    shifted = lay.shift(np.array([0.0, 0.0, 0.0, 0.1, 0.02, 40.0, 0.0]), 0.03, 1.0)
+    assert shifted[lay.i_rho + 2] == pytest.approx(0.005, abs=1e-12)  # period 0.025 m
+    # no frequency, no period: the phase only advances
+    unwrapped = lay.shift(np.array([0.0, 0.0, 0.0, 0.1, 0.02, 0.0, 0.7]), 0.5, 1.0)
+    assert unwrapped[lay.i_rho + 2] == pytest.approx(1.2, abs=1e-12)
+    # an integer vector is shifted as numbers, not truncated
+    shifted = lay.shift([2, 10, 1, 0, 0, 20, 0], 0.013, 1.0)
+    assert list(shifted) == pytest.approx([2.13, 10.0, 1.0 + 0.026 + 0.000845, 0.0, 0.0, 20.0, 0.013], abs=1e-12)
+
+
+def test_synthetic_commands_add_the_noise_of_the_generator_given():
+    times = np.arange(0, 0.5, 0.01)
+    clean = synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times)
+    assert synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times, noise=0.0) == pytest.approx(clean)
+    noisy = synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times, 0.5, np.random.default_rng(3))
+    assert noisy == pytest.approx(clean + 0.5 * np.random.default_rng(3).standard_normal((len(times), 2)))
+    unseeded = synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times, 0.5)
+    assert unseeded.shape == clean.shape and 0.3 < np.std(unseeded - clean) < 0.7
 
 
 def test_nearest_free_point_matches_a_brute_force_search():

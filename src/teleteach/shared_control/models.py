@@ -168,10 +168,6 @@ class ClothoidPath:
         trajectory = ca.horzcat(*states)
         return trajectory[0:2, :], trajectory[2, :]
 
-    def segment_starts(self, length) -> List:
-        """Start of each segment in s (casadi expressions or floats)."""
-        return [k * length / self.n_segments for k in range(self.n_segments)]
-
     def heading(self, s, psi, length):
         """Closed-form heading alpha(s) with alpha(0) = alpha_c, valid for every s (negative s: first segment)."""
         alpha_c = psi[2 * self.n_segments]
@@ -283,7 +279,10 @@ def skill_state_and_control(layout: ParameterLayout, s, theta, horizon_length):
 
 
 def control_function(layout: ParameterLayout, horizon_length: float = 1.0) -> ca.Function:
-    """Function u(s, theta) -> u (eq. 4), for checks and metrics."""
+    """Function u(s, theta) -> u (eq. 4), for checks and metrics.
+
+    ``horizon_length`` [m] is the L that the Clothoid segments split (with one segment it changes nothing).
+    """
     s = ca.SX.sym("s")
     theta = ca.SX.sym("theta", layout.n)
     _, _, control = skill_state_and_control(layout, s, theta, horizon_length)
