@@ -114,7 +114,7 @@ class ClothoidPath:
         n_segments: number K of Clothoid segments (each adds phi0, phi1).
     """
 
-    def __init__(self, n_segments: int = 1):
+    def __init__(self, n_segments: int):
         if n_segments < 1:
             raise ValueError(f"n_segments must be >= 1, got {n_segments}")
         self.n_segments = n_segments
