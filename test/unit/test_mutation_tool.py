@@ -1,6 +1,8 @@
 """scripts/mutation's own logic (bench/mutation.py): its config, mutmut's results and diffs read, the figures and
 the results file merged. mutmut itself never runs here (minutes per module; not part of the suite)."""
 
+import re
+
 import pytest
 from bench_scripts import bench_module
 from conftest import ROOT
@@ -27,6 +29,9 @@ class Detector:
             return False
         return None
 '''
+
+
+ROS_LAYER = re.compile(r"\bimport rospy\b|teleteach\.msg\b|teleteach(\.\w+)*\.ros\b")
 
 
 @pytest.fixture(scope="module")
@@ -57,6 +62,8 @@ def test_every_module_of_the_issue_is_configured_with_existing_tests(mutation):
         for test in entry["tests"]:
             assert (ROOT / test).is_file(), test
             assert test.startswith("test/unit/"), test  # never rostests, GUI or e2e tests
+            # mutmut's copy of the package has no catkin messages: a test importing the ROS layer fails to collect
+            assert not ROS_LAYER.search((ROOT / test).read_text()), test
         for exclusion in entry["equivalent"]:
             assert exclusion["reason"].strip(), exclusion
 
