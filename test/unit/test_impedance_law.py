@@ -131,20 +131,21 @@ def test_a_fresh_reference_velocity_is_tracked_with_its_acceleration_times_the_c
 def test_the_reference_acceleration_is_capped_per_part_and_zero_without_a_recent_velocity():
     controller = started()
     controller.set_reference_velocity([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], time=1.0)
-    # linear jump 1 m/s in 1/128 s (128 m/s^2): capped to 5 along its direction; angular 0.03 rad/s: 3.84, kept
-    controller.set_reference_velocity([0.6, 0.8, 0.0], [0.0, 0.0, 0.03], time=1.0 + 1 / 128)
-    assert controller.reference_acceleration == pytest.approx([3.0, 4.0, 0.0, 0.0, 0.0, 3.84])
-    controller.set_reference_velocity([0.6, 0.8, 0.0], [0.0, -1.0, 0.03], time=1.0 + 2 / 128)  # angular capped alone
-    assert controller.reference_acceleration == pytest.approx([0.0, 0.0, 0.0, 0.0, -5.0, 0.0], abs=1e-9)
+    # linear jump 1 m/s in 1/128 s (128 m/s^2): capped to 5 along its direction; angular 2.56 and 3.84 rad/s^2, kept
+    controller.set_reference_velocity([0.6, 0.8, 0.0], [0.02, 0.0, 0.03], time=1.0 + 1 / 128)
+    assert controller.reference_acceleration == pytest.approx([3.0, 4.0, 0.0, 2.56, 0.0, 3.84])
+    # the angular part capped alone, along its direction
+    controller.set_reference_velocity([0.6, 0.8, 0.0], [-0.58, -0.8, 0.03], time=1.0 + 2 / 128)
+    assert controller.reference_acceleration == pytest.approx([0.0, 0.0, 0.0, -3.0, -4.0, 0.0], abs=1e-9)
     # exactly the timeout after the last: still an acceleration; later, or at the same time: none
-    controller.set_reference_velocity([0.6, 0.8, 0.01], [0.0, -1.0, 0.03], time=1.0 + 2 / 128 + 0.0625)
+    controller.set_reference_velocity([0.6, 0.8, 0.01], [-0.58, -0.8, 0.03], time=1.0 + 2 / 128 + 0.0625)
     assert controller.reference_acceleration == pytest.approx([0.0, 0.0, 0.16, 0.0, 0.0, 0.0])
     late = 1.0 + 2 / 128 + 2 * 0.0625 + 1 / 1024
-    controller.set_reference_velocity([0.6, 0.8, 0.5], [0.0, -1.0, 0.03], time=late)
+    controller.set_reference_velocity([0.6, 0.8, 0.5], [-0.58, -0.8, 0.03], time=late)
     assert list(controller.reference_acceleration) == [0.0] * 6
-    controller.set_reference_velocity([0.6, 0.8, 0.9], [0.0, -1.0, 0.03], time=late)
+    controller.set_reference_velocity([0.6, 0.8, 0.9], [-0.58, -0.8, 0.03], time=late)
     assert list(controller.reference_acceleration) == [0.0] * 6
-    assert controller.reference_velocity == pytest.approx([0.6, 0.8, 0.9, 0.0, -1.0, 0.03])
+    assert controller.reference_velocity == pytest.approx([0.6, 0.8, 0.9, -0.58, -0.8, 0.03])
     assert controller.reference_velocity_time == late
 
 
@@ -160,21 +161,23 @@ def test_the_torque_rate_is_limited_per_joint_from_the_model_torque_at_the_start
     assert np.any(np.abs(unlimited - start.model_torque) > 0.5)  # the limit acted
 
 
-def test_a_new_ellipsoid_is_reached_through_the_filter_then_snapped_onto():
-    controller = started()
+def test_a_new_ellipsoid_is_clamped_reached_through_the_filter_then_snapped_onto():
+    # the model (and with it the snap onto the targets) renewed every 50 ticks: the filter runs between
+    controller = started(dataclasses.replace(PARAMS, model_update_period=50))
     before = controller.stiffness.copy()
-    controller.set_stiffness([2000.0, 1500.0, 100.0], Rotation.from_rotvec([0.0, 0.0, 0.3]).as_quat())
+    controller.set_stiffness([2000.0, 5000.0, 100.0], Rotation.from_rotvec([0.0, 0.0, 0.3]).as_quat())
     target = controller.stiffness_target.copy()
+    assert list(controller.eigenvalues) == [2000.0, 3000.0, 100.0]  # max_stiffness 3000 N/m
     assert target[:3, :3] == pytest.approx(
         Rotation.from_rotvec([0, 0, 0.3]).as_matrix()
-        @ np.diag([2000.0, 1500.0, 100.0])
+        @ np.diag([2000.0, 3000.0, 100.0])
         @ Rotation.from_rotvec([0, 0, 0.3]).as_matrix().T
     )
     state = arm_state(time=1.001)
     controller.update(state)
-    # one tick: a quarter of the way (stiffness_filter 0.25); the damping follows its own (mass-aware) target
+    # one tick: a quarter of the way (stiffness_filter 0.25)
     assert controller.stiffness == pytest.approx(before + 0.25 * (target - before))
-    for _ in range(200):
+    for _ in range(199):
         controller.update(state)
     assert np.max(np.abs(controller.stiffness - target)) < FILTER_DONE
     assert np.array_equal(controller.stiffness, target) and np.array_equal(
@@ -182,14 +185,25 @@ def test_a_new_ellipsoid_is_reached_through_the_filter_then_snapped_onto():
     )
 
 
+def test_a_new_damping_target_alone_is_filtered_too():
+    # the arm moved: a mass-aware damping target of the new inertia, the stiffness target unchanged
+    start = arm_state()
+    controller = started(state=start)
+    stiffness, damping = controller.stiffness.copy(), controller.damping.copy()
+    controller.update(arm_state(time=1.001, seed=5))
+    assert not np.allclose(controller.damping_target, damping)
+    assert controller.damping == pytest.approx(damping + 0.25 * (controller.damping_target - damping))
+    assert np.array_equal(controller.stiffness, stiffness)
+
+
 def test_the_model_is_renewed_every_period_ticks():
-    params = dataclasses.replace(PARAMS, model_update_period=3)
+    params = dataclasses.replace(PARAMS, model_update_period=4)
     controller = started(params)
     first = controller.nullspace_projector.copy()
     moved = arm_state(time=1.001, seed=4)
-    controller.update(moved)
-    controller.update(moved)
-    assert np.array_equal(controller.nullspace_projector, first)  # ticks 1 and 2: the model of the start
+    for _ in range(3):
+        controller.update(moved)
+    assert np.array_equal(controller.nullspace_projector, first)  # ticks 1 to 3: the model of the start
     controller.update(moved)
     assert controller.nullspace_projector == pytest.approx(
         np.eye(7) - np.linalg.pinv(moved.jacobian) @ moved.jacobian, abs=1e-5
@@ -206,12 +220,25 @@ def test_unit_mass_damping_is_eq_7_of_the_stiffness_target():
     assert np.diag(controller.damping)[3:] == pytest.approx(2.0 * 0.7 * np.sqrt(30.0) * np.ones(3))
 
 
+def test_near_a_singularity_the_nullspace_projector_stays_a_contraction():
+    # a Jacobian with one singular value of 1e-3 (s^2 = the damping 1e-6): damped, that direction counts half
+    rng = np.random.default_rng(6)
+    left, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+    right, _ = np.linalg.qr(rng.normal(size=(7, 7)))
+    singular = np.array([2.0, 1.5, 1.0, 0.8, 0.5, 1e-3])
+    jacobian = left @ np.hstack((np.diag(singular), np.zeros((6, 1)))) @ right.T
+    controller = started(state=dataclasses.replace(arm_state(), jacobian=jacobian))
+    expected = np.eye(7) - right[:, :6] @ np.diag(singular**2 / (singular**2 + 1e-6)) @ right[:, :6].T
+    assert controller.nullspace_projector == pytest.approx(expected, abs=1e-9)
+    assert np.all(np.abs(np.linalg.eigvalsh(controller.nullspace_projector)) <= 1.0 + 1e-9)
+
+
 @pytest.mark.parametrize(
     "rotation, reference",
     [
         ([0.1, -0.2, 0.05], [0.0, 0.0, 0.0]),
         ([0.0, 0.0, 3.0], [0.0, 0.0, -3.0]),  # across pi: the short way
-        ([1e-14, 0.0, 0.0], [0.0, 0.0, 0.0]),  # no rotation to speak of
+        ([0.0, 2.2, 0.0], [0.0, -1.8, 0.0]),  # about y, across pi
         ([0.3, 0.2, -0.1], [-0.2, 0.4, 0.6]),
     ],
 )
@@ -219,9 +246,16 @@ def test_the_orientation_error_is_the_rotation_vector_from_the_reference(rotatio
     quaternion = Rotation.from_rotvec(rotation).as_quat()
     reference_quaternion = Rotation.from_rotvec(reference).as_quat()
     expected = (Rotation.from_quat(quaternion) * Rotation.from_quat(reference_quaternion).inv()).as_rotvec()
-    assert orientation_error(quaternion, reference_quaternion) == pytest.approx(expected, abs=1e-12)
-    # q and -q are one orientation
-    assert orientation_error(-quaternion, reference_quaternion) == pytest.approx(expected, abs=1e-12)
+    # q and -q are one orientation, for either quaternion
+    for sign, reference_sign in ((1, 1), (-1, 1), (1, -1), (-1, -1)):
+        error = orientation_error(sign * quaternion, reference_sign * reference_quaternion)
+        assert error == pytest.approx(expected, abs=1e-12), (sign, reference_sign)
+
+
+def test_a_rotation_too_small_for_its_sine_is_still_measured():
+    for tiny in ([1e-14, 0.0, 0.0], [0.0, -3e-15, 0.0], [0.0, 0.0, 2e-13]):
+        quaternion = Rotation.from_rotvec(tiny).as_quat()
+        assert orientation_error(quaternion, [0.0, 0.0, 0.0, 1.0]) == pytest.approx(tiny, rel=1e-9, abs=1e-30)
 
 
 @pytest.mark.parametrize(

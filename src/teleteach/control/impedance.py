@@ -119,28 +119,26 @@ class CartesianImpedanceController:
 
     def __init__(self, params: ImpedanceParams):
         self.params = params
-        self.eigenvalues = ellipsoid.clamp_eigenvalues(params.initial_eigenvalues, params.max_stiffness)
-        self.eigenvectors = np.eye(3)
-        self.stiffness_target = self._target_stiffness()
-        self.stiffness = self.stiffness_target.copy()
+        self._ratios = np.array([params.translational_damping_ratio] * 3 + [params.rotational_damping_ratio] * 3)
+        self._error_limit = np.array([params.max_position_error] * 3 + [params.max_orientation_error] * 3)
+        self._negative_error_limit = -self._error_limit
+        self._nullspace_damping = 2.0 * math.sqrt(params.nullspace_stiffness)
         self.damping_target = np.zeros((6, 6))
+        self.set_stiffness(params.initial_eigenvalues, np.eye(3))
+        # What starting() sets from the robot (pose, posture, model, gains): placeholders of the right shapes until then
+        self.stiffness = self.stiffness_target.copy()
         self.damping = np.zeros((6, 6))
         self.equilibrium_position = np.zeros(3)
         self.equilibrium_quaternion = np.array([0.0, 0.0, 0.0, 1.0])
-        self.reference_velocity = np.zeros(6)
-        self.reference_acceleration = np.zeros(6)
-        self.reference_velocity_time = -math.inf
         self.cartesian_inertia = np.zeros((6, 6))
         self.nullspace_posture = np.zeros(7)
         self.nullspace_projector = np.eye(7)
         self.last_torque = np.zeros(7)
         self._ticks = 0
-        self._ratios = np.array([params.translational_damping_ratio] * 3 + [params.rotational_damping_ratio] * 3)
-        self._error_limit = np.array([params.max_position_error] * 3 + [params.max_orientation_error] * 3)
-        self._negative_error_limit = -self._error_limit
-        self._filtering = True
-        self._nullspace_damping = 2.0 * math.sqrt(params.nullspace_stiffness)
-        self.set_stiffness(self.eigenvalues, self.eigenvectors)
+        # No reference motion until a reference velocity arrives
+        self.reference_velocity = np.zeros(6)
+        self.reference_acceleration = np.zeros(6)
+        self.reference_velocity_time = -math.inf
 
     def _target_stiffness(self):
         return ellipsoid.stiffness_matrix(self.eigenvalues, self.eigenvectors, self.params.rotational_stiffness)
