@@ -287,3 +287,11 @@ def test_the_bounds_of_the_parameters_are_accepted():
         max_reference_acceleration=0.0,
     )
     assert (edge.stiffness_filter, edge.model_update_period, edge.reference_velocity_timeout) == (1.0, 1, 0.0)
+
+
+def test_an_update_before_starting_fails_instead_of_pulling_toward_a_made_up_pose():
+    controller = CartesianImpedanceController(PARAMS)
+    with pytest.raises(AttributeError):
+        controller.update(arm_state())
+    # set_reference_velocity may come first: no reference motion until then, and none after it while unstarted
+    assert controller._reference_motion(5.0)[0] == pytest.approx(np.zeros(6))

@@ -123,18 +123,7 @@ class CartesianImpedanceController:
         self._error_limit = np.array([params.max_position_error] * 3 + [params.max_orientation_error] * 3)
         self._negative_error_limit = -self._error_limit
         self._nullspace_damping = 2.0 * math.sqrt(params.nullspace_stiffness)
-        self.damping_target = np.zeros((6, 6))
         self.set_stiffness(params.initial_eigenvalues, np.eye(3))
-        # What starting() sets from the robot (pose, posture, model, gains): placeholders of the right shapes until then
-        self.stiffness = self.stiffness_target.copy()
-        self.damping = np.zeros((6, 6))
-        self.equilibrium_position = np.zeros(3)
-        self.equilibrium_quaternion = np.array([0.0, 0.0, 0.0, 1.0])
-        self.cartesian_inertia = np.zeros((6, 6))
-        self.nullspace_posture = np.zeros(7)
-        self.nullspace_projector = np.eye(7)
-        self.last_torque = np.zeros(7)
-        self._ticks = 0
         # No reference motion until a reference velocity arrives
         self.reference_velocity = np.zeros(6)
         self.reference_acceleration = np.zeros(6)
@@ -187,12 +176,17 @@ class CartesianImpedanceController:
         return np.zeros(6), np.zeros(6)
 
     def starting(self, state: RobotState):
-        """Bumpless start: hold the current pose and posture, stiffness already at its target, torque = model."""
+        """Bumpless start: hold the current pose and posture, gains already at their targets, torque = model.
+
+        The pose, posture, model and gains exist from here on: an update before it (which the controller manager
+        never does) fails instead of pulling the arm toward a made-up pose.
+        """
         self.set_equilibrium(state.position, state.quaternion)
         self.nullspace_posture = state.q.copy()
-        self.stiffness = self.stiffness_target.copy()
         self._update_model(state)
+        self.stiffness = self.stiffness_target.copy()
         self.damping = self.damping_target.copy()
+        self._filtering = False
         self.last_torque = state.model_torque.copy()
         self._ticks = 0
 
@@ -205,7 +199,6 @@ class CartesianImpedanceController:
         self.cartesian_inertia = scipy.linalg.block_diag(*inertia)
         if self.params.damping == MASS_AWARE:
             self.damping_target = ellipsoid.damping_mass_aware(self.stiffness_target, inertia, self._ratios)
-        self._check_filter()
 
     def update(self, state: RobotState) -> JointCommand:
         """One control tick: joint torques [Nm] for the state."""
@@ -213,6 +206,7 @@ class CartesianImpedanceController:
         self._ticks += 1
         if self._ticks % params.model_update_period == 0:
             self._update_model(state)
+            self._check_filter()
         # Pose error, clipped per axis so a far reference pulls with a bounded force (attractor clipping)
         error = np.concatenate(
             (
