@@ -293,5 +293,5 @@ def test_an_update_before_starting_fails_instead_of_pulling_toward_a_made_up_pos
     controller = CartesianImpedanceController(PARAMS)
     with pytest.raises(AttributeError):
         controller.update(arm_state())
-    # set_reference_velocity may come first: no reference motion until then, and none after it while unstarted
+    # before any reference velocity: no reference motion
     assert controller._reference_motion(5.0)[0] == pytest.approx(np.zeros(6))

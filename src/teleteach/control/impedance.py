@@ -124,9 +124,7 @@ class CartesianImpedanceController:
         self._negative_error_limit = -self._error_limit
         self._nullspace_damping = 2.0 * math.sqrt(params.nullspace_stiffness)
         self.set_stiffness(params.initial_eigenvalues, np.eye(3))
-        # No reference motion until a reference velocity arrives
-        self.reference_velocity = np.zeros(6)
-        self.reference_acceleration = np.zeros(6)
+        # No reference velocity yet: none counts as fresh, so its velocity and acceleration are never read
         self.reference_velocity_time = -math.inf
 
     def _target_stiffness(self):
