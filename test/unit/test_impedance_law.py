@@ -37,7 +37,7 @@ PARAMS = ImpedanceParams(
 )
 
 
-def arm_state(time=1.0, seed=0, position=(0.4, 0.1, 0.5), quaternion=(0.0, 0.0, 0.0, 1.0)):
+def arm_state(time=1.0, seed=0):
     """A made-up arm: a full-rank Jacobian, an SPD mass matrix, arbitrary joints, velocities and model torques."""
     rng = np.random.default_rng(seed)
     root = rng.normal(size=(7, 7))
@@ -46,8 +46,8 @@ def arm_state(time=1.0, seed=0, position=(0.4, 0.1, 0.5), quaternion=(0.0, 0.0, 
         time=time,
         q=rng.normal(size=7),
         dq=0.1 * rng.normal(size=7),
-        position=np.array(position, dtype=float),
-        quaternion=np.array(quaternion, dtype=float),
+        position=np.array([0.4, 0.1, 0.5]),
+        quaternion=np.array([0.0, 0.0, 0.0, 1.0]),
         jacobian=rng.normal(size=(6, 7)),
         model_torque=rng.normal(size=7),
         mass_matrix=lambda: mass,
@@ -68,10 +68,12 @@ def expected_torque(gains, state, reference_velocity, reference_acceleration, po
     stiffness, damping, inertia, equilibrium_position, equilibrium_quaternion = gains
     rotation = Rotation.from_quat(state.quaternion) * Rotation.from_quat(equilibrium_quaternion).inv()
     error = np.concatenate((state.position - equilibrium_position, rotation.as_rotvec()))
-    error = np.clip(error, [-0.05] * 3 + [-0.15] * 3, [0.05] * 3 + [0.15] * 3)
+    limit = np.array([PARAMS.max_position_error] * 3 + [PARAMS.max_orientation_error] * 3)
+    error = np.clip(error, -limit, limit)
     jacobian = state.jacobian
     projector = np.eye(7) - np.linalg.pinv(jacobian) @ jacobian
-    nullspace = projector @ (2.0 * (posture - state.q) - 2.0 * math.sqrt(2.0) * state.dq)
+    k_ns = PARAMS.nullspace_stiffness
+    nullspace = projector @ (k_ns * (posture - state.q) - 2.0 * math.sqrt(k_ns) * state.dq)
     wrench = stiffness @ error + damping @ (jacobian @ state.dq - reference_velocity) - inertia @ reference_acceleration
     return nullspace + state.model_torque - jacobian.T @ wrench
 

@@ -127,14 +127,13 @@ class CartesianImpedanceController:
         # No reference velocity yet: none counts as fresh, so its velocity and acceleration are never read
         self.reference_velocity_time = -math.inf
 
-    def _target_stiffness(self):
-        return ellipsoid.stiffness_matrix(self.eigenvalues, self.eigenvectors, self.params.rotational_stiffness)
-
     def set_stiffness(self, eigenvalues, eigenvectors):
         """New ellipsoid: principal stiffnesses [N/m] and principal axes (quaternion or 3x3); K filters toward it."""
         self.eigenvalues = ellipsoid.clamp_eigenvalues(eigenvalues, self.params.max_stiffness)
         self.eigenvectors = ellipsoid.as_rotation(eigenvectors)
-        self.stiffness_target = self._target_stiffness()
+        self.stiffness_target = ellipsoid.stiffness_matrix(
+            self.eigenvalues, self.eigenvectors, self.params.rotational_stiffness
+        )
         if self.params.damping == UNIT_MASS:
             self.damping_target = ellipsoid.damping_unit_mass(self.stiffness_target, self._ratios)
         self._filtering = True

@@ -279,7 +279,7 @@ def make_report(folder, out: Optional[pathlib.Path] = None) -> Report:
         tuple(field.name for field in dataclasses.fields(Comparison)),
         [dataclasses.asdict(comparison) for comparison in comparisons],
     )
-    figures = _plots(data, tlx, out)
+    figures = {name: _save(figure, out / f"{name}.png") for name, figure in draw_figures(data, tlx).items()}
     report = Report(data, summary, tlx, tlx_summary, comparisons, out, figures)
     atomic_write_text(out / "report.md", markdown(report))
     return report
@@ -442,10 +442,6 @@ def draw_figures(data: StudyData, tlx: List[dict]) -> Dict[str, "Figure"]:
     if data.tasks:
         figures["learning_curves"] = _learning_curves(data, plt)
     return figures
-
-
-def _plots(data: StudyData, tlx: List[dict], out: pathlib.Path) -> Dict[str, pathlib.Path]:
-    return {name: _save(figure, out / f"{name}.png") for name, figure in draw_figures(data, tlx).items()}
 
 
 def _box(axis, groups: List[List[float]], labels: List[str]) -> None:
