@@ -7,7 +7,8 @@ and a slow drift (0.1-0.5 Hz), each a sum of sinusoids with the configured RMS p
 
     m q'' = k (target - q) - b q' + F_guidance        (target = intention + tremor + drift)
 
-integrated with semi-implicit Euler in steps of at most 1 ms (across a stalled loop's gap too, with the last force);
+integrated with semi-implicit Euler in steps of at most 1 ms (across a stalled loop's gap too, with the last force and
+the intention, the tremor at each step's time: a slow loop does not hold the tremor and shake the device harder);
 angles (roll, pitch, yaw) likewise with an inertia, an angular spring and damping and the guidance's torque.
 :class:`HandModelBackend` puts the model between any backend and the loop.
 """
@@ -94,15 +95,17 @@ class HandModel:
 
     def step(self, time: float, intended: np.ndarray, wrench: Wrench) -> np.ndarray:
         """Advance to ``time`` [s] toward the ``intended`` pose (x, y, z, roll, pitch, yaw) under ``wrench``."""
-        target = np.array(intended, dtype=float)
-        target[:3] += self.tremor.at(time)
+        intention = np.asarray(intended, dtype=float)
+        target = intention.copy()
         if self._time is None or not 0.0 <= time - self._time <= MAX_GAP:
-            self._time, self._pose, self._velocity = time, target.copy(), np.zeros(6)
+            target[:3] += self.tremor.at(time)
+            self._time, self._pose, self._velocity = time, target, np.zeros(6)
             return self._pose.copy()
         load = np.concatenate([wrench.force, wrench.torque])
-        steps = max(1, math.ceil((time - self._time) / MAX_STEP))
+        steps = max(1, math.ceil(round((time - self._time) / MAX_STEP, 6)))  # 0.05 / 0.001 is 50.000000000000007
         dt = (time - self._time) / steps
-        for _ in range(steps):
+        for step in range(1, steps + 1):
+            target[:3] = intention[:3] + self.tremor.at(self._time + step * dt)
             acceleration = (
                 self._stiffness * (target - self._pose) - self._damping * self._velocity + load
             ) / self._mass
