@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
-"""rostest check of the ellipsoid marker node: placement, size and orientation, and rejection of bad messages."""
+"""rostest check of the ellipsoid marker node: placement, size and orientation, rejection of bad messages, and the end
+effector's pose heard only while the marker is viewed."""
 
 import math
 import time
 import unittest
 
+import rosgraph
 import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
@@ -14,7 +16,7 @@ from visualization_msgs.msg import Marker
 class EllipsoidMarkerNode(unittest.TestCase):
     def setUp(self):
         self.markers = []
-        rospy.Subscriber("/visualization_marker", Marker, self.markers.append)
+        self.viewer = rospy.Subscriber("/visualization_marker", Marker, self.markers.append)
         self.eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=10)
         self.eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=10)
         self.pose = rospy.Publisher("/cartesian_pose", PoseStamped, queue_size=10)
@@ -22,6 +24,9 @@ class EllipsoidMarkerNode(unittest.TestCase):
             lambda: all(p.get_num_connections() for p in (self.eigenvalues, self.eigenvectors, self.pose)),
             "the node to subscribe",
         )
+
+    def tearDown(self):
+        self.viewer.unregister()
 
     def wait_for(self, condition, what, timeout=20.0):
         deadline = time.monotonic() + timeout
@@ -88,6 +93,29 @@ class EllipsoidMarkerNode(unittest.TestCase):
         self.wait_for(lambda: late, "the marker for the late subscriber", timeout=5.0)
         self.assertEqual(late[-1].pose.position.x, 0.4)
         subscriber.unregister()
+
+    def test_the_pose_is_heard_only_while_someone_views_the_marker(self):
+        self.send((500.0, 500.0, 500.0), (0.0, 0.0, 0.0, 1.0), (0.4, 0.0, 0.6))
+        self.wait_for(lambda: self.markers and self.markers[-1].pose.position.x == 0.4, "a marker")
+        self.viewer.unregister()
+        # Expect the node to leave /cartesian_pose within its 1 s look at the master, and the stiffness kept
+        self.wait_for(lambda: not self.pose_heard(), "the node to stop hearing the pose", timeout=5.0)
+        self.assertTrue(self.subscribers("/eigenvalues") and self.subscribers("/eigenvectors"))
+        self.send(values=(1000.0, 1000.0, 1000.0))
+        # A display that comes back: the pose is heard again within the next look, and the marker follows it
+        self.viewer = rospy.Subscriber("/visualization_marker", Marker, self.markers.append)
+        self.wait_for(self.pose_heard, "the node to hear the pose again", timeout=2.0)
+        self.wait_for(lambda: self.pose.get_num_connections(), "the pose's connection", timeout=5.0)
+        self.send(position=(0.7, 0.0, 0.6))
+        self.wait_for(lambda: self.markers[-1].pose.position.x == 0.7, "the marker to follow the pose again")
+        self.assertEqual(self.latest_scale(), (0.2, 0.2, 0.2))
+
+    def subscribers(self, topic):
+        _, subscriptions, _ = rosgraph.Master(rospy.get_name()).getSystemState()
+        return next((nodes for name, nodes in subscriptions if name == topic), [])
+
+    def pose_heard(self):
+        return "/ellipsoid_marker" in self.subscribers("/cartesian_pose")
 
 
 if __name__ == "__main__":

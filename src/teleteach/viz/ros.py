@@ -2,7 +2,9 @@
 
 import math
 import threading
+import time
 
+import rosgraph
 import rospy
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from visualization_msgs.msg import Marker
@@ -21,13 +23,18 @@ class EllipsoidMarkerPublisher:
     stiffness costs no message. A plain thread keeps the rate: a rospy.Timer sleeps on ROS time, and under
     /use_sim_time rospy wakes it at every /clock message.
 
+    The end effector's pose (200 Hz, most of the node's CPU) is heard only while someone subscribes to the marker,
+    as the master says every ``VIEWERS_PERIOD`` (a publisher itself only learns of a lost subscriber when it
+    writes, and a still marker writes nothing). The stiffness topics, sent when the stiffness changes, are always
+    heard, so a display that starts later sees the current one (latched at once, where the pose last put it).
+
     Args:
         builder: holds the state and builds the marker.
         rate: how often the marker is looked at [Hz], and so its highest publication rate.
 
     ROS Subscribers:
         /eigenvalues (geometry_msgs/Vector3Stamped), /eigenvectors (geometry_msgs/QuaternionStamped),
-        /cartesian_pose (geometry_msgs/PoseStamped)
+        /cartesian_pose (geometry_msgs/PoseStamped; while the marker has a subscriber)
 
     ROS Publishers:
         /visualization_marker (visualization_msgs/Marker)
@@ -35,6 +42,9 @@ class EllipsoidMarkerPublisher:
 
     WARN_PERIOD = 5.0
     """Seconds between two warnings about the same topic's bad messages."""
+
+    VIEWERS_PERIOD = 1.0
+    """Seconds between two questions to the master whether anyone still subscribes to the marker."""
 
     @classmethod
     def from_params(cls) -> "EllipsoidMarkerPublisher":
@@ -56,9 +66,9 @@ class EllipsoidMarkerPublisher:
         self._subscribers = [
             rospy.Subscriber("eigenvalues", Vector3Stamped, self._guarded(builder.set_eigenvalues), queue_size=1),
             rospy.Subscriber("eigenvectors", QuaternionStamped, self._guarded(builder.set_eigenvectors), queue_size=1),
-            rospy.Subscriber("cartesian_pose", PoseStamped, self._guarded(builder.set_pose), queue_size=1),
         ]
-        self._stop = threading.Event()
+        self._pose_subscriber = None
+        self._master = rosgraph.Master(rospy.get_name())
         self._thread = threading.Thread(target=self._run, args=(1.0 / rate,), name="marker", daemon=True)
         self._thread.start()
 
@@ -72,18 +82,33 @@ class EllipsoidMarkerPublisher:
         return callback
 
     def _run(self, period: float) -> None:
-        while not self._stop.wait(period) and not rospy.is_shutdown():
+        next_look = 0.0
+        while not rospy.is_shutdown():
+            time.sleep(period)
+            if time.monotonic() >= next_look:
+                self._hear_pose(self._viewed())
+                next_look = time.monotonic() + self.VIEWERS_PERIOD
             self._publish()
+
+    def _viewed(self) -> bool:
+        """Whether the master lists the marker's topic (only while it has a subscriber); True if it cannot be asked."""
+        try:
+            _, subscriptions, _ = self._master.getSystemState()
+        except (OSError, rosgraph.MasterException):
+            return True
+        return any(topic == self.publisher.resolved_name for topic, _ in subscriptions)
+
+    def _hear_pose(self, viewed: bool) -> None:
+        if viewed and self._pose_subscriber is None:
+            self._pose_subscriber = rospy.Subscriber(
+                "cartesian_pose", PoseStamped, self._guarded(self.builder.set_pose), queue_size=1
+            )
+        elif not viewed and self._pose_subscriber is not None:
+            self._pose_subscriber.unregister()
+            self._pose_subscriber = None
 
     def _publish(self) -> None:
         marker = self.builder.marker()
         if marker is not None and drawn_as(marker) != self._shown:
             self._shown = drawn_as(marker)
             self.publisher.publish(marker)
-
-    def shutdown(self) -> None:
-        """Stop looking at the marker and unregister the topics."""
-        self._stop.set()
-        for subscriber in self._subscribers:
-            subscriber.unregister()
-        self.publisher.unregister()
