@@ -30,29 +30,33 @@ class WallStatusTimer:
     actionlib gives each server a ``rospy.Timer`` for its status (5 Hz by default). Under /use_sim_time that timer
     sleeps on ROS time, and rospy wakes every thread sleeping on ROS time at each /clock message: at 250 Hz the skill
     server's 13 servers woke 3250 times a second to send 65 messages. This thread sends the same messages
-    (``ActionServer.publish_status_async``, at the servers' own ``status_frequency``) on wall time; the servers'
-    timers are shut down. Status changes are still published by the servers themselves, at once, and latched.
+    (``ActionServer.publish_status_async``) on wall time, at ``frequency``; the servers' timers are shut down. Status
+    changes are still published by the servers themselves, at once, and latched: the periodic message is only a
+    heartbeat, which nobody here times (a lost server is a closed connection, ``server_ready``), so a node's yaml sets
+    it low.
 
     Args:
         servers: started ``actionlib.ActionServer`` or ``SimpleActionServer`` objects.
+        frequency: [Hz of wall time] of the periodic status messages, > 0.
     """
 
-    def __init__(self, servers) -> None:
+    def __init__(self, servers, frequency: float) -> None:
+        import math
         import threading
 
         import rospy
 
+        if not (math.isfinite(frequency) and frequency > 0.0):
+            raise ValueError(f"action status frequency must be a finite number > 0 Hz, got {frequency}")
         self._servers = [getattr(server, "action_server", server) for server in servers]
-        frequencies = [server.status_frequency for server in self._servers if server.status_timer is not None]
         for server in self._servers:
             if server.status_timer is not None:
                 server.status_timer.shutdown()  # kept: ActionServer.stop() shuts it down again
-        self._period = 1.0 / max(frequencies) if frequencies else None
+        self._period = 1.0 / frequency
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="action_status", daemon=True)
         rospy.on_shutdown(self.shutdown)  # before rospy closes the status topics (its client hooks run first)
-        if self._period is not None:
-            self._thread.start()
+        self._thread.start()
 
     def _run(self) -> None:
         import rospy

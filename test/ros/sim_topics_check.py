@@ -3,6 +3,7 @@
 
 import math
 import threading
+import time
 import unittest
 
 import actionlib
@@ -10,7 +11,7 @@ import numpy as np
 import rospy
 import rostest
 import tf2_ros
-from actionlib_msgs.msg import GoalStatus
+from actionlib_msgs.msg import GoalStatus, GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
@@ -30,6 +31,7 @@ from teleteach.msg import (
 )
 from teleteach.perception.observed import observed_from_markers
 from teleteach.scene import load_scene
+from teleteach.sim.robot_sim import load_controller_config
 
 
 def client(name, action):
@@ -73,6 +75,19 @@ class Latest:
 
 
 class SimTopics(unittest.TestCase):
+    def test_action_status_is_a_heartbeat_at_the_configured_wall_rate(self):
+        # actionlib's own timer would send 5 a second, on simulated time (here many times faster than the wall)
+        rate = load_controller_config()["simulation"]["action_status_rate"]
+        arrivals = []
+        rospy.Subscriber("/move_base/status", GoalStatusArray, lambda message: arrivals.append(time.monotonic()))
+        client("/move_base", MoveBaseAction)
+        time.sleep(1.5)  # past the latched status a new subscriber gets at once
+        start = time.monotonic()
+        time.sleep(5.0)
+        count = sum(start <= arrival < start + 5.0 for arrival in arrivals)
+        print(f"/move_base/status: {count} messages in 5 s of wall time (configured {rate} Hz)")
+        self.assertTrue(0.5 * 5.0 * rate <= count <= 1.5 * 5.0 * rate + 1, count)
+
     def test_topics_tf_and_commands(self):
         pose = Latest("/cartesian_pose", PoseStamped)
         joints = Latest("/joint_states", JointState)

@@ -90,6 +90,7 @@ class RobotSimNode:
         real_time_factor: simulated seconds per wall-clock second; 0 runs as fast as possible.
         rates: [Hz of simulated time] of /clock (``clock``), /cartesian_pose (``cartesian_pose``), /joint_states with
             /force_torque_ext and TF (``state``) and /teleteach/scene (``scene``): config/controllers.yaml says why.
+        status_rate: [Hz of wall time] of the action servers' periodic status (``WallStatusTimer``).
         follow_clock: publish no /clock; step the world up to the /clock another robot_sim publishes (ROS has one
             clock per master: a second simulated robot on the same master follows the first one's).
 
@@ -115,7 +116,9 @@ class RobotSimNode:
         reason in ``error``), /move_base (move_base_msgs/MoveBaseAction: target_pose in world, feedback base_position).
     """
 
-    def __init__(self, sim: RobotSim, real_time_factor: float, rates: Dict[str, float], follow_clock=False):
+    def __init__(
+        self, sim: RobotSim, real_time_factor: float, rates: Dict[str, float], status_rate: float, follow_clock=False
+    ):
         self.sim = sim
         self.real_time_factor = float(real_time_factor)
         dt = sim.world.time_step
@@ -178,7 +181,7 @@ class RobotSimNode:
         ]
         for server in self._action_servers:
             server.start()
-        self._status = WallStatusTimer(self._action_servers)
+        self._status = WallStatusTimer(self._action_servers, status_rate)
 
     @classmethod
     def from_params(cls):
@@ -209,6 +212,7 @@ class RobotSimNode:
             sim,
             float(simulation["real_time_factor"]),
             {name.replace("_rate", ""): simulation[name] for name in rates},
+            float(simulation["action_status_rate"]),
             follow_clock=simulation["clock"] == "follow",
         )
 

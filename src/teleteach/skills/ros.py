@@ -419,12 +419,13 @@ class SkillServer:
 
     Args:
         runner: executes the skills on a :class:`RosRobot`, which listens to the robot's state only around them.
+        status_rate: [Hz of wall time] of the servers' periodic status (:class:`WallStatusTimer`).
         namespace: where the servers live (/skills/<Name>).
 
     ROS Action Servers: /skills/<Name> for each predefined skill and /skills/ReplaySkill (teleteach/ExecuteSkill).
     """
 
-    def __init__(self, runner: SkillRunner, namespace="skills"):
+    def __init__(self, runner: SkillRunner, status_rate: float, namespace="skills"):
         self.runner = runner
         self.servers = {}
         for name in SKILL_NAMES:
@@ -437,7 +438,7 @@ class SkillServer:
             self.servers[name] = server
         for server in self.servers.values():
             server.start()
-        self._status = WallStatusTimer(self.servers.values())
+        self._status = WallStatusTimer(self.servers.values(), status_rate)
         rospy.loginfo(f"skill_server: serving {', '.join(f'{namespace}/{name}' for name in SKILL_NAMES)}")
 
     @classmethod
@@ -455,8 +456,10 @@ class SkillServer:
         config = load_motion_config(
             rospy.get_param("~motion_file", None) or None, rospy.get_param("~controllers", None)
         )
-        robot = RosRobot(config.position_controller, float(node_parameters("skill_server.yaml")["idle_after"]))
-        return cls(SkillRunner(robot, config, site, PandaKinematics(site.robot.mount_height)))
+        params = node_parameters("skill_server.yaml")
+        robot = RosRobot(config.position_controller, float(params["idle_after"]))
+        runner = SkillRunner(robot, config, site, PandaKinematics(site.robot.mount_height))
+        return cls(runner, float(params["action_status_rate"]))
 
     def _execute(self, name, goal):
         server = self.servers[name]
