@@ -9,7 +9,6 @@ import time
 import warnings
 from typing import Dict
 
-import actionlib
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import (
@@ -43,7 +42,7 @@ from teleteach.msg import (
 )
 from teleteach.perception.observed import WORLD_FRAME
 from teleteach.perception.ros import box_marker, scene_markers
-from teleteach.ros_actions import WallStatusTimer
+from teleteach.ros_actions import OneGoalActionServer, WallStatusTimer
 from teleteach.rotations import yaw_quaternion
 from teleteach.scene import load_scene
 from teleteach.sim import panda
@@ -177,7 +176,7 @@ class RobotSimNode:
             self._gripper_server(
                 "franka_gripper/stop", StopAction, StopResult, lambda goal: gripper.stop(self.sim.time)
             ),
-            actionlib.SimpleActionServer("move_base", MoveBaseAction, execute_cb=self._move_base, auto_start=False),
+            OneGoalActionServer("move_base", MoveBaseAction, execute_cb=self._move_base),
         ]
         for server in self._action_servers:
             server.start()
@@ -275,7 +274,7 @@ class RobotSimNode:
             # franka_gripper: the goal succeeds, the result says whether the fingers got there (or hold the object)
             server.set_succeeded(result_type(success=command.success, error=command.error), command.error)
 
-        server = actionlib.SimpleActionServer(name, action, execute_cb=execute, auto_start=False)
+        server = OneGoalActionServer(name, action, execute_cb=execute)
         return server
 
     def _move_base(self, goal):
@@ -284,7 +283,7 @@ class RobotSimNode:
         target = goal.target_pose
         try:
             with self._lock:
-                # an action goal is not stale by its stamp: it waits in actionlib's queue for this thread
+                # an action goal is not stale by its stamp: it may have waited for the goal before it to end
                 self.sim.command_base_goal(
                     target.header.frame_id, _xyz(target.pose.position), _xyzw(target.pose.orientation)
                 )

@@ -34,7 +34,7 @@ from teleteach.msg import (
     MoveGoal,
 )
 from teleteach.perception.observed import ObservedScene, observed_from_markers
-from teleteach.ros_actions import WallStatusTimer, server_ready
+from teleteach.ros_actions import OneGoalActionServer, WallStatusTimer, server_ready
 from teleteach.rotations import yaw_rotation
 from teleteach.sim import panda
 from teleteach.skills.robot import Execution, Robot, RobotGoal, SkillError
@@ -415,7 +415,7 @@ FEEDBACK_PERIOD = 0.1  # [s] wall time between feedback messages within one phas
 
 
 class SkillServer:
-    """One SimpleActionServer per skill, all executing through one SkillRunner (one skill at a time).
+    """One action server per skill (SimpleActionServer's policy), all executing through one SkillRunner.
 
     Args:
         runner: executes the skills on a :class:`RosRobot`, which listens to the robot's state only around them.
@@ -429,11 +429,8 @@ class SkillServer:
         self.runner = runner
         self.servers = {}
         for name in SKILL_NAMES:
-            server = actionlib.SimpleActionServer(
-                f"{namespace}/{name}",
-                ExecuteSkillAction,
-                execute_cb=lambda goal, name=name: self._execute(name, goal),
-                auto_start=False,
+            server = OneGoalActionServer(
+                f"{namespace}/{name}", ExecuteSkillAction, execute_cb=lambda goal, name=name: self._execute(name, goal)
             )
             self.servers[name] = server
         for server in self.servers.values():
