@@ -95,6 +95,17 @@ def test_unmet_says_what_was_seen():
     assert unmet(wait, SystemState(2, frozenset({"PickItem2"}), True, False)) == []
 
 
+def test_a_tree_node_to_wait_for_may_be_a_pattern():
+    # The GUI names a taught skill DemonstratedPlace_<n> after those already in the data directory: a demo run a second
+    # time teaches DemonstratedPlace_2, which the scripted operator must wait for as well
+    wait = Wait(tree_running="DemonstratedPlace_*")
+    assert unmet(wait, SystemState(running=frozenset({"Root", "DemonstratedPlace_2"}))) == []
+    assert unmet(wait, SystemState(running=frozenset({"Root", "DemonstratedPlace"}))) == [
+        "tree_running DemonstratedPlace_* (running: DemonstratedPlace, Root)"
+    ]
+    assert unmet(Wait(tree_running="PickItem"), SystemState(running=frozenset({"PickItem2"}))) != []
+
+
 def test_the_device_holds_the_waiting_keyframe_until_the_system_is_ready():
     state = {"now": SystemState(tab=0)}
     backend = ScenarioBackend(parse_scenario(WAITING), start_time=100.0, system=lambda: state["now"])

@@ -15,14 +15,16 @@ R = Rz(yaw) Ry(pitch) Rx(roll), ``gripper`` [rad] >= 0 (0 closed, ~0.25 resting,
 and field, because a scenario is written by hand.
 
 A keyframe may also wait for the system, like a patient operator: ``wait: {tab: LOW_LEVEL, tree_running:
-PickItem2, recording: true, help_request: true, study: RUNNING}`` (any of these; ``study`` is a user study's phase,
-see teleteach/StudyState) with ``timeout`` [s] (default 30). When the
+PickItem2, recording: true, help_request: true, study: RUNNING}`` (any of these; ``tree_running`` may be a
+shell-style pattern, ``DemonstratedPlace_*``: the GUI names a taught skill after those already in the data directory;
+``study`` is a user study's phase, see teleteach/StudyState) with ``timeout`` [s] (default 30). When the
 scenario reaches that keyframe, the device holds it (the scenario's clock stops) until everything named holds, then
 goes on (a click of that keyframe comes after the wait); when the timeout expires first, the scenario fails with a
 message naming the keyframe and what it saw.
 """
 
 import dataclasses
+import fnmatch
 import math
 import pathlib
 from typing import Any, Callable, Dict, FrozenSet, List, Optional, Tuple
@@ -57,7 +59,7 @@ class Wait:
     """What the system must show before a scenario goes on past a keyframe; unset fields are not checked."""
 
     tab: Optional[int] = None  # index in TABS
-    tree_running: Optional[str] = None  # a tree node that must be RUNNING
+    tree_running: Optional[str] = None  # a tree node that must be RUNNING, or a pattern (fnmatch) one must match
     recording: Optional[bool] = None
     help_request: Optional[bool] = None  # whether a help request must be open
     timeout: float = DEFAULT_WAIT_TIMEOUT  # [s]
@@ -81,7 +83,7 @@ def unmet(wait: Wait, state: SystemState) -> List[str]:
     if wait.tab is not None and state.tab != wait.tab:
         seen = TABS[state.tab] if state.tab is not None and 0 <= state.tab < len(TABS) else state.tab
         missing.append(f"tab {TABS[wait.tab]} (seen {seen})")
-    if wait.tree_running is not None and wait.tree_running not in state.running:
+    if wait.tree_running is not None and not fnmatch.filter(state.running, wait.tree_running):
         running = ", ".join(sorted(state.running)) or "nothing"
         missing.append(f"tree_running {wait.tree_running} (running: {running})")
     if wait.recording is not None and state.recording != wait.recording:
