@@ -47,7 +47,8 @@ class WallStatusTimer:
     it low.
 
     Args:
-        servers: started ``actionlib.ActionServer`` or ``SimpleActionServer`` objects.
+        servers: started ``actionlib.ActionServer`` objects, or objects holding one as ``action_server``
+            (``SimpleActionServer``, :class:`OneGoalActionServer`).
         frequency: [Hz of wall time] of the periodic status messages, > 0.
     """
 

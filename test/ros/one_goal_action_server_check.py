@@ -9,6 +9,7 @@ import actionlib
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
+from ros_processes import wait_until
 
 from teleteach.msg import ExecuteSkillAction, ExecuteSkillFeedback, ExecuteSkillGoal, ExecuteSkillResult
 from teleteach.ros_actions import OneGoalActionServer
@@ -54,21 +55,13 @@ class OneGoal(unittest.TestCase):
         handle.feedback = feedback
         return handle
 
-    def wait_for(self, condition, what, timeout=10.0):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if condition():
-                return
-            time.sleep(0.02)
-        self.fail(f"timed out waiting for {what}")
-
     def wait_done(self, handle):
-        self.wait_for(lambda: handle.get_comm_state() == actionlib.CommState.DONE, "the goal to end")
+        wait_until(lambda: handle.get_comm_state() == actionlib.CommState.DONE, 10.0, "the goal to end")
         return handle.get_goal_status(), handle.get_goal_status_text()
 
     def test_a_goal_runs_with_feedback_and_succeeds(self):
         goal = self.send("work")
-        self.wait_for(lambda: self.skill.started == ["work"] and goal.feedback, "the goal to run")
+        wait_until(lambda: self.skill.started == ["work"] and goal.feedback, 10.0, "the goal to run")
         self.skill.release.set()
         self.assertEqual(self.wait_done(goal), (GoalStatus.SUCCEEDED, "done"))
         self.assertEqual(goal.get_result().message, "done")
@@ -76,20 +69,20 @@ class OneGoal(unittest.TestCase):
 
     def test_a_new_goal_preempts_the_running_one_and_a_newer_one_replaces_it_while_it_waits(self):
         first = self.send("work")
-        self.wait_for(lambda: self.skill.started == ["work"], "the first goal to run")
+        wait_until(lambda: self.skill.started == ["work"], 10.0, "the first goal to run")
         self.skill.release.clear()
         # the second waits while the first stops; the third replaces it before it started
         second, third = self.send("second"), self.send("work")
         self.assertEqual(self.wait_done(first), (GoalStatus.PREEMPTED, "preempted"))
         self.assertEqual(self.wait_done(second)[0], GoalStatus.RECALLED)
-        self.wait_for(lambda: self.skill.started == ["work", "work"], "the newest goal to run")
+        wait_until(lambda: self.skill.started == ["work", "work"], 10.0, "the newest goal to run")
         self.assertNotEqual(third.get_goal_status(), GoalStatus.PREEMPTED)
         third.cancel()
         self.assertEqual(self.wait_done(third), (GoalStatus.PREEMPTED, "preempted"))
 
     def test_a_cancel_drops_a_waiting_goal_that_never_runs(self):
         running = self.send("work")
-        self.wait_for(lambda: self.skill.started == ["work"], "the goal to run")
+        wait_until(lambda: self.skill.started == ["work"], 10.0, "the goal to run")
         waiting = self.send("never")
         waiting.cancel()
         self.assertEqual(self.wait_done(waiting)[0], GoalStatus.RECALLED)
@@ -106,7 +99,7 @@ class OneGoal(unittest.TestCase):
         self.assertIn("the skill broke", text)
         # the server still takes goals
         goal = self.send("work")
-        self.wait_for(lambda: self.skill.started[-1:] == ["work"], "the next goal to run")
+        wait_until(lambda: self.skill.started[-1:] == ["work"], 10.0, "the next goal to run")
         self.skill.release.set()
         self.assertEqual(self.wait_done(goal)[0], GoalStatus.SUCCEEDED)
 
@@ -114,11 +107,11 @@ class OneGoal(unittest.TestCase):
         # SimpleActionServer's loop thread would stay; a goal's thread ends with the goal
         before = threading.active_count()
         goal = self.send("work")
-        self.wait_for(lambda: self.skill.started == ["work"], "the goal to run")
+        wait_until(lambda: self.skill.started == ["work"], 10.0, "the goal to run")
         self.assertEqual(threading.active_count(), before + 1)
         self.skill.release.set()
         self.wait_done(goal)
-        self.wait_for(lambda: threading.active_count() == before, "the goal's thread to end")
+        wait_until(lambda: threading.active_count() == before, 10.0, "the goal's thread to end")
 
 
 if __name__ == "__main__":

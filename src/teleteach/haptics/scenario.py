@@ -476,7 +476,7 @@ def _parse_wait(raw: Dict[str, Any], field_where: Callable[[str], str]) -> Wait:
             raise ScenarioError(f"{field_where('wait')}: tab must be one of {', '.join(TABS)} (or 0..3), got {tab!r}")
     running = conditions.get("tree_running")
     if running is not None and not (isinstance(running, str) and running):
-        raise ScenarioError(f"{field_where('wait')}: tree_running must name a tree node, got {running!r}")
+        raise ScenarioError(f"{field_where('wait')}: tree_running must name a tree node or a pattern, got {running!r}")
     for key in ("recording", "help_request"):
         if key in conditions and not isinstance(conditions[key], bool):
             raise ScenarioError(f"{field_where('wait')}: {key} must be true or false, got {conditions[key]!r}")
