@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from teleteach.processes import own_master
+from teleteach.runtime.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SIZES = (10, 100, 1000)

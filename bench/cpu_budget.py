@@ -98,7 +98,7 @@ def process_name(pid):
 
 def children(parent):
     """Process ids whose parent is ``parent``."""
-    from teleteach.processes import parent_pid
+    from teleteach.runtime.processes import parent_pid
 
     return [
         int(entry.name)
@@ -195,7 +195,7 @@ class System:
     """One full.launch on its own master (and Xvfb when there is no display), stopped in reverse order."""
 
     def __init__(self, name, launch_args, log):
-        from teleteach.processes import Processes, own_master, ros_environment, start_xvfb
+        from teleteach.runtime.processes import Processes, own_master, ros_environment, start_xvfb
 
         self.name = name
         self.processes = Processes()
@@ -219,13 +219,13 @@ class System:
 
     def start_floor(self):
         """The do-nothing node, once roslaunch has set /use_sim_time (rospy reads it when the node starts)."""
-        from teleteach.processes import ros_environment
+        from teleteach.runtime.processes import ros_environment
 
         env = ros_environment(self.master_uri, self.display, self.data)
         self.floor = self.processes.start("floor", [sys.executable, "-c", FLOOR], env=env)
 
     def master_pid(self):
-        from teleteach.processes import master_pid
+        from teleteach.runtime.processes import master_pid
 
         return master_pid(self.master_uri)
 
@@ -329,7 +329,7 @@ def wait_for(system, condition, timeout, what):
 
 def start_system(name, launch_args, log):
     """The system, rospy initialised against its master, and a watcher."""
-    from teleteach.node import init_node
+    from teleteach.runtime.node import init_node
 
     system = System(name, launch_args, log)
     os.environ["ROS_MASTER_URI"] = system.master_uri  # rospy reads it in init_node: one run per process

@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from teleteach.processes import own_master
+from teleteach.runtime.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "bench" / "results" / "gui_latency.json"
@@ -132,7 +132,7 @@ def measure_repaint(seconds=5.0):
     from PyQt5.QtCore import QTimer
     from PyQt5.QtWidgets import QApplication
 
-    from teleteach.gui.config import GuiConfig
+    from teleteach.core.gui_config import GuiConfig
     from teleteach.gui.device import DeviceSample
     from teleteach.gui.ellipsoid import EllipsoidCommand
     from teleteach.gui.gl_view import EllipsoidView

@@ -161,8 +161,8 @@ class Operator:
             self._gripper = angle
 
     def _run(self) -> None:
+        from teleteach.core.rotations import rpy_to_quaternion
         from teleteach.haptics.click import flick_gripper_angle
-        from teleteach.rotations import rpy_to_quaternion
 
         pose_class, float_class = self._messages
         period = 1.0 / INPUT_RATE
@@ -328,8 +328,8 @@ class Bench:
     application; with ``own_master``, on a roscore of its own (else rospy is initialised on a master already)."""
 
     def __init__(self, log_dir: pathlib.Path, own_master: bool = True) -> None:
-        from teleteach.processes import Processes
-        from teleteach.processes import own_master as start_own_master
+        from teleteach.runtime.processes import Processes
+        from teleteach.runtime.processes import own_master as start_own_master
 
         self.log_dir = log_dir
         self.own_master = own_master
@@ -432,8 +432,8 @@ class Session:
     """One GUI window and one device node (a tremor level, guidance on or off), running trials one after another."""
 
     def __init__(self, bench: Bench, tremor: float, guided: bool, human: Optional[Human] = None) -> None:
+        from teleteach.core.gui_config import GuiConfig
         from teleteach.gui.app import MainWindow
-        from teleteach.gui.config import GuiConfig
 
         self.bench, self.tremor, self.guided, self.human = bench, tremor, guided, human or Human()
         name = f"device_{tremor * 1000:.0f}mm_{'with' if guided else 'without'}"

@@ -302,7 +302,7 @@ class OverRos:
     """``shared_control.launch`` on a roscore of its own; commands published at 50 Hz, stamped when sent."""
 
     def __init__(self, log_dir: pathlib.Path, overrides: dict):
-        from teleteach.processes import Processes, own_master
+        from teleteach.runtime.processes import Processes, own_master
 
         self.processes = Processes()
         log = log_dir / "processes.log"

@@ -28,7 +28,7 @@ from teleteach.haptics.click import ClickDetector
 from teleteach.haptics.loop import DeviceLoop, WallRate
 from teleteach.haptics.scenario import ScenarioBackend, load_scenario
 from teleteach.haptics.twist import TwistEstimator
-from teleteach.processes import own_master
+from teleteach.runtime.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "config" / "scenarios" / "example.yaml"

@@ -19,8 +19,8 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.sim import panda
-from teleteach.sim.kinematics import PandaKinematics
+from teleteach.control import panda
+from teleteach.control.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY, RobotSim, load_controller_config
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "sim_step.json"

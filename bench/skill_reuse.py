@@ -29,9 +29,9 @@ import time
 import numpy as np
 from matplotlib.figure import Figure
 
-from teleteach import skill_file
+from teleteach.core import skill_file
+from teleteach.core.scene import load_scene
 from teleteach.run.trials import TrialJob, TrialSetup, run_trials, summarise
-from teleteach.scene import load_scene
 
 BENCH = pathlib.Path(__file__).resolve().parent
 SKILL_FILE = BENCH / "data" / "DemonstratedPlace_1.npz"

@@ -17,17 +17,18 @@ import time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
-from teleteach.sim.kinematics import PandaKinematics
+from teleteach.control.kinematics import PandaKinematics
+from teleteach.control.stiffness import translational_stiffness
+from teleteach.core import skill_file
+from teleteach.core.rotations import yaw_rotation
+from teleteach.run.sim_robot import SimRobot
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.skills.config import load_motion_config
 from teleteach.skills.motion import TOP_DOWN, InverseKinematics
 from teleteach.skills.predefined import PREDEFINED_SKILLS
 from teleteach.skills.replay import plan_replay
 from teleteach.skills.runner import SkillRunner
-from teleteach.skills.sim_robot import SimRobot
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -77,12 +78,7 @@ def replay_cost(rate=200.0):
     count = 600  # a 60 s demonstration recorded at 10 Hz
     angles = np.linspace(0.0, math.pi / 4, count)
     stiffness = np.array(
-        [
-            Rotation.from_euler("z", angle).as_matrix()
-            @ np.diag([300.0, 300.0 + 2000.0 * angle, 1000.0])
-            @ Rotation.from_euler("z", angle).as_matrix().T
-            for angle in angles
-        ]
+        [translational_stiffness([300.0, 300.0 + 2000.0 * angle, 1000.0], yaw_rotation(angle)) for angle in angles]
     )
     poses = np.tile([0.5, 0.0, 0.8, 1.0, 0.0, 0.0, 0.0], (count, 1))
     skill = skill_file.Skill("bench", "stiffness", np.linspace(0.0, 60.0, count), stiffness, poses, poses)

@@ -42,7 +42,8 @@ from typing import Dict, List
 import numpy as np
 from matplotlib.figure import Figure
 
-from teleteach import skill_file
+from teleteach.core import skill_file
+from teleteach.core.scene import load_scene
 from teleteach.run.ablation import (
     HIGH_STIFFNESS,
     INSERTION_START,
@@ -57,7 +58,6 @@ from teleteach.run.ablation import (
     vertical_name,
 )
 from teleteach.run.trials import TrialJob, TrialSetup, run_trials, summarise
-from teleteach.scene import load_scene
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 
 BENCH = pathlib.Path(__file__).resolve().parent

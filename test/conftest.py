@@ -22,7 +22,7 @@ def artifacts_dir():
 @pytest.fixture(scope="module")
 def roscore(tmp_path_factory):
     """A roscore of our own on a free port (own_master), stopped by its PID afterwards: the environment to run in."""
-    from teleteach.processes import Processes, own_master
+    from teleteach.runtime.processes import Processes, own_master
 
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
     processes = Processes()

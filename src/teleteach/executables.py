@@ -3,7 +3,7 @@
 A file in nodes/ is its usage (the docstring, which ``--help`` prints) and one call of a function here with that text;
 the function returns the process' exit status. Nothing heavy loads at this module's top: ``rosrun teleteach <node>
 --help`` answers without numpy, pybullet or a master, and the pinned libraries are checked
-(:func:`teleteach.node.start`) before any of them is imported.
+(:func:`teleteach.runtime.node.start`) before any of them is imported.
 """
 
 import argparse
@@ -11,14 +11,12 @@ import os
 import sys
 import typing
 
-from teleteach.node import (
-    Parameter,
+from teleteach.runtime.node import (
     exit_on_bad_parameter,
     init_node,
     node_parameters,
     since_process_start,
     start,
-    yaml_parameters,
 )
 
 ExitStatus = typing.Optional[int]
@@ -31,17 +29,7 @@ def _one_blas_thread() -> None:
 
 def behaviour_tree(description: str) -> ExitStatus:
     """Tick the teaching tree and serve its edits until shutdown."""
-    start(
-        "behaviour_tree",
-        description,
-        "behaviour_tree.yaml",
-        (
-            Parameter("tree", "config/tree.yaml", "the tree the node starts from (format: config/tree.yaml)"),
-            Parameter("skills", "config/skills.yaml", "the predefined skill library"),
-            Parameter("resume", "false", "true: start from the tree and library saved in data_dir/trees"),
-            Parameter("data_dir", "$TELETEACH_DATA or ~/.ros/teleteach", "the data directory"),
-        ),
-    )
+    start("behaviour_tree", description, "behaviour_tree.yaml")
     from teleteach.bt.ros import BehaviourTreeNode
 
     # Publishing a 1000-node log/tree after an edit is ~2 ms of pure Python; a short GIL switch interval keeps
@@ -51,40 +39,15 @@ def behaviour_tree(description: str) -> ExitStatus:
     return 0
 
 
-def _robot_sim_parameters() -> typing.Tuple[Parameter, ...]:
-    """robot_sim's own, then those of config/controllers.yaml's `simulation` section that a parameter overrides."""
-    from teleteach.paths import config_file
-
-    simulation = {
-        entry.name.split("/", 1)[1]: entry
-        for entry in yaml_parameters(config_file("controllers.yaml").read_text())
-        if entry.name.startswith("simulation/")
-    }
-    return (
-        Parameter("gui", "false", "true: open pybullet's own window"),
-        Parameter("scene_file", "config/supermarket.yaml", "the scene: shelf, products, gaps, base poses, the robot"),
-        Parameter("controllers_file", "config/controllers.yaml", "controller gains and the simulation's settings"),
-        Parameter("absent_products", "[]", "products of the scene file to leave out, e.g. [product_pick_1]"),
-        Parameter("uncertainty_file", "config/uncertainty.yaml", "what the robot gets wrong: base error, perception"),
-        Parameter("seed", "(uncertainty_file's)", "seed of the base error and the perception noise (an integer >= 0)"),
-        Parameter("base_error", "(uncertainty_file's)", "true | false: MoveBase stops near its goal, not on it"),
-        Parameter("perception_noise", "(uncertainty_file's)", "true | false: teleteach/scene reports errors"),
-        *(
-            Parameter(name, simulation[name].default, simulation[name].meaning)
-            for name in ("real_time_factor", "clock_rate", "clock", "initial_controller")
-        ),
-    )
-
-
 def robot_sim(description: str) -> ExitStatus:
     """Run the simulation until shutdown, or print the robot's URDF (``--urdf``)."""
     _one_blas_thread()
     parser = argparse.ArgumentParser()
     parser.add_argument("--urdf", action="store_true", help="print the URDF of base + Panda and exit")
     parser.add_argument("--scene", default=None, help="scene file for --urdf (default: config/supermarket.yaml)")
-    arguments = start("robot_sim", description, parameters=_robot_sim_parameters(), parser=parser, init=False)
+    arguments = start("robot_sim", description, "robot_sim.yaml", parser=parser, init=False)
     if arguments.urdf:
-        from teleteach.scene import load_scene
+        from teleteach.core.scene import load_scene
         from teleteach.sim.urdf import robot_description
 
         robot = load_scene(arguments.scene).robot
@@ -100,20 +63,7 @@ def robot_sim(description: str) -> ExitStatus:
 def skill_server(description: str) -> ExitStatus:
     """Serve the skills as actions until shutdown."""
     _one_blas_thread()
-    start(
-        "skill_server",
-        description,
-        "skill_server.yaml",
-        (
-            Parameter(
-                "motion_file", "config/skills_motion.yaml", "how the robot moves: speeds, postures, gripper, tolerances"
-            ),
-            Parameter(
-                "scene_file", "config/supermarket.yaml", "the robot's mount and the named base poses of the site"
-            ),
-            Parameter("controllers", "simulation", "section of config/robot_controllers.yaml: simulation | franka"),
-        ),
-    )
+    start("skill_server", description, "skill_server.yaml")
     import rospy
 
     from teleteach.skills.ros import SkillServer
@@ -125,19 +75,7 @@ def skill_server(description: str) -> ExitStatus:
 
 def sigma7_node(description: str) -> ExitStatus:
     """Run the device until shutdown; status 1 with one line when it cannot start or its scenario failed."""
-    start(
-        "sigma7_node",
-        description,
-        "device.yaml",
-        (
-            Parameter(
-                "backend",
-                "scenario",
-                "dhd (Force Dimension SDK) | scenario (a keyframe file) | virtual (a window) | topic",
-            ),
-            Parameter("scenario", "''", "the scenario backend's keyframe file (format: config/scenarios/example.yaml)"),
-        ),
-    )
+    start("sigma7_node", description, "device.yaml")
     import rospy
 
     from teleteach.haptics.device import DeviceUnavailableError
@@ -154,20 +92,7 @@ def sigma7_node(description: str) -> ExitStatus:
 
 def device_monitor(description: str) -> ExitStatus:
     """Listen to the device for the length of its scenario, then print what it published."""
-    start(
-        "device_monitor",
-        description,
-        parameters=(
-            Parameter("scenario", "(required)", "the file the sigma7 node plays; its duration sets how long to listen"),
-            Parameter(
-                "start_param", "sigma7_node/scenario_start", "where the sigma7 node put the scenario's start time"
-            ),
-            Parameter("margin", "0.5", "[s] listened after the last keyframe"),
-            Parameter(
-                "end_launch", "false", "true: when done, end the roslaunch that started this node, as Ctrl-C would"
-            ),
-        ),
-    )
+    start("device_monitor", description, "device_monitor.yaml")
     from teleteach.haptics.ros import DeviceMonitorNode
 
     exit_on_bad_parameter("device_monitor", DeviceMonitorNode.from_params).run()
@@ -248,7 +173,7 @@ def session_bag(description: str) -> ExitStatus:
     commands = parser.add_subparsers(dest="command", required=True)
     record = commands.add_parser("record", help="record the teaching topics")
     record.add_argument("--prefix", default="session", help="bag name prefix (default: session)")
-    record.add_argument("--data-dir", default="", help="data directory (default: teleteach.datadir.data_dir())")
+    record.add_argument("--data-dir", default="", help="data directory (default: teleteach.core.datadir.data_dir())")
     replay = commands.add_parser("replay", help="replay a session bag")
     replay.add_argument("bag", help="session bag file")
     replay.add_argument("--visual", action="store_true", help="all topics with /clock, for RViz")

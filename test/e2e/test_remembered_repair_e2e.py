@@ -9,8 +9,8 @@ import pytest
 import yaml
 from conftest import ROOT
 
-from teleteach.processes import Processes, own_master, start_xvfb
 from teleteach.recording.session import open_bag
+from teleteach.runtime.processes import Processes, own_master, start_xvfb
 
 SCENARIO = ROOT / "config" / "scenarios" / "remembered_repair.yaml"
 FAILURE = ("PickItem", "product_pick_1 is not on the table")

@@ -12,10 +12,10 @@ import yaml
 from conftest import ROOT
 from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
+from teleteach.core import skill_file
+from teleteach.core.scene import load_scene
 from teleteach.recording.session import read_session
 from teleteach.run.pictures import background_colour, rviz_picture
-from teleteach.scene import load_scene
 
 RUN_TIMEOUT = 480.0  # [s] wall: the runner bounds itself (scenario 300 s, RViz picture 2 x 45 s, stop, report)
 

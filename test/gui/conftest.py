@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from teleteach.processes import own_master
+from teleteach.runtime.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -30,7 +30,7 @@ def stop(process, timeout=10.0):
 
 @pytest.fixture(scope="session")
 def ros_master(tmp_path_factory):
-    """A roscore on a free port of its own (teleteach.processes.own_master); this process becomes the rospy node
+    """A roscore on a free port of its own (teleteach.runtime.processes.own_master); this process becomes the rospy node
     'gui_test'."""
     import rospy
 
@@ -147,7 +147,7 @@ class DeviceStandIn:
         self._thread.start()
 
     def move(self, x=0.0, y=0.0, z=0.0, roll=0.0, pitch=0.0, yaw=0.0):
-        from teleteach.rotations import rpy_to_quaternion
+        from teleteach.core.rotations import rpy_to_quaternion
 
         with self._lock:
             self.position = [x, y, z]
@@ -200,8 +200,8 @@ def device(ros_master):
 @pytest.fixture
 def make_window(qapp, ros_master, data_root):
     """Builds the real main window (config/gui.yaml + overrides) and closes it after the test."""
+    from teleteach.core.gui_config import GuiConfig
     from teleteach.gui.app import MainWindow
-    from teleteach.gui.config import GuiConfig
 
     windows = []
 

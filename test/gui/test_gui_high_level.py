@@ -5,7 +5,7 @@ import time
 import pytest
 from conftest import pump_until, start_bt, stop
 
-from teleteach.active_tab import Tab
+from teleteach.core.active_tab import Tab
 from teleteach.gui.selection import MORE_OPERATIONS, OPERATIONS, REPAIR_CHOICE, Step
 from teleteach.msg import BehaviourTree
 
@@ -81,7 +81,7 @@ def test_thesis_flow_removes_place_item(qapp, bt_node, device, make_window, topi
 
 
 def test_insert_at_an_index_via_the_dial(qapp, bt_node, device, make_window, topic_log, artifacts_dir):
-    from teleteach.rotations import rpy_to_quaternion  # noqa: F401 - the device stand-in uses it
+    from teleteach.core.rotations import rpy_to_quaternion  # noqa: F401 - the device stand-in uses it
 
     tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
     window = make_window()
@@ -357,7 +357,7 @@ def test_guidance_switched_off_renders_nothing(qapp, bt_node, device, make_windo
 def test_every_button_fits_the_visible_width_at_any_window_size(qapp, artifacts_dir):
     from PyQt5.QtCore import QPoint
 
-    from teleteach.gui.config import GuiConfig
+    from teleteach.core.gui_config import GuiConfig
     from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
     from teleteach.gui.tabs import HighLevelTab
 

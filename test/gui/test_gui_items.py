@@ -6,7 +6,7 @@ import pytest
 from conftest import pump, pump_until
 from PyQt5.QtCore import QRect
 
-from teleteach.active_tab import Tab
+from teleteach.core.active_tab import Tab
 from teleteach.gui.device import DeviceSample
 from teleteach.gui.shared_tab import AXIS_TITLES, SharedStatus
 
@@ -35,7 +35,7 @@ def test_the_tree_view_shows_every_name_whole_and_the_pause_condition_as_no_erro
 def test_every_row_of_buttons_is_whole_at_the_default_window_size(qapp, bt_node, make_window, data_root, artifacts_dir):
     import rospy
 
-    from teleteach import skill_file
+    from teleteach.core import skill_file
     from teleteach.learning.synthetic import placement_demo
     from teleteach.srv import AddSkill
 

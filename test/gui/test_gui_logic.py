@@ -7,10 +7,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
 from teleteach.bt.editor import EditRequest
-from teleteach.frames import Transform
-from teleteach.gui.config import GuiConfig, GuiConfigError
+from teleteach.core import skill_file
+from teleteach.core.frames import Transform
+from teleteach.core.gui_config import GuiConfig, GuiConfigError
+from teleteach.core.rotations import quaternion_to_rpy, rpy_to_matrix, rpy_to_quaternion
+from teleteach.core.scene import load_scene
+from teleteach.core.trajectories import Trajectory, TrajectoryError
 from teleteach.gui.device import (
     ClickClassifier,
     DeviceFilter,
@@ -31,10 +34,7 @@ from teleteach.gui.selection import (
     TreeNode,
     TreeSnapshot,
 )
-from teleteach.rotations import quaternion_to_rpy, rpy_to_matrix, rpy_to_quaternion
-from teleteach.scene import load_scene
 from teleteach.skills.config import load_motion_config
-from teleteach.trajectories import Trajectory, TrajectoryError
 
 CONFIG = GuiConfig.load()
 IDENTITY = (0.0, 0.0, 0.0, 1.0)

@@ -9,7 +9,7 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from scipy.spatial.transform import Rotation
 from std_msgs.msg import Bool
 
-from teleteach.active_tab import Tab
+from teleteach.core.active_tab import Tab
 
 pytestmark = pytest.mark.gui
 

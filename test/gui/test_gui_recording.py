@@ -9,7 +9,7 @@ from conftest import pump, pump_until, start, stop
 from geometry_msgs.msg import PoseStamped
 from std_msgs.msg import Bool
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 from teleteach.gui.selection import OPERATIONS, Step
 from teleteach.msg import BehaviourTree, SkillLibrary
 from teleteach.srv import ListControllers
@@ -193,8 +193,8 @@ class RobotStandIn:
         from geometry_msgs.msg import TransformStamped
         from visualization_msgs.msg import MarkerArray
 
-        from teleteach.perception.observed import SCENE_TOPIC, WORLD_FRAME, observed_from_scene
-        from teleteach.scene import load_scene
+        from teleteach.core.observed import SCENE_TOPIC, WORLD_FRAME, observed_from_scene
+        from teleteach.core.scene import load_scene
 
         scene = load_scene()
         self._observed = observed_from_scene(scene)
@@ -216,7 +216,7 @@ class RobotStandIn:
     def _run(self):
         import rospy
 
-        from teleteach.perception.ros import scene_markers
+        from teleteach.core.observed import scene_markers
 
         message = PoseStamped()
         message.header.frame_id = "base_link"

@@ -12,7 +12,7 @@ from conftest import ROOT, pump, pump_until, start, stop
 from geometry_msgs.msg import PolygonStamped, PoseStamped, Vector3Stamped
 from test_gui_recording import robot_sim  # noqa: F401 - the fixture
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 from teleteach.msg import SharedControlState, SkillLibrary
 from teleteach.shared_control.models import synthetic_commands
 from teleteach.shared_control.ros import TaskPlane

@@ -6,7 +6,7 @@ import pytest
 from conftest import pump, pump_until, start_bt, stop
 from std_msgs.msg import Bool
 
-from teleteach.active_tab import Tab
+from teleteach.core.active_tab import Tab
 from teleteach.gui.tabs import StartTab
 from teleteach.msg import TreeExecution
 

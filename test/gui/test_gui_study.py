@@ -9,7 +9,7 @@ import time
 import pytest
 from conftest import ROOT, pump, pump_until
 
-from teleteach.active_tab import Tab
+from teleteach.core.active_tab import Tab
 
 pytestmark = pytest.mark.gui
 EXAMPLE = ROOT / "config" / "studies" / "example.yaml"
@@ -39,10 +39,10 @@ def test_a_participant_goes_through_a_trial_and_the_questionnaire(
 ):
     import rospy
 
+    from teleteach.core.study_phase import Phase
     from teleteach.srv import StudyInput
     from teleteach.study.metrics import TrialMetrics
     from teleteach.study.scripted import slider_x
-    from teleteach.study_phase import Phase
 
     study, plan, flow, ros = study_node
     task = study.task(plan[0].task)

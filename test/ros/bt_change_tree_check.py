@@ -11,7 +11,7 @@ import rostest
 import yaml
 from bt_ros_support import THESIS_SEQUENCE, TreeView
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 
 FIG_B1_BOTTOM = [name for name in THESIS_SEQUENCE if name != "PlaceItem"]
 

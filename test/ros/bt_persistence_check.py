@@ -17,7 +17,7 @@ import rospy
 import rostest
 from bt_ros_support import THESIS_SEQUENCE
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 from teleteach.msg import BehaviourTree, HelpRequest, SkillLibrary
 from teleteach.srv import AddSkill, ChangeTree
 

@@ -18,7 +18,7 @@ import rospy
 import rostest
 from bt_ros_support import TreeView
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 
 CORRUPT_TREE = "execution: BehaviorExecution\nroot: {type: selector, name: Root, children: [\n"
 PREVIOUS_TREE = """execution: BehaviorExecution

@@ -17,7 +17,7 @@ import rostest
 from bt_robot_support import RobotView
 from bt_ros_support import TreeView
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 from teleteach.learning.synthetic import placement_on_trajectory
 
 HELP_TIMEOUT = 240.0  # [s] wall: sim, skill servers and tree starting on a loaded machine, then a skill

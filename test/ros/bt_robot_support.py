@@ -10,9 +10,9 @@ import rospy
 from actionlib_msgs.msg import GoalStatusArray
 from visualization_msgs.msg import MarkerArray
 
+from teleteach.core.observed import product_positions
+from teleteach.core.scene import load_scene
 from teleteach.msg import Behaviour, ExecuteSkillActionGoal
-from teleteach.perception.observed import product_positions
-from teleteach.scene import load_scene
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS
 
 

@@ -12,7 +12,7 @@ import yaml
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from std_msgs.msg import Int8
 
-from teleteach.active_tab import Tab
+from teleteach.core.active_tab import Tab
 
 
 class GuiPublishes(unittest.TestCase):

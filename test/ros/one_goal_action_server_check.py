@@ -12,7 +12,7 @@ from actionlib_msgs.msg import GoalStatus
 from ros_processes import wait_until
 
 from teleteach.msg import ExecuteSkillAction, ExecuteSkillFeedback, ExecuteSkillGoal, ExecuteSkillResult
-from teleteach.ros_actions import OneGoalActionServer
+from teleteach.runtime.ros_actions import OneGoalActionServer
 
 
 class Skill:

@@ -15,11 +15,11 @@ import rostest
 from actionlib_msgs.msg import GoalStatus
 from visualization_msgs.msg import MarkerArray
 
-from teleteach import skill_file
+from teleteach.core import skill_file
+from teleteach.core.observed import product_positions
+from teleteach.core.scene import load_scene
 from teleteach.learning.synthetic import placement_on_trajectory
 from teleteach.msg import ExecuteSkillAction, ExecuteSkillActionFeedback, ExecuteSkillGoal
-from teleteach.perception.observed import product_positions
-from teleteach.scene import load_scene
 from teleteach.skills.predefined import PREDEFINED_SKILLS
 from teleteach.srv import ListControllers
 

@@ -7,7 +7,7 @@ import subprocess
 import sys
 import time
 
-from teleteach.processes import own_master
+from teleteach.runtime.processes import own_master
 
 
 class Processes:
@@ -81,7 +81,7 @@ def wait_until(condition, timeout, what):
 
 
 def start_roscore(processes, name="roscore"):
-    """A roscore on a free port of its own (teleteach.processes.own_master); sets ROS_MASTER_URI for every
+    """A roscore on a free port of its own (teleteach.runtime.processes.own_master); sets ROS_MASTER_URI for every
     process started afterwards."""
     processes.env["ROS_LOG_DIR"] = str(processes.log_dir / "ros_log")
     names = {}

@@ -18,6 +18,8 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
+from teleteach.core.observed import observed_from_markers
+from teleteach.core.scene import load_scene
 from teleteach.msg import (
     GraspAction,
     GraspEpsilon,
@@ -29,8 +31,6 @@ from teleteach.msg import (
     StopAction,
     StopGoal,
 )
-from teleteach.perception.observed import observed_from_markers
-from teleteach.scene import load_scene
 from teleteach.sim.robot_sim import load_controller_config
 
 

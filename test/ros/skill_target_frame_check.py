@@ -24,12 +24,12 @@ from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
-from teleteach import skill_file
+from teleteach.core import skill_file
+from teleteach.core.observed import observed_from_markers
+from teleteach.core.placement import judge
+from teleteach.core.scene import load_scene
 from teleteach.learning.synthetic import placement_on_trajectory
 from teleteach.msg import ExecuteSkillAction, ExecuteSkillGoal
-from teleteach.perception.observed import observed_from_markers
-from teleteach.placement import judge
-from teleteach.scene import load_scene
 
 SKILL_TIMEOUT = 180.0  # [s] sim time per skill
 DROP = 0.03  # [m] the pushing skill's reference runs this much lower from the alignment on: into the lip

@@ -13,9 +13,9 @@ import rostest
 from actionlib_msgs.msg import GoalStatus
 from visualization_msgs.msg import MarkerArray
 
+from teleteach.core.observed import observed_from_markers
+from teleteach.core.scene import load_objects
 from teleteach.msg import ExecuteSkillAction, ExecuteSkillGoal
-from teleteach.perception.observed import observed_from_markers
-from teleteach.scene import load_objects
 
 SKILL_TIMEOUT = 120.0  # [s] sim time per skill
 AGREEMENT = 0.02  # [m] belief and world agree on a product's centre within this

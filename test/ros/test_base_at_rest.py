@@ -12,9 +12,9 @@ import rospy, tf2_ros
 from geometry_msgs.msg import TransformStamped
 from rosgraph_msgs.msg import Clock
 from visualization_msgs.msg import MarkerArray
-from teleteach.perception.observed import observed_from_scene
-from teleteach.perception.ros import scene_markers
-from teleteach.scene import load_scene
+from teleteach.core.observed import observed_from_scene
+from teleteach.core.observed import scene_markers
+from teleteach.core.scene import load_scene
 from teleteach.skills.ros import RosRobot
 
 LAG = 0.5

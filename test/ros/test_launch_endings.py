@@ -10,8 +10,8 @@ import numpy as np
 from conftest import ROOT
 from ros_processes import Processes, start_roscore, start_xvfb, wait_until
 
-from teleteach import skill_file
-from teleteach.processes import required_death
+from teleteach.core import skill_file
+from teleteach.runtime.processes import required_death
 
 RECORDED = "add_skill DemonstratedPlace_1: added"  # the tree logs it once III-C's demonstration is a skill
 

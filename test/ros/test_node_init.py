@@ -1,4 +1,4 @@
-"""teleteach.node.init_node against a real roscore: the rosout parameter that keeps rospy's logging cheap is set
+"""teleteach.runtime.node.init_node against a real roscore: the rosout parameter that keeps rospy's logging cheap is set
 to its default when missing, and a value the user chose is kept; static_scene with a broken scene file names what is
 wrong in one line (a node without its parameters: test/unit/test_node_start.py)."""
 
@@ -7,10 +7,10 @@ import sys
 
 from ros_processes import Processes, start_roscore, wait_until
 
-from teleteach.node import ROSOUT_TOPICS_PARAM
+from teleteach.runtime.node import ROSOUT_TOPICS_PARAM
 
 PROBE = (
-    "import rospy; from teleteach.node import init_node; init_node('probe', anonymous=True); "
+    "import rospy; from teleteach.runtime.node import init_node; init_node('probe', anonymous=True); "
     f"rospy.loginfo('probe up'); print(rospy.get_param_cached({ROSOUT_TOPICS_PARAM!r}))"
 )
 

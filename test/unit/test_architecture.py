@@ -1,7 +1,9 @@
-"""The layering docs/architecture.md promises: no import cycles, the library never imports the executables, benches
-or tests, and only the ROS layers import rospy (so every part's logic is testable without a master)."""
+"""The layering docs/architecture.md promises: five floors of parts with the shared words at the bottom, no import
+cycles, the library never imports the executables, benches or tests, and only the ROS layers import rospy (so every
+part's logic is testable without a master)."""
 
 import ast
+import re
 
 from conftest import ROOT
 
@@ -11,9 +13,9 @@ PACKAGE = ROOT / "src" / "teleteach"
 # and the study's trial processes (docs/architecture.md: study/runner.py starts the study node, importing it in
 # functions).
 ROS_LAYERS = {
-    "node.py",
+    "runtime/node.py",
     "executables.py",
-    "ros_actions.py",
+    "runtime/ros_actions.py",
     "gui/app.py",
     "gui/worker.py",
     "run/thesis.py",
@@ -87,13 +89,47 @@ def part(module):
 def test_no_import_runs_back_up_between_the_parts():
     # Expect the parts (subpackages, and the shared modules at the top) to import each other without a loop, even
     # through imports inside functions: a word two parts share lives below both (docs/architecture.md)
-    library = modules()
+    graph = part_graph(modules())
+    assert {"teleteach.gui", "teleteach.study", "teleteach.sim", "teleteach.perception"} <= set(graph)
+    assert find_cycle(graph) is None
+
+
+def part_graph(library):
+    """{part: the parts it imports}, imports inside functions included."""
     graph = {}
     for name, (_, tree) in library.items():
         targets = {part(target) for target in imported_names(tree, top_level_only=False) if target in library}
         graph.setdefault(part(name), set()).update(targets - {part(name)})
-    assert {"teleteach.gui", "teleteach.study", "teleteach.sim", "teleteach.perception"} <= set(graph)
-    assert find_cycle(graph) is None
+    return graph
+
+
+def floors(graph):
+    """{part: its floor}: 1 for a part that imports none, else one above the highest part it imports (no cycle)."""
+    found = {}
+
+    def floor(name):
+        if name not in found:
+            found[name] = 1 + max((floor(target) for target in graph[name]), default=0)
+        return found[name]
+
+    for name in graph:
+        floor(name)
+    return found
+
+
+def test_the_parts_stand_on_five_floors_with_the_shared_words_at_the_bottom():
+    graph = part_graph(modules())
+    floor = floors(graph)
+    assert max(floor.values()) <= 5, {name: level for name, level in floor.items() if level > 5}
+    assert floor["teleteach.executables"] == 5  # the check saw the whole house
+    assert graph["teleteach.core"] == set()
+    assert graph["teleteach.runtime"] == {"teleteach.core"}
+    assert graph["teleteach.control"] <= {"teleteach.core"}
+
+
+def test_floors_count_the_longest_chain_of_imports():
+    graph = {"a": {"b", "d"}, "b": {"c"}, "c": set(), "d": set()}
+    assert floors(graph) == {"a": 3, "b": 2, "c": 1, "d": 1}
 
 
 def test_a_cycle_is_found_when_there_is_one():
@@ -154,7 +190,7 @@ def is_ros_layer(path):
 
 def test_only_the_ros_layers_get_rospy_even_through_other_modules():
     chains = chains_to_rospy(modules())
-    assert {"bt/ros.py", "viz/ros.py", "node.py"} <= set(chains)  # the check saw the ROS layers
+    assert {"bt/ros.py", "viz/ros.py", "runtime/node.py"} <= set(chains)  # the check saw the ROS layers
     assert {path: " -> ".join(chain) for path, chain in chains.items() if not is_ros_layer(path)} == {}
 
 
@@ -188,6 +224,31 @@ def test_every_executable_is_its_usage_and_one_call_into_the_library():
 def test_the_entries_load_nothing_heavy_before_their_node_checks_the_pinned_libraries():
     library = modules()
     light = {"argparse", "os", "sys", "typing", "dataclasses", "re"}
-    for module in ("teleteach.executables", "teleteach.node"):
+    for module in ("teleteach.executables", "teleteach.runtime.node"):
         names = set(imported_names(library[module][1], top_level_only=True))
-        assert names - light <= {name for name in names if name.startswith("teleteach.node")}, module
+        assert names - light <= {name for name in names if name.startswith("teleteach.runtime.node")}, module
+
+
+EULER_SEQUENCE = re.compile(r"""(?:from|as)_euler\(\s*["'][xyzXYZ]{3}["']""")
+STIFFNESS_COMPOSITION = re.compile(r"@\s*np\.diag\((?:[^()]|\([^()]*\))*\)\s*@", re.DOTALL)
+"""Roll-pitch-yaw (a three-axis Euler sequence) and K = V Sigma V^T, written out."""
+
+
+def copies(pattern, home):
+    """Files of the library and the benches, other than ``home``, that write ``pattern`` out."""
+    files = [*PACKAGE.rglob("*.py"), *(ROOT / "bench").glob("*.py")]
+    return sorted(str(path.relative_to(ROOT)) for path in files if path != home and pattern.search(path.read_text()))
+
+
+def test_roll_pitch_yaw_and_the_stiffness_composition_each_have_one_home():
+    assert copies(EULER_SEQUENCE, PACKAGE / "core" / "rotations.py") == []
+    assert copies(STIFFNESS_COMPOSITION, PACKAGE / "control" / "stiffness.py") == []
+
+
+def test_a_second_copy_of_either_is_recognised():
+    assert EULER_SEQUENCE.search('Rotation.from_quat(q).as_euler("ZYX")[0]')
+    assert EULER_SEQUENCE.search("Rotation.from_euler('xyz', rpy)")
+    assert not EULER_SEQUENCE.search('Rotation.from_euler("z", yaw)')
+    assert STIFFNESS_COMPOSITION.search("v @ np.diag(sigma) @ v.T")
+    assert STIFFNESS_COMPOSITION.search("R.as_matrix()\n    @ np.diag([300.0, f(a), 1.0])\n    @ R.as_matrix().T")
+    assert not STIFFNESS_COMPOSITION.search("transform[:3, :3] = rotation @ np.diag(lengths)")

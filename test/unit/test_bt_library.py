@@ -9,11 +9,11 @@ import pytest
 import yaml
 from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, thesis_tree
 
-from teleteach import skill_file
 from teleteach.bt.library import CONDITION, PREDEFINED, LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.ros import ActionClients, ActionSkill, BehaviourTreeConfig
 from teleteach.bt.teaching import TreeStore
 from teleteach.bt.tree import create_root, describe, load_tree
+from teleteach.core import skill_file
 
 COUNT = 10
 

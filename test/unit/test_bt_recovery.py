@@ -7,11 +7,11 @@ import pytest
 from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, thesis_tree
 from py_trees.common import Status
 
-from teleteach import skill_file
 from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.ros import ActionClients, ActionSkill, BehaviourTreeConfig
 from teleteach.bt.teaching import TeachingTree, TreeStore
 from teleteach.bt.tree import create_root, load_tree
+from teleteach.core import skill_file
 
 COUNT = 5
 

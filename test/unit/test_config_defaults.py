@@ -10,14 +10,16 @@ from conftest import ROOT
 
 from teleteach.bt.ros import BehaviourTreeConfig
 from teleteach.control.impedance import ImpedanceParams
-from teleteach.gui.config import GuiConfig, GuiConfigError
+from teleteach.core.gui_config import GuiConfig, GuiConfigError
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.guidance import GuidanceLimits
 from teleteach.haptics.hand import HandParameters
-from teleteach.haptics.ros import Sigma7Config
-from teleteach.node import node_parameters
+from teleteach.haptics.ros import DeviceMonitorConfig, Sigma7Config
+from teleteach.runtime.node import node_parameters
 from teleteach.shared_control.loop import SharedControlConfig
 from teleteach.sim.robot_sim import ControllerConfigError, impedance_params, load_controller_config
+from teleteach.sim.ros import RobotSimConfig
+from teleteach.skills.config import SkillServerConfig
 
 
 def config(name, *section):
@@ -76,24 +78,48 @@ def test_the_sigma7_config_is_its_yaml_key_by_key_and_names_what_is_missing():
     built = Sigma7Config.from_params(lambda name, default: server.get(name, default))
     values = config("device.yaml")
     hand = values.pop("hand")
-    expected = dict(values, backend="virtual", scenario="", hand={"enabled": hand.pop("enabled"), "model": hand})
+    expected = dict(values, backend="virtual", hand={"enabled": hand.pop("enabled"), "model": hand})
     expected["topic"] = dict(expected["topic"], timeout=5.0)
     assert comparable(built) == comparable(expected)
-    del values["twist"]["cutoff_frequency"], values["rate"]
-    with pytest.raises(ValueError, match=r"\(config/device.yaml\): missing backend, scenario, rate; missing twist/cut"):
+    del values["twist"]["cutoff_frequency"], values["rate"], values["backend"]
+    with pytest.raises(ValueError, match=r"\(config/device.yaml\): missing backend, rate; missing twist/cut"):
         Sigma7Config.from_mapping(dict(values, hand=dict(hand, enabled=False)))
     with pytest.raises(ValueError, match=r"\(config/device.yaml\): missing hand/enabled$"):
         Sigma7Config.from_mapping(dict(config("device.yaml"), backend="virtual", scenario="", hand=hand))
 
 
-def test_the_behaviour_tree_config_is_its_yaml_and_names_what_is_missing():
-    values = config("behaviour_tree.yaml")
-    assert comparable(BehaviourTreeConfig.from_mapping(values)) == comparable(values)
-    del values["lost_timeout"]
+@pytest.mark.parametrize(
+    "parameters, node, yaml_name, required",
+    [
+        (BehaviourTreeConfig, "behaviour_tree", "behaviour_tree.yaml", "lost_timeout"),
+        (SkillServerConfig, "skill_server", "skill_server.yaml", "motion_file"),
+        (RobotSimConfig, "robot_sim", "robot_sim.yaml", "clock"),
+        (DeviceMonitorConfig, "device_monitor", "device_monitor.yaml", "margin"),
+    ],
+)
+def test_a_node_config_is_its_yaml_and_names_what_is_missing(parameters, node, yaml_name, required):
+    values = config(yaml_name)
+    if parameters is DeviceMonitorConfig:
+        values["scenario"] = "example.yaml"  # required: the yaml has none
+    assert comparable(parameters.from_mapping(values)) == comparable(values)
+    del values[required]
     with pytest.raises(
-        ValueError, match=r"^behaviour_tree's parameters \(config/behaviour_tree.yaml\): missing lost_t"
+        ValueError, match=rf"^{node}'s parameters \(config/{yaml_name}\): missing {required}; unknown x$"
     ):
-        BehaviourTreeConfig.from_mapping(dict(values, tick_hz=10.0))
+        parameters.from_mapping(dict(values, x=1.0))
+
+
+def test_the_device_monitor_needs_a_scenario():
+    with pytest.raises(ValueError, match=r"^missing parameter ~scenario \(the scenario file to listen for\)$"):
+        DeviceMonitorConfig.from_mapping(config("device_monitor.yaml"))
+
+
+def test_robot_sim_parameters_replace_the_controllers_file_s_simulation_values_they_set():
+    section = config("controllers.yaml", "simulation")
+    values = dict(config("robot_sim.yaml"), real_time_factor=0.5, clock="follow")
+    simulation = RobotSimConfig.from_mapping(values).simulation(section)
+    assert simulation == dict(section, real_time_factor=0.5, clock="follow")
+    assert RobotSimConfig.from_mapping(config("robot_sim.yaml")).simulation(section) == section
 
 
 def test_the_impedance_gains_come_only_from_the_yaml_and_a_missing_one_is_named():
@@ -149,7 +175,15 @@ def test_node_parameters_are_the_yaml_unless_a_private_parameter_overrides_them(
 
 @pytest.mark.parametrize(
     "parameters, outside_the_yaml",
-    [(GuiConfig, []), (SharedControlConfig, ["cache_dir"]), (Sigma7Config, []), (BehaviourTreeConfig, [])],
+    [
+        (GuiConfig, []),
+        (SharedControlConfig, ["cache_dir"]),
+        (Sigma7Config, []),
+        (BehaviourTreeConfig, []),
+        (SkillServerConfig, []),
+        (RobotSimConfig, []),
+        (DeviceMonitorConfig, []),
+    ],
 )
 def test_a_config_read_from_its_yaml_has_no_default_in_code(parameters, outside_the_yaml):
     assert [field.name for field in dataclasses.fields(parameters) if not is_required(field)] == outside_the_yaml

@@ -6,7 +6,7 @@ from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module, to_impedanc
 
 from teleteach.control.joint_trajectory import JointTrajectoryController
 from teleteach.control.manager import BEST_EFFORT, STRICT
-from teleteach.control.validation import InvalidCommandError
+from teleteach.core.validation import InvalidCommandError
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from scipy.spatial.transform import Rotation
 from visualization_msgs.msg import Marker
 
-from teleteach.control.validation import InvalidCommandError
+from teleteach.core.validation import InvalidCommandError
 from teleteach.viz.ellipsoid import DRAWN_RESOLUTION, EllipsoidMarkerBuilder, EllipsoidScale, drawn_as
 
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from session_bags import write_session
 
+from teleteach.core.plotting import covered_points
 from teleteach.learning.plot import figure_c1
 from teleteach.learning.synthetic import placement_demo
-from teleteach.plotting import covered_points
 from teleteach.recording.report import high_level_figure, rotation_figure, stiffness_figure, tree_edits
 from teleteach.recording.session import read_session
 

@@ -11,9 +11,9 @@ WRITE_EVERYTHING = """
 import os, pathlib, sys
 os.umask(int(sys.argv[2], 8))
 from teleteach.bt.teaching import TreeStore
-from teleteach.datadir import atomic_write_text
+from teleteach.core.datadir import atomic_write_text
 from teleteach.learning.synthetic import placement_demo
-from teleteach import skill_file
+from teleteach.core import skill_file
 root = pathlib.Path(sys.argv[1])
 skill, _, _ = placement_demo(angle=0.0, duration=2.0, gui_rate=4.0, seed=1)
 skill.name = "Demo"

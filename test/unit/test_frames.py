@@ -1,10 +1,10 @@
-"""Rigid transforms (teleteach.frames), each checked against an independent computation with 4x4 matrices."""
+"""Rigid transforms (teleteach.core.frames), each checked against an independent computation with 4x4 matrices."""
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach.frames import Transform, continuous_quaternions
+from teleteach.core.frames import Transform, continuous_quaternions
 
 
 def matrix(transform: Transform) -> np.ndarray:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from teleteach.control.franka_stiffness import STIFFNESS_VALUES, franka_stiffness
-from teleteach.control.validation import InvalidCommandError
+from teleteach.core.validation import InvalidCommandError
 
 VALUES = (1000.0, 3000.0, 2000.0)  # [N/m] along the ellipsoid's own x, y, z
 

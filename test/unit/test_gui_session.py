@@ -2,7 +2,7 @@
 
 import pytest
 
-from teleteach.active_tab import Tab
+from teleteach.core.active_tab import Tab
 from teleteach.gui.session import Action, Arm, Recording, TeachingSession
 
 A = Action

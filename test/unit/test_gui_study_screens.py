@@ -2,12 +2,12 @@
 
 import pytest
 
-from teleteach.gui.config import GuiConfig
+from teleteach.core.gui_config import GuiConfig
+from teleteach.core.questionnaire import NASA_TLX, Item
+from teleteach.core.study_phase import Phase, StudyView
 from teleteach.gui.device import DeviceSample
 from teleteach.gui.selection import SelectionFlow, Step
 from teleteach.gui.study import Page, StudyScreen, Submission
-from teleteach.questionnaire import NASA_TLX, Item
-from teleteach.study_phase import Phase, StudyView
 
 CONFIG = GuiConfig.load()
 LIKERT = Item("in_control", "Control", "I felt in control.", "Strongly disagree", "Strongly agree", 7, 1.0, 7.0)

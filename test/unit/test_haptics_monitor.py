@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from teleteach.core.rotations import quaternion_to_rpy
 from teleteach.haptics.monitor import DeviceMonitor
-from teleteach.rotations import quaternion_to_rpy
 
 
 @pytest.mark.parametrize("rpy", [(0.0, 0.0, 0.0), (0.5, -0.3, 0.9), (-1.0, 0.7, -0.2), (0.2, 1.2, 2.5)])

@@ -117,7 +117,7 @@ def test_closing_the_window_finishes_the_device(window):
 
 def test_enter_is_a_double_click_for_the_gui(window):
     """Two Space presses depend on the operator's timing; Enter plays two flicks within the double-click window."""
-    from teleteach.gui.config import GuiConfig
+    from teleteach.core.gui_config import GuiConfig
     from teleteach.gui.device import ClickClassifier, EdgeDetector
 
     detector, button = ClickDetector(ClickParameters()), EdgeDetector(0.5, 0.5)

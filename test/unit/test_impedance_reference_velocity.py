@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from sim_support import robot_sim_for_module, to_impedance
 
-from teleteach.control.validation import InvalidCommandError
+from teleteach.core.validation import InvalidCommandError
 
 STIFFNESS = 1500.0  # [N/m] as in issue 15
 CYCLE = 0.02  # [s] shared control's period

@@ -5,7 +5,7 @@ import subprocess
 
 import yaml
 
-from teleteach.robot_controllers import controller_names
+from teleteach.core.robot_controllers import controller_names
 
 # The nodes franka_ros' franka_control/launch/franka_control.launch (noetic-devel) starts, and those of
 # platonics-delft/franka_impedance_controller's launch/franka_control.launch and

@@ -10,11 +10,11 @@ import sys
 import numpy as np
 import pytest
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 from teleteach.learning import spd
 from teleteach.learning.command import main
 from teleteach.learning.synthetic import placement_demo
-from teleteach.processes import own_master
+from teleteach.runtime.processes import own_master
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 COMMAND = ROOT / "nodes" / "learn_skill"

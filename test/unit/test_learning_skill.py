@@ -6,8 +6,8 @@ from rosbags.rosbag1 import Writer
 from rosbags.typesys import Stores, get_typestore
 from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
 from teleteach.control.stiffness import translational_stiffness
+from teleteach.core import skill_file
 from teleteach.learning import spd
 from teleteach.learning.bag import read_bag
 from teleteach.learning.command import goal_stiffness, main

@@ -11,7 +11,7 @@ SHUTDOWN_RACE = """
 import rospy
 import rospy.core
 from std_msgs.msg import String
-from teleteach.node import publish
+from teleteach.runtime.node import publish
 
 rospy.core.set_initialized(True)
 publisher = rospy.Publisher("/gui_send_race", String, queue_size=1)
@@ -29,7 +29,7 @@ CLOSED_WITHOUT_SHUTDOWN = """
 import rospy
 import rospy.core
 from std_msgs.msg import String
-from teleteach.node import publish
+from teleteach.runtime.node import publish
 
 rospy.core.set_initialized(True)
 publisher = rospy.Publisher("/gui_send_closed", String, queue_size=1)

@@ -10,8 +10,8 @@ import pytest
 import yaml
 from conftest import ROOT
 
-from teleteach import pins
-from teleteach.node import node_parameters, parameters_help, yaml_parameters
+from teleteach.core import pins
+from teleteach.runtime.node import node_parameters, parameters_help, yaml_parameters
 
 NODES = sorted(path for path in (ROOT / "nodes").iterdir() if path.is_file())
 PARAMETER_FILES = {  # each node's yaml: every key must show in its --help

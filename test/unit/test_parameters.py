@@ -1,13 +1,13 @@
-"""A <Part>Config built from its yaml or the parameter server (teleteach.parameters): every value from the mapping, the
-yaml's spellings made the field's types, and a missing or unknown key named in one line, nested ones with their
-section."""
+"""A <Part>Config built from its yaml or the parameter server (teleteach.core.parameters): every value from the
+mapping, the yaml's spellings made the field's types, and a missing or unknown key named in one line, nested ones with
+their section."""
 
 import dataclasses
 from typing import Dict, List, Optional, Tuple
 
 import pytest
 
-from teleteach.parameters import from_mapping, key_problems
+from teleteach.core.parameters import from_mapping, key_problems
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,7 +7,7 @@ import sys
 
 from conftest import ROOT
 
-from teleteach.paths import config_file, share_dir
+from teleteach.core.paths import config_file, share_dir
 
 
 def test_in_the_checkout_the_files_lie_beside_src():
@@ -23,9 +23,9 @@ def load_copy(path):
 
 
 def test_in_an_install_space_ros_package_path_finds_the_share_directory(tmp_path, monkeypatch):
-    module = tmp_path / "lib" / "python3" / "dist-packages" / "teleteach" / "paths.py"
+    module = tmp_path / "lib" / "python3" / "dist-packages" / "teleteach" / "core" / "paths.py"
     module.parent.mkdir(parents=True)
-    shutil.copy(ROOT / "src" / "teleteach" / "paths.py", module)
+    shutil.copy(ROOT / "src" / "teleteach" / "core" / "paths.py", module)
     share = tmp_path / "share" / "teleteach"
     (share / "config").mkdir(parents=True)
     shutil.copy(ROOT / "package.xml", share / "package.xml")
@@ -37,7 +37,7 @@ def test_in_an_install_space_ros_package_path_finds_the_share_directory(tmp_path
 
 def test_without_either_it_says_what_to_source(tmp_path):
     module = tmp_path / "paths.py"
-    shutil.copy(ROOT / "src" / "teleteach" / "paths.py", module)
+    shutil.copy(ROOT / "src" / "teleteach" / "core" / "paths.py", module)
     code = (
         f"import importlib.util as u; s = u.spec_from_file_location('p', {str(module)!r}); m = u.module_from_spec(s); "
     )

@@ -1,14 +1,14 @@
-"""The one placement judgement (teleteach.placement) and the run's placements read from a recorded session."""
+"""The one placement judgement (teleteach.core.placement) and the run's placements read from a recorded session."""
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach import placement
-from teleteach.perception.observed import ObservedScene
+from teleteach.core import placement
+from teleteach.core.observed import ObservedScene
+from teleteach.core.scene import Gap, SceneError, load_scene
 from teleteach.recording.session import Series, Session, TreeSnapshot
 from teleteach.run import outcome
-from teleteach.scene import Gap, SceneError, load_scene
 
 UPRIGHT = (0.0, 0.0, 0.0, 1.0)
 

@@ -6,17 +6,17 @@ import pybullet
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
+from teleteach.control import panda
+from teleteach.control.kinematics import PandaKinematics
+from teleteach.core import skill_file
+from teleteach.core.scene import load_scene
 from teleteach.learning.synthetic import placement_on_trajectory
+from teleteach.run.sim_robot import SimRobot
 from teleteach.run.trials import TrialJob, TrialSetup, hold_product, run_trial, run_trials, scene_around
-from teleteach.scene import load_scene
-from teleteach.sim import panda
-from teleteach.sim.kinematics import PandaKinematics
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, UncertaintyError, load_uncertainty
 from teleteach.skills.config import load_motion_config
 from teleteach.skills.runner import SkillRunner
-from teleteach.skills.sim_robot import SimRobot
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,11 @@
-"""The one roll-pitch-yaw convention (teleteach.rotations): a heading is a yaw about the fixed Z axis."""
+"""The one roll-pitch-yaw convention (teleteach.core.rotations): a heading is a yaw about the fixed Z axis."""
 
 import math
 
 import numpy as np
 import pytest
 
-from teleteach.rotations import quaternion_to_rpy, rpy_to_quaternion, yaw_quaternion, yaw_rotation
+from teleteach.core.rotations import quaternion_to_rpy, rpy_to_quaternion, yaw_quaternion, yaw_rotation
 
 
 @pytest.mark.parametrize("yaw", [0.0, math.pi / 4, -2.0, math.pi])

@@ -13,14 +13,18 @@ from conftest import ROOT
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
-from teleteach.frames import Transform
+from teleteach.core.frames import Transform
+from teleteach.core.skill_file import Skill, save
 from teleteach.gui.device import scale_to_index
 from teleteach.gui.selection import OPERATIONS
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.scenario import check_clicks, load_scenario
-from teleteach.processes import (
+from teleteach.run import outcome
+from teleteach.run.thesis import RVIZ_STARTS, ThesisRun, options_for
+from teleteach.runtime.processes import (
     ProcessError,
     Processes,
+    StageScreenshots,
     closed_bag,
     free_port,
     full_launch,
@@ -32,9 +36,6 @@ from teleteach.processes import (
     scripted_device,
     start_xvfb,
 )
-from teleteach.run import outcome
-from teleteach.run.thesis import RVIZ_STARTS, ThesisRun, options_for
-from teleteach.skill_file import Skill, save
 
 SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full", "remembered_repair"]
 
@@ -236,6 +237,49 @@ def test_free_port_and_xvfb_on_a_display_it_picked(tmp_path):
         assert (tmp_path / "screen.png").stat().st_size > 0
     finally:
         processes.stop_all()
+
+
+def wait_for(path, timeout=20.0):
+    deadline = time.monotonic() + timeout
+    while not path.is_file() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return path.is_file()
+
+
+def test_each_stage_is_pictured_after_its_delay_then_its_latest_state_while_it_lasts(tmp_path):
+    processes = Processes()
+    stage = {"name": None}
+    try:
+        shots = StageScreenshots(start_xvfb(processes), tmp_path, "gui", lambda: stage["name"], delay=0.3, period=0.5)
+        time.sleep(1.0)
+        assert list(tmp_path.iterdir()) == []  # no stage yet: nothing worth a picture
+        stage["name"] = "start"
+        assert wait_for(tmp_path / "gui_01_start.png")
+        assert wait_for(tmp_path / "gui_01_start_latest.png")
+        stage["name"] = None
+        time.sleep(0.5)
+        stage["name"] = "low_level"
+        assert wait_for(tmp_path / "gui_02_low_level.png")
+        shots.stop()
+        shots.take(tmp_path / "gui_final.png")
+    finally:
+        processes.stop_all()
+    assert {path.name for path in tmp_path.iterdir()} <= {
+        "gui_01_start.png",
+        "gui_01_start_latest.png",
+        "gui_02_low_level.png",
+        "gui_02_low_level_latest.png",
+        "gui_final.png",
+    }
+    assert (tmp_path / "gui_final.png").stat().st_size > 0 and shots.errors == []
+
+
+def test_without_a_display_nothing_is_pictured(tmp_path):
+    shots = StageScreenshots("", tmp_path, "screen", lambda: "running", delay=0.0, period=0.1)
+    time.sleep(0.3)
+    shots.take(tmp_path / "final.png")
+    shots.stop()
+    assert list(tmp_path.iterdir()) == [] and shots.errors == []
 
 
 def test_an_rviz_that_dies_is_started_again_and_the_run_says_what_each_start_did(tmp_path, monkeypatch):

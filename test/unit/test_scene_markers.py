@@ -7,17 +7,17 @@ import numpy as np
 import pytest
 from visualization_msgs.msg import Marker
 
-from teleteach.perception.observed import (
+from teleteach.core.observed import (
     GAPS,
     PRODUCTS,
     TABLES,
     observed_from_markers,
     observed_from_scene,
     product_positions,
+    scene_markers,
     table_on,
 )
-from teleteach.perception.ros import scene_markers
-from teleteach.scene import load_objects, load_scene
+from teleteach.core.scene import load_objects, load_scene
 
 
 def marker(ns, text, xyz, frame="world", quaternion=(0.0, 0.0, 0.0, 1.0), scale=(0.06, 0.05, 0.14)):

@@ -2,9 +2,9 @@
 
 import pytest
 
-from teleteach.scene import SceneError, load_scene
+from teleteach.core.scene import SceneError, load_scene
+from teleteach.run.sim_robot import SimRobot
 from teleteach.sim.robot_sim import RobotSim
-from teleteach.skills.sim_robot import SimRobot
 
 
 def test_left_out_products_are_not_in_the_scene_nor_in_the_simulation():

@@ -9,7 +9,7 @@ import math
 import pytest
 from sim_support import robot_sim_for_module
 
-from teleteach.control.validation import InvalidCommandError
+from teleteach.core.validation import InvalidCommandError
 
 
 @pytest.fixture(scope="module")

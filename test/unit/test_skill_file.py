@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
-from teleteach.frames import Transform
+from teleteach.core import skill_file
+from teleteach.core.frames import Transform
 
 GAP_IN_BASE = Transform.from_planar(0.61, 0.02, 0.3, z=0.72)  # a gap ahead, turned 0.3 rad
 

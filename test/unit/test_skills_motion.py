@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach.sim.kinematics import PandaKinematics
+from teleteach.control.kinematics import PandaKinematics
 from teleteach.skills import trajectory
 from teleteach.skills.config import DEFAULT_MOTION_FILE, MotionConfigError, load_motion_config
 from teleteach.skills.motion import TOP_DOWN, InverseKinematics, base_to_world, world_to_base

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 from teleteach.skills.replay import parse_replay_parameters, plan_replay, principal_axes
 from teleteach.skills.robot import SkillError
 

@@ -4,15 +4,15 @@ ReplaySkill on the real in-process simulation (pybullet physics, controller mana
 import numpy as np
 import pytest
 
-from teleteach import skill_file
+from teleteach.control.kinematics import PandaKinematics
+from teleteach.core import skill_file
 from teleteach.learning.skill import learn_skill
 from teleteach.learning.synthetic import placement_on_trajectory
-from teleteach.sim.kinematics import PandaKinematics
+from teleteach.run.sim_robot import SimRobot
 from teleteach.sim.robot_sim import TRAJECTORY, RobotSim
 from teleteach.skills.config import load_motion_config
 from teleteach.skills.robot import Execution
 from teleteach.skills.runner import SkillRunner
-from teleteach.skills.sim_robot import SimRobot
 
 
 @pytest.fixture

@@ -8,15 +8,15 @@ import pybullet
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
+from teleteach.control.kinematics import PandaKinematics
+from teleteach.core import skill_file
 from teleteach.learning.synthetic import placement_on_trajectory
-from teleteach.sim.kinematics import PandaKinematics
+from teleteach.run.sim_robot import SimRobot
 from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY, RobotSim
 from teleteach.skills.config import load_motion_config
 from teleteach.skills.predefined import PREDEFINED_SKILLS
 from teleteach.skills.robot import Execution, SkillError
 from teleteach.skills.runner import SkillRunner
-from teleteach.skills.sim_robot import SimRobot
 
 
 @pytest.fixture(scope="module")

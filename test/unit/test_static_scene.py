@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from teleteach.core.scene import load_objects
 from teleteach.perception.static import StaticScene
-from teleteach.scene import load_objects
 
 DOWN = Rotation.from_euler("x", np.pi)  # TCP z pointing down
 HOLD = np.array([0.0, 0.0, 0.035])  # [m] the TCP above a held product's centre

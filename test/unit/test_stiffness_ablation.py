@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from teleteach import skill_file
-from teleteach.frames import Transform
+from teleteach.core import skill_file
+from teleteach.core.frames import Transform
 from teleteach.run.ablation import (
     HIGH_STIFFNESS,
     INSERTION_START,

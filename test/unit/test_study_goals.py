@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach.questionnaire import NASA_TLX, AnswerError, check_answers, raw_tlx
-from teleteach.scene import load_scene
+from teleteach.core.questionnaire import NASA_TLX, AnswerError, check_answers, raw_tlx
+from teleteach.core.scene import load_scene
+from teleteach.core.study_phase import Phase
 from teleteach.study.goals import Goal, GoalJudge, PlacementGoal, StiffnessGoal, TreeGoal, TreeView
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import session_plan
 from teleteach.study.schema import load_study
 from teleteach.study.trial import StudyFlow
-from teleteach.study_phase import Phase
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 TREE = TreeView(

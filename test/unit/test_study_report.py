@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from teleteach.questionnaire import TLX_NAMES
+from teleteach.core.questionnaire import TLX_NAMES
 from teleteach.study.ordering import QUESTIONNAIRE
 from teleteach.study.report import (
     Comparison,

@@ -6,14 +6,14 @@ import textwrap
 import pytest
 import yaml
 
-import teleteach.node
-from teleteach.gui.config import GuiConfig
+import teleteach.runtime.node
+from teleteach.core.gui_config import GuiConfig
+from teleteach.core.questionnaire import TLX_NAMES
 from teleteach.haptics.ros import Sigma7Config
-from teleteach.node import node_parameters
-from teleteach.processes import launch_value
-from teleteach.questionnaire import TLX_NAMES
+from teleteach.runtime.node import node_parameters
+from teleteach.runtime.processes import launch_value
 from teleteach.shared_control.ros import SharedControlNode
-from teleteach.study.parameters import check_parameter, node_defaults, parameters_file
+from teleteach.study.parameters import RUNNER_NODE_PARAMETERS, check_parameter, node_defaults, parameters_file
 from teleteach.study.schema import StudyError, load_study, parse_study
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -227,6 +227,17 @@ def test_every_node_parameter_a_condition_may_set_is_one_its_node_reads():
     assert check_parameter("sigma7_node/hand/tremor_rms", 0) is None
     assert check_parameter("behaviour_tree/tick_rate", 20) is None
     assert check_parameter("sigma7_node/hand/seed", 2.5).startswith("sigma7_node/hand/seed must be integer")
+    assert check_parameter("behaviour_tree/tree", "/studies/tree_b.yaml") is None
+
+
+def test_a_condition_cannot_set_what_the_runner_sets_for_every_trial():
+    assert check_parameter("behaviour_tree/data_dir", "/tmp/elsewhere") == (
+        "behaviour_tree/data_dir is set by the study runner for every trial"
+    )
+    assert (
+        check_parameter("sigma7_node/backend", "dhd")
+        == "sigma7_node/backend is set by the study runner for every trial"
+    )
 
 
 def changed(value):
@@ -259,7 +270,7 @@ def build_gui(parameters):
 
 
 def build_sigma7(parameters):
-    # backend and scenario are full.launch's arguments, not the yaml's
+    # backend and scenario: the study runner sets them (full.launch's device and scenario)
     values = nested({"backend": "virtual", "scenario": "operator.yaml", **parameters})
     return Sigma7Config.from_params(lambda name, default: values.get(name.lstrip("~"), default))
 
@@ -272,7 +283,7 @@ def built_node(node_class, parameters, monkeypatch):
     def from_yaml_and_overrides(defaults_file, get_param=None):
         return real(defaults_file, lambda name, default: overrides.get(name.lstrip("~"), default))
 
-    monkeypatch.setattr(teleteach.node, "node_parameters", from_yaml_and_overrides)
+    monkeypatch.setattr(teleteach.runtime.node, "node_parameters", from_yaml_and_overrides)
 
     class Captured(node_class):
         def __init__(self, *args, **kwargs):
@@ -305,7 +316,7 @@ def test_every_parameter_a_study_may_set_reaches_its_node(node, monkeypatch):
     }[node]
     ignored = []
     for name, value in node_defaults(node).items():
-        if isinstance(value, dict):
+        if isinstance(value, dict) or f"{node}/{name}" in RUNNER_NODE_PARAMETERS:
             continue
         assert check_parameter(f"{node}/{name}", value) is None
         context = read_when(node, name)

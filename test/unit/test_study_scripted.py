@@ -4,13 +4,13 @@ import pathlib
 
 import numpy as np
 
-from teleteach.gui.config import GuiConfig
+from teleteach.core.gui_config import GuiConfig
+from teleteach.core.study_phase import PHASE_NAMES
 from teleteach.gui.device import scale_to_index
 from teleteach.haptics.scenario import ScenarioTrajectory, load_scenario, parse_scenario
 from teleteach.study.ordering import session_plan
 from teleteach.study.schema import load_study
 from teleteach.study.scripted import compose, intended_answers, pace, questionnaire_scenario
-from teleteach.study_phase import PHASE_NAMES
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 STUDY = load_study(ROOT / "config" / "studies" / "example.yaml")

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import yaml
 
-from teleteach.perception.observed import observed_from_scene
-from teleteach.scene import load_scene
+from teleteach.core.observed import observed_from_scene
+from teleteach.core.scene import load_scene
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import (
     DEFAULT_UNCERTAINTY_FILE,

@@ -1,4 +1,4 @@
-"""Every kind of bad command is rejected with its reason (teleteach.control.validation), and RobotSim keeps the
+"""Every kind of bad command is rejected with its reason (teleteach.core.validation), and RobotSim keeps the
 last good command."""
 
 import math
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from sim_support import robot_sim_for_module
 
-from teleteach.control import validation as v
-from teleteach.sim import panda
+from teleteach.control import panda
+from teleteach.core import validation as v
 
 
 @pytest.fixture(scope="module")

@@ -8,10 +8,10 @@ from conftest import ROOT
 from scipy.spatial.transform import Rotation
 from sim_support import IMPEDANCE, TRAJECTORY, robot_sim_for_module
 
-from teleteach.paths import share_dir
-from teleteach.scene import SceneError, load_scene
-from teleteach.sim import panda
-from teleteach.sim.kinematics import IKError, PandaKinematics
+from teleteach.control import panda
+from teleteach.control.kinematics import IKError, PandaKinematics
+from teleteach.core.paths import share_dir
+from teleteach.core.scene import SceneError, load_scene
 from teleteach.sim.urdf import robot_description
 
 

@@ -3,7 +3,7 @@
 A tree leaf runs one library skill. Predefined skills and conditions (kind ``condition``: a check of the world
 that moves nothing, e.g. ProductInHand) are served by ``/skills/<name>``; demonstrated (or learned)
 skills are replayed by ``/skills/ReplaySkill`` from their recorded file, which :meth:`SkillLibrary.add_demonstrated`
-validates with :func:`teleteach.skill_file.load` before accepting it. A saved entry whose file went missing or bad
+validates with :func:`teleteach.core.skill_file.load` before accepting it. A saved entry whose file went missing or bad
 since stays in the library as *unavailable* (:meth:`SkillLibrary.with_checked_files`): shown, never run or inserted.
 """
 
@@ -13,7 +13,7 @@ import typing
 
 import yaml
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 
 PREDEFINED = "predefined"
 CONDITION = "condition"  # served like a predefined skill; its failure is an answer, not a reason to ask for help

@@ -22,11 +22,13 @@ from py_trees.common import Status
 from std_msgs.msg import Bool, String
 from std_srvs.srv import Trigger, TriggerResponse
 
-from teleteach import datadir
 from teleteach.bt.behaviours import SkillLeaf
 from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.teaching import Execution, NodeRecord, TeachingTree, TreeStore
 from teleteach.bt.tree import load_tree
+from teleteach.core import datadir
+from teleteach.core.parameters import from_mapping
+from teleteach.core.paths import config_file
 from teleteach.msg import (
     Behaviour,
     BehaviourTree,
@@ -38,10 +40,8 @@ from teleteach.msg import (
 from teleteach.msg import (
     SkillLibrary as SkillLibraryMsg,
 )
-from teleteach.node import node_parameters
-from teleteach.parameters import from_mapping
-from teleteach.paths import config_file
-from teleteach.ros_actions import server_ready
+from teleteach.runtime.node import node_parameters
+from teleteach.runtime.ros_actions import server_ready
 from teleteach.srv import AddSkill, AddSkillResponse, ChangeTree, ChangeTreeResponse
 
 REPLAY_SKILL = "ReplaySkill"
@@ -130,6 +130,10 @@ class ActionClients:
 class BehaviourTreeConfig:
     """The node's parameters: config/behaviour_tree.yaml's keys (the one place of their values and meanings)."""
 
+    tree: str
+    skills: str
+    data_dir: str
+    resume: bool
     tick_rate: float
     skill_namespace: str
     startup_timeout: float
@@ -335,9 +339,9 @@ class BehaviourTreeNode:
         resumes what was taught, whatever ``~resume`` says. A clean shutdown clears the flag.
         """
         config = BehaviourTreeConfig.from_params()
-        library = SkillLibrary.load(rospy.get_param("~skills", "") or config_file("skills.yaml"))
-        spec = load_tree(rospy.get_param("~tree", "") or config_file("tree.yaml"), library)
-        data_root = datadir.data_dir(rospy.get_param("~data_dir", "") or None)
+        library = SkillLibrary.load(config.skills or config_file("skills.yaml"))
+        spec = load_tree(config.tree or config_file("tree.yaml"), library)
+        data_root = datadir.data_dir(config.data_dir)
         # a tree in a namespace (one of two robots on a master) keeps its own files: trees/<namespace>/
         store = TreeStore(data_root / "trees" / rospy.get_namespace().strip("/"))
         restarted = rospy.get_param(RUNNING_PARAM, False)
@@ -345,7 +349,7 @@ class BehaviourTreeNode:
             rospy.logwarn("behaviour_tree: the previous behaviour_tree died without stopping: resuming what it saved")
         rospy.set_param(RUNNING_PARAM, True)
         rospy.on_shutdown(_clear_running_flag)
-        if restarted or rospy.get_param("~resume", False):
+        if restarted or config.resume:
             spec, library, problems = store.restore(spec, library)
             if problems:
                 rospy.logwarn("behaviour_tree: could not resume everything saved in %s: %s", store.directory, problems)

@@ -40,7 +40,7 @@ from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairError, RepairMemory
 from teleteach.bt.tree import LeafFactory, TreeSpec, TreeSpecError, create_root, dump_live_yaml, load_tree, node_type
-from teleteach.datadir import temporary_beside
+from teleteach.core.datadir import temporary_beside
 
 TREE_FILE = "current_tree.yaml"
 LIBRARY_FILE = "skill_library.yaml"

@@ -19,8 +19,8 @@ from typing import Tuple
 
 import numpy as np
 
-from teleteach.control import validation
 from teleteach.control.stiffness import TRANSLATIONAL, stiffness_matrix
+from teleteach.core import validation
 
 STIFFNESS_VALUES = 7  # Kx, Ky, Kz [N/m], Krx, Kry, Krz [Nm/rad], nullspace [Nm/rad]
 

@@ -108,7 +108,7 @@ def orientation_error(quaternion, reference):
 
 
 class CartesianImpedanceController:
-    """The impedance law; commands arrive already validated (teleteach.control.validation).
+    """The impedance law; commands arrive already validated (teleteach.core.validation).
 
     Args:
         params: gains and limits.

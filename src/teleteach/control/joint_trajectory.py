@@ -7,7 +7,7 @@ positions only, cubic Hermite when velocities are given; after the last point th
 import numpy as np
 
 from teleteach.control.impedance import JointCommand, RobotState
-from teleteach.control.validation import InvalidCommandError
+from teleteach.core.validation import InvalidCommandError
 
 
 class JointTrajectoryController:

@@ -8,7 +8,7 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from std_msgs.msg import Float32MultiArray, MultiArrayDimension
 
 from teleteach.control.franka_stiffness import STIFFNESS_VALUES, franka_stiffness
-from teleteach.control.validation import (
+from teleteach.core.validation import (
     InvalidCommandError,
     check_frame,
     validate_eigenvalues,

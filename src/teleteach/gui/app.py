@@ -20,12 +20,15 @@ from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, Q
 from std_msgs.msg import Bool, Int8
 from std_srvs.srv import Trigger, TriggerRequest
 
-from teleteach import skill_file
-from teleteach.active_tab import Tab
 from teleteach.bt.editor import EditRequest
-from teleteach.datadir import data_dir
-from teleteach.frames import Transform
-from teleteach.gui.config import GuiConfig, GuiConfigError
+from teleteach.core import skill_file
+from teleteach.core.active_tab import Tab
+from teleteach.core.datadir import data_dir
+from teleteach.core.frames import Transform
+from teleteach.core.gui_config import GuiConfig, GuiConfigError
+from teleteach.core.skill_file import TARGET_FRAME
+from teleteach.core.study_phase import StudyView
+from teleteach.core.trajectories import Trajectory
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
 from teleteach.gui.recording import StiffnessRecorder, unique_skill_name
@@ -38,8 +41,7 @@ from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.haptics.guidance import Guidance
 from teleteach.msg import HapticGuidance, Selection, TreeExecution
-from teleteach.node import publish
-from teleteach.skill_file import TARGET_FRAME
+from teleteach.runtime.node import publish
 from teleteach.srv import (
     AddSkill,
     AddSkillRequest,
@@ -50,8 +52,6 @@ from teleteach.srv import (
     SwitchController,
     SwitchControllerRequest,
 )
-from teleteach.study_phase import StudyView
-from teleteach.trajectories import Trajectory
 
 SWITCH_SERVICE = "controller_manager/switch_controller"
 

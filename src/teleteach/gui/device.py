@@ -8,8 +8,8 @@ import dataclasses
 import math
 from typing import Optional, Sequence, Tuple
 
-from teleteach.gui.config import DEVICE_AXES, GuiConfig
-from teleteach.rotations import quaternion_to_rpy
+from teleteach.core.gui_config import DEVICE_AXES, GuiConfig
+from teleteach.core.rotations import quaternion_to_rpy
 
 
 @dataclasses.dataclass(frozen=True)

@@ -18,9 +18,9 @@ from typing import Optional, Tuple
 import numpy as np
 
 from teleteach.control.stiffness import translational_stiffness
-from teleteach.gui.config import GuiConfig
+from teleteach.core.gui_config import GuiConfig
+from teleteach.core.rotations import rpy_to_matrix, rpy_to_quaternion
 from teleteach.gui.device import DeviceSample, scale
-from teleteach.rotations import rpy_to_matrix, rpy_to_quaternion
 
 MODES = ("ALL", "X", "Y", "Z")
 

@@ -13,8 +13,8 @@ from PyQt5.QtCore import QPointF, QRectF, Qt
 from PyQt5.QtGui import QColor, QFont, QPainter
 from PyQt5.QtWidgets import QOpenGLWidget
 
+from teleteach.core.rotations import rpy_to_matrix
 from teleteach.gui.ellipsoid import EllipsoidCommand
-from teleteach.rotations import rpy_to_matrix
 
 LOG = logging.getLogger(__name__)
 AXIS_COLOURS = ((0.85, 0.1, 0.1), (0.1, 0.65, 0.1), (0.15, 0.3, 0.95))

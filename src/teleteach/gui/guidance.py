@@ -24,7 +24,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from teleteach.gui.config import GuiConfig
+from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import DeviceSample
 from teleteach.gui.selection import SelectionFlow, Step
 from teleteach.haptics.guidance import AXES, AxisGuidance, Guidance

@@ -1,7 +1,7 @@
-"""Recording a stiffness demonstration (thesis II-C, A.2.2) along a teleteach.trajectories.Trajectory.
+"""Recording a stiffness demonstration (thesis II-C, A.2.2) along a teleteach.core.trajectories.Trajectory.
 
 The recorder stores the commanded stiffness, the equilibrium pose and the measured ``/cartesian_pose`` at every sample
-(base_link) and turns them into a :class:`teleteach.skill_file.Skill`, relative to the target when there is one.
+(base_link) and turns them into a :class:`teleteach.core.skill_file.Skill`, relative to the target when there is one.
 """
 
 import pathlib
@@ -10,7 +10,7 @@ from typing import Iterable, List, Optional
 
 import numpy as np
 
-from teleteach.skill_file import Skill
+from teleteach.core.skill_file import Skill
 
 
 class StiffnessRecorder:

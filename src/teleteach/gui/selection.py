@@ -14,7 +14,7 @@ import enum
 from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 from teleteach.bt.editor import EditRequest
-from teleteach.gui.config import GuiConfig
+from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import DeviceSample, scale_to_index
 from teleteach.msg import Behaviour
 

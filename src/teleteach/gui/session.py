@@ -24,7 +24,7 @@ actions to the widgets, the recorders and the ROS calls, so every rule below is 
 import enum
 from typing import List, Optional
 
-from teleteach.active_tab import Tab
+from teleteach.core.active_tab import Tab
 
 TEACHING_TABS = (Tab.LOW_LEVEL, Tab.SHARED_CONTROL)  # the tree pauses and the impedance controller drives the arm
 

@@ -18,7 +18,7 @@ from PyQt5.QtCore import QPointF, QRectF, Qt, pyqtSignal
 from PyQt5.QtGui import QColor, QPainter, QPen, QPolygonF
 from PyQt5.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
-from teleteach.gui.config import GuiConfig
+from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import ClickClassifier
 from teleteach.gui.tabs import restyle
 from teleteach.shared_control.loop import DIRECT, FALLBACK, MODE_NAMES, SHARED, UNKNOWN

@@ -17,10 +17,10 @@ import dataclasses
 import enum
 from typing import List, Optional, Tuple
 
-from teleteach.gui.config import GuiConfig
+from teleteach.core.gui_config import GuiConfig
+from teleteach.core.questionnaire import Item
+from teleteach.core.study_phase import Phase, StudyView
 from teleteach.gui.device import DeviceSample, scale_to_index
-from teleteach.questionnaire import Item
-from teleteach.study_phase import Phase, StudyView
 
 
 @dataclasses.dataclass(frozen=True)

@@ -10,8 +10,8 @@ from PyQt5.QtCore import QPointF, Qt
 from PyQt5.QtGui import QColor, QFont, QPainter, QPen
 from PyQt5.QtWidgets import QHBoxLayout, QLabel, QSizePolicy, QVBoxLayout, QWidget
 
+from teleteach.core.study_phase import Phase
 from teleteach.gui.study import StudyScreen
-from teleteach.study_phase import Phase
 
 TITLE_STYLE = "color: #1a237e;"
 DONE_STYLE = "color: #1b5e20;"

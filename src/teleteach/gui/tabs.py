@@ -30,7 +30,7 @@ from PyQt5.QtWidgets import (
 )
 
 from teleteach.bt.editor import EditRequest
-from teleteach.gui.config import GuiConfig
+from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import ClickClassifier, DeviceSample
 from teleteach.gui.ellipsoid import MODES, EllipsoidCommand
 from teleteach.gui.gl_view import ANGLE_NAMES, AXIS_NAMES, EllipsoidView

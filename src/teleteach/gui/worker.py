@@ -23,21 +23,21 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 from visualization_msgs.msg import MarkerArray
 
-from teleteach.active_tab import Tab
-from teleteach.frames import Transform
-from teleteach.gui.config import GuiConfig
+from teleteach.core.active_tab import Tab
+from teleteach.core.frames import Transform
+from teleteach.core.gui_config import GuiConfig
+from teleteach.core.observed import WORLD_FRAME, ObservedScene, observed_from_markers
+from teleteach.core.questionnaire import Item
+from teleteach.core.study_phase import Phase, StudyView, known_phase
+from teleteach.core.trajectories import Trajectory
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.shared_tab import SharedStatus
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState, TreeExecution
-from teleteach.node import publish, shutting_down
-from teleteach.perception.observed import WORLD_FRAME, ObservedScene, observed_from_markers
-from teleteach.questionnaire import Item
+from teleteach.runtime.node import publish, shutting_down
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
-from teleteach.study_phase import Phase, StudyView, known_phase
-from teleteach.trajectories import Trajectory
 
 
 def pose_to_array(pose) -> np.ndarray:
@@ -315,7 +315,7 @@ class RosWorker(QObject):
 
     @property
     def active_tab(self) -> int:
-        """The GUI's tab (teleteach.active_tab.Tab); set from the GUI thread."""
+        """The GUI's tab (teleteach.core.active_tab.Tab); set from the GUI thread."""
         return self._active_tab
 
     @active_tab.setter

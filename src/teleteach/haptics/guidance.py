@@ -27,7 +27,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from teleteach.rotations import quaternion_to_rpy
+from teleteach.core.rotations import quaternion_to_rpy
 
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 MODES = ("free", "hold", "detents")

@@ -19,9 +19,9 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
+from teleteach.core.rotations import quaternion_to_rpy, rpy_to_quaternion
 from teleteach.haptics.device import DeviceBackend, DeviceSample
 from teleteach.haptics.guidance import Wrench
-from teleteach.rotations import quaternion_to_rpy, rpy_to_quaternion
 
 TREMOR_BAND = (8.0, 12.0)  # [Hz] physiological tremor
 DRIFT_BAND = (0.1, 0.5)  # [Hz] slow drift of a hand that means to hold still

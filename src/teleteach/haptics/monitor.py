@@ -12,7 +12,7 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from teleteach.rotations import quaternion_to_rpy
+from teleteach.core.rotations import quaternion_to_rpy
 
 TOPICS = ("/sigma7/pose", "/sigma7/twist", "/sigma7/gripper_angle", "/sigma7/button")
 

@@ -27,6 +27,8 @@ import rospy
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from std_msgs.msg import Bool, Float64, Int8
 
+from teleteach.core.parameters import from_mapping
+from teleteach.core.study_phase import phase_name
 from teleteach.haptics.axes import AxisMapping
 from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.device import DeviceBackend, DeviceUnavailableError
@@ -54,9 +56,7 @@ from teleteach.haptics.scenario import (
 from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
-from teleteach.node import end_parent_launch, node_parameters, shutting_down
-from teleteach.parameters import from_mapping
-from teleteach.study_phase import phase_name
+from teleteach.runtime.node import end_parent_launch, node_parameters, shutting_down
 
 BACKENDS = ("dhd", "scenario", "virtual", "topic")
 
@@ -102,7 +102,7 @@ class HandSettings:
 
 @dataclasses.dataclass(frozen=True)
 class Sigma7Config:
-    """The node's parameters: the keys of ``config/device.yaml`` (their values and units), the backend and its file."""
+    """The node's parameters: the keys of ``config/device.yaml`` (their values and units)."""
 
     backend: str
     scenario: str
@@ -156,7 +156,7 @@ class Sigma7Config:
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any]) -> "Sigma7Config":
-        """From config/device.yaml's keys with the backend and the scenario file; a missing or unknown key is named."""
+        """From config/device.yaml's keys; a missing or unknown key is named."""
         values = dict(values)
         if isinstance(values.get("hand"), Mapping):  # the yaml's hand/enabled beside the model's own keys
             model = dict(values["hand"])
@@ -165,12 +165,8 @@ class Sigma7Config:
 
     @classmethod
     def from_params(cls, get_param: Callable[[str, Any], Any]) -> "Sigma7Config":
-        """Through ``get_param(name, default)`` (``rospy.get_param``).
-
-        The yaml's keys, each overridden by its private parameter, and the launch's ``~backend`` and ``~scenario``.
-        """
-        launch = {"backend": get_param("~backend", "scenario"), "scenario": get_param("~scenario", "")}
-        return cls.from_mapping({**node_parameters("device.yaml", get_param), **launch})
+        """The yaml's keys, each overridden by its private parameter (``get_param(name, default)``: rospy's)."""
+        return cls.from_mapping(node_parameters("device.yaml", get_param))
 
 
 class Sigma7Publisher:
@@ -489,6 +485,24 @@ def _running_nodes(message: BehaviourTree) -> frozenset:
     return frozenset(b.name for b in message.behaviours if b.status == Behaviour.RUNNING)
 
 
+@dataclasses.dataclass(frozen=True)
+class DeviceMonitorConfig:
+    """device_monitor's parameters: config/device_monitor.yaml's keys (the one place of values and meanings)."""
+
+    scenario: str
+    start_param: str
+    margin: float
+    end_launch: bool
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> "DeviceMonitorConfig":
+        """From the yaml's keys, each perhaps overridden; a missing or unknown key, or no scenario, is named."""
+        config = from_mapping(cls, values, "device_monitor's parameters (config/device_monitor.yaml)")
+        if not config.scenario:
+            raise ValueError("missing parameter ~scenario (the scenario file to listen for)")
+        return config
+
+
 class DeviceMonitorNode:
     """Listens to /sigma7/* for the length of a scenario (from the sigma7 node's start time), then summarises it."""
 
@@ -499,18 +513,12 @@ class DeviceMonitorNode:
     @classmethod
     def from_params(cls) -> "DeviceMonitorNode":
         """From the private parameters; a missing or unreadable ~scenario raises ValueError naming it."""
-        if not rospy.has_param("~scenario"):
-            raise ValueError("missing parameter ~scenario (the scenario file to listen for)")
+        config = DeviceMonitorConfig.from_mapping(node_parameters("device_monitor.yaml"))
         try:
-            duration = load_scenario(rospy.get_param("~scenario")).duration
+            duration = load_scenario(config.scenario).duration
         except ScenarioError as error:
             raise ValueError(str(error)) from None
-        return cls(
-            duration,
-            rospy.get_param("~start_param", "sigma7_node/scenario_start"),
-            float(rospy.get_param("~margin", 0.5)),
-            bool(rospy.get_param("~end_launch", False)),
-        )
+        return cls(duration, config.start_param, config.margin, config.end_launch)
 
     def run(self) -> None:
         """Subscribe, wait for the scenario's start and end, print the summary (and end the launch if asked)."""

@@ -34,10 +34,10 @@ import yaml
 from scipy.interpolate import PchipInterpolator, make_interp_spline
 from scipy.spatial.transform import Slerp
 
+from teleteach.core.rotations import rpy_rotation
+from teleteach.core.study_phase import PHASE_NAMES
 from teleteach.haptics.click import ClickDetector, ClickParameters, flick_gripper_angle
 from teleteach.haptics.device import DeviceBackend, DeviceSample
-from teleteach.rotations import rpy_rotation
-from teleteach.study_phase import PHASE_NAMES
 
 INTERPOLATIONS = ("linear", "smooth")
 AT_END_CHOICES = ("hold", "exit")

@@ -15,9 +15,9 @@ from typing import Callable, Tuple
 import numpy as np
 from PyQt5 import QtCore, QtWidgets
 
+from teleteach.core.rotations import rpy_to_quaternion
 from teleteach.haptics.click import flick_gripper_angle
 from teleteach.haptics.device import DeviceBackend, DeviceSample
-from teleteach.rotations import rpy_to_quaternion
 
 RESTING_GRIPPER = 0.25  # [rad] finger relaxed
 OPEN_GRIPPER = 0.5  # [rad] fully open (the GUI's "back to START" gesture needs >= 0.45)

@@ -12,14 +12,14 @@ from typing import Callable, Dict, Optional, Sequence
 
 import numpy as np
 
-from teleteach import skill_file
 from teleteach.control.stiffness import translational_stiffness
-from teleteach.datadir import data_dir
+from teleteach.core import skill_file
+from teleteach.core.datadir import data_dir
+from teleteach.core.rotations import rpy_rotation
 from teleteach.learning import bag
 from teleteach.learning.plot import write_figure_c1
 from teleteach.learning.preprocess import LearningError
 from teleteach.learning.skill import LearningParameters, learn, learn_skill, principal_axes_like_base
-from teleteach.rotations import rpy_rotation
 
 ADD_SKILL_SERVICE = "behaviour_tree/add_skill"
 
@@ -50,7 +50,7 @@ def parser() -> argparse.ArgumentParser:
         metavar=("ROLL", "PITCH", "YAW"),
         help="orientation of the goal's principal axes, R = Rz Ry Rx [deg] (default: the demonstrated goal's axes)",
     )
-    result.add_argument("--data-dir", default="", help="data directory (default: teleteach.datadir.data_dir())")
+    result.add_argument("--data-dir", default="", help="data directory (default: teleteach.core.datadir.data_dir())")
     result.add_argument("--output", default="", help="skill file to write (default: <data dir>/skills/<name>.npz)")
     result.add_argument("--plot", default="", help="PNG to write (default: next to the skill file, .png)")
     result.add_argument("--force", action="store_true", help="overwrite an existing skill file")

@@ -14,9 +14,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Ellipse
 
-from teleteach.datadir import atomic_write_bytes
+from teleteach.core.datadir import atomic_write_bytes
+from teleteach.core.plotting import legends_beside
 from teleteach.learning.preprocess import resample_geodesic
-from teleteach.plotting import legends_beside
 
 
 def _ellipses(axes, times, matrices, scale, colour):

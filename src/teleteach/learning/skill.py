@@ -3,7 +3,7 @@
 A learned skill is one SPD DMP for the translational stiffness (eqs C.6-C.7) and one pose DMP each for the
 equilibrium pose x_r and the measured pose x_a (eqs C.1-C.5 for the position; the orientation as the rotation
 vector relative to the goal orientation, a Euclidean DMP with goal 0). Reproducing it with a new duration or a new
-goal stiffness gives a :class:`teleteach.skill_file.Skill` of kind ``dmp`` that the robot replays like a
+goal stiffness gives a :class:`teleteach.core.skill_file.Skill` of kind ``dmp`` that the robot replays like a
 demonstrated one; the DMPs themselves travel in the file's provenance so the skill can be re-generated. Learned from a
 skill in a target's frame, the poses and the stiffness are learned in that frame and the learned skill keeps it: its
 goal pose is relative to the target, so replayed at another gap it retargets there.
@@ -16,7 +16,7 @@ from typing import Any, Dict, Optional, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 from teleteach.learning import spd
 from teleteach.learning.dmp import DMP, SPDDMP, DMPParameters, demonstration_regression
 from teleteach.learning.preprocess import Demonstration, LearningError, prepare, resample_geodesic

@@ -15,9 +15,9 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
 from teleteach.control.stiffness import translational_stiffnesses
-from teleteach.frames import Transform
-from teleteach.skill_file import TARGET_FRAME, Skill, Target
-from teleteach.trajectories import Trajectory
+from teleteach.core.frames import Transform
+from teleteach.core.skill_file import TARGET_FRAME, Skill, Target
+from teleteach.core.trajectories import Trajectory
 
 LOW = 300.0  # [N/m] compliant approach stiffness in X and Y
 HIGH = 1500.0  # [N/m] alignment stiffness in Y

@@ -1,1 +1,1 @@
-"""Perception: what the robot sees of the shop (products, gaps, tables) on teleteach/scene, and static_scene."""
+"""Perception: static_scene, a belief of the shop from a scene file (the teleteach/scene format: core.observed)."""

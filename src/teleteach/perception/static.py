@@ -13,9 +13,9 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.perception.observed import ObservedScene, observed_from_scene
-from teleteach.rotations import yaw_quaternion
-from teleteach.scene import SceneObjects
+from teleteach.core.observed import ObservedScene, observed_from_scene
+from teleteach.core.rotations import yaw_quaternion
+from teleteach.core.scene import SceneObjects
 
 
 @dataclass(frozen=True)
@@ -32,7 +32,7 @@ class StaticScene:
     """The scene file's objects, with the held product following the hand.
 
     Args:
-        objects: products, pick table and gaps of the scene file (teleteach.scene.load_objects()).
+        objects: products, pick table and gaps of the scene file (teleteach.core.scene.load_objects()).
         attach_distance: a product whose centre is this close to the TCP when a grasp succeeds is the grasped one [m].
         release_margin: the fingers opening this much beyond the grasped width release the product [m].
     """

@@ -10,7 +10,7 @@ import pathlib
 import re
 from typing import List, Optional, Sequence, Union
 
-from teleteach.datadir import data_dir
+from teleteach.core.datadir import data_dir
 
 DEVICE_TOPICS = ("sigma7/pose", "sigma7/twist", "sigma7/gripper_angle", "sigma7/button")
 """The haptic device's input: all a replay feeds into a live system."""

@@ -23,10 +23,10 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Ellipse
 
-from teleteach.active_tab import Tab
 from teleteach.control.stiffness import translational_stiffnesses
-from teleteach.datadir import atomic_write_bytes, atomic_write_text
-from teleteach.plotting import legends_beside
+from teleteach.core.active_tab import Tab
+from teleteach.core.datadir import atomic_write_bytes, atomic_write_text
+from teleteach.core.plotting import legends_beside
 from teleteach.recording.session import Series, Session, TreeSnapshot, read_session, yaw_of
 
 TAB_COLOURS = {Tab.HIGH_LEVEL: "#d9f2d9", Tab.LOW_LEVEL: "#f8d7d7", Tab.SHARED_CONTROL: "#d7e3f8"}

@@ -15,10 +15,10 @@ import struct
 from typing import Dict, Iterator, List, Optional, Tuple, Union
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from teleteach.control.validation import InvalidCommandError, validate_eigenvalues, validate_quaternion
-from teleteach.perception.observed import SCENE_TOPIC, TRUE_SCENE_TOPIC, observed_from_markers
+from teleteach.core.observed import SCENE_TOPIC, TRUE_SCENE_TOPIC, observed_from_markers
+from teleteach.core.rotations import quaternion_to_rpy, yaw_rotation
+from teleteach.core.validation import InvalidCommandError, validate_eigenvalues, validate_quaternion
 from teleteach.recording.bags import BagError, check_bag
 
 RUNNING, SUCCESS = 2, 3  # teleteach/Behaviour statuses (the message module needs the catkin build, this does not)
@@ -98,7 +98,7 @@ class Session:
         if gap not in self.perceived_gaps or gap not in self.true_gaps:
             return None
         seen, truth = self.perceived_gaps[gap].at(time), self.true_gaps[gap].at(time)
-        offset = Rotation.from_euler("z", truth[3]).inv().apply(seen[:3] - truth[:3])
+        offset = yaw_rotation(truth[3]).inv().apply(seen[:3] - truth[:3])
         return np.array([*offset, np.arctan2(np.sin(seen[3] - truth[3]), np.cos(seen[3] - truth[3]))])
 
     def base_error(self, time: float) -> Optional[np.ndarray]:
@@ -117,12 +117,12 @@ def yaw_of(quaternions_xyzw: np.ndarray) -> np.ndarray:
     yaw = np.full(len(quaternions), np.nan)
     valid = np.all(np.isfinite(quaternions), axis=1) & (np.linalg.norm(quaternions, axis=1) > 1e-9)
     if np.any(valid):
-        yaw[valid] = np.unwrap(Rotation.from_quat(quaternions[valid]).as_euler("ZYX")[:, 0])
+        yaw[valid] = np.unwrap(quaternion_to_rpy(quaternions[valid])[:, 2])
     return yaw
 
 
 def accepted_stiffness(eigenvalues: Series, eigenvectors: Series) -> Tuple[Series, Series, int, int]:
-    """The stiffness messages the controller accepts (teleteach.control.validation), and how many were rejected."""
+    """The stiffness messages the controller accepts (teleteach.core.validation), and how many were rejected."""
     good_values = [
         index
         for index, row in enumerate(eigenvalues.values)
@@ -209,7 +209,7 @@ def _row(topic: str, message) -> tuple:
         return (q.x, q.y, q.z, q.w)
     if topic == "/robot_sim/base_error":
         p, q = message.pose.position, message.pose.orientation
-        return (p.x, p.y, Rotation.from_quat([q.x, q.y, q.z, q.w]).as_euler("ZYX")[0])
+        return (p.x, p.y, quaternion_to_rpy([q.x, q.y, q.z, q.w])[2])
     return (float(message.data),)
 
 

@@ -1,1 +1,5 @@
-"""The main job: the thesis experiments run end to end, unattended (see :mod:`teleteach.run.thesis`)."""
+"""The main job and in-process placement trials.
+
+The thesis experiments run end to end, unattended (:mod:`teleteach.run.thesis`); placement trials on the simulation,
+faster than real time (:mod:`teleteach.run.trials`).
+"""

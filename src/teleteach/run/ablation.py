@@ -13,7 +13,7 @@ from typing import Dict, List, Tuple
 import numpy as np
 from scipy.stats import binomtest
 
-from teleteach import skill_file
+from teleteach.core import skill_file
 from teleteach.run.outcome import PHASES
 
 HIGH_STIFFNESS = 3000.0  # [N/m] the controller's max_stiffness (config/controllers.yaml)

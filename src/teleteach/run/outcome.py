@@ -13,12 +13,12 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 from py_trees.common import Status
 
-from teleteach import placement
-from teleteach.active_tab import Tab
+from teleteach.core import placement
+from teleteach.core.active_tab import Tab
+from teleteach.core.scene import Scene
+from teleteach.core.skill_file import Skill, SkillFileError
+from teleteach.core.skill_file import load as load_skill
 from teleteach.recording.session import Session
-from teleteach.scene import Scene
-from teleteach.skill_file import Skill, SkillFileError
-from teleteach.skill_file import load as load_skill
 
 # Phases of the demonstration trajectories [s from the start of the recording]: approach, alignment, insertion
 PHASES = {
@@ -106,7 +106,7 @@ REST = 0.005  # [m] a product within this of its final position has come to rest
 
 
 def placements(session: Session, scene: Scene) -> List[dict]:
-    """Every product that ended on a shelf, judged from the scene recorded in the bag (teleteach.placement).
+    """Every product that ended on a shelf, judged from the scene recorded in the bag (teleteach.core.placement).
 
     Each entry: product, gap (None when in none), distance_m from the nearest gap's target, upright,
     neighbours_max_move_m, and by_skill: who put it where it ended, i.e. the tree leaf running when it came to rest
@@ -263,7 +263,7 @@ def check_placements(
 ) -> Tuple[List[str], List[dict]]:
     """Where the products ended (judged from the bag), against product -> (gap, by_skill or None for anyone).
 
-    Returns the problems (the placement's own, teleteach.placement, and who set it down) and the summary's entries.
+    Returns the problems (the placement's own, teleteach.core.placement, and who set it down) and the summary's entries.
     """
     found = {result.product: (result, by_skill, rest) for result, by_skill, rest in _placed(session, scene)}
     problems = []

@@ -22,16 +22,23 @@ import numpy as np
 import yaml
 from py_trees.common import Status
 
-from teleteach.active_tab import Tab
 from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.tree import TreeSpec, load_tree
-from teleteach.datadir import atomic_write_text, data_dir
+from teleteach.core.active_tab import Tab
+from teleteach.core.datadir import atomic_write_text, data_dir
+from teleteach.core.observed import TRUE_SCENE_TOPIC, product_positions
+from teleteach.core.paths import config_file, share_dir
+from teleteach.core.scene import SceneError, load_scene
 from teleteach.haptics.scenario import load_scenario
-from teleteach.paths import config_file, share_dir
-from teleteach.perception.observed import TRUE_SCENE_TOPIC, product_positions
-from teleteach.processes import (
+from teleteach.recording.report import make_report
+from teleteach.recording.session import SessionError, read_session
+from teleteach.run import outcome
+from teleteach.run.outcome import RunSummary
+from teleteach.run.pictures import background_colour, rviz_picture
+from teleteach.runtime.processes import (
     ProcessError,
     Processes,
+    StageScreenshots,
     closed_bag,
     full_launch,
     own_master,
@@ -41,12 +48,6 @@ from teleteach.processes import (
     start_xvfb,
     with_required_death,
 )
-from teleteach.recording.report import make_report
-from teleteach.recording.session import SessionError, read_session
-from teleteach.run import outcome
-from teleteach.run.outcome import RunSummary
-from teleteach.run.pictures import background_colour, rviz_picture
-from teleteach.scene import SceneError, load_scene
 
 DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")
 TREE_FILE = config_file("tree.yaml")
@@ -108,7 +109,7 @@ def options_for(scenario: pathlib.Path, **overrides) -> Options:
 class Monitor:
     """Subscribes to the tree, the library, the scene and the active tab (needs rospy initialised)."""
 
-    def __init__(self, on_tab: Callable[[int], None]):
+    def __init__(self):
         import rospy
         from std_msgs.msg import Int8, String
         from visualization_msgs.msg import MarkerArray
@@ -125,7 +126,6 @@ class Monitor:
         self.final_products: Dict[str, np.ndarray] = {}
         self.help_requests: List[Tuple[float, str, str]] = []
         self.tabs: List[Tuple[float, int]] = []
-        self._on_tab = on_tab
         self._subscribers = [
             rospy.Subscriber("behaviour_tree/log/tree", BehaviourTree, self._tree, queue_size=20),
             rospy.Subscriber("behaviour_tree/ascii/tree", String, self._ascii, queue_size=5),
@@ -178,7 +178,14 @@ class Monitor:
     def _tab(self, message) -> None:
         with self._lock:
             self.tabs.append((self._now(), int(message.data)))
-        self._on_tab(int(message.data))
+
+    def tab_name(self) -> Optional[str]:
+        """The GUI's open tab, lower case (``low_level``); None before the GUI said."""
+        with self._lock:
+            if not self.tabs:
+                return None
+            tab = self.tabs[-1][1]
+        return Tab(tab).name.lower() if tab in list(Tab) else str(tab)
 
     def demonstrated(self) -> List[Tuple[str, str]]:
         """(name, data file) of every demonstrated skill in the library."""
@@ -193,60 +200,6 @@ class Monitor:
         """Unsubscribe."""
         for subscriber in self._subscribers:
             subscriber.unregister()
-
-
-class TabScreenshots:
-    """Screenshots of the GUI: one soon after a tab opens, then the latest state every few seconds while it is open."""
-
-    def __init__(self, display: str, folder: pathlib.Path, period: float = 3.0):
-        self.display = display
-        self.folder = folder
-        self.period = period
-        self.errors: List[str] = []
-        self._visit = 0
-        self._tab = None
-        self._since = 0.0
-        self._last = 0.0
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._loop, name="screenshots", daemon=True)
-        self._thread.start()
-
-    def tab_changed(self, tab: int) -> None:
-        """A new tab visit: the first picture 1.5 s later."""
-        with self._lock:
-            if tab == self._tab:
-                return
-            self._visit += 1
-            self._tab, self._since, self._last = tab, time.monotonic(), 0.0
-
-    def _loop(self) -> None:
-        while not self._stop.wait(0.2):
-            with self._lock:
-                tab, visit, since, last = self._tab, self._visit, self._since, self._last
-            now = time.monotonic()
-            if tab is None or now - since < 1.5 or (last and now - last < self.period):
-                continue
-            name = f"gui_{visit:02d}_{Tab(tab).name.lower() if tab in list(Tab) else tab}"
-            path = self.folder / (f"{name}.png" if not last else f"{name}_latest.png")
-            self.take(path)
-            with self._lock:
-                if self._visit == visit:
-                    self._last = now
-
-    def take(self, path: pathlib.Path) -> None:
-        """One screenshot of the whole screen."""
-        try:
-            error = screenshot(self.display, path)
-        except Exception as exception:
-            error = str(exception)
-        if error:
-            self.errors.append(f"{path.name}: {error}")
-
-    def stop(self) -> None:
-        """End the loop."""
-        self._stop.set()
-        self._thread.join(5.0)
 
 
 def _run_folder(root: pathlib.Path) -> pathlib.Path:
@@ -338,11 +291,11 @@ class ThesisRun:
         os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"], TELETEACH_DATA=env["TELETEACH_DATA"])
         import rospy
 
-        from teleteach.node import init_node
+        from teleteach.runtime.node import init_node
 
         init_node("run_thesis", anonymous=True, disable_signals=True)
-        shots = TabScreenshots(display, self.folder)
-        monitor = Monitor(shots.tab_changed)
+        monitor = Monitor()
+        shots = StageScreenshots(display, self.folder, "gui", monitor.tab_name, delay=1.5, period=3.0)
         self._mark("master_up")
         try:
             finished, reason = self._wait(monitor, launch, scenario.duration, rospy)

@@ -8,7 +8,7 @@ the product in the fingers where a pick would have grasped it (off its centre by
 table, as PickItem aims at the perceived product), squeezed with the grasp force. Products farther than
 ``scene_radius`` from the gap are left out: nothing in the trial can touch them, and each costs physics time. The
 trial records the largest normal contact force the held product takes from the shelf and from other products, and
-judges the placement from the world (teleteach.placement on the true poses), next to the skill's own verdict (from
+judges the placement from the world (teleteach.core.placement on the true poses), next to the skill's own verdict (from
 its perceived scene).
 """
 
@@ -24,16 +24,16 @@ import numpy as np
 import pybullet
 from scipy.spatial.transform import Rotation
 
-from teleteach import placement
-from teleteach.scene import Scene, load_scene
-from teleteach.sim import panda
-from teleteach.sim.kinematics import PandaKinematics
+from teleteach.control import panda
+from teleteach.control.kinematics import PandaKinematics
+from teleteach.core import placement
+from teleteach.core.scene import Scene, load_scene
+from teleteach.run.sim_robot import SimRobot
 from teleteach.sim.robot_sim import TRAJECTORY, RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings, load_uncertainty
 from teleteach.skills.config import MotionConfig, load_motion_config
 from teleteach.skills.motion import TOP_DOWN
 from teleteach.skills.runner import REPLAY_SKILL, SkillRunner
-from teleteach.skills.sim_robot import SimRobot
 
 SETTLE_TIME = 0.5  # [s] the squeezed product settles in the fingers before the skill starts
 SCENE_RADIUS = 0.3  # [m] products farther than this from the gap's target are left out of a trial's scene
@@ -160,7 +160,7 @@ def run_trial(
     Args:
         scene: the whole scene (the trial keeps the products near the gap).
         config: the skills' motion configuration.
-        kinematics: Panda kinematics for the skills' IK (teleteach.sim.kinematics.PandaKinematics).
+        kinematics: Panda kinematics for the skills' IK (teleteach.control.kinematics.PandaKinematics).
         uncertainty: the world's uncertainty; its seed is replaced by the trial's.
         setup: product, gap, base pose and seed.
         skill_path: the skill file ReplaySkill plays.

@@ -17,8 +17,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 import yaml
 
-from teleteach.parameters import from_mapping
-from teleteach.paths import config_file
+from teleteach.core.parameters import from_mapping
+from teleteach.core.paths import config_file
 from teleteach.shared_control import constraints
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.models import SKILLS, ClothoidPath, ParameterLayout, skill_names

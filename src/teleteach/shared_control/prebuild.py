@@ -19,7 +19,7 @@ import time
 
 import yaml
 
-from teleteach.paths import config_file
+from teleteach.core.paths import config_file
 from teleteach.shared_control import cache
 
 

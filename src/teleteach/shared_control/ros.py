@@ -12,7 +12,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from teleteach.rotations import quaternion_to_rpy
+from teleteach.core.rotations import quaternion_to_rpy
 from teleteach.shared_control import cache
 from teleteach.shared_control.approach import Approach, start_in_plane
 from teleteach.shared_control.constraints import Box, StraightEdge
@@ -206,7 +206,7 @@ class SharedControlNode:
     @classmethod
     def from_params(cls) -> "SharedControlNode":
         """From the private parameters (defaults: config/shared_control.yaml, see launch/shared_control.launch)."""
-        from teleteach.node import node_parameters
+        from teleteach.runtime.node import node_parameters
 
         parameters = node_parameters("shared_control.yaml")
         boundary = parameters["boundary"]

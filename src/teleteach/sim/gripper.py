@@ -11,7 +11,7 @@ or stood still for ``settle_time`` (blocked by a product, or holding it), and is
 import math
 from dataclasses import dataclass
 
-from teleteach.control.validation import InvalidCommandError
+from teleteach.core.validation import InvalidCommandError
 
 STILL = 2e-4  # [m] finger width changes smaller than this count as standing still
 

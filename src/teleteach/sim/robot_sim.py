@@ -9,17 +9,16 @@ import pathlib
 import numpy as np
 import yaml
 
-from teleteach import parameters
-from teleteach.control import validation
+from teleteach.control import panda
 from teleteach.control.impedance import CartesianImpedanceController, ImpedanceParams
 from teleteach.control.joint_trajectory import JointTrajectoryController
 from teleteach.control.manager import ControllerManager
-from teleteach.frames import Transform
-from teleteach.paths import config_file
-from teleteach.perception.observed import ObservedScene, observed_from_scene
-from teleteach.robot_controllers import controller_names
-from teleteach.scene import BasePose, Scene, load_scene
-from teleteach.sim import panda
+from teleteach.core import parameters, validation
+from teleteach.core.frames import Transform
+from teleteach.core.observed import ObservedScene, observed_from_scene
+from teleteach.core.paths import config_file
+from teleteach.core.robot_controllers import controller_names
+from teleteach.core.scene import BasePose, Scene, load_scene
 from teleteach.sim.gripper import SimGripper
 from teleteach.sim.uncertainty import BaseError, PerceptionNoise, UncertaintySettings, base_stream
 from teleteach.sim.world import SupermarketWorld

@@ -4,10 +4,11 @@ Callbacks unpack messages and hand plain values to RobotSim under one lock; Robo
 message is logged (throttled) and announced on ~rejected; the last good command stays in force.
 """
 
+import dataclasses
 import threading
 import time
 import warnings
-from typing import Dict
+from typing import Any, Dict, Mapping, Optional, Tuple
 
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -27,7 +28,12 @@ from tf2_msgs.msg import TFMessage
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
-from teleteach.control.validation import InvalidCommandError
+from teleteach.control import panda
+from teleteach.core.observed import WORLD_FRAME, box_marker, scene_markers
+from teleteach.core.parameters import from_mapping
+from teleteach.core.rotations import yaw_quaternion
+from teleteach.core.scene import load_scene
+from teleteach.core.validation import InvalidCommandError
 from teleteach.msg import (
     ControllerState,
     GraspAction,
@@ -40,12 +46,8 @@ from teleteach.msg import (
     StopAction,
     StopResult,
 )
-from teleteach.perception.observed import WORLD_FRAME
-from teleteach.perception.ros import box_marker, scene_markers
-from teleteach.ros_actions import OneGoalActionServer, WallStatusTimer
-from teleteach.rotations import yaw_quaternion
-from teleteach.scene import load_scene
-from teleteach.sim import panda
+from teleteach.runtime.node import node_parameters
+from teleteach.runtime.ros_actions import OneGoalActionServer, WallStatusTimer
 from teleteach.sim.robot_sim import BASE_FRAME, ControllerConfigError, RobotSim, load_controller_config
 from teleteach.sim.uncertainty import load_uncertainty
 from teleteach.sim.urdf import robot_description
@@ -79,6 +81,49 @@ def _xyz(vector):
 
 def _xyzw(quaternion):
     return [quaternion.x, quaternion.y, quaternion.z, quaternion.w]
+
+
+SIMULATION_OVERRIDES = (
+    "real_time_factor",
+    "clock_rate",
+    "clock",
+    "initial_controller",
+    "cartesian_pose_rate",
+    "state_rate",
+    "scene_rate",
+)
+"""robot_sim's parameters that replace a key of the controllers file's ``simulation`` section when not null."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotSimConfig:
+    """robot_sim's parameters: config/robot_sim.yaml's keys (the one place of values and meanings)."""
+
+    gui: bool
+    scene_file: str
+    absent_products: Tuple[str, ...]
+    controllers_file: str
+    uncertainty_file: str
+    seed: Optional[int]
+    base_error: Optional[bool]
+    perception_noise: Optional[bool]
+    real_time_factor: Optional[float]
+    clock_rate: Optional[float]
+    clock: Optional[str]
+    initial_controller: Optional[str]
+    cartesian_pose_rate: Optional[float]
+    state_rate: Optional[float]
+    scene_rate: Optional[float]
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> "RobotSimConfig":
+        """From the yaml's keys, each perhaps overridden; a missing or unknown one is named."""
+        return from_mapping(cls, values, "robot_sim's parameters (config/robot_sim.yaml)")
+
+    def simulation(self, section: Mapping[str, Any]) -> Dict[str, Any]:
+        """The controllers file's ``simulation`` section with the values these parameters set."""
+        overrides = {name: getattr(self, name) for name in SIMULATION_OVERRIDES}
+        return {**section, **{name: value for name, value in overrides.items() if value is not None}}
 
 
 class RobotSimNode:
@@ -184,27 +229,16 @@ class RobotSimNode:
 
     @classmethod
     def from_params(cls):
-        """Build the node from its private parameters.
-
-        ~gui, ~scene_file, ~controllers_file, ~absent_products (list of product names of the scene file to leave
-        out); ~real_time_factor, ~clock, ~initial_controller and the rates (~clock_rate, ~cartesian_pose_rate,
-        ~state_rate, ~scene_rate) override the controller file's `simulation`; ~uncertainty_file, and ~seed,
-        ~base_error, ~perception_noise overriding it.
-        """
-        scene = load_scene(rospy.get_param("~scene_file", "") or None)
-        scene = scene.without_products(rospy.get_param("~absent_products", None) or [])
-        uncertainty = load_uncertainty(rospy.get_param("~uncertainty_file", "") or None).with_overrides(
-            seed=rospy.get_param("~seed", None),
-            base_error=rospy.get_param("~base_error", None),
-            perception_noise=rospy.get_param("~perception_noise", None),
+        """Build the node from its private parameters (config/robot_sim.yaml, :class:`RobotSimConfig`)."""
+        params = RobotSimConfig.from_mapping(node_parameters("robot_sim.yaml"))
+        scene = load_scene(params.scene_file or None).without_products(params.absent_products)
+        uncertainty = load_uncertainty(params.uncertainty_file or None).with_overrides(
+            seed=params.seed, base_error=params.base_error, perception_noise=params.perception_noise
         )
-        config = load_controller_config(rospy.get_param("~controllers_file", "") or None)
-        simulation = config["simulation"]
+        config = load_controller_config(params.controllers_file or None)
+        config["simulation"] = simulation = params.simulation(config["simulation"])
         rates = ("clock_rate", "cartesian_pose_rate", "state_rate", "scene_rate")
-        for name in ("initial_controller", "real_time_factor", "clock", *rates):
-            if rospy.has_param(f"~{name}"):
-                simulation[name] = rospy.get_param(f"~{name}")
-        sim = RobotSim(scene, config, gui=bool(rospy.get_param("~gui", False)), uncertainty=uncertainty)
+        sim = RobotSim(scene, config, gui=params.gui, uncertainty=uncertainty)
         if simulation["clock"] not in ("publish", "follow"):
             raise ControllerConfigError(f"simulation clock must be publish or follow, got {simulation['clock']!r}")
         return cls(

@@ -15,9 +15,9 @@ import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation
 
-from teleteach.paths import config_file
-from teleteach.perception.observed import ObservedBox, ObservedScene
-from teleteach.scene import Gap
+from teleteach.core.observed import ObservedBox, ObservedScene
+from teleteach.core.paths import config_file
+from teleteach.core.scene import Gap
 
 DEFAULT_UNCERTAINTY_FILE = config_file("uncertainty.yaml")
 MAX_POSITION = 0.5  # [m] a standard deviation or limit above this is a mistake, not an uncertainty

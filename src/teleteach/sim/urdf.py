@@ -7,8 +7,8 @@ installed (devel or install space) finds them through its ROS_PACKAGE_PATH.
 
 import xml.etree.ElementTree as ElementTree
 
-from teleteach.scene import load_site
-from teleteach.sim import panda
+from teleteach.control import panda
+from teleteach.core.scene import load_site
 
 MESH_PREFIX = "package://meshes/"  # how pybullet_data's panda.urdf names its meshes (relative to itself)
 PACKAGE_MESHES = "package://teleteach/meshes/panda/"  # the same files, shipped in this package

@@ -15,10 +15,10 @@ import numpy as np
 import pybullet
 import pybullet_data
 
+from teleteach.control import panda
 from teleteach.control.impedance import JointCommand, RobotState
-from teleteach.rotations import yaw_quaternion
-from teleteach.scene import BasePose, Scene
-from teleteach.sim import panda
+from teleteach.core.rotations import yaw_quaternion
+from teleteach.core.scene import BasePose, Scene
 
 BASE_LINK_COLOUR = (0.25, 0.25, 0.3, 1.0)
 SHELF_COLOUR = (0.55, 0.4, 0.25, 1.0)
@@ -54,7 +54,7 @@ class SupermarketWorld:
     """The simulated world.
 
     Args:
-        scene: the scene description (teleteach.scene.load_scene()).
+        scene: the scene description (teleteach.core.scene.load_scene()).
         gui: open pybullet's own window instead of running headless (DIRECT).
         time_step: physics step [s].
         position_gain: pybullet motor position gain of the position-controlled arm [-].

@@ -1,19 +1,39 @@
-"""How the predefined skills move (config/skills_motion.yaml), as validated plain data."""
+"""The skill server's configuration as validated plain data.
+
+Its parameters (config/skill_server.yaml) and how the predefined skills move (config/skills_motion.yaml).
+"""
 
 import pathlib
 from dataclasses import dataclass, fields
-from typing import Dict, Optional, Tuple
+from typing import Any, Dict, Mapping, Optional, Tuple
 
 import yaml
 
-from teleteach.paths import config_file
-from teleteach.robot_controllers import ControllerNames, ControllerNamesError, controller_names
+from teleteach.core.parameters import from_mapping
+from teleteach.core.paths import config_file
+from teleteach.core.robot_controllers import ControllerNames, ControllerNamesError, controller_names
 
 DEFAULT_MOTION_FILE = config_file("skills_motion.yaml")
 
 
 class MotionConfigError(ValueError):
     """The motion file is missing a key or holds a wrong value."""
+
+
+@dataclass(frozen=True)
+class SkillServerConfig:
+    """The skill server node's parameters: config/skill_server.yaml's keys (the one place of values and meanings)."""
+
+    scene_file: str
+    motion_file: str
+    controllers: str
+    idle_after: float
+    action_status_rate: float
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> "SkillServerConfig":
+        """From the yaml's keys, each perhaps overridden; a missing or unknown one is named."""
+        return from_mapping(cls, values, "skill_server's parameters (config/skill_server.yaml)")
 
 
 @dataclass(frozen=True)

@@ -10,9 +10,9 @@ from typing import Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from teleteach.frames import Transform
-from teleteach.rotations import yaw_rotation
-from teleteach.sim import panda
+from teleteach.control import panda
+from teleteach.core.frames import Transform
+from teleteach.core.rotations import yaw_rotation
 from teleteach.skills import trajectory
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.robot import Execution, PreemptedError, Robot, SkillError
@@ -41,7 +41,7 @@ class InverseKinematics:
 
     Args:
         kinematics: forward(q) -> (position, quaternion) and jacobian(q) -> 6x7 in base_link
-            (teleteach.sim.kinematics.PandaKinematics).
+            (teleteach.control.kinematics.PandaKinematics).
         tolerance: accepted position [m] and orientation [rad] error.
     """
 

@@ -11,11 +11,11 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach import placement
-from teleteach.perception.observed import ObservedBox, ObservedScene, table_on
-from teleteach.placement import Placement
-from teleteach.rotations import yaw_rotation
-from teleteach.scene import Gap, SceneError, Site
+from teleteach.core import placement
+from teleteach.core.observed import ObservedBox, ObservedScene, table_on
+from teleteach.core.placement import Placement
+from teleteach.core.rotations import yaw_rotation
+from teleteach.core.scene import Gap, SceneError, Site
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import TOP_DOWN, Motion, world_to_base
 from teleteach.skills.robot import SkillError
@@ -60,7 +60,7 @@ class WorldView:
 
     Args:
         motion: the running skill's motions (robot, kinematics, config).
-        site: the named base poses (a teleteach.scene.Site, or the whole Scene).
+        site: the named base poses (a teleteach.core.scene.Site, or the whole Scene).
     """
 
     motion: Motion

@@ -20,9 +20,9 @@ import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation, Slerp
 
-from teleteach import skill_file
-from teleteach.frames import Transform, continuous_quaternions
-from teleteach.scene import Gap
+from teleteach.core import skill_file
+from teleteach.core.frames import Transform, continuous_quaternions
+from teleteach.core.scene import Gap
 from teleteach.skills.motion import Motion
 from teleteach.skills.predefined import WorldView, release
 from teleteach.skills.robot import SkillError

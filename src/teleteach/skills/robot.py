@@ -11,7 +11,7 @@ from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from teleteach.perception.observed import ObservedScene
+from teleteach.core.observed import ObservedScene
 
 HOLD_TIME = 0.05  # [s] a hold point lies this far ahead (a point at time 0 would already be in the past)
 

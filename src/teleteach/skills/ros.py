@@ -23,6 +23,9 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import MarkerArray
 
+from teleteach.control import panda
+from teleteach.core.observed import ObservedScene, observed_from_markers
+from teleteach.core.rotations import yaw_rotation
 from teleteach.msg import (
     ExecuteSkillAction,
     ExecuteSkillFeedback,
@@ -33,10 +36,7 @@ from teleteach.msg import (
     MoveAction,
     MoveGoal,
 )
-from teleteach.perception.observed import ObservedScene, observed_from_markers
-from teleteach.ros_actions import OneGoalActionServer, WallStatusTimer, server_ready
-from teleteach.rotations import yaw_rotation
-from teleteach.sim import panda
+from teleteach.runtime.ros_actions import OneGoalActionServer, WallStatusTimer, server_ready
 from teleteach.skills.robot import Execution, Robot, RobotGoal, SkillError
 from teleteach.skills.runner import REPLAY_SKILL, SKILL_NAMES, SkillRunner
 from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
@@ -444,19 +444,17 @@ class SkillServer:
 
         A bad scene or motion file raises its ValueError (SceneError, MotionConfigError) naming the file.
         """
-        from teleteach.node import node_parameters
-        from teleteach.scene import load_site
-        from teleteach.sim.kinematics import PandaKinematics
-        from teleteach.skills.config import load_motion_config
+        from teleteach.control.kinematics import PandaKinematics
+        from teleteach.core.scene import load_site
+        from teleteach.runtime.node import node_parameters
+        from teleteach.skills.config import SkillServerConfig, load_motion_config
 
-        site = load_site(rospy.get_param("~scene_file", None) or None)
-        config = load_motion_config(
-            rospy.get_param("~motion_file", None) or None, rospy.get_param("~controllers", None)
-        )
-        params = node_parameters("skill_server.yaml")
-        robot = RosRobot(config.position_controller, float(params["idle_after"]))
+        params = SkillServerConfig.from_mapping(node_parameters("skill_server.yaml"))
+        site = load_site(params.scene_file or None)
+        config = load_motion_config(params.motion_file or None, params.controllers or None)
+        robot = RosRobot(config.position_controller, params.idle_after)
         runner = SkillRunner(robot, config, site, PandaKinematics(site.robot.mount_height))
-        return cls(runner, float(params["action_status_rate"]))
+        return cls(runner, params.action_status_rate)
 
     def _execute(self, name, goal):
         server = self.servers[name]

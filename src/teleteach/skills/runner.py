@@ -6,7 +6,7 @@ from typing import Dict
 
 import yaml
 
-from teleteach.scene import Site
+from teleteach.core.scene import Site
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import InverseKinematics, Motion
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS, WorldView, create_skills
@@ -47,8 +47,8 @@ class SkillRunner:
     Args:
         robot: the robot interface.
         config: the motion configuration.
-        site: the named base poses (teleteach.scene.Site; the whole Scene will do).
-        kinematics: Panda forward kinematics and Jacobian in base_link (teleteach.sim.kinematics.PandaKinematics).
+        site: the named base poses (teleteach.core.scene.Site; the whole Scene will do).
+        kinematics: Panda forward kinematics and Jacobian in base_link (teleteach.control.kinematics.PandaKinematics).
     """
 
     def __init__(self, robot: Robot, config: MotionConfig, site: Site, kinematics):

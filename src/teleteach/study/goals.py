@@ -5,8 +5,8 @@ Three kinds, any of which a task may combine (all must hold at once):
 - ``tree``: nodes absent from or present in the tree, or a composite's children in order, judged on the tree the
   behaviour tree node publishes (``/behaviour_tree/log/tree``);
 - ``stiffness``: the principal stiffnesses on ``/eigenvalues`` within per-axis bounds [N/m], held for ``hold`` s;
-- ``placement``: a product upright in a gap with no neighbour pushed (:func:`teleteach.placement.judge` on the world
-  as it is, ``/teleteach/true_scene``, not as the robot perceives it), held for ``hold`` s.
+- ``placement``: a product upright in a gap with no neighbour pushed (:func:`teleteach.core.placement.judge` on the
+  world as it is, ``/teleteach/true_scene``, not as the robot perceives it), held for ``hold`` s.
 
 Plain data in, no ROS: the study's ROS layer feeds the judge what it hears, with the time it heard it.
 """
@@ -17,8 +17,8 @@ from typing import Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from teleteach.placement import judge
-from teleteach.scene import Scene
+from teleteach.core.placement import judge
+from teleteach.core.scene import Scene
 
 AXES = ("x", "y", "z")
 
@@ -97,7 +97,7 @@ class PlacementGoal:
         initial: Mapping[str, np.ndarray],
         final: Mapping[str, Tuple[np.ndarray, np.ndarray]],
     ) -> Tuple[bool, str]:
-        """Whether the product stands as asked now (teleteach.placement.judge), and where it is."""
+        """Whether the product stands as asked now (teleteach.core.placement.judge), and where it is."""
         if self.product not in final or not initial:
             return False, f"{self.product} not seen in the scene yet"
         positions = {name: pose[0] for name, pose in final.items()}

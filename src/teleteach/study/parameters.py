@@ -14,8 +14,8 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import yaml
 
-from teleteach.gui.config import GuiConfig, GuiConfigError
-from teleteach.paths import config_file, share_dir
+from teleteach.core.gui_config import GuiConfig, GuiConfigError
+from teleteach.core.paths import config_file, share_dir
 
 NODE_PARAMETER_FILES = {
     "teaching_gui": "gui.yaml",
@@ -41,6 +41,9 @@ RUNNER_LAUNCH_ARGUMENTS = (
 )
 """full.launch arguments the study runner sets itself for every trial."""
 
+RUNNER_NODE_PARAMETERS = ("behaviour_tree/data_dir", "sigma7_node/backend", "sigma7_node/scenario")
+"""Node parameters the study runner sets itself for every trial (through full.launch's data_dir, device, scenario)."""
+
 
 @functools.lru_cache(maxsize=None)
 def node_defaults(node: str) -> Dict[str, Any]:
@@ -64,6 +67,8 @@ def _flatten(data: Dict[str, Any], prefix: str = "") -> List[Tuple[str, Any]]:
 def check_parameter(name: str, value: Any) -> Optional[str]:
     """Why ``value`` cannot be given to the node parameter ``name`` (``<node>/<parameter>``), or None when it can."""
     node, _, parameter = name.partition("/")
+    if name in RUNNER_NODE_PARAMETERS:
+        return f"{name} is set by the study runner for every trial"
     if node not in NODE_PARAMETER_FILES:
         return f"unknown node {node!r} in {name!r} (a study sets parameters of {', '.join(NODE_PARAMETER_FILES)})"
     defaults = node_defaults(node)

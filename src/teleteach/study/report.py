@@ -31,8 +31,8 @@ from typing import TYPE_CHECKING, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 from scipy import stats
 
-from teleteach.datadir import atomic_write_bytes, atomic_write_text
-from teleteach.questionnaire import TLX_NAMES, raw_tlx
+from teleteach.core.datadir import atomic_write_bytes, atomic_write_text
+from teleteach.core.questionnaire import TLX_NAMES, raw_tlx
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

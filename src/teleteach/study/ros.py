@@ -31,14 +31,14 @@ from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from std_msgs.msg import Bool
 from visualization_msgs.msg import MarkerArray
 
+from teleteach.core.observed import TRUE_SCENE_TOPIC, product_poses
+from teleteach.core.scene import Scene
+from teleteach.core.study_phase import Phase
 from teleteach.msg import BehaviourTree, HelpRequest, Selection, StudyState
-from teleteach.perception.observed import TRUE_SCENE_TOPIC, product_poses
-from teleteach.scene import Scene
 from teleteach.srv import StudyInput, StudyInputResponse
 from teleteach.study.goals import Goal, GoalJudge, Judgement, TreeView
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.trial import StudyFlow, StudyView
-from teleteach.study_phase import Phase
 
 STATE_TOPIC = "study/state"
 INPUT_SERVICE = "study/input"

@@ -18,29 +18,29 @@ import os
 import pathlib
 import signal
 import subprocess
-import threading
 import time
 from typing import Any, Callable, Dict, List, Optional
 
 import yaml
 
-from teleteach.datadir import atomic_write_text
-from teleteach.gui.config import GuiConfig
-from teleteach.paths import config_file
-from teleteach.processes import (
+from teleteach.core.datadir import atomic_write_text
+from teleteach.core.gui_config import GuiConfig
+from teleteach.core.paths import config_file
+from teleteach.core.scene import load_scene
+from teleteach.core.study_phase import Phase
+from teleteach.recording.bags import record_command
+from teleteach.runtime.processes import (
     ProcessError,
     Processes,
+    StageScreenshots,
     closed_bag,
     full_launch,
     own_master,
     ros_environment,
-    screenshot,
     scripted_device,
     start_xvfb,
     with_required_death,
 )
-from teleteach.recording.bags import record_command
-from teleteach.scene import load_scene
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import QUESTIONNAIRE, Step, participant_number
 from teleteach.study.parameters import parameters_file
@@ -48,7 +48,6 @@ from teleteach.study.schema import Study
 from teleteach.study.scripted import compose
 from teleteach.study.storage import ParticipantStore
 from teleteach.study.trial import StudyFlow
-from teleteach.study_phase import Phase
 
 DEVICES = ("dhd", "virtual", "scenario")
 STUDY_TOPICS = (
@@ -200,7 +199,7 @@ class StudyRunner:
             os.environ["ROS_MASTER_URI"] = self._master_uri
             if not os.environ.get("ROS_IP") and not os.environ.get("ROS_HOSTNAME"):
                 os.environ["ROS_IP"] = "127.0.0.1"
-        from teleteach.node import init_node
+        from teleteach.runtime.node import init_node
         from teleteach.study.ros import StudyRos
 
         init_node("study", disable_signals=True)
@@ -481,52 +480,15 @@ class StudyRunner:
         )
         return text
 
-    def _screenshots(self, folder: pathlib.Path) -> "PhaseScreenshots":
-        return PhaseScreenshots(
-            self._flow, self._display if self.options.screenshots else "", folder, self.settings.screenshot_delay
-        )
+    def _screenshots(self, folder: pathlib.Path) -> StageScreenshots:
+        """What the participant saw: each phase of the trial (not its preparation or end), then its latest state."""
 
+        def phase() -> Optional[str]:
+            current = self._flow.phase
+            return None if current in (Phase.PREPARING, Phase.FINISHED) else current.name.lower()
 
-class PhaseScreenshots:
-    """What the participant saw: a screenshot of each phase a while after it began (with a display to picture).
-
-    While a task runs, its latest state is pictured again every few seconds.
-    """
-
-    RUNNING_PERIOD = 3.0  # [s]
-
-    def __init__(self, flow: StudyFlow, display: str, folder: pathlib.Path, delay: float):
-        self.flow = flow
-        self.display = display
-        self.folder = folder
-        self.delay = delay
-        self._stop = threading.Event()
-        self._thread = None
-        if display:
-            self._thread = threading.Thread(target=self._loop, name="screenshots", daemon=True)
-            self._thread.start()
-
-    def _loop(self) -> None:
-        taken: List[Phase] = []
-        phase, since, latest = None, time.monotonic(), 0.0
-        while not self._stop.wait(0.1):
-            current, now = self.flow.phase, time.monotonic()
-            if current != phase:
-                phase, since = current, now
-            if phase == Phase.RUNNING and phase in taken and now - latest > self.RUNNING_PERIOD:
-                latest = now  # a running task changes: its latest picture too
-                screenshot(self.display, self.folder / "screen_running_latest.png")
-            if phase in taken or phase in (Phase.PREPARING, Phase.FINISHED) or now - since < self.delay:
-                continue
-            taken.append(phase)
-            latest = now
-            screenshot(self.display, self.folder / f"screen_{len(taken)}_{phase.name.lower()}.png")
-
-    def stop(self) -> None:
-        """End the loop."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(5.0)
+        display = self._display if self.options.screenshots else ""
+        return StageScreenshots(display, folder, "screen", phase, self.settings.screenshot_delay, period=3.0)
 
 
 def main(argv: Optional[List[str]] = None) -> int:

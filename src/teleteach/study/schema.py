@@ -17,9 +17,9 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import yaml
 
+from teleteach.core.questionnaire import NASA_TLX, Item
+from teleteach.core.scene import SceneError, load_scene
 from teleteach.haptics.scenario import ScenarioError, load_scenario
-from teleteach.questionnaire import NASA_TLX, Item
-from teleteach.scene import SceneError, load_scene
 from teleteach.study.goals import AXES, Goal, PlacementGoal, StiffnessGoal, TreeGoal
 from teleteach.study.parameters import check_launch_argument, check_parameter
 

@@ -17,8 +17,8 @@ from typing import Dict, List, Optional, Tuple
 
 import yaml
 
+from teleteach.core.questionnaire import Item
 from teleteach.haptics.scenario import TABS, Keyframe, load_scenario, parse_scenario
-from teleteach.questionnaire import Item
 from teleteach.study.ordering import Step
 from teleteach.study.schema import Study
 

@@ -22,7 +22,7 @@ import shutil
 import time
 from typing import Any, Dict, List, Optional
 
-from teleteach.datadir import atomic_write_text, data_dir
+from teleteach.core.datadir import atomic_write_text, data_dir
 from teleteach.study.ordering import QUESTIONNAIRE, Step, session_plan
 from teleteach.study.schema import Study
 

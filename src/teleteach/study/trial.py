@@ -11,11 +11,11 @@ import dataclasses
 import threading
 from typing import Dict, Optional, Sequence, Tuple
 
-from teleteach.questionnaire import AnswerError, check_answers
+from teleteach.core.questionnaire import AnswerError, check_answers
+from teleteach.core.study_phase import Phase, StudyView
 from teleteach.study.goals import Judgement
 from teleteach.study.ordering import Step
 from teleteach.study.schema import Study
-from teleteach.study_phase import Phase, StudyView
 
 
 class StudyFlow:

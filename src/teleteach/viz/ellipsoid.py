@@ -19,7 +19,7 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from visualization_msgs.msg import Marker
 
-from teleteach.control.validation import (
+from teleteach.core.validation import (
     InvalidCommandError,
     check_frame,
     finite_vector,
@@ -82,7 +82,7 @@ class EllipsoidScale:
 class EllipsoidMarkerBuilder:
     """Keeps the last good eigenvalues, eigenvectors and end-effector position, and builds the Marker from them.
 
-    Messages are checked with the controller's own validation (teleteach.control.validation), so the marker shows
+    Messages are checked with the controller's own validation (teleteach.core.validation), so the marker shows
     what the controller accepts. Invalid messages raise InvalidCommandError and change nothing: the last good ellipsoid
     stays on screen. The eigen topics may leave the frame empty (the controller ignores it); the end-effector pose
     must be in the base frame.

@@ -9,8 +9,8 @@ import rospy
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from visualization_msgs.msg import Marker
 
-from teleteach.control.validation import InvalidCommandError
-from teleteach.node import node_parameters
+from teleteach.core.validation import InvalidCommandError
+from teleteach.runtime.node import node_parameters
 from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder, EllipsoidScale, drawn_as
 
 

@@ -13,9 +13,9 @@ import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation, Slerp
 
-from teleteach.frames import Transform
-from teleteach.paths import config_file
-from teleteach.skill_file import BASE_FRAME, TARGET_FRAME
+from teleteach.core.frames import Transform
+from teleteach.core.paths import config_file
+from teleteach.core.skill_file import BASE_FRAME, TARGET_FRAME
 
 
 class TrajectoryError(ValueError):

@@ -7,9 +7,9 @@ from typing import Any, Dict, Mapping, Tuple
 
 import yaml
 
-from teleteach import parameters
-from teleteach.paths import config_file
-from teleteach.robot_controllers import ControllerNames, ControllerNamesError, controller_names
+from teleteach.core import parameters
+from teleteach.core.paths import config_file
+from teleteach.core.robot_controllers import ControllerNames, ControllerNamesError, controller_names
 
 DEVICE_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 CONFIG_DIR = config_file()

@@ -1,5 +1,7 @@
 """Child processes of a run: an X server when there is no display, roslaunch of a whole system, RViz, screenshots.
 
+A screenshot is of the screen once, or of each stage of an experiment while it runs (:class:`StageScreenshots`).
+
 Processes are started in their own session and stopped by PID, in reverse order of starting (RViz before Xvfb),
 first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL. A process
 may be told to stop when ours dies, however it dies (Linux's parent-death signal): a killed study runner leaves no
@@ -15,6 +17,7 @@ import shutil
 import signal
 import socket
 import subprocess
+import threading
 import time
 import xmlrpc.client
 from typing import IO, Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
@@ -267,6 +270,64 @@ def screenshot(display: str, path: pathlib.Path, timeout: float = 20.0) -> Optio
     if result.returncode != 0 or not path.is_file():
         return result.stderr.decode(errors="replace").strip() or f"import exited with {result.returncode}"
     return None
+
+
+class StageScreenshots:
+    """What the operator saw, while it happens: each stage of an experiment (a GUI tab, a study's phase) pictured.
+
+    A stage is pictured ``delay`` s after it began, then its latest state every ``period`` s while it lasts.
+    ``stage()`` names the current stage; None: nothing worth a picture (a trial preparing). Each new stage is the
+    next visit: ``<prefix>_<NN>_<stage>.png``, then ``<prefix>_<NN>_<stage>_latest.png``. Without a display nothing
+    is taken. A picture that fails is listed in ``errors``; the run goes on.
+    """
+
+    POLL = 0.1  # [s] how often the stage is read
+
+    def __init__(
+        self,
+        display: str,
+        folder: pathlib.Path,
+        prefix: str,
+        stage: Callable[[], Optional[str]],
+        delay: float,
+        period: float,
+    ):
+        self.display, self.folder, self.prefix, self.stage = display, folder, prefix, stage
+        self.delay, self.period = delay, period
+        self.errors: List[str] = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name="screenshots", daemon=True) if display else None
+        if self._thread is not None:
+            self._thread.start()
+
+    def _loop(self) -> None:
+        visit, current, since, last = 0, None, 0.0, 0.0
+        while not self._stop.wait(self.POLL):
+            name, now = self.stage(), time.monotonic()
+            if name != current:
+                current, since, last = name, now, 0.0
+                visit += name is not None
+            if current is None or now - since < self.delay or (last and now - last < self.period):
+                continue
+            self.take(self.folder / f"{self.prefix}_{visit:02d}_{current}{'_latest' if last else ''}.png")
+            last = now
+
+    def take(self, path: pathlib.Path) -> None:
+        """One picture of the whole screen (none without a display)."""
+        if not self.display:
+            return
+        try:
+            error = screenshot(self.display, path)
+        except (OSError, subprocess.SubprocessError) as exception:
+            error = str(exception)
+        if error:
+            self.errors.append(f"{path.name}: {error}")
+
+    def stop(self) -> None:
+        """End the pictures while the stage lasts (``take`` still works)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(5.0)
 
 
 _COLOUR = re.compile(r"\x1b\[[0-9;]*m|\x1b\][^\x07]*\x07")  # roslaunch's colours and terminal titles

@@ -19,7 +19,7 @@ import actionlib
 import rospy
 from actionlib_msgs.msg import GoalStatus
 
-from teleteach.node import shutting_down
+from teleteach.runtime.node import shutting_down
 
 
 def server_ready(client) -> bool:

@@ -7,9 +7,9 @@ a running simulation. Poses are the TCP (panda_grasptarget, 0.105 m beyond panda
 import numpy as np
 import pybullet
 
+from teleteach.control import panda
 from teleteach.control.impedance import orientation_error
-from teleteach.scene import load_site
-from teleteach.sim import panda
+from teleteach.core.scene import load_site
 
 DAMPING = 0.02  # damped least squares regularisation [m]
 NULLSPACE_GAIN = 0.05  # pull toward the seed posture per iteration [-]

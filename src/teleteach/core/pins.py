@@ -11,7 +11,7 @@ import pathlib
 import sys
 from typing import Dict, List, Optional
 
-from teleteach.paths import share_dir
+from teleteach.core.paths import share_dir
 
 RUNTIME = ("numpy", "scipy", "matplotlib", "casadi", "pybullet", "py_trees", "rosbags")  # what the nodes import
 

@@ -10,7 +10,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.scene import Gap, GapLookup
+from teleteach.core.scene import Gap, GapLookup
 
 HEIGHT_TOLERANCE = 0.02  # [m] a product centre farther than this above/below its gap's target is not on the board
 UPRIGHT_TILT = 10.0  # [deg] largest tilt of a product's vertical axis that still counts as standing upright

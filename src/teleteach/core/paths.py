@@ -15,7 +15,7 @@ class PackageFilesError(RuntimeError):
 @functools.lru_cache(maxsize=1)
 def share_dir() -> pathlib.Path:
     """The package's directory: the checkout holding this module, or the one ROS knows (install space)."""
-    checkout = pathlib.Path(__file__).resolve().parents[2]
+    checkout = pathlib.Path(__file__).resolve().parents[3]
     if (checkout / "package.xml").is_file():
         return checkout
     import rospkg

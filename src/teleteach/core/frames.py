@@ -10,7 +10,7 @@ from typing import Sequence
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.rotations import yaw_rotation
+from teleteach.core.rotations import yaw_rotation
 
 
 @dataclasses.dataclass(frozen=True)

@@ -3,7 +3,7 @@
 Every executable in nodes/ starts through :func:`start`: its usage says what the node does and lists its parameters
 with their defaults and meanings, read from the node's ``config/*.yaml`` (the one place of defaults), so ``rosrun
 teleteach <node> --help`` answers at once, with or without a roscore. Then the libraries teleteach pins are checked
-(:mod:`teleteach.pins`): a wrong version that another install put first on the path stops the node in one line.
+(:mod:`teleteach.core.pins`): a wrong version that another install put first on the path stops the node in one line.
 At Ctrl-C, :func:`publish` drops what a timer sends while rospy closes the topics.
 """
 
@@ -51,7 +51,7 @@ def start(
     """
     import rospy
 
-    from teleteach import pins
+    from teleteach.core import pins
 
     sys.stdout.reconfigure(line_buffering=True)
 
@@ -75,7 +75,7 @@ def parameters_help(parameters_file: str = "", parameters: typing.Sequence[Param
     entries = list(parameters)
     source = ""
     if parameters_file:
-        from teleteach.paths import config_file
+        from teleteach.core.paths import config_file
 
         path = config_file(parameters_file)
         entries += yaml_parameters(path.read_text())
@@ -168,7 +168,7 @@ def node_parameters(
     """
     import yaml
 
-    from teleteach.paths import config_file
+    from teleteach.core.paths import config_file
 
     if get_param is None:
         import rospy

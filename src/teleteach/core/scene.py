@@ -15,9 +15,9 @@ from typing import Dict, Iterable, List, Optional, Tuple
 import numpy as np
 import yaml
 
-from teleteach.frames import Transform
-from teleteach.paths import config_file
-from teleteach.rotations import yaw_quaternion
+from teleteach.core.frames import Transform
+from teleteach.core.paths import config_file
+from teleteach.core.rotations import yaw_quaternion
 
 DEFAULT_SCENE_FILE = config_file("supermarket.yaml")
 

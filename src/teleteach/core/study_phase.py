@@ -8,7 +8,7 @@ import dataclasses
 import enum
 from typing import Optional, Tuple
 
-from teleteach.questionnaire import Item
+from teleteach.core.questionnaire import Item
 
 
 class Phase(enum.IntEnum):

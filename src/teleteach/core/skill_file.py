@@ -26,8 +26,8 @@ from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
 
-from teleteach.datadir import atomic_write_bytes
-from teleteach.frames import Transform
+from teleteach.core.datadir import atomic_write_bytes
+from teleteach.core.frames import Transform
 
 KINDS = ("stiffness", "shared_control", "dmp")
 BASE_FRAME = "base_link"

@@ -8,10 +8,10 @@ from typing import Sequence, Tuple
 
 import numpy as np
 
+from teleteach.control import panda
 from teleteach.control.manager import STRICT
-from teleteach.perception.observed import ObservedScene
-from teleteach.rotations import yaw_rotation
-from teleteach.sim import panda
+from teleteach.core.observed import ObservedScene
+from teleteach.core.rotations import yaw_rotation
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.skills.robot import Robot, RobotGoal, SkillError
 

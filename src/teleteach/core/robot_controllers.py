@@ -9,7 +9,7 @@ from typing import Optional
 
 import yaml
 
-from teleteach.paths import config_file
+from teleteach.core.paths import config_file
 
 
 class ControllerNamesError(ValueError):
