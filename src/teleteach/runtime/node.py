@@ -18,7 +18,7 @@ ROSOUT_TOPICS_PARAM = "/rosout_disable_topics_generation"
 
 @dataclasses.dataclass(frozen=True)
 class Parameter:
-    """A private parameter that no yaml holds: its name, its default as the user would write it, what it means."""
+    """A private parameter of a node's yaml: its name, its default as the user would write it, what it means."""
 
     name: str
     default: str
@@ -29,7 +29,6 @@ def start(
     name: str,
     description: str,
     parameters_file: str = "",
-    parameters: typing.Sequence[Parameter] = (),
     parser: typing.Optional[argparse.ArgumentParser] = None,
     init: bool = True,
 ) -> argparse.Namespace:
@@ -39,7 +38,6 @@ def start(
         name: the node's name (and program name in the usage).
         description: the node's docstring: its first paragraph opens the usage.
         parameters_file: the node's ``config/<file>``: each key is a private parameter, its value the default.
-        parameters: private parameters outside that file.
         parser: the node's own parser, for command-line options; its epilog gets the parameters.
         init: ``rospy.init_node`` (False: the caller inits later, e.g. robot_sim, whose --urdf only prints).
 
@@ -59,7 +57,7 @@ def start(
     parser.prog = name
     parser.description = description
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
-    parser.epilog = parameters_help(parameters_file, parameters)
+    parser.epilog = parameters_help(parameters_file)
     arguments = parser.parse_args(rospy.myargv(sys.argv)[1:])
     try:
         pins.check()
