@@ -12,20 +12,10 @@ from ros_processes import node_pid
 from std_msgs.msg import Bool, String
 
 from teleteach.msg import Behaviour, BehaviourTree, HelpRequest, SkillLibrary
+from teleteach.skills.predefined import PREDEFINED_SKILLS
 from teleteach.srv import AddSkill, ChangeTree
 
-THESIS_SEQUENCE = [
-    "LookToShelf",
-    "PickItem",
-    "MoveBase",
-    "PlaceItem",
-    "DropItem",
-    "MoveBaseToStart",
-    "LookToShelfAgain",
-    "PickItem2",
-    "MoveBase2",
-    "Idle",
-]
+THESIS_SEQUENCE = list(PREDEFINED_SKILLS)  # the thesis tree's leaves, in the order it runs them
 STATUS = {Behaviour.INVALID: "INVALID", Behaviour.RUNNING: "RUNNING", Behaviour.SUCCESS: "SUCCESS", 4: "FAILURE"}
 
 

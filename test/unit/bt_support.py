@@ -10,20 +10,10 @@ from teleteach.bt.behaviours import SkillLeaf
 from teleteach.bt.library import SkillLibrary
 from teleteach.bt.teaching import TeachingTree
 from teleteach.bt.tree import load_tree
+from teleteach.skills.predefined import PREDEFINED_SKILLS
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / "config"
-THESIS_SEQUENCE = [
-    "LookToShelf",
-    "PickItem",
-    "MoveBase",
-    "PlaceItem",
-    "DropItem",
-    "MoveBaseToStart",
-    "LookToShelfAgain",
-    "PickItem2",
-    "MoveBase2",
-    "Idle",
-]
+THESIS_SEQUENCE = list(PREDEFINED_SKILLS)  # the thesis tree's leaves, in the order it runs them
 
 
 class SkillWorld:
