@@ -13,32 +13,16 @@ import argparse
 import json
 import os
 import pathlib
-import signal
-import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
 
-from teleteach.runtime.processes import own_master
+from teleteach.runtime.experiment import Experiment
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SIZES = (10, 100, 1000)
-
-
-def start(command, log):
-    return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-
-
-def stop(process):
-    if process.poll() is None:
-        os.killpg(process.pid, signal.SIGINT)
-        try:
-            process.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
 
 
 def tree_yaml(leaves):
@@ -50,7 +34,7 @@ def tree_yaml(leaves):
     )
 
 
-def measure(leaves, requests, workdir, log):
+def measure(leaves, requests, workdir, experiment):
     import rospy
 
     from teleteach.msg import BehaviourTree
@@ -58,7 +42,8 @@ def measure(leaves, requests, workdir, log):
 
     tree_file = workdir / f"tree_{leaves}.yaml"
     tree_file.write_text(tree_yaml(leaves))
-    node = start(
+    node = experiment.start(
+        "behaviour_tree",
         [
             sys.executable,
             str(ROOT / "nodes" / "behaviour_tree"),
@@ -66,7 +51,8 @@ def measure(leaves, requests, workdir, log):
             f"_data_dir:={workdir / f'data_{leaves}'}",
             "__name:=behaviour_tree",
         ],
-        log,
+        workdir / "processes.log",
+        watched=True,
     )
     try:
         received = []
@@ -74,11 +60,8 @@ def measure(leaves, requests, workdir, log):
             "/behaviour_tree/log/tree", BehaviourTree, lambda m: received.append(len(m.behaviours))
         )
         rospy.wait_for_service("/change_tree", timeout=60)
-        deadline = time.monotonic() + 30
-        while not received or received[-1] != leaves + 3:
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"no log/tree of {leaves + 3} nodes from the node")
-            time.sleep(0.05)
+        if not experiment.wait_until(lambda: bool(received) and received[-1] == leaves + 3, 30.0, poll=0.05):
+            raise RuntimeError(f"no log/tree of {leaves + 3} nodes from the node")
         change = rospy.ServiceProxy("/change_tree", ChangeTree, persistent=True)
         latencies = []
         for i in range(requests + 20):
@@ -99,7 +82,7 @@ def measure(leaves, requests, workdir, log):
         subscriber.unregister()
         return np.array(latencies) * 1e3
     finally:
-        stop(node)
+        experiment.stop(node)
 
 
 def measure_in_process(leaves, requests, workdir):
@@ -147,25 +130,15 @@ def main():
     parser.add_argument("--requests", type=int, default=1000, help="timed requests per tree size")
     args = parser.parse_args()
     workdir = pathlib.Path(tempfile.mkdtemp(prefix="teleteach_bench_change_tree_"))
-    log = open(workdir / "processes.log", "w")
-
-    def start_roscore(port):
-        os.environ["ROS_MASTER_URI"] = f"http://localhost:{port}"
-        return start(["roscore", "-p", str(port)], log)
-
-    _, roscore = own_master(start_roscore, stop)
-    server = None
-    try:
-        import rospy
-
-        server = start(
-            [sys.executable, str(ROOT / "test" / "ros" / "skill_test_server.py"), "_duration:=1000000.0"], log
-        )
-        rospy.init_node("change_tree_bench", disable_signals=True)
+    with Experiment(workdir) as experiment:
+        experiment.own_roscore(workdir / "processes.log")
+        server = [sys.executable, str(ROOT / "test" / "ros" / "skill_test_server.py"), "_duration:=1000000.0"]
+        experiment.start("skill_test_server", server, workdir / "processes.log", watched=True)
+        experiment.join("change_tree_bench")
         results, in_process, in_process_cpu = {}, {}, {}
         load = [os.getloadavg()[0]]
         for leaves in SIZES:
-            results[str(leaves)] = stats(measure(leaves, args.requests, workdir, log))
+            results[str(leaves)] = stats(measure(leaves, args.requests, workdir, experiment))
             wall, cpu = measure_in_process(leaves, args.requests, workdir)
             in_process[str(leaves)], in_process_cpu[str(leaves)] = stats(wall), stats(cpu)
             load.append(os.getloadavg()[0])
@@ -198,11 +171,6 @@ def main():
             f"p50 growth 10 -> 1000 leaves: x{summary['p50_growth_10_to_1000']:.1f}; "
             f"p99 <= 10 ms at 1000 leaves: {summary['meets_target']}; written {out}"
         )
-    finally:
-        if server is not None:
-            stop(server)
-        stop(roscore)
-        log.close()
 
 
 if __name__ == "__main__":

@@ -53,6 +53,9 @@ import threading
 import time
 import xmlrpc.client
 
+from teleteach.runtime.experiment import Experiment, SystemEndedError
+from teleteach.runtime.processes import master_pid
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "bench" / "results"
 OPERATOR = ROOT / "bench" / "data" / "cpu_budget_operator.yaml"
@@ -191,46 +194,38 @@ class Watcher:
             subscriber.unregister()
 
 
-class System:
+class System(Experiment):
     """One full.launch on its own master (and Xvfb when there is no display), stopped in reverse order."""
 
     def __init__(self, name, launch_args, log):
-        from teleteach.runtime.processes import Processes, own_master, ros_environment, start_xvfb
-
+        super().__init__(log.parent, pathlib.Path(tempfile.mkdtemp(prefix=f"cpu_budget_{name}_")))
         self.name = name
-        self.processes = Processes()
-        self.data = pathlib.Path(tempfile.mkdtemp(prefix=f"cpu_budget_{name}_"))
-        self.display = os.environ.get("DISPLAY", "")
         self.xvfb_pid = None
-        if not self.display:
-            self.display = start_xvfb(self.processes)
+        if self.own_display():
             self.xvfb_pid = next(pid for pid in children(os.getpid()) if process_name(pid) == "Xvfb")
         log.unlink(missing_ok=True)
 
-        def start(port):
-            env = ros_environment(f"http://localhost:{port}", self.display, self.data)
-            command = ["roslaunch", "-p", str(port), "teleteach", "full.launch", *launch_args, f"data_dir:={self.data}"]
-            return self.processes.start("roslaunch", command, log, env)
+        def command(port):
+            return [
+                "roslaunch",
+                "-p",
+                str(port),
+                "teleteach",
+                "full.launch",
+                *launch_args,
+                f"data_dir:={self.data_root}",
+            ]
 
-        self.port, self.launch = own_master(start, self.processes.stop)
-        self.master_uri = f"http://localhost:{self.port}"
+        self.launch = self.own_launch(command, log)
         self.log = log
         self.floor = None
 
     def start_floor(self):
         """The do-nothing node, once roslaunch has set /use_sim_time (rospy reads it when the node starts)."""
-        from teleteach.runtime.processes import ros_environment
-
-        env = ros_environment(self.master_uri, self.display, self.data)
-        self.floor = self.processes.start("floor", [sys.executable, "-c", FLOOR], env=env)
+        self.floor = self.start("floor", [sys.executable, "-c", FLOOR])
 
     def master_pid(self):
-        from teleteach.runtime.processes import master_pid
-
         return master_pid(self.master_uri)
-
-    def stop(self):
-        self.processes.stop_all()
 
 
 def measure(system, watcher, seconds, phase, profiled, until=None):
@@ -318,22 +313,18 @@ def hot_functions(stacks, count=HOT_FUNCTIONS):
 
 def wait_for(system, condition, timeout, what):
     """Poll ``condition()`` (5 Hz) for at most ``timeout`` s of wall time."""
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if system.launch.poll() is not None:
-            raise RuntimeError(f"{system.name}: roslaunch ended while waiting for {what}; see {system.log}")
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"{system.name}: no {what} within {timeout:.0f} s; see {system.log}")
-        time.sleep(0.2)
+    try:
+        happened = system.wait_until(condition, timeout)
+    except SystemEndedError as ended:
+        raise RuntimeError(f"{system.name}: {ended} while waiting for {what}") from ended
+    if not happened:
+        raise RuntimeError(f"{system.name}: no {what} within {timeout:.0f} s; see {system.log}")
 
 
 def start_system(name, launch_args, log):
     """The system, rospy initialised against its master, and a watcher."""
-    from teleteach.runtime.node import init_node
-
     system = System(name, launch_args, log)
-    os.environ["ROS_MASTER_URI"] = system.master_uri  # rospy reads it in init_node: one run per process
-    init_node("cpu_budget_bench", anonymous=True, disable_signals=True)
+    system.join("cpu_budget_bench", anonymous=True)  # one run per process: rospy reads the master at init
     import rospy
 
     wait_for(system, lambda: rospy.has_param("/use_sim_time"), 60, "/use_sim_time")
@@ -356,7 +347,7 @@ def run_virtual(window, log, extra, profiled):
         return phases
     finally:
         watcher.close()
-        system.stop()
+        system.close()
 
 
 def run_teaching(window, log, extra, profiled):
@@ -379,7 +370,7 @@ def run_teaching(window, log, extra, profiled):
         return phases
     finally:
         watcher.close()
-        system.stop()
+        system.close()
 
 
 def run_thesis(window, log, extra, profiled):
@@ -394,7 +385,7 @@ def run_thesis(window, log, extra, profiled):
         return {"thesis": measure(system, watcher, 600, "thesis", profiled, until=played)}
     finally:
         watcher.close()
-        system.stop()
+        system.close()
 
 
 RUNS = {"virtual": run_virtual, "teaching": run_teaching, "thesis": run_thesis}

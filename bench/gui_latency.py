@@ -16,68 +16,36 @@ import argparse
 import json
 import os
 import pathlib
-import signal
-import subprocess
 import sys
+import tempfile
 import threading
 import time
 
 import numpy as np
 
-from teleteach.runtime.processes import own_master
+from teleteach.runtime.experiment import Experiment
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "bench" / "results" / "gui_latency.json"
-
-
-def start(command, **kwargs):
-    return subprocess.Popen(
-        command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, **kwargs
-    )
-
-
-def stop(process):
-    if process.poll() is None:
-        os.killpg(process.pid, signal.SIGINT)
-        try:
-            process.wait(15)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-
-
-def ensure_display(processes):
-    if os.environ.get("DISPLAY"):
-        return
-    number = next(n for n in range(90, 200) if not pathlib.Path(f"/tmp/.X11-unix/X{n}").exists())
-    processes.append(start(["Xvfb", f":{number}", "-screen", "0", "1280x1024x24", "-nolisten", "tcp"]))
-    os.environ["DISPLAY"] = f":{number}"
-    deadline = time.monotonic() + 10
-    while not pathlib.Path(f"/tmp/.X11-unix/X{number}").exists():
-        if time.monotonic() > deadline:
-            sys.exit("Xvfb did not start")
-        time.sleep(0.05)
 
 
 def stiffness_x(x):
     return 50.0 + (x + 0.1) / 0.2 * 2950.0
 
 
-def measure_latency(steps, processes):
+def measure_latency(steps, folder):
+    """The latency figures, on a roscore and a teaching_gui of their own (both stopped before it returns)."""
+    with Experiment(folder) as experiment:
+        experiment.own_roscore(host="127.0.0.1")
+        command = [str(ROOT / "nodes" / "teaching_gui"), "_initial_tab:=2", "_deadband_position:=0.0"]
+        experiment.start("teaching_gui", command, folder / "teaching_gui.log", watched=True)
+        experiment.join("gui_latency_bench")
+        return step_latencies(steps, experiment)
+
+
+def step_latencies(steps, experiment):
     import rospy
     from geometry_msgs.msg import PoseStamped, Vector3Stamped
-
-    os.environ["ROS_HOSTNAME"] = "127.0.0.1"
-
-    def start_roscore(port):
-        os.environ["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
-        return start(["roscore", "-p", str(port)])
-
-    _, core = own_master(start_roscore, stop, host="127.0.0.1")
-    processes.append(core)
-    gui = start([str(ROOT / "nodes" / "teaching_gui"), "_initial_tab:=2", "_deadband_position:=0.0"])
-    processes.append(gui)
-    rospy.init_node("gui_latency_bench", disable_signals=True)
 
     lock = threading.Lock()
     state = {"x": -0.05, "step_time": None, "expected": None}
@@ -111,11 +79,8 @@ def measure_latency(steps, processes):
             time.sleep(0.001)
 
     threading.Thread(target=publish, daemon=True).start()
-    deadline = time.monotonic() + 60
-    while not published:
-        if time.monotonic() > deadline or gui.poll() is not None:
-            sys.exit("teaching_gui did not publish /eigenvalues within 60 s")
-        time.sleep(0.1)
+    if not experiment.wait_until(lambda: bool(published), 60.0, poll=0.1):
+        sys.exit("teaching_gui did not publish /eigenvalues within 60 s")
     time.sleep(1.0)
     for step in range(steps):
         x = 0.05 if step % 2 == 0 else -0.05
@@ -169,17 +134,12 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=200, help="device steps for the latency measurement")
     args = parser.parse_args()
-    processes = []
-    try:
-        ensure_display(processes)
-        latencies, rate, steps = measure_latency(args.steps, processes)
-        for process in reversed(processes[1:]):
-            stop(process)
-        del processes[1:]
+    folder = pathlib.Path(tempfile.mkdtemp(prefix="teleteach_bench_gui_latency_"))
+    with Experiment(folder) as screen:
+        screen.own_display()
+        os.environ["DISPLAY"] = screen.display  # the repaint runs in this process
+        latencies, rate, steps = measure_latency(args.steps, folder)
         fps, renderer = measure_repaint()
-    finally:
-        for process in reversed(processes):
-            stop(process)
     results = {
         "latency_pose_to_eigenvalues_ms": {
             "p50": float(np.percentile(latencies, 50)),

@@ -328,30 +328,22 @@ class Bench:
     application; with ``own_master``, on a roscore of its own (else rospy is initialised on a master already)."""
 
     def __init__(self, log_dir: pathlib.Path, own_master: bool = True) -> None:
-        from teleteach.runtime.processes import Processes
-        from teleteach.runtime.processes import own_master as start_own_master
+        from teleteach.runtime.experiment import Experiment
 
         self.log_dir = log_dir
         self.own_master = own_master
-        self.processes = Processes()
         self.data_dir = log_dir / "data"
         self.data_dir.mkdir(parents=True, exist_ok=True)
+        self.experiment = Experiment(log_dir, self.data_dir)
         self.closed_windows: List[object] = []
         try:
             if own_master:
-                import rospy
-
                 os.environ["ROS_LOG_DIR"] = str(log_dir / "ros")
-
-                def start_roscore(port):
-                    os.environ["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
-                    return self.processes.start("roscore", ["roscore", "-p", str(port)], log_dir / "roscore.log")
-
-                start_own_master(start_roscore, self.processes.stop, host="127.0.0.1")
-                rospy.init_node("haptic_guidance_bench", disable_signals=True)
+                self.experiment.own_roscore(host="127.0.0.1")
+                self.experiment.join("haptic_guidance_bench")
             self._start_ros()
         except BaseException:
-            self.processes.stop_all()
+            self.experiment.close()
             raise
 
     def _start_ros(self) -> None:
@@ -365,7 +357,7 @@ class Bench:
         node = str(ROOT / "nodes" / "behaviour_tree")
         # no robot here: tick at once, and the running first leaf waits for its server as long as the bench runs
         command = [node, f"_data_dir:={self.data_dir}", "_startup_timeout:=0", "_server_timeout:=1000000"]
-        self.processes.start("behaviour_tree", command, self.log_dir / "behaviour_tree.log")
+        self.experiment.start("behaviour_tree", command, self.log_dir / "behaviour_tree.log")
         rospy.wait_for_service("/change_tree", timeout=60)
         self._tree_lock = threading.Lock()
         self._tree: List[str] = []
@@ -425,7 +417,7 @@ class Bench:
         self._tree_subscriber.unregister()
         if self.own_master:
             rospy.signal_shutdown("bench done")
-        self.processes.stop_all()
+        self.experiment.close()
 
 
 class Session:
@@ -440,7 +432,7 @@ class Session:
         arguments = ["backend:=topic", "hand_model:=true", f"tremor:={tremor}"]
         self.device_log = bench.log_dir / f"{name}.log"
         self.device_log.unlink(missing_ok=True)
-        self.device = bench.processes.start(
+        self.device = bench.experiment.start(
             name, ["roslaunch", "teleteach", "device.launch", *arguments], self.device_log
         )
         self.loop: Optional[dict] = None  # the device loop's rate and stalls, once the session is closed
@@ -482,7 +474,7 @@ class Session:
         self.bench.closed_windows.append(self.window)
         self.stiffness.close()
         self.operator.close()
-        self.bench.processes.stop(self.device)
+        self.bench.experiment.stop(self.device)
         found = LOOP_SUMMARY.findall(self.device_log.read_text(errors="replace")) if self.device_log.exists() else []
         if found:
             cycles, rate, failed, stalls = found[-1]

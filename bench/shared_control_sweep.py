@@ -302,20 +302,15 @@ class OverRos:
     """``shared_control.launch`` on a roscore of its own; commands published at 50 Hz, stamped when sent."""
 
     def __init__(self, log_dir: pathlib.Path, overrides: dict):
-        from teleteach.runtime.processes import Processes, own_master
+        from teleteach.runtime.experiment import Experiment
 
-        self.processes = Processes()
+        self.experiment = Experiment(log_dir)
         log = log_dir / "processes.log"
-
-        def start_roscore(port):
-            os.environ["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
-            return self.processes.start("roscore", ["roscore", "-p", str(port)], log)
-
-        own_master(start_roscore, self.processes.stop, host="127.0.0.1")
         try:
+            self.experiment.own_roscore(log, host="127.0.0.1")
             self._start(log_dir, overrides, log)
         except BaseException:
-            self.processes.stop_all()
+            self.experiment.close()
             raise
 
     def _start(self, log_dir: pathlib.Path, overrides: dict, log: pathlib.Path) -> None:
@@ -325,7 +320,7 @@ class OverRos:
             config.write_text(
                 yaml.safe_dump({**yaml.safe_load((ROOT / "config" / "shared_control.yaml").read_text()), **overrides})
             )
-        self.processes.start(
+        self.experiment.start(
             "shared_control",
             [
                 "roslaunch",
@@ -336,6 +331,7 @@ class OverRos:
                 f"config:={config}",
             ],
             log,
+            watched=True,
         )
         import rospy
         from geometry_msgs.msg import Vector3Stamped
@@ -344,7 +340,7 @@ class OverRos:
         from teleteach.msg import SharedControlState
 
         self.rospy = rospy
-        rospy.init_node("shared_control_sweep", disable_signals=True)
+        self.experiment.join("shared_control_sweep")
         self.message = Vector3Stamped
         self.command = rospy.Publisher("/shared_control/operator_command", Vector3Stamped, queue_size=100)
         self.enable = rospy.Publisher("/shared_control/enable", Bool, queue_size=1, latch=True)
@@ -356,11 +352,8 @@ class OverRos:
         self._wait(lambda: self.enable.get_num_connections() > 0, 600.0, "the node")
 
     def _wait(self, condition, timeout: float, what: str) -> None:
-        deadline = time.monotonic() + timeout
-        while not condition():
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"{what} did not come up (see {self.log})")
-            time.sleep(0.05)
+        if not self.experiment.wait_until(condition, timeout, poll=0.05):
+            raise RuntimeError(f"{what} did not come up (see {self.log})")
 
     def _on_state(self, message):
         with self.lock:
@@ -409,7 +402,7 @@ class OverRos:
 
     def close(self):
         self.rospy.signal_shutdown("sweep done")
-        self.processes.stop_all()
+        self.experiment.close()
 
 
 def sweep(runner, cells, box, measured_rate) -> list:

@@ -15,9 +15,9 @@ Target: the loop at 1000 Hz +- 10 %, a cycle well under 1 ms. Prints and writes 
 import json
 import os
 import pathlib
-import signal
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -28,7 +28,7 @@ from teleteach.haptics.click import ClickDetector
 from teleteach.haptics.loop import DeviceLoop, WallRate
 from teleteach.haptics.scenario import ScenarioBackend, load_scenario
 from teleteach.haptics.twist import TwistEstimator
-from teleteach.runtime.processes import own_master
+from teleteach.runtime.experiment import Experiment
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "config" / "scenarios" / "example.yaml"
@@ -80,34 +80,27 @@ DEVICE = yaml.safe_load((ROOT / "config" / "device.yaml").read_text())
 
 
 def over_ros(seconds=8.0, publish_rate=1000.0):
-    env = dict(os.environ)
-
-    def start_roscore(port):
-        env["ROS_MASTER_URI"] = f"http://localhost:{port}"
-        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True}
-        return subprocess.Popen(["roscore", "-p", str(port)], env=env, **quiet)
-
-    _, core = own_master(start_roscore, _stop)
-    node = None
-    try:
+    folder = pathlib.Path(tempfile.mkdtemp(prefix="teleteach_bench_sigma7_"))
+    with Experiment(folder) as experiment:
+        experiment.own_roscore()
         executable = roslib.packages.find_node("teleteach", "sigma7_node")[0]
-        node = subprocess.Popen(
+        node = experiment.start(
+            "sigma7_node",
             [executable, "_backend:=scenario", f"_scenario:={SCENARIO}", f"_publish_rate:={publish_rate}"],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            start_new_session=True,
+            folder / "sigma7_node.log",
+            watched=True,
         )
         time.sleep(3.0)
+        experiment.check()
         cpu_before = _cpu_seconds(node.pid)
         result = subprocess.run(
-            [sys.executable, "-c", SUBSCRIBER, str(seconds)], env=env, capture_output=True, text=True, check=True
+            [sys.executable, "-c", SUBSCRIBER, str(seconds)],
+            env=experiment.environment(),
+            capture_output=True,
+            text=True,
+            check=True,
         )
         cpu = (_cpu_seconds(node.pid) - cpu_before) / (seconds + 1.0)  # the subscriber's start-up included
-    finally:
-        for process in (node, core):
-            if process is not None:
-                _stop(process)
     poses, forces = result.stdout.splitlines()[-2:]
     stamps = np.array([float(value) for value in poses.split()])
     stamps = stamps[stamps > stamps[0] + 1.0]  # skip the connection's first second
@@ -123,11 +116,6 @@ def over_ros(seconds=8.0, publish_rate=1000.0):
         "stamp_interval_max_ms": float(intervals.max()),
         "node_cpu_percent_of_one_core": float(100.0 * cpu),
     }
-
-
-def _stop(process):
-    os.killpg(process.pid, signal.SIGINT)
-    process.wait(timeout=30)
 
 
 def _cpu_seconds(pid):

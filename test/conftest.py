@@ -21,17 +21,17 @@ def artifacts_dir():
 
 @pytest.fixture(scope="module")
 def roscore(tmp_path_factory):
-    """A roscore of our own on a free port (own_master), stopped by its PID afterwards: the environment to run in."""
-    from teleteach.runtime.processes import Processes, own_master
+    """A roscore of our own on a free port (own_roscore), stopped by its PID afterwards: the environment to run in."""
+    from teleteach.runtime.processes import Processes, own_roscore
 
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path_factory.mktemp("log")))
     processes = Processes()
 
-    def start_roscore(port):
-        env["ROS_MASTER_URI"] = f"http://localhost:{port}"
-        return processes.start("roscore", ["roscore", "-p", str(port)], env=env)
+    def start_roscore(command, uri):
+        env["ROS_MASTER_URI"] = uri
+        return processes.start("roscore", command, env=env)
 
-    own_master(start_roscore, processes.stop)
+    own_roscore(start_roscore, processes.stop)
     try:
         yield env
     finally:

@@ -2,7 +2,6 @@
 simulated robot (product_pick_1 left out) through full.launch; the outcome is checked from what the run left in the
 data directory: the saved tree with its history, the repair memory and the recorded bag."""
 
-import os
 import time
 
 import pytest
@@ -10,7 +9,8 @@ import yaml
 from conftest import ROOT
 
 from teleteach.recording.session import open_bag
-from teleteach.runtime.processes import Processes, own_master, start_xvfb
+from teleteach.runtime.experiment import Experiment
+from teleteach.runtime.processes import full_launch
 
 SCENARIO = ROOT / "config" / "scenarios" / "remembered_repair.yaml"
 FAILURE = ("PickItem", "product_pick_1 is not on the table")
@@ -34,38 +34,22 @@ def undone_repair(tree):
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     data = tmp_path_factory.mktemp("repair_data")
-    processes = Processes()
-    display = start_xvfb(processes)
-    env = dict(os.environ, DISPLAY=display, TELETEACH_DATA=str(data), ROS_IP="127.0.0.1", PYTHONUNBUFFERED="1")
+    arguments = {
+        "headless": True,
+        "device": "scenario",
+        "scenario": SCENARIO,
+        "absent_products": ["product_pick_1"],
+        "record": True,
+        "record_prefix": "repair",
+        "data_dir": data,
+    }
     log = data / "launch.log"
-
-    def start_launch(port):
-        arguments = [
-            "roslaunch",
-            "-p",
-            str(port),
-            "teleteach",
-            "full.launch",
-            "headless:=true",
-            "device:=scenario",
-            f"scenario:={SCENARIO}",
-            "absent_products:=[product_pick_1]",
-            "record:=true",
-            "record_prefix:=repair",
-            f"data_dir:={data}",
-        ]
-        return processes.start("roslaunch", arguments, log, dict(env, ROS_MASTER_URI=f"http://localhost:{port}"))
-
-    try:
-        _, launch = own_master(start_launch, processes.stop)
-        deadline = time.monotonic() + RUN_TIMEOUT
-        while not undone_repair(saved_tree(data)):
-            assert launch.poll() is None, f"full.launch ended early: {log.read_text()[-3000:]}"
-            assert time.monotonic() < deadline, f"no undone repair in the saved tree: {log.read_text()[-3000:]}"
-            time.sleep(0.5)
+    with Experiment(data, data) as experiment:
+        experiment.own_display()
+        experiment.own_launch(lambda port: full_launch(arguments, port), log)
+        repaired = experiment.wait_until(lambda: undone_repair(saved_tree(data)), RUN_TIMEOUT, poll=0.5)
+        assert repaired, f"no undone repair in the saved tree: {log.read_text()[-3000:]}"
         time.sleep(3.0)  # the tree log of the undone tree reaches the bag
-    finally:
-        processes.stop_all()
     bags = sorted((data / "bags").glob("repair*.bag"))
     assert len(bags) == 1, list((data / "bags").iterdir())
     return data, bags[0]

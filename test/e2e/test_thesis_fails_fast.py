@@ -59,9 +59,9 @@ def test_a_device_node_killed_mid_scenario_ends_the_run_at_once_with_that_cause_
         raise AssertionError(f"run_thesis did not say {pattern!r} within {timeout:.0f} s:\n{''.join(said)}")
 
     try:
-        _, port = wait_for(r"roscore on port (\d+)", 120.0)
+        _, master = wait_for(r"master (http://\S+)\)", 120.0)
         wait_for(r"PickItem: done", 180.0)  # mid-scenario: the tree runs, the operator has more to do
-        pid = node_pid(f"http://localhost:{port.group(1)}", "/sigma7_node")
+        pid = node_pid(master.group(1), "/sigma7_node")
         os.kill(pid, signal.SIGKILL)
         killed = time.monotonic()
         stopped, reason = wait_for(r"stopped waiting: (.*)", 60.0)

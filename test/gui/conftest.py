@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from teleteach.runtime.processes import own_master
+from teleteach.runtime.processes import own_roscore
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -30,8 +30,10 @@ def stop(process, timeout=10.0):
 
 @pytest.fixture(scope="session")
 def ros_master(tmp_path_factory):
-    """A roscore on a free port of its own (teleteach.runtime.processes.own_master); this process becomes the rospy node
-    'gui_test'."""
+    """A roscore on a free port of its own (teleteach.runtime.processes.own_roscore).
+
+    This process becomes the rospy node 'gui_test'.
+    """
     import rospy
 
     if rospy.core.is_initialized():
@@ -39,13 +41,11 @@ def ros_master(tmp_path_factory):
     os.environ["ROS_HOSTNAME"] = "127.0.0.1"
     os.environ["ROS_LOG_DIR"] = str(tmp_path_factory.mktemp("ros_logs"))
 
-    def start_roscore(port):
-        os.environ["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
-        return subprocess.Popen(
-            ["roscore", "-p", str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
-        )
+    def start_roscore(command, uri):
+        os.environ["ROS_MASTER_URI"] = uri
+        return subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
 
-    _, core = own_master(start_roscore, stop, host="127.0.0.1")
+    _, core = own_roscore(start_roscore, stop, host="127.0.0.1")
     uri = os.environ["ROS_MASTER_URI"]
     rospy.init_node("gui_test", disable_signals=True)
     yield uri

@@ -7,7 +7,7 @@ import subprocess
 import sys
 import time
 
-from teleteach.runtime.processes import own_master
+from teleteach.runtime.processes import own_roscore
 
 
 class Processes:
@@ -81,20 +81,20 @@ def wait_until(condition, timeout, what):
 
 
 def start_roscore(processes, name="roscore"):
-    """A roscore on a free port of its own (teleteach.runtime.processes.own_master); sets ROS_MASTER_URI for every
+    """A roscore on a free port of its own (teleteach.runtime.processes.own_roscore); sets ROS_MASTER_URI for every
     process started afterwards."""
     processes.env["ROS_LOG_DIR"] = str(processes.log_dir / "ros_log")
     names = {}
 
-    def start(port):
-        processes.env["ROS_MASTER_URI"] = f"http://localhost:{port}"
+    def start(command, uri):
+        processes.env["ROS_MASTER_URI"] = uri
         core_name = f"{name}_{len(names)}" if names else name
-        core = processes.start(core_name, ["roscore", "-p", str(port)])
+        core = processes.start(core_name, command)
         names[core.pid] = core_name
         return core
 
-    port, _ = own_master(start, lambda core: processes.stop(names[core.pid]))
-    return f"http://localhost:{port}"
+    uri, _ = own_roscore(start, lambda core: processes.stop(names[core.pid]))
+    return uri
 
 
 def run_probe(log_dir, code, timeout=120):

@@ -3,19 +3,21 @@ cycles, the library never imports the executables, benches or tests, and only th
 part's logic is testable without a master)."""
 
 import ast
+import pathlib
 import re
 
 from conftest import ROOT
 
 PACKAGE = ROOT / "src" / "teleteach"
 # The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers and the nodes' entries, the actionlib
-# helpers the ros.py layers share (their status thread stops with rospy's shutdown), the main job, the learn_skill CLI
-# and the study's trial processes (docs/architecture.md: study/runner.py starts the study node, importing it in
-# functions).
+# helpers the ros.py layers share (their status thread stops with rospy's shutdown), the experiment runner (it joins its
+# master as a node), the main job, the learn_skill CLI and the study's trial processes (docs/architecture.md:
+# study/runner.py starts the study node, importing it in functions).
 ROS_LAYERS = {
     "runtime/node.py",
     "executables.py",
     "runtime/ros_actions.py",
+    "runtime/experiment.py",
     "gui/app.py",
     "gui/worker.py",
     "run/thesis.py",
@@ -252,3 +254,21 @@ def test_a_second_copy_of_either_is_recognised():
     assert STIFFNESS_COMPOSITION.search("v @ np.diag(sigma) @ v.T")
     assert STIFFNESS_COMPOSITION.search("R.as_matrix()\n    @ np.diag([300.0, f(a), 1.0])\n    @ R.as_matrix().T")
     assert not STIFFNESS_COMPOSITION.search("transform[:3, :3] = rotation @ np.diag(lengths)")
+
+
+ROSCORE_START = re.compile(r"""["']roscore["']\s*,\s*["']-p["']""")
+THIS_FILE = pathlib.Path(__file__).resolve()
+
+
+def test_a_roscore_of_our_own_is_started_in_one_place():
+    """Experiments, benches and tests get a master from runtime.processes.own_roscore (a free port, checked ours).
+
+    The unit test of own_master's port race starts roscores on chosen ports itself, on purpose.
+    """
+    files = [*PACKAGE.rglob("*.py"), *(ROOT / "bench").glob("*.py"), *(ROOT / "test").rglob("*.py")]
+    allowed = {PACKAGE / "runtime" / "processes.py", ROOT / "test" / "unit" / "test_run_thesis.py", THIS_FILE}
+    found = sorted(
+        str(path.relative_to(ROOT)) for path in files if path not in allowed and ROSCORE_START.search(path.read_text())
+    )
+    assert found == []
+    assert ROSCORE_START.search('subprocess.Popen(["roscore", "-p", str(port)], env=env)')

@@ -14,7 +14,7 @@ from teleteach.core import skill_file
 from teleteach.learning import spd
 from teleteach.learning.command import main
 from teleteach.learning.synthetic import placement_demo
-from teleteach.runtime.processes import own_master
+from teleteach.runtime.processes import own_roscore
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 COMMAND = ROOT / "nodes" / "learn_skill"
@@ -90,11 +90,11 @@ def test_add_puts_the_learned_skill_into_the_running_behaviour_tree_library(data
     env = dict(os.environ)
     quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True, "env": env}
 
-    def start_roscore(port):
-        env["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
-        return subprocess.Popen(["roscore", "-p", str(port)], **quiet)
+    def start_roscore(command, uri):
+        env["ROS_MASTER_URI"] = uri
+        return subprocess.Popen(command, **quiet)
 
-    _, roscore = own_master(start_roscore, stop, host="127.0.0.1")
+    _, roscore = own_roscore(start_roscore, stop, host="127.0.0.1")
     tree = None
     try:
         early = run("Demo", "--data-dir", data, "--name", "Early", "--add", "--timeout", 1, env=env)

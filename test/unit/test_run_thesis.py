@@ -291,9 +291,9 @@ def test_an_rviz_that_dies_is_started_again_and_the_run_says_what_each_start_did
     said = []
     run = ThesisRun(options_for(ROOT / "config" / "scenarios" / "thesis_full.yaml", data_root=tmp_path), said.append)
     try:
-        missing = run.rviz_view(dict(os.environ))
+        missing = run.rviz_view()
     finally:
-        run.processes.stop_all()
+        run.experiment.close()
     # Expect: RViz started twice, each end told with its exit code, no picture
     assert (tmp_path / "starts").read_text().count("started") == RVIZ_STARTS == 2
     assert missing.startswith("rviz.png: start 1: RViz exited (code 3)"), missing

@@ -9,7 +9,6 @@ before and after, the report with the thesis-style plots, the screenshots and ``
 
 import dataclasses
 import functools
-import os
 import pathlib
 import shutil
 import signal
@@ -35,18 +34,14 @@ from teleteach.recording.session import SessionError, read_session
 from teleteach.run import outcome
 from teleteach.run.outcome import RunSummary
 from teleteach.run.pictures import background_colour, rviz_picture
+from teleteach.runtime.experiment import Experiment
 from teleteach.runtime.processes import (
     ProcessError,
-    Processes,
-    StageScreenshots,
     closed_bag,
     full_launch,
-    own_master,
-    ros_environment,
     screenshot,
     scripted_device,
     start_xvfb,
-    with_required_death,
 )
 
 DEFAULT_SCENARIO = config_file("scenarios", "thesis_full.yaml")
@@ -245,7 +240,7 @@ class ThesisRun:
         self.scenario = load_scenario(options.scenario)  # a bad file is refused before anything is created
         self.root = data_dir(options.data_root)
         self.folder = _run_folder(self.root)
-        self.processes = Processes()
+        self.experiment = Experiment(self.folder, self.root)
         self.prefix = "thesis_" + self.folder.name.replace("-", "_")
         self.timings: Dict[str, float] = {}
         self._start = time.monotonic()
@@ -255,54 +250,36 @@ class ThesisRun:
 
     def run(self) -> RunSummary:
         """Everything; processes are stopped whatever happens."""
-        try:
+        with self.experiment:
             return self._run()
-        finally:
-            self.processes.stop_all()
 
     def _run(self) -> RunSummary:
-        options, scenario = self.options, self.scenario
-        display = os.environ.get("DISPLAY", "")
-        if not display:
-            display = start_xvfb(self.processes, parent_death_signal=signal.SIGTERM)
-            self.say(f"run_thesis: started Xvfb on {display}")
-
-        def start_launch(port: int):
-            arguments = {
-                **scripted_device(options.scenario, options.device_rate),
-                "headless": True,
-                "tree": options.tree,
-                "trajectory": options.trajectory,
-                "record": True,
-                "record_prefix": self.prefix,
-                "data_dir": self.root,
-            }
-            return self.processes.start(
-                "roslaunch",
-                full_launch(arguments, port),
-                self.folder / "launch.log",
-                ros_environment(f"http://localhost:{port}", display, self.root),
-                parent_death_signal=signal.SIGINT,  # a run_thesis killed (even by SIGKILL) leaves no system running
-            )
-
-        port, launch = own_master(start_launch, self.processes.stop)
-        env = ros_environment(f"http://localhost:{port}", display, self.root)
-        self.say(f"run_thesis: launched full.launch (roscore on port {port}), log {self.folder / 'launch.log'}")
-        os.environ.update(ROS_MASTER_URI=env["ROS_MASTER_URI"], TELETEACH_DATA=env["TELETEACH_DATA"])
+        options, scenario, experiment = self.options, self.scenario, self.experiment
+        if experiment.own_display():
+            self.say(f"run_thesis: started Xvfb on {experiment.display}")
+        arguments = {
+            **scripted_device(options.scenario, options.device_rate),
+            "headless": True,
+            "tree": options.tree,
+            "trajectory": options.trajectory,
+            "record": True,
+            "record_prefix": self.prefix,
+            "data_dir": self.root,
+        }
+        launch = experiment.own_launch(lambda port: full_launch(arguments, port), self.folder / "launch.log")
+        self.say(f"run_thesis: launched full.launch (master {experiment.master_uri}), log {self.folder / 'launch.log'}")
+        experiment.join("run_thesis", anonymous=True)
         import rospy
 
-        from teleteach.runtime.node import init_node
-
-        init_node("run_thesis", anonymous=True, disable_signals=True)
         monitor = Monitor()
-        shots = StageScreenshots(display, self.folder, "gui", monitor.tab_name, delay=1.5, period=3.0)
+        shots = experiment.screenshots("gui", monitor.tab_name, delay=1.5)
         self._mark("master_up")
         try:
             finished, reason = self._wait(monitor, launch, scenario.duration, rospy)
             self._mark("scenario_done")
             shots.stop()
             shots.take(self.folder / "gui_final.png")
-            missing = self.rviz_view(env) if options.rviz and launch.poll() is None else ""
+            missing = self.rviz_view() if options.rviz and launch.poll() is None else ""
             if missing:
                 shots.errors.append(missing)
             self._mark("screenshots_done")
@@ -310,7 +287,7 @@ class ThesisRun:
             shots.stop()
             monitor.close()
             rospy.signal_shutdown("run_thesis done")
-            self.processes.stop(launch, grace=25.0)
+            experiment.stop(launch, grace=25.0)
             self._mark("launch_stopped")
         return self._results(monitor, finished, reason, shots.errors)
 
@@ -320,8 +297,8 @@ class ThesisRun:
         start, played_at = None, None
         reported = set()
         while time.monotonic() < deadline:
-            if launch.poll() is not None:
-                return self._ended_early(launch)
+            if self.experiment.ended():
+                return self._ended_early()
             try:
                 if start is None and rospy.has_param("sigma7_node/scenario_start"):
                     start = float(rospy.get_param("sigma7_node/scenario_start"))
@@ -336,7 +313,7 @@ class ThesisRun:
                     launch.wait(timeout=MASTER_GONE_WAIT)
                 except subprocess.TimeoutExpired:
                     return False, f"the ROS master stopped answering ({error}) while roslaunch still runs"
-                return self._ended_early(launch)
+                return self._ended_early()
             played = played_at is not None and now >= played_at + 1.0
             for name, (status, message, _) in list(monitor.leaves.items()):
                 ended = status in (Status.SUCCESS, Status.FAILURE)
@@ -351,27 +328,25 @@ class ThesisRun:
         state = "scenario not over" if played_at is None else "tree not finished"
         return False, f"timeout after {self.options.timeout:.0f} s wall time ({state})"
 
-    def _ended_early(self, launch) -> Tuple[bool, str]:
-        """The reason a launch ended before the scenario did: the required node that died first, if one did."""
-        reason = with_required_death(
-            f"roslaunch ended early (exit {launch.returncode}); see launch.log", self.folder / "launch.log"
-        )
+    def _ended_early(self) -> Tuple[bool, str]:
+        """The reason the launch ended before the scenario did: the required node that died first, if one did."""
+        reason = self.experiment.ended()
         self.say(f"run_thesis: stopped waiting: {reason}")
         return False, reason
 
-    def rviz_view(self, env) -> str:
+    def rviz_view(self) -> str:
         """Why rviz.png (RViz's picture of the robot, the shelf and the ellipsoid) was not taken; "" when it was.
 
         Its own display: nothing else can lie on top of it. RViz is started a second time when the first one exited
         or showed nothing in time (on llvmpipe it can die while it opens its window); what each start showed is said.
         """
         try:
-            screen = start_xvfb(self.processes, size=RVIZ_SCREEN, parent_death_signal=signal.SIGTERM)
+            screen = start_xvfb(self.experiment.processes, size=RVIZ_SCREEN, parent_death_signal=signal.SIGTERM)
         except ProcessError as error:
             return f"rviz.png: {error}"
         tries = []
         for start in range(1, RVIZ_STARTS + 1):
-            why = self._rviz_picture(dict(env, DISPLAY=screen), screen)
+            why = self._rviz_picture(dict(self.experiment.environment(), DISPLAY=screen), screen)
             if not why:
                 return ""
             tries.append(f"start {start}: {why}")
@@ -385,7 +360,7 @@ class ThesisRun:
         """
         picture, attempt = self.folder / "rviz.png", self.folder / "rviz_attempt.png"
         try:
-            rviz = self.processes.start(
+            rviz = self.experiment.processes.start(
                 "rviz",
                 ["rviz", "-d", str(RVIZ_CONFIG)],
                 self.folder / "rviz.log",
@@ -416,7 +391,7 @@ class ThesisRun:
             shown = why or "drawn, but not the same in two shots in a row"
             return f"RViz did not show the robot and the scene within {RVIZ_TIMEOUT:.0f} s: {shown} ({attempt.name})"
         finally:
-            self.processes.stop(rviz, grace=5.0)
+            self.experiment.stop(rviz, grace=5.0)
 
     def _results(self, monitor: Monitor, finished: bool, reason: str, screenshot_errors: List[str]) -> RunSummary:
         options, folder = self.options, self.folder

@@ -97,6 +97,23 @@ def own_master(
     raise ProcessError(f"no ROS master of our own after {attempts} ports; the last time {last}")
 
 
+def own_roscore(
+    start: Callable[[Sequence[str], str], subprocess.Popen],
+    stop: Callable[[subprocess.Popen], object],
+    host: str = "localhost",
+) -> Tuple[str, subprocess.Popen]:
+    """A roscore on a free port of its own (:func:`own_master`), started by ``start(command, uri)``; (URI, process).
+
+    ``uri`` is the master's to be: the environment of the roscore and of everything started after it.
+    """
+
+    def start_at(port: int) -> subprocess.Popen:
+        return start(["roscore", "-p", str(port)], f"http://{host}:{port}")
+
+    port, process = own_master(start_at, stop, host)
+    return f"http://{host}:{port}", process
+
+
 class Processes:
     """The run's child processes; :meth:`stop_all` ends them newest first."""
 

@@ -14,9 +14,7 @@ with it. The processes it starts stop when it dies, however it dies.
 import dataclasses
 import functools
 import json
-import os
 import pathlib
-import signal
 import subprocess
 import time
 from typing import Any, Callable, Dict, List, Optional
@@ -29,17 +27,13 @@ from teleteach.core.paths import config_file
 from teleteach.core.scene import load_scene
 from teleteach.core.study_phase import Phase
 from teleteach.recording.bags import record_command
+from teleteach.runtime.experiment import Experiment, SystemEndedError
 from teleteach.runtime.processes import (
     ProcessError,
-    Processes,
     StageScreenshots,
     closed_bag,
     full_launch,
-    own_master,
-    ros_environment,
     scripted_device,
-    start_xvfb,
-    with_required_death,
 )
 from teleteach.study.metrics import TrialMetrics
 from teleteach.study.ordering import QUESTIONNAIRE, Step, participant_number
@@ -65,12 +59,10 @@ KEEP_PARAMETERS = ("roslaunch", "rosdistro", "rosversion", "run_id", "study")
 
 
 class TrialError(RuntimeError):
-    """A trial could not run to its end (its system did not come up, or died): it stays unfinished, resumable."""
+    """A trial could not run to its end (its system did not come up in time): it stays unfinished, resumable.
 
-
-def _ended(launch: subprocess.Popen, log: pathlib.Path) -> str:
-    """Why a trial's system ended early: the required node that died and its last words (roslaunch's log), first."""
-    return with_required_death(f"the trial's system ended (roslaunch exit {launch.returncode}); see {log}", log)
+    A trial whose system died raises :class:`teleteach.runtime.experiment.SystemEndedError`, also resumable.
+    """
 
 
 @dataclasses.dataclass(frozen=True)
@@ -133,11 +125,9 @@ class StudyRunner:
         self.say = say
         self.number = participant_number(study, participant)
         self.store = ParticipantStore(study, participant, options.data_root)
-        self.processes = Processes()
+        self.experiment = Experiment(self.store.folder)
         self.scene = load_scene() if any(task.goal.placement for task in study.tasks) else None
         self.gui = GuiConfig.load()
-        self._display = os.environ.get("DISPLAY", "")
-        self._master_uri = ""
         self._ros = None
         self._flow: Optional[StudyFlow] = None
 
@@ -148,7 +138,7 @@ class StudyRunner:
         try:
             return self._run()
         finally:
-            self.processes.stop_all()
+            self.experiment.close()
             self.store.close()
 
     def _run(self) -> int:
@@ -177,32 +167,14 @@ class StudyRunner:
 
     def _start_ros(self, trials: int) -> None:
         """A master of our own (unless one runs for us), an X server if there is no display, the study node."""
-        if not self._display:
-            self._display = start_xvfb(self.processes, parent_death_signal=signal.SIGTERM)
+        if self.experiment.own_display():
             self.options = dataclasses.replace(self.options, headless=True)
-            self.say(f"study: started Xvfb on {self._display}")
-        if self.options.use_running_master:
-            self._master_uri = os.environ["ROS_MASTER_URI"]
-        else:
-            log = self.store.folder / "roscore.log"
-            port, _ = own_master(
-                lambda port: self.processes.start(
-                    "roscore",
-                    ["roscore", "-p", str(port)],
-                    log,
-                    ros_environment(f"http://localhost:{port}", self._display, self.store.folder),
-                    parent_death_signal=signal.SIGINT,
-                ),
-                self.processes.stop,
-            )
-            self._master_uri = f"http://localhost:{port}"
-            os.environ["ROS_MASTER_URI"] = self._master_uri
-            if not os.environ.get("ROS_IP") and not os.environ.get("ROS_HOSTNAME"):
-                os.environ["ROS_IP"] = "127.0.0.1"
-        from teleteach.runtime.node import init_node
+            self.say(f"study: started Xvfb on {self.experiment.display}")
+        if not self.options.use_running_master:
+            self.experiment.own_roscore()
         from teleteach.study.ros import StudyRos
 
-        init_node("study", disable_signals=True)
+        self.experiment.join("study")
         self._flow = StudyFlow(self.study, self.participant, trials)
         self._ros = StudyRos(self._flow)
 
@@ -236,19 +208,18 @@ class StudyRunner:
         self._ros.begin_trial(task.goal, self.scene, metrics)
         self._ros.pause_tree(task.pause_tree != "never")
         launch = self._launch(step, folder)
-        log = folder / "launch.log"
         recorder = shots = None
         try:
-            recorder = self._wait_until_ready(launch, folder)
+            recorder = self._wait_until_ready(folder)
             seen = self._parameters_seen(parameters)
             self._flow.instructions(step)
             self._ros.publish()
             shots = self._screenshots(folder)
-            self._wait_for_start(launch, log)
+            self._wait_for_start()
             if task.pause_tree == "instructions":
                 self._ros.pause_tree(False)
             self.say(f"study: trial {step.trial} started")
-            self._run_until_done(launch, log)
+            self._run_until_done()
             success, task_time, status = self._flow.outcome
             self.say(f"study: trial {step.trial} {'done' if success else 'NOT done'} in {task_time:.1f} s: {status}")
             time.sleep(self.settings.end_screen)
@@ -280,13 +251,13 @@ class StudyRunner:
             }
             self.store.finish_trial(step, result)
             if questionnaire is not None:
-                self._ask(questionnaire, launch, log)
+                self._ask(questionnaire)
         finally:
             if shots is not None:
                 shots.stop()
             if recorder is not None:
-                self.processes.stop(recorder, grace=10.0)
-            self.processes.stop(launch, grace=self.settings.stop_grace)
+                self.experiment.stop(recorder, grace=10.0)
+            self.experiment.stop(launch, grace=self.settings.stop_grace)
             self._ros.end_trial()
 
     def _parameters(self, step: Step) -> Dict[str, Any]:
@@ -302,9 +273,8 @@ class StudyRunner:
         task = self.study.task(step.task)
         arguments = self._system(folder, scenario=folder / "scenario.yaml")
         arguments.update({**self.study.system, **task.system})
-        env = ros_environment(self._master_uri, self._display, folder / "data")
-        return self.processes.start(
-            "roslaunch", full_launch(arguments), folder / "launch.log", env, parent_death_signal=signal.SIGINT
+        return self.experiment.start(
+            "roslaunch", full_launch(arguments), folder / "launch.log", data_root=folder / "data", watched=True
         )
 
     def _system(self, folder: pathlib.Path, scenario: pathlib.Path) -> Dict[str, Any]:
@@ -323,65 +293,63 @@ class StudyRunner:
         )
         return arguments
 
-    def _wait_until_ready(self, launch: subprocess.Popen, folder: pathlib.Path) -> subprocess.Popen:
+    def _wait_until_ready(self, folder: pathlib.Path) -> subprocess.Popen:
         """Until the tree, the GUI and the device are up; then the recorder, until its bag is open."""
         from teleteach.study.ros import not_ready
 
         deadline = time.monotonic() + self.settings.prepare_timeout
         waiting = ["the behaviour tree"]
-        while time.monotonic() < deadline:
-            self._check_alive(launch, folder / "launch.log")
-            waiting = not_ready(self._ros.trees_heard)
-            if not waiting:
-                break
-            time.sleep(0.2)
-        else:
+
+        def ready() -> bool:
+            waiting[:] = not_ready(self._ros.trees_heard)
+            return not waiting
+
+        if not self.experiment.wait_until(ready, self.settings.prepare_timeout):
             missing = ", ".join(waiting)
             raise TrialError(f"the trial's system was not up after {self.settings.prepare_timeout:g} s ({missing})")
         command = record_command("trial", folder / "data", STUDY_TOPICS)
-        env = ros_environment(self._master_uri, self._display, folder / "data")
-        recorder = self.processes.start(
-            "rosbag record", command, folder / "record.log", env, parent_death_signal=signal.SIGINT
-        )
+        recorder = self.experiment.start("rosbag record", command, folder / "record.log", data_root=folder / "data")
         bags = folder / "data" / "bags"
-        while not list(bags.glob("trial_*.bag.active")):
-            self._check_alive(launch, folder / "launch.log")
-            if recorder.poll() is not None or time.monotonic() > deadline:
-                raise TrialError(f"rosbag record did not open the trial's bag (see {folder / 'record.log'})")
-            time.sleep(0.1)
-        return recorder
 
-    @staticmethod
-    def _check_alive(launch: subprocess.Popen, log: pathlib.Path) -> None:
-        if launch.poll() is not None:
-            raise TrialError(_ended(launch, log))
+        def opened() -> bool:
+            if recorder.poll() is not None:
+                raise TrialError(f"rosbag record ended before it opened the trial's bag (see {folder / 'record.log'})")
+            return bool(list(bags.glob("trial_*.bag.active")))
+
+        if not self.experiment.wait_until(opened, max(0.0, deadline - time.monotonic()), poll=0.1):
+            raise TrialError(f"rosbag record did not open the trial's bag (see {folder / 'record.log'})")
+        return recorder
 
     def _parameters_seen(self, parameters: Dict[str, Any]) -> Dict[str, Any]:
         from teleteach.study.ros import parameters_seen
 
         return parameters_seen(parameters)
 
-    def _wait_for_start(self, launch: subprocess.Popen, log: pathlib.Path) -> None:
+    def _wait_for_start(self) -> None:
         """Until the start gesture; bounded only for the scripted participant (a person may take their time)."""
         deadline = time.monotonic() + self.settings.prepare_timeout
-        while self._flow.phase == Phase.INSTRUCTIONS:
-            self._check_alive(launch, log)
+
+        def started() -> bool:
+            if self._flow.phase != Phase.INSTRUCTIONS:
+                return True
             if self.options.device == "scenario" and time.monotonic() > deadline:
                 raise TrialError(f"the scripted participant did not start within {self.settings.prepare_timeout:g} s")
             self._ros.publish()
-            time.sleep(1.0 / self.settings.status_rate)
+            return False
 
-    def _run_until_done(self, launch: subprocess.Popen, log: pathlib.Path) -> None:
+        self.experiment.wait_until(started, None, poll=1.0 / self.settings.status_rate)
+
+    def _run_until_done(self) -> None:
         """Judge the goal until it is met or the time is up; the live status goes out at status_rate."""
         period = 1.0 / self.settings.judge_rate
         published = 0.0
         while True:
             now = time.monotonic()
-            if launch.poll() is not None:
-                why = _ended(launch, log)
+            why = self.experiment.ended()
+            if why:
                 self._flow.abort(now, why)
                 self._ros.publish()
-                raise TrialError(why)
+                raise SystemEndedError(why)
             done = self._flow.update(now, self._ros.judgement())
             if done or now - published >= 1.0 / self.settings.status_rate:
                 self._ros.publish()
@@ -392,24 +360,21 @@ class StudyRunner:
 
     def _stop_recorder(self, recorder: subprocess.Popen, folder: pathlib.Path) -> Optional[pathlib.Path]:
         """Close the bag (SIGINT: rosbag's wrapper passes it on) and move it into the trial's folder as trial.bag."""
-        self.processes.stop(recorder, grace=15.0)
+        self.experiment.stop(recorder, grace=15.0)
         bag = closed_bag(folder / "data" / "bags", "trial", folder, timeout=20.0, name="trial.bag")
         if bag is None:
             self.say(f"study: WARNING: no bag was closed for {folder.name} (see record.log)")
         return bag
 
     # questionnaires ---------------------------------------------------------------------------------------------
-    def _ask(self, step: Step, launch: subprocess.Popen, log: pathlib.Path) -> None:
+    def _ask(self, step: Step) -> None:
         """The condition's questionnaire in the GUI of the trial that just ended; the answers are stored."""
         self._flow.questionnaire(step)
         self._ros.publish()
         self.say(f"study: questionnaire after condition {step.condition}")
-        deadline = time.monotonic() + self.settings.prepare_timeout + 120.0
-        while self._flow.answers is None:
-            self._check_alive(launch, log)
-            if self.options.device == "scenario" and time.monotonic() > deadline:
-                raise TrialError(f"the scripted participant did not answer the questionnaire after {step.condition}")
-            time.sleep(0.1)
+        timeout = self.settings.prepare_timeout + 120.0 if self.options.device == "scenario" else None
+        if not self.experiment.wait_until(lambda: self._flow.answers is not None, timeout, poll=0.1):
+            raise TrialError(f"the scripted participant did not answer the questionnaire after {step.condition}")
         answers = self._flow.answers
         self.store.save_questionnaire(
             step,
@@ -451,23 +416,20 @@ class StudyRunner:
             "real_robot": True,
             "shared_control": False,
         }
-        env = ros_environment(self._master_uri, self._display, folder / "data")
         log = folder / "launch.log"
-        launch = self.processes.start("roslaunch", full_launch(arguments), log, env, parent_death_signal=signal.SIGINT)
+        launch = self.experiment.start(
+            "roslaunch", full_launch(arguments), log, data_root=folder / "data", watched=True
+        )
         try:
-            deadline = time.monotonic() + self.settings.prepare_timeout
-            while not gui_listens():
-                self._check_alive(launch, folder / "launch.log")
-                if time.monotonic() > deadline:
-                    raise TrialError(f"the GUI was not up after {self.settings.prepare_timeout:g} s")
-                time.sleep(0.2)
+            if not self.experiment.wait_until(gui_listens, self.settings.prepare_timeout):
+                raise TrialError(f"the GUI was not up after {self.settings.prepare_timeout:g} s")
             shots = self._screenshots(folder)
             try:
-                self._ask(step, launch, folder / "launch.log")
+                self._ask(step)
             finally:
                 shots.stop()
         finally:
-            self.processes.stop(launch, grace=self.settings.stop_grace)
+            self.experiment.stop(launch, grace=self.settings.stop_grace)
 
     def _questionnaire_scenario(self, step: Step) -> str:
         """The scripted participant's answers alone: its answering part of a trial's scenario."""
@@ -487,8 +449,9 @@ class StudyRunner:
             current = self._flow.phase
             return None if current in (Phase.PREPARING, Phase.FINISHED) else current.name.lower()
 
-        display = self._display if self.options.screenshots else ""
-        return StageScreenshots(display, folder, "screen", phase, self.settings.screenshot_delay, period=3.0)
+        return self.experiment.screenshots(
+            "screen", phase, self.settings.screenshot_delay, folder=folder, enabled=self.options.screenshots
+        )
 
 
 def main(argv: Optional[List[str]] = None) -> int:
@@ -537,7 +500,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     except (StudyError, ParticipantError, SessionRefusedError, ScriptError, ValueError) as error:
         print(f"study: {error}", flush=True)
         return 2
-    except (TrialError, ProcessError) as error:
+    except (TrialError, SystemEndedError, ProcessError) as error:
         print(f"study: {error}; the step that ran is not stored: continue with --resume", flush=True)
         return 1
     except KeyboardInterrupt:
