@@ -2,54 +2,54 @@
 
 import os
 import pathlib
-import signal
 import subprocess
 import sys
 import time
 
-from teleteach.runtime.processes import own_roscore
+from teleteach.runtime import processes as runtime
 
 
 class Processes:
-    """Processes started in order and stopped in reverse order (SIGINT, then SIGTERM, then SIGKILL), each by PID."""
+    """A test's processes by name, each writing ``<log_dir>/<name>.log`` (read it when the test fails).
+
+    On :class:`teleteach.runtime.processes.Processes`: each in its own session, stopped by PID newest first, SIGINT,
+    then SIGTERM, then SIGKILL.
+    """
+
+    GRACE = 15.0  # [s] after SIGINT
 
     def __init__(self, log_dir: pathlib.Path, env=None):
         self.log_dir = pathlib.Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self.env = dict(os.environ if env is None else env)
-        self.started = []
+        self.runtime = runtime.Processes()
+        self._named = []
 
-    def start(self, name, command, extra_env=None, **kwargs):
+    def start(self, name, command, extra_env=None, pass_fds=()):
+        """Start ``command`` as ``name``; a name started again gets a fresh log."""
+        log = self.log_dir / f"{name}.log"
+        log.unlink(missing_ok=True)
         env = dict(self.env, **(extra_env or {}))
-        log = open(self.log_dir / f"{name}.log", "w")  # closed in _stop
-        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env, **kwargs)
-        self.started.append((name, process, log))
+        process = self.runtime.start(name, command, log, env, pass_fds=pass_fds)
+        self._named.append((name, process))
         return process
+
+    def process(self, name):
+        """The process last started as ``name``."""
+        return [process for started, process in self._named if started == name][-1]
 
     def log(self, name):
         return (self.log_dir / f"{name}.log").read_text(errors="replace")
 
     def stop(self, name):
-        for entry in list(self.started):
-            if entry[0] == name:
-                self._stop(*entry)
-                self.started.remove(entry)
+        for entry in [entry for entry in self._named if entry[0] == name]:
+            self.runtime.stop(entry[1], self.GRACE)
+            self._named.remove(entry)
 
     def stop_all(self):
-        while self.started:
-            self._stop(*self.started.pop())
-
-    @staticmethod
-    def _stop(name, process, log):
-        for sig, wait in ((signal.SIGINT, 15), (signal.SIGTERM, 5), (signal.SIGKILL, 5)):
-            if process.poll() is not None:
-                break
-            process.send_signal(sig)
-            try:
-                process.wait(wait)
-            except subprocess.TimeoutExpired:
-                continue
-        log.close()
+        while self._named:
+            self.runtime.stop(self._named.pop()[1], self.GRACE)
+        self.runtime.stop_all()
 
     def __enter__(self):
         return self
@@ -93,7 +93,7 @@ def start_roscore(processes, name="roscore"):
         names[core.pid] = core_name
         return core
 
-    uri, _ = own_roscore(start, lambda core: processes.stop(names[core.pid]))
+    uri, _ = runtime.own_roscore(start, lambda core: processes.stop(names[core.pid]))
     return uri
 
 
@@ -106,15 +106,9 @@ def run_probe(log_dir, code, timeout=120):
 
 
 def start_xvfb(processes, size="1280x900x24"):
-    """An Xvfb of the given size on a free display (Xvfb -displayfd picks it); sets DISPLAY for what follows."""
-    read_end, write_end = os.pipe()
-    processes.start(
-        "xvfb", ["Xvfb", "-displayfd", str(write_end), "-screen", "0", size, "-nolisten", "tcp"], pass_fds=(write_end,)
-    )
-    os.close(write_end)
-    with os.fdopen(read_end) as stream:
-        display = ":" + stream.readline().strip()
-    assert display != ":", processes.log("xvfb")
+    """An Xvfb of the given size on a free display (teleteach.runtime.processes.start_xvfb); sets DISPLAY for what
+    follows."""
+    display = runtime.start_xvfb(processes.runtime, size)
     processes.env["DISPLAY"] = display
     return display
 

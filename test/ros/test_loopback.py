@@ -73,7 +73,7 @@ def test_a_launched_system_listens_on_loopback_only(tmp_path):
         start_roscore(processes)
         launch = processes.start("sim", ["roslaunch", "teleteach", "sim.launch", "real_time_factor:=0"])
         wait_until(lambda: {"/robot_sim", "/skill_server"} <= nodes(processes.env), 120, "robot_sim and skill_server")
-        core = processes.started[0][1]
+        core = processes.process("roscore")
         sockets = listening(descendants(core.pid) | descendants(launch.pid))
         names = {name for name, _, _ in sockets}
         # Expect: the master, roslaunch and the Python nodes listen, on loopback only
