@@ -2,6 +2,9 @@
 roscore, an Xvfb, child processes that end on their own)."""
 
 import os
+import pathlib
+import signal
+import subprocess
 import sys
 import time
 
@@ -11,6 +14,36 @@ from teleteach.runtime.experiment import Experiment, SystemEndedError
 from teleteach.runtime.processes import master_pid, parent_pid
 
 SLEEPER = [sys.executable, "-c", "import time; time.sleep(60)"]
+PYTHON = pathlib.Path(sys.executable).name
+
+
+def gone(pid, timeout=10.0):
+    """Whether process ``pid`` has ended (or is a zombie nobody waits for) within ``timeout`` seconds."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            state = pathlib.Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            return True
+        if state == "Z":
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def with_our_path(env):
+    """``env`` with this process's module path: the probe imports the teleteach under test (mutmut's copy too)."""
+    return dict(env, PYTHONPATH=os.pathsep.join(path for path in sys.path if path))
+
+
+def probe(tmp_path, code, env):
+    """Run ``code`` (an experiment in a process of its own) and return what it printed, one line per value."""
+    env = with_our_path(env)
+    result = subprocess.run(
+        [sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=120, check=False
+    )
+    assert result.returncode == 0, result.stderr
+    return result.stdout.split()
 
 
 def test_its_own_roscore_answers_until_the_experiment_closes(tmp_path, monkeypatch):
@@ -21,9 +54,106 @@ def test_its_own_roscore_answers_until_the_experiment_closes(tmp_path, monkeypat
         # Expect a master of ours (a child of the roscore we started), and our processes pointed at it
         assert pid is not None and parent_pid(parent_pid(pid)) == os.getpid()
         assert experiment.environment()["ROS_MASTER_URI"] == uri
+        assert experiment.environment()["TELETEACH_DATA"] == str(tmp_path)  # its folder, unless given one
         assert experiment.environment(tmp_path / "other")["TELETEACH_DATA"] == str(tmp_path / "other")
     assert master_pid(uri) is None
     assert (tmp_path / "roscore.log").is_file()
+
+
+def test_its_processes_run_on_its_master_display_and_data_directory(tmp_path, monkeypatch):
+    monkeypatch.setenv("ROS_MASTER_URI", "http://localhost:11999")
+    monkeypatch.setenv("DISPLAY", ":77")
+    printer = [
+        sys.executable,
+        "-c",
+        "import os; print(os.environ['ROS_MASTER_URI'], os.environ['DISPLAY'], os.environ['TELETEACH_DATA'])",
+    ]
+    with Experiment(tmp_path, tmp_path / "data") as experiment:
+        assert experiment.master_uri == "http://localhost:11999"  # the running master, unless it brings its own
+        experiment.start("printer", printer, tmp_path / "a.log").wait(30)
+        experiment.start("printer", printer, tmp_path / "b.log", data_root=tmp_path / "trial").wait(30)
+    assert (tmp_path / "a.log").read_text().split() == ["http://localhost:11999", ":77", str(tmp_path / "data")]
+    assert (tmp_path / "b.log").read_text().split() == ["http://localhost:11999", ":77", str(tmp_path / "trial")]
+
+
+def test_a_roscore_on_another_host_name_is_reached_by_it(tmp_path, monkeypatch):
+    monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path / "ros"))
+    with Experiment(tmp_path) as experiment:
+        uri = experiment.own_roscore(tmp_path / "core.log", host="127.0.0.1")
+        assert uri.startswith("http://127.0.0.1:") and master_pid(uri) is not None
+    assert (tmp_path / "core.log").is_file()
+
+
+def test_a_roslaunch_brings_its_master_and_gets_the_experiment_s_environment(tmp_path, monkeypatch):
+    monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path / "ros"))
+    launch_file = tmp_path / "probe.launch"
+    launch_file.write_text('<launch><param name="data" command="printenv TELETEACH_DATA"/></launch>')
+    log = tmp_path / "launch.log"
+    with Experiment(tmp_path, tmp_path / "data") as experiment:
+        command = lambda port: ["roslaunch", "-p", str(port), str(launch_file)]  # noqa: E731
+        launch = experiment.own_launch(command, log, data_root=tmp_path / "launch_data")
+        uri = experiment.master_uri
+        assert parent_pid(master_pid(uri)) == launch.pid
+        # Expect roslaunch to run in the experiment's environment (its param command saw the data directory)
+        import xmlrpc.client
+
+        deadline = time.monotonic() + 60.0
+        code, value = -1, None
+        while code != 1 and time.monotonic() < deadline:
+            code, _, value = xmlrpc.client.ServerProxy(uri).getParam("/probe", "/data")
+            time.sleep(0.2)
+        assert value.strip() == str(tmp_path / "launch_data")
+        assert "started roslaunch server" in log.read_text()  # roslaunch's own output, in its log
+        os.kill(launch.pid, signal.SIGKILL)
+        with pytest.raises(SystemEndedError, match=rf"roslaunch ended early \(exit -9\); see {log}"):
+            experiment.wait_until(lambda: False, 30.0)
+
+
+def test_joining_makes_this_process_a_node_of_its_master(tmp_path):
+    code = f"""
+import os, pathlib, rospy, signal
+from teleteach.runtime.experiment import Experiment
+with Experiment(pathlib.Path({str(tmp_path)!r})) as experiment:
+    uri = experiment.own_roscore()
+    experiment.join("joined", anonymous=True)
+    print(rospy.get_name(), os.environ["ROS_MASTER_URI"] == uri, os.environ["TELETEACH_DATA"], os.environ["ROS_IP"])
+    print(rospy.core.is_shutdown_requested(), rospy.get_param("/rosout_disable_topics_generation"))
+    print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    rospy.signal_shutdown("probe done")
+"""
+    env = {key: value for key, value in os.environ.items() if key not in ("ROS_IP", "ROS_HOSTNAME")}
+    env["ROS_LOG_DIR"] = str(tmp_path / "ros")
+    name, same_master, data, ip, shut_down, rosout, own_sigint = probe(tmp_path, code, env)
+    # Expect an anonymous node (name and a suffix) on the experiment's master, with its data directory and loopback
+    assert name.startswith("/joined_") and same_master == "True" and data == str(tmp_path) and ip == "127.0.0.1"
+    assert shut_down == "False" and rosout == "False" and own_sigint == "True"  # rospy left Ctrl-C to us
+    env["ROS_HOSTNAME"] = "localhost"
+    code = code.replace('os.environ["ROS_IP"]', 'os.environ.get("ROS_IP", "unset")').replace("anonymous=True", "")
+    name, _, _, ip, _, _, _ = probe(tmp_path, code, env)
+    assert name == "/joined" and ip == "unset"  # the user's ROS_HOSTNAME is left alone
+
+
+def test_what_it_started_stops_when_its_process_dies_however_it_dies(tmp_path):
+    code = f"""
+import os, pathlib, sys
+from teleteach.runtime.experiment import Experiment
+experiment = Experiment(pathlib.Path({str(tmp_path)!r}))
+experiment.own_display()
+child = experiment.start("sleeper", [sys.executable, "-c", "import time; time.sleep(60)"])
+children = [p.name for p in pathlib.Path("/proc").iterdir() if p.name.isdigit() and p.name != str(child.pid)]
+xvfb = [pid for pid in children if (pathlib.Path("/proc") / pid / "comm").read_text().strip() == "Xvfb"
+        and (pathlib.Path("/proc") / pid / "stat").read_text().rsplit(")", 1)[1].split()[1] == str(os.getpid())]
+print(child.pid, *xvfb, flush=True)
+os.kill(os.getpid(), 9)
+"""
+    env = {key: value for key, value in os.environ.items() if key != "DISPLAY"}
+    result = subprocess.run(
+        [sys.executable, "-c", code], env=with_our_path(env), capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == -9, result.stderr
+    sleeper, xvfb = (int(pid) for pid in result.stdout.split())
+    # Expect both gone: the child got SIGINT, the X server SIGTERM, when the experiment's process was killed
+    assert gone(sleeper) and gone(xvfb)
 
 
 def test_a_wait_ends_at_once_with_the_reason_when_a_watched_process_ends(tmp_path):
@@ -46,12 +176,37 @@ def test_a_wait_ends_at_once_with_the_reason_when_a_watched_process_ends(tmp_pat
 def test_a_process_we_stopped_or_do_not_watch_does_not_end_a_wait(tmp_path):
     with Experiment(tmp_path) as experiment:
         watched = experiment.start("sleeper", SLEEPER, watched=True)
-        experiment.start("short", [sys.executable, "-c", "exit(2)"])
+        experiment.start("short", [sys.executable, "-c", "exit(2)"]).wait(30)  # ended on its own, never watched
         experiment.stop(watched, grace=5.0)
         # Expect: False after the timeout (nothing watched ended), True as soon as the condition holds
         assert experiment.wait_until(lambda: False, 0.5) is False
         assert experiment.wait_until(lambda: True, 0.0) is True
+        assert experiment.wait_until(lambda: True, None) is True
         assert experiment.ended() == ""
+
+
+def test_a_process_deaf_to_sigint_is_stopped_after_the_grace_asked_for(tmp_path, monkeypatch):
+    monkeypatch.delenv("ROS_MASTER_URI", raising=False)
+    deaf = [
+        sys.executable,
+        "-c",
+        "import signal, time; signal.signal(signal.SIGINT, signal.SIG_IGN); print('ready', flush=True); time.sleep(60)",
+    ]
+    with Experiment(tmp_path) as experiment:
+        assert experiment.master_uri == ""  # no master yet: its processes get none until it brings one
+        process = experiment.start("deaf", deaf, tmp_path / "deaf.log")
+        deadline = time.monotonic() + 30.0
+        while "ready" not in (tmp_path / "deaf.log").read_text() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        started = time.monotonic()
+        assert experiment.stop(process, grace=0.5) == -signal.SIGTERM
+        assert time.monotonic() - started < 5.0
+
+
+def test_a_process_that_ended_without_a_log_is_named_with_its_exit_code(tmp_path):
+    with Experiment(tmp_path) as experiment:
+        experiment.start("short", [sys.executable, "-c", "exit(2)"], watched=True).wait(30)
+        assert experiment.ended() == f"{PYTHON} ended early (exit 2)"
 
 
 def test_every_process_stops_when_it_closes(tmp_path):
@@ -68,12 +223,15 @@ def test_without_a_display_it_brings_its_own_x_server(tmp_path, monkeypatch):
         assert experiment.own_display() is True
         display = experiment.display
         assert display.startswith(":") and experiment.environment()["DISPLAY"] == display
-        shots = experiment.screenshots("stage", lambda: "start", delay=0.0, period=10.0)
+        (tmp_path / "shots").mkdir()
+        shots = experiment.screenshots("stage", lambda: "start", delay=0.0, period=0.5, folder=tmp_path / "shots")
         deadline = time.monotonic() + 20.0
-        while not (tmp_path / "stage_01_start.png").exists() and time.monotonic() < deadline:
+        while not (tmp_path / "shots" / "stage_01_start_latest.png").exists() and time.monotonic() < deadline:
             time.sleep(0.1)
         shots.stop()
-        assert (tmp_path / "stage_01_start.png").stat().st_size > 0, shots.errors
+        # Expect the stage pictured, then its latest state, into the folder asked for
+        assert (tmp_path / "shots" / "stage_01_start.png").stat().st_size > 0, shots.errors
+        assert (tmp_path / "shots" / "stage_01_start_latest.png").stat().st_size > 0, shots.errors
     # Expect the X server gone with the experiment
     assert not os.path.exists(f"/tmp/.X11-unix/X{display[1:]}")
 
@@ -82,7 +240,7 @@ def test_with_a_display_it_uses_it_and_pictures_nothing_when_told_not_to(tmp_pat
     monkeypatch.setenv("DISPLAY", ":4242")
     with Experiment(tmp_path) as experiment:
         assert experiment.own_display() is False and experiment.display == ":4242"
-        shots = experiment.screenshots("stage", lambda: "start", delay=0.0, enabled=False)
+        shots = experiment.screenshots("stage", lambda: "start", delay=0.0, period=0.1, enabled=False)
         time.sleep(0.3)
         shots.stop()
         assert list(tmp_path.glob("*.png")) == [] and shots.errors == []

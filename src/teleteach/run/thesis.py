@@ -272,7 +272,7 @@ class ThesisRun:
         import rospy
 
         monitor = Monitor()
-        shots = experiment.screenshots("gui", monitor.tab_name, delay=1.5)
+        shots = experiment.screenshots("gui", monitor.tab_name, delay=1.5, period=3.0)
         self._mark("master_up")
         try:
             finished, reason = self._wait(monitor, launch, scenario.duration, rospy)

@@ -20,7 +20,7 @@ import pathlib
 import signal
 import subprocess
 import time
-from typing import Callable, Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 from teleteach.runtime.processes import (
     Processes,
@@ -52,8 +52,7 @@ class Experiment:
         self.processes = Processes()
         self.display = os.environ.get("DISPLAY", "")
         self.master_uri = os.environ.get("ROS_MASTER_URI", "")
-        self._watched: Dict[int, pathlib.Path] = {}
-        self._process_of: Dict[int, subprocess.Popen] = {}
+        self._watched: Dict[int, Tuple[subprocess.Popen, Optional[pathlib.Path]]] = {}
 
     def __enter__(self) -> "Experiment":
         return self
@@ -141,26 +140,22 @@ class Experiment:
 
     def watch(self, process: subprocess.Popen, log: Optional[pathlib.Path]) -> None:
         """A wait ends when ``process`` ends; its ``log`` (roslaunch's) says which required node died."""
-        self._watched[process.pid] = log
-        self._process_of[process.pid] = process
+        self._watched[process.pid] = (process, log)
 
     def stop(self, process: subprocess.Popen, grace: float = 20.0) -> Optional[int]:
         """Stop ``process`` (no longer watched: it ends because we asked); its exit code."""
         self._watched.pop(process.pid, None)
-        self._process_of.pop(process.pid, None)
         return self.processes.stop(process, grace)
 
     def close(self) -> None:
         """Stop everything still running, newest first."""
         self._watched.clear()
-        self._process_of.clear()
         self.processes.stop_all()
 
     # watching --------------------------------------------------------------------------------------------------
     def ended(self) -> str:
         """Why a watched process ended (the required node that died first, when roslaunch says), or ""."""
-        for pid, log in self._watched.items():
-            process = self._process_of[pid]
+        for process, log in self._watched.values():
             if process.poll() is not None:
                 name = pathlib.Path(process.args[0]).name
                 reason = f"{name} ended early (exit {process.returncode})" + (f"; see {log}" if log else "")
@@ -192,7 +187,7 @@ class Experiment:
         prefix: str,
         stage: Callable[[], Optional[str]],
         delay: float,
-        period: float = 3.0,
+        period: float,
         folder: Optional[pathlib.Path] = None,
         enabled: bool = True,
     ) -> StageScreenshots:

@@ -21,7 +21,7 @@ from typing import Any, Callable, Dict, List, Optional
 
 import yaml
 
-from teleteach.core.datadir import atomic_write_text
+from teleteach.core.datadir import atomic_write_text, data_dir
 from teleteach.core.gui_config import GuiConfig
 from teleteach.core.paths import config_file
 from teleteach.core.scene import load_scene
@@ -125,7 +125,7 @@ class StudyRunner:
         self.say = say
         self.number = participant_number(study, participant)
         self.store = ParticipantStore(study, participant, options.data_root)
-        self.experiment = Experiment(self.store.folder)
+        self.experiment = Experiment(self.store.folder, data_dir(options.data_root))
         self.scene = load_scene() if any(task.goal.placement for task in study.tasks) else None
         self.gui = GuiConfig.load()
         self._ros = None
@@ -450,7 +450,7 @@ class StudyRunner:
             return None if current in (Phase.PREPARING, Phase.FINISHED) else current.name.lower()
 
         return self.experiment.screenshots(
-            "screen", phase, self.settings.screenshot_delay, folder=folder, enabled=self.options.screenshots
+            "screen", phase, self.settings.screenshot_delay, period=3.0, folder=folder, enabled=self.options.screenshots
         )
 
 
