@@ -115,10 +115,11 @@ import os, pathlib, rospy, signal
 from teleteach.runtime.experiment import Experiment
 with Experiment(pathlib.Path({str(tmp_path)!r})) as experiment:
     uri = experiment.own_roscore()
+    ours = signal.getsignal(signal.SIGINT)
     experiment.join("joined", anonymous=True)
     print(rospy.get_name(), os.environ["ROS_MASTER_URI"] == uri, os.environ["TELETEACH_DATA"], os.environ["ROS_IP"])
     print(rospy.core.is_shutdown_requested(), rospy.get_param("/rosout_disable_topics_generation"))
-    print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    print(signal.getsignal(signal.SIGINT) is ours)
     rospy.signal_shutdown("probe done")
 """
     env = {key: value for key, value in os.environ.items() if key not in ("ROS_IP", "ROS_HOSTNAME")}
@@ -135,11 +136,15 @@ with Experiment(pathlib.Path({str(tmp_path)!r})) as experiment:
 
 def test_what_it_started_stops_when_its_process_dies_however_it_dies(tmp_path):
     code = f"""
-import os, pathlib, sys
+import os, pathlib, sys, time
 from teleteach.runtime.experiment import Experiment
 experiment = Experiment(pathlib.Path({str(tmp_path)!r}))
 experiment.own_display()
-child = experiment.start("sleeper", [sys.executable, "-c", "import time; time.sleep(60)"])
+sleeper = "import signal as s, time; s.signal(s.SIGINT, s.SIG_DFL); print('ready', flush=True); time.sleep(60)"
+log = pathlib.Path({str(tmp_path)!r}) / "sleeper.log"
+child = experiment.start("sleeper", [sys.executable, "-c", sleeper], log)  # SIGINT kills it, even if ours ignores it
+while "ready" not in log.read_text():
+    time.sleep(0.05)
 children = [p.name for p in pathlib.Path("/proc").iterdir() if p.name.isdigit() and p.name != str(child.pid)]
 xvfb = [pid for pid in children if (pathlib.Path("/proc") / pid / "comm").read_text().strip() == "Xvfb"
         and (pathlib.Path("/proc") / pid / "stat").read_text().rsplit(")", 1)[1].split()[1] == str(os.getpid())]
