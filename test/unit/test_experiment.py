@@ -40,7 +40,7 @@ def probe(tmp_path, code, env):
     """Run ``code`` (an experiment in a process of its own) and return what it printed, one line per value."""
     env = with_our_path(env)
     result = subprocess.run(
-        [sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=120, check=False
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120, check=False
     )
     assert result.returncode == 0, result.stderr
     return result.stdout.split()
