@@ -73,9 +73,7 @@ class Experiment:
         log = log or self.folder / "roscore.log"
 
         def start(command: Sequence[str], uri: str) -> subprocess.Popen:
-            return self.processes.start(
-                "roscore", command, log, self.environment(master_uri=uri), parent_death_signal=signal.SIGINT
-            )
+            return self.start("roscore", command, log, master_uri=uri)
 
         self.master_uri, _ = own_roscore(start, self.processes.stop, host)
         return self.master_uri
@@ -90,14 +88,7 @@ class Experiment:
         """A roslaunch that brings its own master (``command(port)``: ``roslaunch -p port ...``), watched."""
 
         def start(port: int) -> subprocess.Popen:
-            uri = f"http://{host}:{port}"
-            return self.processes.start(
-                "roslaunch",
-                command(port),
-                log,
-                self.environment(data_root, master_uri=uri),
-                parent_death_signal=signal.SIGINT,
-            )
+            return self.start("roslaunch", command(port), log, data_root, master_uri=f"http://{host}:{port}")
 
         port, launch = own_master(start, self.processes.stop, host)
         self.master_uri = f"http://{host}:{port}"
@@ -126,13 +117,16 @@ class Experiment:
         log: Optional[pathlib.Path] = None,
         data_root: Optional[pathlib.Path] = None,
         watched: bool = False,
+        master_uri: str = "",
     ) -> subprocess.Popen:
         """Start ``command`` on the experiment's master and display; ``watched``: a wait ends when it ends.
+
+        ``master_uri``: the master being brought up instead (a roscore or roslaunch of our own, on a probed port).
 
         It gets SIGINT when this process dies, however it dies: roslaunch stops its nodes, rosbag closes its bag.
         """
         process = self.processes.start(
-            name, command, log, self.environment(data_root), parent_death_signal=signal.SIGINT
+            name, command, log, self.environment(data_root, master_uri), parent_death_signal=signal.SIGINT
         )
         if watched:
             self.watch(process, log)
