@@ -1,6 +1,6 @@
 """Helpers for the rostests that run full.launch with the device backend topic: an observer of what the system does
-to the robot (skill goals and results, /joint_states, the tree's execution state, help requests) and a hand that
-holds the handle and clicks (sigma7/input/*)."""
+to the robot (skill goals and results, /joint_states, the tree's execution state, help requests), a hand that
+holds the handle, moves it and clicks (sigma7/input/*), and a watch of the controller manager."""
 
 import threading
 import time
@@ -13,7 +13,9 @@ from std_msgs.msg import Float64
 
 from teleteach.msg import ExecuteSkillActionGoal, ExecuteSkillActionResult, HelpRequest, TreeExecution
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS
+from teleteach.srv import ListControllers
 
+IMPEDANCE = "cartesian_impedance_controller"
 REST, CLOSED, OPEN = 0.25, 0.0, 0.5  # [rad] gripper angles: resting, closed for a click, fully open (back to START)
 SKILLS = (*PREDEFINED_SKILLS, *CONDITIONS, "ReplaySkill")
 
@@ -80,10 +82,14 @@ class Hand:
         self.gripper = rospy.Publisher("/sigma7/input/gripper_angle", Float64, queue_size=10)
         self.position = (0.0, 0.0, 0.0)  # centred: START's neutral zone
         self.angle = REST
+        self.silent = False  # True: nothing is sent, as when the device is unplugged
         threading.Thread(target=self._hold, daemon=True).start()
 
     def _hold(self):
         while not rospy.is_shutdown():
+            if self.silent:
+                time.sleep(0.01)
+                continue
             message = PoseStamped()
             message.header.stamp, message.header.frame_id = rospy.Time.now(), "sigma7"
             p = message.pose.position
@@ -99,6 +105,14 @@ class Hand:
     def move(self, x=0.0, y=0.0, z=0.0):
         self.position = (x, y, z)
         time.sleep(0.5)
+
+    def glide(self, to, seconds):
+        """Move the handle in a straight line to ``to`` over ``seconds`` (wall time, 100 steps a second)."""
+        start, end = np.array(self.position), np.array(to, dtype=float)
+        steps = max(1, round(seconds * 100))
+        for step in range(1, steps + 1):
+            self.position = tuple(start + (end - start) * step / steps)
+            time.sleep(seconds / steps)
 
     def click(self):
         self.angle = CLOSED
@@ -125,3 +139,34 @@ class Hand:
         time.sleep(0.5)
         self.angle = REST
         time.sleep(0.5)
+
+
+class ControllerWatch:
+    """Polls list_controllers: (simulated time, whether the impedance controller runs), in order."""
+
+    def __init__(self):
+        rospy.wait_for_service("/controller_manager/list_controllers", timeout=120)
+        self.list = rospy.ServiceProxy("/controller_manager/list_controllers", ListControllers)
+        self.lock = threading.Lock()
+        self.samples = []
+        threading.Thread(target=self._poll, daemon=True).start()
+
+    def _poll(self):
+        while not rospy.is_shutdown():
+            try:
+                running = {c.name for c in self.list().controller if c.state == "running"}
+            except (rospy.ServiceException, OSError):
+                continue
+            with self.lock:
+                self.samples.append((rospy.get_time(), IMPEDANCE in running))
+            time.sleep(0.02)
+
+    def switched_at(self):
+        """The simulated time of the first poll that found the impedance controller running, or None."""
+        with self.lock:
+            return next((stamp for stamp, running in self.samples if running), None)
+
+    def impedance_running(self):
+        """Whether the latest poll found the impedance controller running (None before the first)."""
+        with self.lock:
+            return self.samples[-1][1] if self.samples else None

@@ -6,46 +6,16 @@ Judged from the outside: the skills' goal and result topics, /joint_states and t
 (list_controllers, polled), while the hand (sigma7/input/*) enters LOW-LEVEL in the middle of PickItem.
 """
 
-import threading
-import time
 import unittest
 
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
-from full_system_support import Hand, Observer
+from full_system_support import ControllerWatch, Hand, Observer
 
 from teleteach.msg import TreeExecution
-from teleteach.srv import ListControllers
 
-IMPEDANCE = "cartesian_impedance_controller"
 REST_SPEED = 0.05  # [rad/s] config/gui.yaml arm_rest_speed
-
-
-class ControllerWatch:
-    """Polls list_controllers: (simulated time, whether the impedance controller runs), in order."""
-
-    def __init__(self):
-        rospy.wait_for_service("/controller_manager/list_controllers", timeout=120)
-        self.list = rospy.ServiceProxy("/controller_manager/list_controllers", ListControllers)
-        self.lock = threading.Lock()
-        self.samples = []
-        threading.Thread(target=self._poll, daemon=True).start()
-
-    def _poll(self):
-        while not rospy.is_shutdown():
-            try:
-                running = {c.name for c in self.list().controller if c.state == "running"}
-            except (rospy.ServiceException, OSError):
-                continue
-            with self.lock:
-                self.samples.append((rospy.get_time(), IMPEDANCE in running))
-            time.sleep(0.02)
-
-    def switched_at(self):
-        """The simulated time of the first poll that found the impedance controller running, or None."""
-        with self.lock:
-            return next((stamp for stamp, running in self.samples if running), None)
 
 
 class SwitchAfterTheSkill(unittest.TestCase):

@@ -65,6 +65,34 @@ def test_a_shared_control_recording_goes_on_in_the_tab_and_stops_when_it_is_left
     assert session.tab_changed(Tab.START) == [*stop, A.POSITION_CONTROL, A.RESUME_TREE]
 
 
+def test_teleop_moves_the_arm_only_while_the_session_holds_it(session):
+    assert session.tab_changed(Tab.TELEOP) == [A.PAUSE_TREE, A.WAIT_FOR_ARM]
+    # Expect the device to drive once the impedance controller holds the arm, and to stop first when the tab is left
+    assert session.arm_freed() == [A.IMPEDANCE_CONTROL, A.TELEOP_ON]
+    assert session.tab_changed(Tab.LOW_LEVEL) == [A.TELEOP_OFF, A.ENTER_LOW_LEVEL]
+    assert session.session  # teaching goes on: the stiffness for the pose the operator brought the arm to
+    assert session.tab_changed(Tab.TELEOP) == [A.LEAVE_LOW_LEVEL, A.TELEOP_ON]
+    assert session.tab_changed(Tab.START) == [A.TELEOP_OFF, A.POSITION_CONTROL, A.RESUME_TREE]
+    # leaving before the arm was free: nothing was driven
+    session.tab_changed(Tab.TELEOP)
+    assert session.tab_changed(Tab.START) == [A.STOP_WAITING_FOR_ARM, A.RESUME_TREE]
+
+
+def test_a_path_is_recorded_in_teleop_and_the_session_goes_on_to_teach_its_stiffness(session):
+    session.tab_changed(Tab.TELEOP)
+    assert session.toggle_path_recording() == []  # asked before the arm is free: starts once it is
+    assert session.arm_freed() == [A.IMPEDANCE_CONTROL, A.TELEOP_ON, A.START_PATH_RECORDING]
+    assert session.toggle_path_recording() == [A.STOP_PATH_RECORDING, A.SAVE_PATH]
+    assert session.session and session.recording is None
+    session.toggle_path_recording()
+    # Expect: to LOW-LEVEL, the path is kept and the session goes on; to START, the session ends too
+    stop = [A.TELEOP_OFF, A.STOP_PATH_RECORDING, A.SAVE_PATH]
+    assert session.tab_changed(Tab.LOW_LEVEL) == [*stop, A.ENTER_LOW_LEVEL]
+    assert session.tab_changed(Tab.TELEOP) == [A.LEAVE_LOW_LEVEL, A.TELEOP_ON]
+    session.toggle_path_recording()
+    assert session.tab_changed(Tab.START) == [*stop, A.POSITION_CONTROL, A.RESUME_TREE]
+
+
 def test_recording_from_outside_a_session_starts_one(session):
     # the GUI tests toggle recording directly: the arm must be on impedance control first
     assert session.toggle_stiffness_recording() == [A.PAUSE_TREE, A.WAIT_FOR_ARM]
@@ -117,9 +145,11 @@ def test_leaving_high_level_answers_the_help_request(session):
     assert session.tab_changed(Tab.HIGH_LEVEL) == [A.RESET_HIGH_LEVEL]
     # Expect: back to START, the operator's edits answer the request and the tree resumes
     assert session.tab_changed(Tab.START) == [A.RESUME_TREE, A.ANNOUNCE_HELP_ANSWERED]
-    # to LOW-LEVEL instead, teaching continues the answer: the session pauses the tree
+    # to LOW-LEVEL or TELEOP instead, teaching continues the answer: the session pauses the tree
     session.tab_changed(Tab.HIGH_LEVEL)
     assert session.tab_changed(Tab.LOW_LEVEL) == [A.ENTER_LOW_LEVEL, A.PAUSE_TREE, A.WAIT_FOR_ARM]
+    session.tab_changed(Tab.HIGH_LEVEL)
+    assert session.tab_changed(Tab.TELEOP) == [A.PAUSE_TREE, A.WAIT_FOR_ARM]  # no RESUME_TREE in between
     # a closed request (empty node name) needs no answer
     session.help_requested("")
     session.tab_changed(Tab.HIGH_LEVEL)
@@ -136,6 +166,11 @@ def test_leaving_high_level_answers_the_help_request(session):
             [Tab.LOW_LEVEL, "free", "record"],
             [A.STOP_STIFFNESS_RECORDING, A.SAVE_STIFFNESS_SKILL, A.POSITION_CONTROL, A.RESUME_TREE],
         ),
+        ([Tab.TELEOP, "free"], [A.TELEOP_OFF, A.POSITION_CONTROL, A.RESUME_TREE]),
+        (
+            [Tab.TELEOP, "free", "record"],
+            [A.TELEOP_OFF, A.STOP_PATH_RECORDING, A.SAVE_PATH, A.POSITION_CONTROL, A.RESUME_TREE],
+        ),
         (
             [Tab.SHARED_CONTROL, "free", "record"],
             [A.SHARED_CONTROL_OFF, A.STOP_SHARED_RECORDING, A.SAVE_SHARED_SKILL, A.POSITION_CONTROL, A.RESUME_TREE],
@@ -145,7 +180,8 @@ def test_leaving_high_level_answers_the_help_request(session):
 def test_shutdown_saves_and_gives_the_arm_back(session, steps, expected):
     for step in steps:
         if step == "record":
-            (session.toggle_stiffness_recording if session.tab == Tab.LOW_LEVEL else session.toggle_shared_recording)()
+            toggles = {Tab.LOW_LEVEL: session.toggle_stiffness_recording, Tab.TELEOP: session.toggle_path_recording}
+            toggles.get(session.tab, session.toggle_shared_recording)()
         elif step == "free":
             session.arm_freed()
         else:
@@ -165,6 +201,7 @@ def test_every_path_through_the_tabs_gives_the_arm_back():
                 toggle = {
                     Tab.LOW_LEVEL: machine.toggle_stiffness_recording,
                     Tab.SHARED_CONTROL: machine.toggle_shared_recording,
+                    Tab.TELEOP: machine.toggle_path_recording,
                 }
                 actions += toggle[machine.tab]() if machine.tab in toggle else []
             elif event == "free":
@@ -175,24 +212,35 @@ def test_every_path_through_the_tabs_gives_the_arm_back():
                 actions += machine.tab_changed(event)
         actions += machine.shutdown()
         assert actions.count(A.IMPEDANCE_CONTROL) == actions.count(A.POSITION_CONTROL), path
-        # Expect the MPC to drive only inside SHARED CONTROL's session: on and off alternate, off before the arm
-        # goes back to the position controller
-        switches = [a for a in actions if a in (A.SHARED_CONTROL_ON, A.SHARED_CONTROL_OFF, A.POSITION_CONTROL)]
-        driving = False
-        for action in switches:
+        # Expect the MPC (SHARED CONTROL) and the device (TELEOP) to drive only inside their tab's session, one at a
+        # time: on and off alternate, off before the arm goes back to the position controller
+        drivers = {
+            A.SHARED_CONTROL_ON: "mpc",
+            A.SHARED_CONTROL_OFF: "mpc",
+            A.TELEOP_ON: "device",
+            A.TELEOP_OFF: "device",
+        }
+        driving = None
+        for action in actions:
             assert not (action == A.POSITION_CONTROL and driving), path
-            if action != A.POSITION_CONTROL:
-                assert driving == (action == A.SHARED_CONTROL_OFF), path
-                driving = action == A.SHARED_CONTROL_ON
-        assert not driving, path
-        starts = actions.count(A.START_STIFFNESS_RECORDING) + actions.count(A.START_SHARED_RECORDING)
-        saves = actions.count(A.SAVE_STIFFNESS_SKILL) + actions.count(A.SAVE_SHARED_SKILL)
+            if action in (A.SHARED_CONTROL_ON, A.TELEOP_ON):
+                assert driving is None, path
+                driving = drivers[action]
+            elif action in (A.SHARED_CONTROL_OFF, A.TELEOP_OFF):
+                assert driving == drivers[action], path
+                driving = None
+        assert driving is None, path
+        starts = sum(
+            actions.count(a) for a in (A.START_STIFFNESS_RECORDING, A.START_SHARED_RECORDING, A.START_PATH_RECORDING)
+        )
+        saves = sum(actions.count(a) for a in (A.SAVE_STIFFNESS_SKILL, A.SAVE_SHARED_SKILL, A.SAVE_PATH))
         assert starts == saves, path
         # Expect a recording only ever while the impedance controller holds the arm
         holding = False
         for action in actions:
             holding = {A.IMPEDANCE_CONTROL: True, A.POSITION_CONTROL: False}.get(action, holding)
-            if action in (A.START_STIFFNESS_RECORDING, A.START_SHARED_RECORDING, A.SHARED_CONTROL_ON):
+            starting = (A.START_STIFFNESS_RECORDING, A.START_SHARED_RECORDING, A.START_PATH_RECORDING)
+            if action in (*starting, A.SHARED_CONTROL_ON, A.TELEOP_ON):
                 assert holding, path
         assert not machine.session and machine.recording is None and machine.arm == Arm.POSITION, path
 
@@ -203,4 +251,5 @@ def test_tab_ids_and_titles_are_the_contract_of_active_tab():
         (1, "HIGH-LEVEL"),
         (2, "LOW-LEVEL"),
         (3, "SHARED CONTROL"),
+        (4, "TELEOP"),
     ]

@@ -13,8 +13,9 @@ class Tab(enum.IntEnum):
     HIGH_LEVEL = 1
     LOW_LEVEL = 2
     SHARED_CONTROL = 3
+    TELEOP = 4  # the device moves the arm (teleteach.core.teleoperation)
 
     @property
     def title(self) -> str:
-        """The tab's title as the operator reads it (START, HIGH-LEVEL, LOW-LEVEL, SHARED CONTROL)."""
+        """The tab's title as the operator reads it (START, HIGH-LEVEL, LOW-LEVEL, SHARED CONTROL, TELEOP)."""
         return self.name.replace("_LEVEL", "-LEVEL").replace("_", " ")

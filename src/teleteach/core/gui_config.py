@@ -10,6 +10,7 @@ import yaml
 from teleteach.core import parameters
 from teleteach.core.paths import config_file
 from teleteach.core.robot_controllers import ControllerNames, ControllerNamesError, controller_names
+from teleteach.core.teleoperation import TeleopParameters, TeleopParametersError
 
 DEVICE_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 CONFIG_DIR = config_file()
@@ -79,6 +80,9 @@ class GuiConfig:
     guidance_max_torque: float
     guidance_refresh: float
     study_start_radius: float
+    teleop: TeleopParameters
+    taught_path_approach: float
+    path_prefix: str
 
     def __post_init__(self):
         positive = (
@@ -111,6 +115,7 @@ class GuiConfig:
             "start_neutral_zone",
             "arm_rest_speed",
             "arm_free_timeout",
+            "taught_path_approach",
         )
         for name in positive:
             value = getattr(self, name)
@@ -146,12 +151,12 @@ class GuiConfig:
         unknown = [axis for axis in self.locked_axes if axis not in DEVICE_AXES]
         if unknown:
             raise GuiConfigError(f"locked_axes {unknown} unknown; allowed: {', '.join(DEVICE_AXES)}")
-        if self.initial_tab not in (0, 1, 2, 3):
+        if self.initial_tab not in (0, 1, 2, 3, 4):
             raise GuiConfigError(
-                "initial_tab must be 0 (START), 1 (HIGH-LEVEL), 2 (LOW-LEVEL) or 3 (SHARED CONTROL), "
+                "initial_tab must be 0 (START), 1 (HIGH-LEVEL), 2 (LOW-LEVEL), 3 (SHARED CONTROL) or 4 (TELEOP), "
                 f"got {self.initial_tab}"
             )
-        for name in ("skill_prefix", "shared_skill_prefix"):
+        for name in ("skill_prefix", "shared_skill_prefix", "path_prefix"):
             if not getattr(self, name).isidentifier():
                 raise GuiConfigError(f"{name} {getattr(self, name)!r} must be an identifier")
         stiffness = self.shared_control_stiffness
@@ -201,7 +206,10 @@ class GuiConfig:
         for name in ("locked_axes", "shared_control_stiffness", "retry_attempts", "timeout_seconds"):
             if name in values and values[name] is None:
                 values[name] = ()  # a yaml key left empty: an empty list (lists become tuples in from_mapping)
-        return parameters.from_mapping(cls, values, "GUI parameters (config/gui.yaml)", GuiConfigError)
+        try:
+            return parameters.from_mapping(cls, values, "GUI parameters (config/gui.yaml)", GuiConfigError)
+        except TeleopParametersError as error:
+            raise GuiConfigError(f"GUI parameter {error}") from None
 
     @classmethod
     def load(cls, path=None, **overrides) -> "GuiConfig":

@@ -1,19 +1,24 @@
-"""The predefined kinematic trajectory an operator teaches along (thesis II-C, A.2.2), ``config/trajectories/*.yaml``.
+"""The kinematic trajectory an operator teaches stiffness along (thesis II-C, A.2.2).
+
+Predefined in ``config/trajectories/*.yaml``, or taught with the device in TELEOP (thesis III-C: it "could be
+generated remotely with the same haptic device") and kept in the data directory's ``trajectories/``.
 
 A list of timed waypoints, interpolated linearly in position and by slerp in orientation, in base_link or relative to
 a target (a shelf gap: the trajectory then places at whichever gap the robot perceives, wherever the base stopped); it
-may start where the hand is when the recording starts. Shared by the GUI, which plays it, and the synthetic
-demonstrations of teleteach.learning, so it lives below both.
+may start where the hand is when the recording starts. A taught one is the mean of its demonstrations
+(:func:`mean_trajectory`), with their spread at each waypoint. Shared by the GUI, which plays and teaches it, and the
+synthetic demonstrations of teleteach.learning, so it lives below both.
 """
 
 import pathlib
-from typing import Optional, Sequence, Union
+from typing import List, Optional, Sequence, Union
 
 import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation, Slerp
 
-from teleteach.core.frames import Transform
+from teleteach.core.datadir import atomic_write_text
+from teleteach.core.frames import Transform, continuous_quaternions
 from teleteach.core.paths import config_file
 from teleteach.core.skill_file import BASE_FRAME, TARGET_FRAME
 
@@ -30,6 +35,8 @@ class Trajectory:
             belongs, x into the shelf, z up).
         target: the gap a target-frame trajectory is relative to.
         starts_at_hand: the trajectory begins (t = 0) where the hand is when it starts; the waypoints follow.
+        spread: [m] at each waypoint, how far the demonstrations it is the mean of lay from it (RMS); None: predefined.
+        demonstrations: how many demonstrations it is the mean of (0: predefined).
     """
 
     def __init__(
@@ -41,6 +48,8 @@ class Trajectory:
         name: str = "",
         target: Optional[str] = None,
         starts_at_hand: bool = False,
+        spread: Optional[Sequence[float]] = None,
+        demonstrations: int = 0,
     ):
         self.times = np.asarray(times, dtype=float)
         self.positions = np.asarray(positions, dtype=float)
@@ -49,6 +58,8 @@ class Trajectory:
         self.name = name
         self.target = target
         self.starts_at_hand = starts_at_hand
+        self.spread = None if spread is None else np.asarray(spread, dtype=float)
+        self.demonstrations = demonstrations
         count = self.times.shape[0]
         fewest = 1 if starts_at_hand else 2
         if count < fewest or self.positions.shape != (count, 3) or self.quaternions.shape != (count, 4):
@@ -69,6 +80,10 @@ class Trajectory:
         norms = np.linalg.norm(self.quaternions, axis=1)
         if np.any(np.abs(norms - 1.0) > 1e-3):
             raise TrajectoryError(f"trajectory {name!r}: orientations must be unit quaternions (x, y, z, w)")
+        if self.spread is not None and (
+            self.spread.shape != (count,) or not np.all(np.isfinite(self.spread)) or np.any(self.spread < 0.0)
+        ):
+            raise TrajectoryError(f"trajectory {name!r}: spread must be one distance >= 0 [m] per waypoint")
         self._slerp = Slerp(self.times, Rotation.from_quat(self.quaternions)) if count >= 2 else None
 
     @property
@@ -103,6 +118,33 @@ class Trajectory:
             times = np.concatenate([[0.0], times])
         return Trajectory(times, poses[:, :3], poses[:, 3:], BASE_FRAME, self.name)
 
+    def relative_to(self, target: str, target_in_base: Transform) -> "Trajectory":
+        """This base_link trajectory in the frame of the gap ``target`` (whose pose in base_link is given)."""
+        if self.frame != BASE_FRAME:
+            raise TrajectoryError(f"trajectory {self.name!r} is not in {BASE_FRAME}")
+        poses = target_in_base.inverse().apply_poses(np.hstack([self.positions, self.quaternions]))
+        return Trajectory(self.times, poses[:, :3], poses[:, 3:], TARGET_FRAME, self.name, target, self.starts_at_hand)
+
+    def save(self, path: Union[str, pathlib.Path]) -> pathlib.Path:
+        """Write the trajectory as a yaml that :meth:`load` reads (atomically: the old file or the new one)."""
+        data = {"name": self.name, "frame": self.frame, "start": "hand" if self.starts_at_hand else "first_waypoint"}
+        if self.target:
+            data["target"] = self.target
+        if self.demonstrations:
+            data["demonstrations"] = self.demonstrations
+        data["waypoints"] = [
+            {
+                "t": round(float(t), 4),
+                "position": [round(float(value), 5) for value in position],
+                "orientation": [round(float(value), 6) for value in quaternion / np.linalg.norm(quaternion)],
+                **({} if self.spread is None else {"spread": round(float(self.spread[index]), 5)}),
+            }
+            for index, (t, position, quaternion) in enumerate(zip(self.times, self.positions, self.quaternions))
+        ]
+        path = pathlib.Path(path)
+        atomic_write_text(path, yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
+        return path
+
     @classmethod
     def load(cls, name_or_path: Union[str, pathlib.Path]) -> "Trajectory":
         """A trajectory by name (``config/trajectories/<name>.yaml``) or by path."""
@@ -125,6 +167,75 @@ class Trajectory:
                 name=data.get("name", path.stem),
                 target=data.get("target"),
                 starts_at_hand=start == "hand",
+                spread=[point["spread"] for point in waypoints]
+                if all("spread" in point for point in waypoints)
+                else None,
+                demonstrations=int(data.get("demonstrations", 0)),
             )
         except (KeyError, TypeError) as error:
             raise TrajectoryError(f"trajectory file {path}: missing or malformed {error}") from None
+
+
+def phase_of(trajectory: Trajectory) -> np.ndarray:
+    """Each waypoint's progress along the path, 0 to 1: by distance travelled, or by time for a path that only turns."""
+    steps = np.linalg.norm(np.diff(trajectory.positions, axis=0), axis=1)
+    travelled = np.concatenate([[0.0], np.cumsum(steps)])
+    if travelled[-1] > 1e-6:
+        return travelled / travelled[-1]
+    return (trajectory.times - trajectory.times[0]) / (trajectory.times[-1] - trajectory.times[0])
+
+
+MEAN_WAYPOINT_PERIOD = 0.05  # [s] a mean's waypoints are this far apart (of its longest demonstration), 2 to 400
+
+
+def mean_trajectory(demonstrations: List[Trajectory], name: str, points: Optional[int] = None) -> Trajectory:
+    """The mean of demonstrations of one path, aligned by progress along it, with their spread at each waypoint.
+
+    Each demonstration is resampled at ``points`` (default: one per MEAN_WAYPOINT_PERIOD) equal steps of its own
+    progress (distance travelled: an operator who went slower somewhere still lines up); the mean's waypoint is the
+    mean position, the mean orientation and the mean time of reaching that progress; its spread the RMS distance of
+    the demonstrations' positions from it.
+    All must be in the same frame (and relative to the same target).
+    """
+    if not demonstrations:
+        raise TrajectoryError(f"trajectory {name!r}: no demonstrations")
+    first = demonstrations[0]
+    if any(
+        (d.frame, d.target, d.starts_at_hand) != (first.frame, first.target, first.starts_at_hand)
+        for d in demonstrations
+    ):
+        raise TrajectoryError(f"trajectory {name!r}: the demonstrations are not in one frame (and target)")
+    if points is None:
+        longest = max(d.duration - d.times[0] for d in demonstrations)
+        points = int(np.clip(round(longest / MEAN_WAYPOINT_PERIOD) + 1, 2, 400))
+    grid = np.linspace(0.0, 1.0, points)
+    positions, rotations, times = [], [], []
+    for demonstration in demonstrations:
+        phase = phase_of(demonstration)
+        keep = np.concatenate([[True], np.diff(phase) > 0.0])  # a pause (no progress) keeps its first instant
+        phase, kept_times = phase[keep], demonstration.times[keep]
+        at = np.interp(grid, phase, kept_times)
+        times.append(at)
+        positions.append(
+            np.array([np.interp(at, demonstration.times, demonstration.positions[:, axis]) for axis in range(3)]).T
+        )
+        rotations.append(Slerp(demonstration.times, Rotation.from_quat(demonstration.quaternions))(at))
+    mean_positions = np.mean(positions, axis=0)
+    mean_times = np.mean(times, axis=0)
+    mean_times = mean_times[0] + np.maximum.accumulate(mean_times - mean_times[0])
+    mean_times += np.arange(points) * 1e-4  # strictly increasing even where every demonstration paused
+    quaternions = continuous_quaternions(
+        np.array([Rotation.concatenate([r[index] for r in rotations]).mean().as_quat() for index in range(points)])
+    )
+    spread = np.sqrt(np.mean([np.sum((p - mean_positions) ** 2, axis=1) for p in positions], axis=0))
+    return Trajectory(
+        mean_times,
+        mean_positions,
+        quaternions,
+        first.frame,
+        name,
+        first.target,
+        first.starts_at_hand,
+        spread=spread,
+        demonstrations=len(demonstrations),
+    )

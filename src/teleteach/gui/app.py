@@ -8,13 +8,14 @@ runs, plays the kinematic trajectory while recording and turns a recording into 
 """
 
 import math
+import pathlib
 import sys
 import time
 from typing import List, Optional, Sequence, Tuple
 
 import rospy
 from geometry_msgs.msg import PoseStamped
-from PyQt5.QtCore import QMetaObject, QPoint, Qt, QThread, QTimer
+from PyQt5.QtCore import QMetaObject, QPoint, QProcess, Qt, QThread, QTimer
 from PyQt5.QtGui import QPainter, QPixmap
 from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, QTabWidget, QVBoxLayout, QWidget
 from std_msgs.msg import Bool, Int8
@@ -28,16 +29,17 @@ from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig, GuiConfigError
 from teleteach.core.skill_file import TARGET_FRAME
 from teleteach.core.study_phase import StudyView
-from teleteach.core.trajectories import Trajectory
+from teleteach.core.trajectories import Trajectory, TrajectoryError, mean_trajectory
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
-from teleteach.gui.recording import StiffnessRecorder, unique_skill_name
+from teleteach.gui.recording import PathRecorder, StiffnessRecorder, unique_skill_name
 from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, TeachingSession
 from teleteach.gui.shared_tab import SharedControlTab
 from teleteach.gui.study import Page, StudyScreen
 from teleteach.gui.study_page import StudyPage
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
+from teleteach.gui.teleop_tab import TeleopTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.haptics.guidance import Guidance
 from teleteach.msg import HapticGuidance, Selection, TreeExecution
@@ -85,13 +87,17 @@ def _banner(style: str) -> QLabel:
 
 
 class MainWindow(QMainWindow):
-    """START / HIGH-LEVEL / LOW-LEVEL / SHARED CONTROL tabs."""
+    """START / HIGH-LEVEL / LOW-LEVEL / SHARED CONTROL / TELEOP tabs."""
 
     def __init__(self, config: GuiConfig, data_root=None):
         super().__init__()
         self.config = config
-        self.skills_dir = data_dir(data_root) / "skills"
-        self.trajectory = Trajectory.load(config.trajectory)
+        self.data_root = data_dir(data_root)
+        self.skills_dir = self.data_root / "skills"
+        self.trajectory = Trajectory.load(config.trajectory)  # LOW-LEVEL's; a path taught in TELEOP replaces it
+        self.path_recorder = PathRecorder()
+        self._path_series: List[Trajectory] = []  # demonstrations of the path being taught, in its gap's frame
+        self._learning: Optional[QProcess] = None  # learn_skill turning a taught path's stiffness into a DMP skill
         self.command = EllipsoidCommand(config)
         self.recorder = StiffnessRecorder()
         self.shared_recorder = StiffnessRecorder()
@@ -114,7 +120,15 @@ class MainWindow(QMainWindow):
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, self.topics.equilibrium)
         self.services = ServiceCaller(config.service_timeout)
         self.services.finished.connect(self._on_service)
-        self.worker = RosWorker(config, self.command, self.recorder, self.shared_recorder, self.player.current)
+        self.worker = RosWorker(
+            config,
+            self.command,
+            self.recorder,
+            self.shared_recorder,
+            self.player.current,
+            self.topics.equilibrium,
+            self.path_recorder,
+        )
         self._build_window()
         self._connect_tabs()
         self._actions = self._session_actions()
@@ -126,7 +140,7 @@ class MainWindow(QMainWindow):
         self._guidance_timer.start(50)
 
     def _build_window(self) -> None:
-        """The banners, the four tabs (or the study's page) and the status bar."""
+        """The banners, the five tabs (or the study's page) and the status bar."""
         config = self.config
         self.setWindowTitle("teleteach: teleoperated teaching")
         self.resize(1180, 880)
@@ -151,12 +165,14 @@ class MainWindow(QMainWindow):
             device_time=lambda: self.worker.device_time,
         )
         self.shared_control = SharedControlTab(config, recorded_samples=lambda: len(self.shared_recorder))
+        self.teleop = TeleopTab(config)
         self._tab_widgets: List[QWidget] = []
         for tab, index in (
             (self.start_tab, Tab.START),
             (self.high_level, Tab.HIGH_LEVEL),
             (self.low_level, Tab.LOW_LEVEL),
             (self.shared_control, Tab.SHARED_CONTROL),
+            (self.teleop, Tab.TELEOP),
         ):
             self.add_tab(tab, index.title)
         self.tabs.setStyleSheet("QTabBar::tab { min-width: 170px; min-height: 28px; font-weight: bold; }")
@@ -182,6 +198,7 @@ class MainWindow(QMainWindow):
         )
         self.low_level.recording_toggled.connect(self._toggle_recording)
         self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
+        self.teleop.recording_toggled.connect(lambda: self._carry_out(self.session.toggle_path_recording()))
         self.tabs.currentChanged.connect(self._on_tab_changed)
 
     def _start_worker(self) -> None:
@@ -205,6 +222,7 @@ class MainWindow(QMainWindow):
         self.worker.shared_arm.connect(self.shared_control.on_arm, queued)
         self.worker.study_state.connect(self._on_study_state, queued)
         self.worker.execution_changed.connect(self._on_execution, queued)
+        self.worker.teleop_changed.connect(self.teleop.on_state, queued)
         self.thread.start()
 
     def _session_actions(self):
@@ -232,6 +250,11 @@ class MainWindow(QMainWindow):
             Action.START_SHARED_RECORDING: self._start_shared_recording,
             Action.STOP_SHARED_RECORDING: self._stop_shared_recording,
             Action.SAVE_SHARED_SKILL: self._save_shared_skill,
+            Action.TELEOP_ON: lambda: self.worker.drive_arm(True),
+            Action.TELEOP_OFF: lambda: self.worker.drive_arm(False),
+            Action.START_PATH_RECORDING: self._start_path_recording,
+            Action.STOP_PATH_RECORDING: self._stop_path_recording,
+            Action.SAVE_PATH: self._save_path,
         }
 
     def add_tab(self, tab: QWidget, title: str) -> int:
@@ -334,6 +357,7 @@ class MainWindow(QMainWindow):
         self.health_label.setText(problems)
         self.health_label.setStyleSheet("color: #d22828;" if problems else "")
         self.low_level.show_device_lost(DEVICE_LOST in problems)
+        self.teleop.show_device_lost(DEVICE_LOST in problems)
 
     # haptic guidance ----------------------------------------------------------------------------------
     def current_guidance(self) -> Guidance:
@@ -392,13 +416,13 @@ class MainWindow(QMainWindow):
     def _wait_for_arm(self) -> None:
         """Hand the arm to the impedance controller once the tree's skill stopped and the arm rests (bounded)."""
         self._arm_deadline = time.monotonic() + self.config.arm_free_timeout
-        self.low_level.controller_label.setText("controller: waiting for the arm to be free...")
+        self._show_controller("waiting for the arm to be free...")
         self._arm_timer.start(100)
         self._check_arm()
 
     def _stop_waiting_for_arm(self) -> None:
         self._arm_timer.stop()
-        self.low_level.controller_label.setText("controller: -")
+        self._show_controller("-")
 
     def _check_arm(self) -> None:
         if not self._arm_timer.isActive():
@@ -414,13 +438,18 @@ class MainWindow(QMainWindow):
                 f"the arm was not free within {self.config.arm_free_timeout:g} s ({why}): the impedance controller was"
                 " not started; go back to START and enter again"
             )
-            self.low_level.controller_label.setText(f"controller: {text}")
+            self._show_controller(text)
             self.statusBar().showMessage(text, 30000)
         else:
-            self.low_level.controller_label.setText(f"controller: waiting for the arm: {why}")
+            self._show_controller(f"waiting for the arm: {why}")
+
+    def _show_controller(self, text: str) -> None:
+        """What the arm's controller does, in the teaching tabs that show it."""
+        for tab in (self.low_level, self.teleop):
+            tab.controller_label.setText(f"controller: {text}")
 
     def _switch(self, start: str, stop: str) -> None:
-        self.low_level.controller_label.setText(f"controller: switching to {start}...")
+        self._show_controller(f"switching to {start}...")
         request = SwitchControllerRequest(
             start_controllers=[start],
             stop_controllers=[stop],
@@ -470,14 +499,28 @@ class MainWindow(QMainWindow):
         self.low_level.recording_since = None
 
     def _save_stiffness_skill(self) -> None:
-        """The demonstration becomes a new skill of the library (III-E), relative to its target when it had one."""
-        self._save_recording(
+        """The demonstration becomes a new skill of the library (III-E), relative to its target when it had one.
+
+        Along a path taught in TELEOP, the skill of the library is the DMP learned from it (learn_skill), and
+        LOW-LEVEL goes back to its predefined trajectory.
+        """
+        trajectory = self.trajectory
+        provenance = {"trajectory": trajectory.name}
+        if trajectory.demonstrations:
+            provenance["path_demonstrations"] = trajectory.demonstrations
+            provenance["path_spread"] = [float(value) for value in trajectory.spread]
+        saved = self._save_recording(
             self.recorder,
             "stiffness",
             self.config.skill_prefix,
-            {"trajectory": self.trajectory.name},
+            provenance,
             self._teaching_target,
+            add=not trajectory.demonstrations,
         )
+        if trajectory.demonstrations and saved is not None:
+            self._learn_dmp(saved)
+            self._path_series = []
+            self.trajectory = Trajectory.load(self.config.trajectory)
 
     def _save_recording(
         self,
@@ -486,8 +529,12 @@ class MainWindow(QMainWindow):
         prefix: str,
         provenance: dict,
         target: Optional[Tuple[str, Transform]] = None,
-    ) -> None:
-        """A stopped recording -> skill file in data_dir()/skills -> /behaviour_tree/add_skill (failures: status)."""
+        add: bool = True,
+    ) -> Optional[pathlib.Path]:
+        """A stopped recording -> skill file in data_dir()/skills (-> /behaviour_tree/add_skill).
+
+        Returns the file, or None when it was not saved (the status bar says why).
+        """
         name = unique_skill_name(prefix, self.library_names + self.saved_skills, self.skills_dir)
         try:
             skill = recorder.to_skill(
@@ -502,12 +549,14 @@ class MainWindow(QMainWindow):
         except skill_file.SkillFileError as error:
             hint = "" if len(recorder) >= 2 else " (no /cartesian_pose received? is robot_sim running?)"
             self.statusBar().showMessage(f"recording not saved: {error}{hint}", 15000)
-        else:
-            self.saved_skills.append(name)
-            self.statusBar().showMessage(f"saved {name} ({len(skill.time)} samples) to {path}", 10000)
+            return None
+        self.saved_skills.append(name)
+        self.statusBar().showMessage(f"saved {name} ({len(skill.time)} samples) to {path}", 10000)
+        if add:
             self.services.call(
                 f"add_skill:{name}", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
             )
+        return path
 
     # SHARED CONTROL -------------------------------------------------------------------------------
     def _toggle_shared_recording(self) -> None:
@@ -533,6 +582,89 @@ class MainWindow(QMainWindow):
             self.shared_recorder, "shared_control", self.config.shared_skill_prefix, {"stiffness": stiffness}
         )
 
+    # TELEOP -----------------------------------------------------------------------------------------
+    def _start_path_recording(self) -> None:
+        self.path_recorder.start()
+        publish(self.topics.recording, Bool(True))
+        self.teleop.show_path("RECORDING the path: move the arm with the clutch; double click to stop", True)
+
+    def _stop_path_recording(self) -> None:
+        self.path_recorder.stop()
+        publish(self.topics.recording, Bool(False))
+
+    def _save_path(self) -> None:
+        """The recorded path joins the demonstrations at its gap; LOW-LEVEL teaches stiffness along their mean.
+
+        The gap is the perceived one nearest where the path ended. A path at another gap than the demonstrations
+        before it starts a new taught path. Each demonstration and the mean are kept in the data directory's
+        trajectories/ (yaml, as config/trajectories/).
+        """
+        directory = self.data_root / "trajectories"
+        series = self._path_series
+        name = series[0].name if series else self._new_path_name(directory)
+        try:
+            path = self.path_recorder.to_trajectory(name)
+            gap, target, why = self.worker.nearest_gap(path.positions[-1])
+            if gap is None:
+                raise TrajectoryError(f"path {name!r}: no gap to keep it relative to: {why}")
+            if series and series[0].target != gap:
+                series, name = [], self._new_path_name(directory)
+            demonstration = path.relative_to(gap, target)
+            demonstration.name = name
+            series = [*series, demonstration]
+            mean = mean_trajectory(series, name)
+            taught = Trajectory(
+                mean.times + self.config.taught_path_approach,
+                mean.positions,
+                mean.quaternions,
+                mean.frame,
+                name,
+                mean.target,
+                starts_at_hand=True,
+                spread=mean.spread,
+                demonstrations=mean.demonstrations,
+            )
+            demonstration.save(directory / name / f"demonstration_{len(series)}.yaml")
+            saved = taught.save(directory / f"{name}.yaml")
+        except (TrajectoryError, OSError) as error:
+            self.teleop.show_path(f"path not kept: {error}", False)
+            self.statusBar().showMessage(f"path not kept: {error}", 15000)
+            return
+        self._path_series, self.trajectory = series, taught
+        text = (
+            f"{name}: {len(series)} demonstration(s) at {gap}, {mean.duration - mean.times[0]:.1f} s long, spread up "
+            f"to {1000 * float(taught.spread.max()):.0f} mm. LOW-LEVEL now teaches its stiffness along their mean; or "
+            "record another demonstration here."
+        )
+        self.teleop.show_path(text, False)
+        self.statusBar().showMessage(f"{text} ({saved})", 15000)
+
+    def _new_path_name(self, directory: pathlib.Path) -> str:
+        """``TaughtPath_<n>``, not yet taken in ``directory``."""
+        taken = {path.stem for path in directory.glob("*.yaml")} if directory.is_dir() else set()
+        return unique_skill_name(self.config.path_prefix, taken)
+
+    def _learn_dmp(self, stiffness_skill: pathlib.Path) -> None:
+        """learn_skill in the background: the DMP of a stiffness taught along a taught path joins the library."""
+        if self._learning is not None and self._learning.state() != QProcess.NotRunning:
+            self.statusBar().showMessage("still learning the previous skill: this one stays a stiffness file", 15000)
+            return
+        process = QProcess(self)
+        process.setProcessChannelMode(QProcess.MergedChannels)
+        name = f"{stiffness_skill.stem}_dmp"
+        arguments = ["teleteach", "learn_skill", str(stiffness_skill), "--name", name, "--add"]
+        process.finished.connect(lambda code, _status: self._on_learned(process, name, code))
+        process.start("rosrun", [*arguments, "--data-dir", str(self.data_root)])
+        self._learning = process
+        self.statusBar().showMessage(f"learning {name} (a DMP skill) from {stiffness_skill.name}...", 15000)
+
+    def _on_learned(self, process: QProcess, name: str, code: int) -> None:
+        lines = bytes(process.readAll()).decode(errors="replace").strip().splitlines()
+        last = lines[-1] if lines else "no output"
+        text = f"{name} is in the skill library: {last}" if code == 0 else f"{name} was not learned: {last}"
+        self.teleop.show_path(text, False)
+        self.statusBar().showMessage(text, 30000)
+
     # service answers ------------------------------------------------------------------------------
     def _on_service(self, key: str, success: bool, message: str, response) -> None:
         if key == "change_tree":
@@ -545,10 +677,10 @@ class MainWindow(QMainWindow):
         elif key.startswith("switch:"):
             controller = key.split(":", 1)[1]
             if success and response.ok:
-                self.low_level.controller_label.setText(f"controller: {controller} active")
+                self._show_controller(f"{controller} active")
             else:
                 reason = message or "the controller manager refused the switch"
-                self.low_level.controller_label.setText(f"controller: switch to {controller} failed")
+                self._show_controller(f"switch to {controller} failed")
                 self.statusBar().showMessage(f"switch to {controller} failed: {reason}", 15000)
         elif key == "start_tree":
             if success:

@@ -96,11 +96,11 @@ class GuidanceDesigner:
         return Guidance(max_force=self.config.guidance_max_force, max_torque=self.config.guidance_max_torque)
 
     def start(self) -> Guidance:
-        """START: left (HIGH-LEVEL), the neutral centre, right (LOW-LEVEL), up (SHARED CONTROL)."""
+        """START: left (HIGH-LEVEL), the neutral centre, right (LOW-LEVEL), up (SHARED CONTROL), down (TELEOP)."""
         reach = self.config.device_range
         return self._guidance(
             x=self._detents((-0.5 * reach, 0.0, 0.5 * reach), 0.5 * reach),
-            y=self._detents((0.0, 0.75 * reach), 0.5 * reach),
+            y=self._detents((-0.75 * reach, 0.0, 0.75 * reach), 0.5 * reach),
             z=self._hold(0.0),
         )
 

@@ -5,19 +5,21 @@ lists out, in the order the window must carry them out. The window only wires th
 actions to the widgets, the recorders and the ROS calls, so every rule below is tested without a display
 (test/unit/test_gui_session.py):
 
-- LOW-LEVEL and SHARED CONTROL are teaching tabs: entering one starts a session. The tree pauses at once, but the
-  impedance controller takes the arm only once the arm is free (:meth:`TeachingSession.arm_freed`: the tree's
+- LOW-LEVEL, SHARED CONTROL and TELEOP are teaching tabs: entering one starts a session. The tree pauses at once, but
+  the impedance controller takes the arm only once the arm is free (:meth:`TeachingSession.arm_freed`: the tree's
   running skill stopped and the arm is at rest): a skill's goal is never cut off by a controller switch. Leaving to
   a tab that is not a teaching tab ends the session: the position controller takes the arm back (if the impedance
   controller had it), then the tree resumes - unless it was waiting for its first start when the session began.
+  Moving between teaching tabs keeps the session (and the arm).
 - A recording runs in one teaching tab, on the impedance controller: a double click before the arm is free starts it
   as soon as it is (a second one cancels that). Leaving the tab, or shutting down, stops it and saves what was
-  recorded. A stiffness demonstration (LOW-LEVEL) ends the session when it stops; a shared-control recording does
-  not (the operator goes on in the tab) unless the tab is left for a tab that is not a teaching tab.
+  recorded. A stiffness demonstration (LOW-LEVEL) ends the session when it stops; a shared-control recording or a
+  path (TELEOP) does not (the operator goes on in the tab, or teaches the path's stiffness in LOW-LEVEL) unless the tab
+  is left for a tab that is not a teaching tab.
 - The MPC drives the arm only while SHARED CONTROL is open and the impedance controller holds the arm: on when both
-  hold, off first thing when the tab is left or the window closes.
-- The operator answers a help request with tree edits in HIGH-LEVEL: leaving HIGH-LEVEL (except for LOW-LEVEL,
-  where teaching continues the answer) resumes the tree.
+  hold, off first thing when the tab is left or the window closes. The same for the device in TELEOP.
+- The operator answers a help request with tree edits in HIGH-LEVEL: leaving HIGH-LEVEL (except for LOW-LEVEL or
+  TELEOP, where teaching continues the answer) resumes the tree.
 - A tree that started paused waits for the operator's start gesture in START (:meth:`TeachingSession.start_requested`).
 """
 
@@ -26,7 +28,8 @@ from typing import List, Optional
 
 from teleteach.core.active_tab import Tab
 
-TEACHING_TABS = (Tab.LOW_LEVEL, Tab.SHARED_CONTROL)  # the tree pauses and the impedance controller drives the arm
+TEACHING_TABS = (Tab.LOW_LEVEL, Tab.SHARED_CONTROL, Tab.TELEOP)  # the tree pauses, the impedance controller drives
+ANSWERING_TABS = (Tab.LOW_LEVEL, Tab.TELEOP)  # leaving HIGH-LEVEL for these continues the answer to a help request
 
 
 class Recording(enum.Enum):
@@ -34,6 +37,7 @@ class Recording(enum.Enum):
 
     STIFFNESS = "stiffness"  # LOW-LEVEL: a stiffness demonstration along the predefined trajectory
     SHARED_CONTROL = "shared_control"  # SHARED CONTROL: the MPC's trajectory under a constant stiffness
+    PATH = "path"  # TELEOP: the path the device moves the arm along, to teach stiffness along in LOW-LEVEL
 
 
 class Arm(enum.Enum):
@@ -66,6 +70,22 @@ class Action(enum.Enum):
     START_SHARED_RECORDING = enum.auto()
     STOP_SHARED_RECORDING = enum.auto()
     SAVE_SHARED_SKILL = enum.auto()
+    TELEOP_ON = enum.auto()  # the device moves the arm's equilibrium (from where the arm is)
+    TELEOP_OFF = enum.auto()  # it stops: the arm holds the last equilibrium
+    START_PATH_RECORDING = enum.auto()
+    STOP_PATH_RECORDING = enum.auto()
+    SAVE_PATH = enum.auto()  # the path joins its target's demonstrations; LOW-LEVEL teaches along their mean
+
+
+DRIVERS = {  # the tabs where something else than the tree drives the arm's equilibrium: (on, off)
+    Tab.SHARED_CONTROL: (Action.SHARED_CONTROL_ON, Action.SHARED_CONTROL_OFF),
+    Tab.TELEOP: (Action.TELEOP_ON, Action.TELEOP_OFF),
+}
+TAB_RECORDINGS = {Tab.SHARED_CONTROL: Recording.SHARED_CONTROL, Tab.TELEOP: Recording.PATH}
+KEPT_RECORDINGS = {  # recordings after which the session goes on: stop, then keep
+    Recording.SHARED_CONTROL: (Action.STOP_SHARED_RECORDING, Action.SAVE_SHARED_SKILL),
+    Recording.PATH: (Action.STOP_PATH_RECORDING, Action.SAVE_PATH),
+}
 
 
 class TeachingSession:
@@ -96,17 +116,17 @@ class TeachingSession:
             actions.append(Action.LEAVE_LOW_LEVEL)
             if self.recording == Recording.STIFFNESS:
                 actions += self._stop_stiffness_recording()  # leaving mid-recording keeps what was recorded
-            elif self.session and tab != Tab.SHARED_CONTROL:
+            elif self.session and tab not in TEACHING_TABS:
                 actions += self._end_session()
-        if previous == Tab.SHARED_CONTROL:
+        if previous in DRIVERS:
             if self.arm == Arm.IMPEDANCE:
-                actions.append(Action.SHARED_CONTROL_OFF)
-            if self.recording == Recording.SHARED_CONTROL:
-                actions += self._stop_shared_recording(end_session=tab != Tab.LOW_LEVEL)
-            elif self.session and tab != Tab.LOW_LEVEL:
+                actions.append(DRIVERS[previous][1])
+            if self.recording == TAB_RECORDINGS[previous]:
+                actions += self._stop_kept_recording(end_session=tab not in TEACHING_TABS)
+            elif self.session and tab not in TEACHING_TABS:
                 actions += self._end_session()
         self.pending_recording = None  # a recording asked for in the tab that was left is not wanted any more
-        if previous == Tab.HIGH_LEVEL and tab != Tab.LOW_LEVEL and self.help_open:
+        if previous == Tab.HIGH_LEVEL and tab not in ANSWERING_TABS and self.help_open:
             actions += [Action.RESUME_TREE, Action.ANNOUNCE_HELP_ANSWERED]
         if tab == Tab.HIGH_LEVEL:
             actions.append(Action.RESET_HIGH_LEVEL)
@@ -114,8 +134,8 @@ class TeachingSession:
             actions.append(Action.ENTER_LOW_LEVEL)
         if tab in TEACHING_TABS and not self.session:
             actions += self._begin_session()
-        if tab == Tab.SHARED_CONTROL and self.arm == Arm.IMPEDANCE:
-            actions.append(Action.SHARED_CONTROL_ON)
+        if self.arm == Arm.IMPEDANCE:
+            actions += self._arm_actions_of(tab)
         return actions
 
     def arm_freed(self) -> List[Action]:
@@ -123,14 +143,10 @@ class TeachingSession:
         if self.arm != Arm.WAITING:
             return []
         self.arm = Arm.IMPEDANCE
-        actions = [Action.IMPEDANCE_CONTROL]
-        if self.tab == Tab.SHARED_CONTROL:
-            actions.append(Action.SHARED_CONTROL_ON)
+        actions = [Action.IMPEDANCE_CONTROL, *self._arm_actions_of(self.tab)]
         pending, self.pending_recording = self.pending_recording, None
-        if pending == Recording.STIFFNESS:
-            actions += self._start_recording(Recording.STIFFNESS)
-        elif pending == Recording.SHARED_CONTROL:
-            actions += self._start_recording(Recording.SHARED_CONTROL)
+        if pending is not None:
+            actions += self._start_recording(pending)
         return actions
 
     def arm_not_freed(self) -> List[Action]:
@@ -154,8 +170,14 @@ class TeachingSession:
     def toggle_shared_recording(self) -> List[Action]:
         """SHARED CONTROL's double click: start recording, or stop and save (the session goes on in the tab)."""
         if self.recording == Recording.SHARED_CONTROL:
-            return self._stop_shared_recording(end_session=False)
+            return self._stop_kept_recording(end_session=False)
         return self._ask_for_recording(Recording.SHARED_CONTROL)
+
+    def toggle_path_recording(self) -> List[Action]:
+        """TELEOP's double click: start recording the path, or stop and keep it (the session goes on)."""
+        if self.recording == Recording.PATH:
+            return self._stop_kept_recording(end_session=False)
+        return self._ask_for_recording(Recording.PATH)
 
     def help_requested(self, node_name: str) -> List[Action]:
         """The tree asks for help about ``node_name``; an empty name closes the request."""
@@ -177,12 +199,17 @@ class TeachingSession:
     def shutdown(self) -> List[Action]:
         """The window closes: save a running recording and give the arm back to the position controller."""
         self.pending_recording = None
-        actions = [Action.SHARED_CONTROL_OFF] if self.tab == Tab.SHARED_CONTROL and self.arm == Arm.IMPEDANCE else []
+        actions = [DRIVERS[self.tab][1]] if self.arm == Arm.IMPEDANCE and self.tab in DRIVERS else []
         if self.recording == Recording.STIFFNESS:
             return actions + self._stop_stiffness_recording()
-        if self.recording == Recording.SHARED_CONTROL:
-            return actions + self._stop_shared_recording(end_session=True)
+        if self.recording is not None:
+            return actions + self._stop_kept_recording(end_session=True)
         return actions + (self._end_session() if self.session else [])
+
+    @staticmethod
+    def _arm_actions_of(tab: Optional[Tab]) -> List[Action]:
+        """What drives the impedance controller's equilibrium in ``tab`` once the arm is the session's."""
+        return [DRIVERS[tab][0]] if tab in DRIVERS else []
 
     def _ask_for_recording(self, recording: Recording) -> List[Action]:
         """Start now if the impedance controller holds the arm, else once it does (asking again cancels that)."""
@@ -194,9 +221,13 @@ class TeachingSession:
 
     def _start_recording(self, recording: Recording) -> List[Action]:
         self.recording = recording
-        if recording == Recording.STIFFNESS:
-            return [Action.START_STIFFNESS_RECORDING]
-        return [Action.START_SHARED_RECORDING]
+        return [
+            {
+                Recording.STIFFNESS: Action.START_STIFFNESS_RECORDING,
+                Recording.SHARED_CONTROL: Action.START_SHARED_RECORDING,
+                Recording.PATH: Action.START_PATH_RECORDING,
+            }[recording]
+        ]
 
     def _begin_session(self) -> List[Action]:
         """The tree pauses; the impedance controller takes the arm once it is free (thesis III-A)."""
@@ -217,7 +248,8 @@ class TeachingSession:
         self.recording = None
         return [Action.STOP_STIFFNESS_RECORDING, Action.SAVE_STIFFNESS_SKILL, *self._end_session()]
 
-    def _stop_shared_recording(self, end_session: bool) -> List[Action]:
+    def _stop_kept_recording(self, end_session: bool) -> List[Action]:
+        """Stop and keep a recording after which the operator goes on (SHARED CONTROL's, TELEOP's path)."""
+        actions = list(KEPT_RECORDINGS[self.recording])
         self.recording = None
-        actions = [Action.STOP_SHARED_RECORDING, Action.SAVE_SHARED_SKILL]
         return actions + (self._end_session() if end_session else [])

@@ -100,12 +100,13 @@ class StartTab(QWidget):
     """Choose the teaching mode with the device, a click opens it; start a tree that waits for the operator.
 
     Device X left of the neutral zone selects HIGH-LEVEL, right of it LOW-LEVEL (as in the thesis); device Y up beyond
-    half its range selects SHARED CONTROL above them. In the neutral zone (``start_neutral_zone`` around the centre)
-    nothing is selected, so a resting, centred handle opens nothing; the centre panel there shows what the tree does,
-    and a click in it starts a tree that waits for its start (``start_requested``).
+    half its range selects SHARED CONTROL above them, down beyond half its range TELEOP below them. In the neutral zone
+    (``start_neutral_zone`` around the centre) nothing is selected, so a resting, centred handle opens nothing; the
+    centre panel there shows what the tree does, and a click in it starts a tree that waits for its start
+    (``start_requested``).
     """
 
-    SHARED_CONTROL_Y = 0.5  # fraction of device_range above which device Y selects SHARED CONTROL
+    SHARED_CONTROL_Y = 0.5  # fraction of device_range above which device Y selects SHARED CONTROL (below -: TELEOP)
     NEUTRAL = -1  # ``selected`` in the neutral zone
     WAITING_STYLE = "background: #ffe0b2; border: {border}; color: #bf360c; font-size: 14pt; font-weight: bold;"
     STATE_STYLE = "background: #f5f5f5; border: {border}; color: #424242; font-size: 12pt;"
@@ -126,7 +127,7 @@ class StartTab(QWidget):
         title.setAlignment(Qt.AlignCenter)
         layout.addWidget(title)
         hint = QLabel(
-            "Move the device left/right to choose a teaching mode (up for SHARED CONTROL), "
+            "Move the device left/right to choose a teaching mode (up for SHARED CONTROL, down for TELEOP), "
             "click (close the gripper) to open it."
         )
         hint.setAlignment(Qt.AlignCenter)
@@ -138,6 +139,7 @@ class StartTab(QWidget):
                 ("HIGH-LEVEL teaching\nchange the behaviour tree", "#c8e6c9", 240),
                 ("LOW-LEVEL teaching\ndemonstrate stiffness", "#ffcdd2", 240),
                 ("SHARED CONTROL\nthe MPC keeps your motion pattern; record it as a skill", "#bbdefb", 110),
+                ("TELEOP\nmove the arm with the device (hold the gripper closed)", "#fff3c4", 110),
             )
         ):
             button = QPushButton(text)
@@ -155,6 +157,7 @@ class StartTab(QWidget):
         row.addWidget(self.centre)
         row.addWidget(self.buttons[1], 1)
         layout.addLayout(row)
+        layout.addWidget(self.buttons[3])
         gesture = QLabel("In any mode, open the gripper fully to come back here.")
         gesture.setAlignment(Qt.AlignCenter)
         layout.addWidget(gesture)
@@ -185,6 +188,8 @@ class StartTab(QWidget):
         if self.active:
             if sample.y > self.SHARED_CONTROL_Y * self.config.device_range:
                 selected = 2
+            elif sample.y < -self.SHARED_CONTROL_Y * self.config.device_range:
+                selected = 3
             elif abs(sample.x) < self.config.start_neutral_zone:
                 selected = self.NEUTRAL
             else:

@@ -8,6 +8,7 @@ samples the recording at the same instants; a device sample that changes the ell
 subscriber's thread, so the latency does not include waiting for the next tick.
 """
 
+import functools
 import math
 import threading
 import time
@@ -29,15 +30,20 @@ from teleteach.core.gui_config import GuiConfig
 from teleteach.core.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.core.questionnaire import Item
 from teleteach.core.study_phase import Phase, StudyView, known_phase
+from teleteach.core.teleoperation import Teleoperation
 from teleteach.core.trajectories import Trajectory
+from teleteach.core.validation import InvalidCommandError
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
-from teleteach.gui.recording import StiffnessRecorder
+from teleteach.gui.recording import PathRecorder, StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.shared_tab import SharedStatus
+from teleteach.gui.teleop_tab import TeleopView
 from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState, TreeExecution
 from teleteach.runtime.node import publish, shutting_down
+from teleteach.shared_control.placement import Opening, assist
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
+from teleteach.skills.config import load_motion_config
 
 
 def pose_to_array(pose) -> np.ndarray:
@@ -206,7 +212,8 @@ class RosWorker(QObject):
     (a user study's state); in LOW-LEVEL, teleteach/scene and TF world -> base_frame (the gap a target-frame
     trajectory places at). The tree's execution and /joint_states tell whether the arm is free for the impedance
     controller.
-    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL or SHARED CONTROL is active).
+    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL, SHARED CONTROL or TELEOP is active),
+    /equilibrium_pose (in TELEOP, while the session holds the arm: where the device puts it).
     """
 
     device_changed = pyqtSignal(object)  # DeviceSample, at most device_ui_rate
@@ -224,6 +231,7 @@ class RosWorker(QObject):
     study_state = pyqtSignal(object)  # StudyView of a user study (study/state)
     _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
     execution_changed = pyqtSignal(int, str)  # the tree's TreeExecution state and its message
+    teleop_changed = pyqtSignal(object)  # TeleopView: when the clutch or the reason changes, else at TELEOP_VIEW_RATE
 
     def __init__(
         self,
@@ -232,8 +240,15 @@ class RosWorker(QObject):
         recorder: StiffnessRecorder,
         shared_recorder: StiffnessRecorder,
         equilibrium: Callable[[], Optional[np.ndarray]],
+        equilibrium_publisher: rospy.Publisher,
+        path_recorder: PathRecorder,
     ):
-        """``equilibrium``: the pose the player commands now (recorded with each stiffness sample), or None."""
+        """The worker of the window.
+
+        ``equilibrium``: the pose the player commands now (recorded with each stiffness sample), or None;
+        ``equilibrium_publisher``: /equilibrium_pose, where TELEOP sends the pose the device gives the arm;
+        ``path_recorder``: where TELEOP's poses go while its path is recorded.
+        """
         super().__init__()
         self.config = config
         self.command = command
@@ -271,6 +286,18 @@ class RosWorker(QObject):
         self._tf_listener: Optional[tf2_ros.TransformListener] = None
         self._execution: Optional[TreeExecution] = None
         self._arm_motion: Tuple[float, float] = (-math.inf, math.inf)  # (when, fastest joint speed [rad/s])
+        self._equilibrium_publisher = equilibrium_publisher
+        self.path_recorder = path_recorder
+        self.teleop = Teleoperation(config.teleop)
+        self._teleop_lock = threading.Lock()
+        self._teleop_driving = False  # TELEOP_ON: the session holds the arm and the device drives it
+        self._teleop_started = False  # the teleoperation holds a pose (the arm's, once /cartesian_pose came)
+        self._teleop_shown: Tuple[object, str, float] = (None, "", -math.inf)  # clutch, reason, when (monotonic)
+        self._device_pose: Optional[tuple] = None  # the newest /sigma7/pose: (position, quaternion, when it came)
+        self._gripper_angle: Optional[float] = None
+        self._opening: Tuple[Optional[Callable], str] = (None, "")  # the assistance's constraint, what it is
+        self._opening_checked = -math.inf
+        self._held_below = load_motion_config().grasp.height_above_center  # the skills' grasp: the product in the hand
 
     @pyqtSlot()
     def start(self) -> None:
@@ -336,7 +363,7 @@ class RosWorker(QObject):
             ("cartesian_pose", PoseStamped, self._on_cartesian),
             ("joint_states", JointState, self._on_joint_states),
         )
-        if self._active_tab in (Tab.LOW_LEVEL, Tab.SHARED_CONTROL):
+        if self._active_tab in (Tab.LOW_LEVEL, Tab.SHARED_CONTROL, Tab.TELEOP):
             if not self._publish_timer.isActive():
                 self._publish_timer.start()
             for topic, message_class, callback in arm_topics:
@@ -352,10 +379,10 @@ class RosWorker(QObject):
                     subscriber.unregister()
             self._measured = None  # a recording must not start from where the arm was in another tab
             self._arm_motion = (-math.inf, math.inf)  # nor an arm count as resting on what it did back then
-        self._follow_target(self._active_tab == Tab.LOW_LEVEL)
+        self._follow_target(self._active_tab in (Tab.LOW_LEVEL, Tab.TELEOP))
 
     def _follow_target(self, teaching: bool) -> None:
-        """Hear the perceived scene and TF only in LOW-LEVEL, where a recording may need the gap it places at."""
+        """Hear the perceived scene and TF only in LOW-LEVEL and TELEOP, where a recording may need its gap."""
         if teaching and "teleteach/scene" not in self._subscribers:
             self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
             self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
@@ -397,6 +424,7 @@ class RosWorker(QObject):
         self.device_time = message.header.stamp.to_sec() or self.device_time
         with self._lock:
             self._pose = ((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+        self._device_pose = ((p.x, p.y, p.z), (q.x, q.y, q.z, q.w), time.monotonic())
         if self.active_tab == Tab.LOW_LEVEL:
             sample = self._take_sample()
             if sample is not None and self.command.device(sample):
@@ -425,6 +453,7 @@ class RosWorker(QObject):
             self.clicked.emit(self.last_click)
 
     def _on_gripper(self, message: Float64) -> None:
+        self._gripper_angle = message.data
         if self._gripper.update(message.data):
             self.gripper_opened.emit()
 
@@ -582,16 +611,69 @@ class RosWorker(QObject):
             return None, "no perception yet (teleteach/scene)"
         if gap not in scene.gaps:
             return None, f"perception reports no {gap} (it reports {', '.join(sorted(scene.gaps)) or 'no gaps'})"
+        base, why = self._base_in_world()
+        if base is None:
+            return None, why
+        return base.inverse() * scene.gaps[gap].frame, ""
+
+    def _base_in_world(self) -> Tuple[Optional[Transform], str]:
+        """The base frame in world (TF world -> base_frame, heard in LOW-LEVEL and TELEOP), or (None, why not)."""
         buffer = self._tf_buffer
         if buffer is None:
-            return None, "not in LOW-LEVEL"
+            return None, "not in LOW-LEVEL or TELEOP"
         try:
             stamped = buffer.lookup_transform(WORLD_FRAME, self.config.base_frame, rospy.Time(0))
         except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as error:
             return None, f"no transform {WORLD_FRAME} -> {self.config.base_frame}: {error}"
         t, r = stamped.transform.translation, stamped.transform.rotation
-        base = Transform.from_pose([t.x, t.y, t.z, r.x, r.y, r.z, r.w])
-        return base.inverse() * scene.gaps[gap].frame, ""
+        return Transform.from_pose([t.x, t.y, t.z, r.x, r.y, r.z, r.w]), ""
+
+    ASSISTANCE_PERIOD = 0.2  # [s] the opening TELEOP's assistance keeps out of is looked up again this often
+
+    def _assistance(self, hand: np.ndarray):
+        """TELEOP's shared control in the placement: the opening's constraint near the hand (or None), and its words.
+
+        Looked up from perception and TF every ASSISTANCE_PERIOD.
+        """
+        parameters = self.config.teleop.assistance
+        if not parameters.enabled:
+            return None, "assistance off"
+        now = time.monotonic()
+        if now - self._opening_checked < self.ASSISTANCE_PERIOD:
+            return self._opening
+        self._opening_checked = now
+        gap, target, why = self.nearest_gap(hand[:3])
+        base, base_why = self._base_in_world()
+        if gap is None or base is None:
+            self._opening = (None, f"assistance: {why or base_why}")
+        elif np.linalg.norm(target.position - hand[:3]) > parameters.reach:
+            self._opening = (None, f"assistance: no gap within {100 * parameters.reach:.0f} cm")
+        else:
+            with self._lock:
+                scene = self._scene
+            opening, why = Opening.perceived(scene, gap, base, hand, self._held_below)
+            if opening is None:
+                self._opening = (None, f"assistance at {gap}: {why}")
+            else:
+                constrain = functools.partial(assist, opening, parameters=parameters)
+                said = f"assistance at {gap}: its opening, {1000 * opening.width:.0f} mm wide"
+                self._opening = (constrain, said)
+        return self._opening
+
+    def nearest_gap(self, point) -> Tuple[Optional[str], Optional[Transform], str]:
+        """The perceived gap whose origin is nearest ``point`` (base_link), its pose in base_link, or why none."""
+        with self._lock:
+            scene = self._scene
+        if scene is None or not scene.gaps:
+            return None, None, "no perception yet (teleteach/scene)" if scene is None else "perception reports no gaps"
+        found = []
+        for gap in sorted(scene.gaps):
+            target, why = self.target_in_base(gap)
+            if target is None:
+                return None, None, why
+            found.append((float(np.linalg.norm(target.position - np.asarray(point))), gap, target))
+        _, gap, target = min(found, key=lambda entry: entry[0])
+        return gap, target, ""
 
     # worker thread timers -----------------------------------------------------------------------
     def _publish_stiffness(self) -> None:
@@ -606,6 +688,11 @@ class RosWorker(QObject):
         if self.active_tab == Tab.SHARED_CONTROL:
             self._send_stiffness(self.config.shared_control_stiffness, (0.0, 0.0, 0.0, 1.0))
             return
+        if self.active_tab == Tab.TELEOP:
+            values, quaternion = self.command.stiffness()
+            self._send_stiffness(values, quaternion)
+            self._teleoperate(tuple(float(value) for value in values))
+            return
         if self.active_tab != Tab.LOW_LEVEL:
             return
         self._publish(urgent=False)
@@ -613,6 +700,65 @@ class RosWorker(QObject):
         if self.recorder.active and measured is not None:
             stamp = rospy.get_time() if rospy.rostime.is_wallclock() else measured[0]
             self.recorder.add(stamp, self.command.stiffness_matrix(), self.equilibrium(), measured[1])
+
+    TELEOP_VIEW_RATE = 10.0  # [Hz] the TELEOP tab's poses are refreshed this often (the clutch at once)
+
+    def drive_arm(self, driving: bool) -> None:
+        """TELEOP_ON / TELEOP_OFF (from the GUI thread): the device drives the equilibrium from where the arm is."""
+        with self._teleop_lock:
+            self._teleop_driving, self._teleop_started = driving, False
+            if not driving:
+                self.teleop.stop()
+
+    def _teleoperate(self, stiffness: Tuple[float, float, float]) -> None:
+        """TELEOP's tick: the equilibrium where the device puts it, the tab told (worker thread, publish_rate)."""
+        with self._teleop_lock:
+            if not self._teleop_driving:
+                self._show_teleop(TeleopView(False, self.teleop.clutch, "", None, self._measured_pose(), stiffness, ""))
+                return
+            now = rospy.get_time()
+            if not self._teleop_started:
+                arm = self._measured_pose()
+                if arm is None:
+                    waiting = TeleopView(
+                        True, self.teleop.clutch, "waiting for /cartesian_pose", None, None, stiffness, ""
+                    )
+                    self._show_teleop(waiting)
+                    return
+                try:
+                    self.teleop.start(arm, now)
+                except InvalidCommandError as error:
+                    self._show_teleop(
+                        TeleopView(True, self.teleop.clutch, f"arm pose refused: {error}", None, arm, stiffness, "")
+                    )
+                    return
+                self._teleop_started = True
+            device = self._device_pose
+            age = math.inf if device is None else time.monotonic() - device[2]
+            constrain, assistance = self._assistance(self.teleop.pose)
+            command = self.teleop.update(
+                now, self._gripper_angle, device and device[:2], age, self.config.device_timeout, constrain
+            )
+        if command.pose is not None:
+            message = PoseStamped()
+            message.header.stamp = rospy.Time.from_sec(now)
+            message.header.frame_id = self.config.base_frame
+            p, q = message.pose.position, message.pose.orientation
+            p.x, p.y, p.z, q.x, q.y, q.z, q.w = (float(value) for value in command.pose)
+            publish(self._equilibrium_publisher, message)
+            self.path_recorder.add(now, command.pose)
+        measured = self._measured_pose()
+        view = TeleopView(True, command.clutch, command.reason, command.pose, measured, stiffness, assistance)
+        self._show_teleop(view)
+
+    def _show_teleop(self, view: TeleopView) -> None:
+        """Tell the tab when the clutch or the reason changed, and otherwise at TELEOP_VIEW_RATE."""
+        clutch, reason, shown = self._teleop_shown
+        now = time.monotonic()
+        if (view.clutch, view.reason) == (clutch, reason) and now - shown < 1.0 / self.TELEOP_VIEW_RATE:
+            return
+        self._teleop_shown = (view.clutch, view.reason, now)
+        self.teleop_changed.emit(view)
 
     def _publish(self, urgent: bool) -> None:
         """Send the ellipsoid; an urgent send (the device changed it) is skipped when one just went out."""

@@ -34,6 +34,7 @@ import yaml
 from scipy.interpolate import PchipInterpolator, make_interp_spline
 from scipy.spatial.transform import Slerp
 
+from teleteach.core.active_tab import Tab
 from teleteach.core.rotations import rpy_rotation
 from teleteach.core.study_phase import PHASE_NAMES
 from teleteach.haptics.click import ClickDetector, ClickParameters, flick_gripper_angle
@@ -43,7 +44,7 @@ INTERPOLATIONS = ("linear", "smooth")
 AT_END_CHOICES = ("hold", "exit")
 DEFAULT_CLICK_DURATION = 0.2  # [s]
 DEFAULT_WAIT_TIMEOUT = 30.0  # [s] of ROS time
-TABS = ("START", "HIGH_LEVEL", "LOW_LEVEL", "SHARED_CONTROL")  # /teleteach/active_tab 0..3
+TABS = tuple(tab.name for tab in Tab)  # /teleteach/active_tab 0..4
 _TOP_LEVEL_FIELDS = ("description", "interpolation", "click_duration", "keyframes")
 _KEYFRAME_FIELDS = ("t", "position", "rpy", "gripper", "click", "wait", "timeout")
 _WAIT_FIELDS = ("tab", "tree_running", "recording", "help_request", "study")
@@ -473,7 +474,9 @@ def _parse_wait(raw: Dict[str, Any], field_where: Callable[[str], str]) -> Wait:
         if tab in TABS:
             tab = TABS.index(tab)
         elif not (isinstance(tab, int) and not isinstance(tab, bool) and 0 <= tab < len(TABS)):
-            raise ScenarioError(f"{field_where('wait')}: tab must be one of {', '.join(TABS)} (or 0..3), got {tab!r}")
+            raise ScenarioError(
+                f"{field_where('wait')}: tab must be one of {', '.join(TABS)} (or 0..{len(TABS) - 1}), got {tab!r}"
+            )
     running = conditions.get("tree_running")
     if running is not None and not (isinstance(running, str) and running):
         raise ScenarioError(f"{field_where('wait')}: tree_running must name a tree node or a pattern, got {running!r}")

@@ -29,7 +29,12 @@ from teleteach.core.datadir import atomic_write_bytes, atomic_write_text
 from teleteach.core.plotting import legends_beside
 from teleteach.recording.session import Series, Session, TreeSnapshot, read_session, yaw_of
 
-TAB_COLOURS = {Tab.HIGH_LEVEL: "#d9f2d9", Tab.LOW_LEVEL: "#f8d7d7", Tab.SHARED_CONTROL: "#d7e3f8"}
+TAB_COLOURS = {
+    Tab.HIGH_LEVEL: "#d9f2d9",
+    Tab.LOW_LEVEL: "#f8d7d7",
+    Tab.SHARED_CONTROL: "#d7e3f8",
+    Tab.TELEOP: "#fff3c4",
+}
 AXIS_COLOURS = {"dark": ("#b2182b", "#1a7a1a", "#2b4fb2"), "light": ("#f4a6a6", "#9be09b", "#a6bdf4")}
 ELLIPSES_OVER_TIME = 12
 

@@ -273,6 +273,18 @@ class TrialJob:
     skill_path: str
     target: Optional[str] = None
 
+    def run(self, process: dict) -> dict:
+        """The trial, in a worker process (``process``: what it loaded once, see run_trials)."""
+        return run_trial(
+            process["scene"],
+            process["config"],
+            process["kinematics"],
+            process["uncertainty"],
+            self.setup,
+            pathlib.Path(self.skill_path),
+            self.target,
+        )
+
 
 _process: dict = {}
 
@@ -287,30 +299,21 @@ def _start_process(uncertainty_file: Optional[str]) -> None:
     )
 
 
-def _run_job(job: TrialJob):
-    process = _process
-    result = run_trial(
-        process["scene"],
-        process["config"],
-        process["kinematics"],
-        process["uncertainty"],
-        job.setup,
-        pathlib.Path(job.skill_path),
-        job.target,
-    )
-    return job.group, result
+def _run_job(job):
+    return job.group, job.run(_process)
 
 
 def run_trials(
-    jobs: Sequence[TrialJob],
+    jobs: Sequence,
     processes: int,
     progress: Callable[[str], None] = print,
     uncertainty_file: Optional[str] = None,
 ) -> Dict[str, list]:
     """Run every job on ``processes`` parallel simulations; returns each group's results, ordered by seed.
 
-    Each process loads the default scene and motion configuration once, and the uncertainty of ``uncertainty_file``
-    (default: config/uncertainty.yaml).
+    A job has a ``group``, a ``setup`` and a ``run(process)`` (a TrialJob, or another kind of trial's job). Each process
+    loads the default scene, motion configuration and Panda kinematics once, and the uncertainty of
+    ``uncertainty_file`` (default: config/uncertainty.yaml).
     """
     load_uncertainty(uncertainty_file)  # a bad file is named here, once, not in every process
     results: Dict[str, List[dict]] = {job.group: [] for job in jobs}

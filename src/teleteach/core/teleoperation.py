@@ -1,0 +1,271 @@
+"""Teleoperating the arm with the device: a clutch on the gripper, the handle's motion moving the equilibrium pose.
+
+While the operator holds the gripper closed (longer than a click: ``clutch_hold``), the equilibrium pose x_r of the
+impedance controller (thesis eq. 5) follows the handle: the handle's displacement since the clutch engaged, turned
+from the operator frame (x right, y away, z up: what /sigma7/pose reports) into the robot's base frame and scaled,
+is added to where the equilibrium was at that moment; so is its rotation. Releasing the gripper holds the pose, and
+the next clutch starts from there (indexing, as with a mouse lifted off the table). The equilibrium moves no faster
+than ``max_speed`` (and ``max_angular_speed``) and stays in the ``workspace`` box (an arm outside it may only
+come back in); a device pose that is not a pose
+(NaN, not a rotation), that jumped beyond ``max_device_jump`` since the last one, or that stopped coming
+(``device_timeout``) holds the pose and releases the clutch, with a one-line reason.
+
+Pure: times come in with the samples (the GUI gives ROS time), so the rules are tested without ROS or Qt.
+"""
+
+import dataclasses
+import enum
+import math
+from typing import Callable, Optional, Sequence, Tuple
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from teleteach.core.validation import InvalidCommandError, finite_vector, validate_quaternion
+
+ROTATION_TOLERANCE = 1e-6
+
+
+class TeleopParametersError(ValueError):
+    """A teleoperation parameter is out of its range; the message names it."""
+
+
+@dataclasses.dataclass(frozen=True)
+class AssistanceParameters:
+    """The ``teleop/assistance`` section of config/gui.yaml: shared control in the placement.
+
+    Its rules are teleteach.shared_control.placement's; a Teleoperation applies them through ``update(constrain=)``.
+    """
+
+    enabled: bool
+    margin: float
+    capture: float
+    front_margin: float
+    reach: float
+
+    def __post_init__(self):
+        if not isinstance(self.enabled, bool):
+            raise TeleopParametersError(f"teleop/assistance/enabled must be true or false, got {self.enabled!r}")
+        for name in ("margin", "capture", "front_margin", "reach"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+                raise TeleopParametersError(f"teleop/assistance/{name} must be a number >= 0 [m], got {value!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class TeleopParameters:
+    """The ``teleop`` section of config/gui.yaml, where each value's unit and meaning is written."""
+
+    scale: float
+    rotation_scale: float
+    operator_to_base: Tuple[Tuple[float, ...], ...]
+    clutch_below: float
+    clutch_release_above: float
+    clutch_hold: float
+    max_speed: float
+    max_angular_speed: float
+    max_device_jump: float
+    workspace_low: Tuple[float, ...]
+    workspace_high: Tuple[float, ...]
+    assistance: AssistanceParameters
+
+    def __post_init__(self):
+        for name in (
+            "scale",
+            "clutch_hold",
+            "max_speed",
+            "max_angular_speed",
+            "max_device_jump",
+            "clutch_release_above",
+        ):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise TeleopParametersError(f"teleop/{name} must be a positive number, got {value!r}")
+        if not (isinstance(self.rotation_scale, (int, float)) and 0.0 <= self.rotation_scale < math.inf):
+            raise TeleopParametersError(f"teleop/rotation_scale must be a number >= 0, got {self.rotation_scale!r}")
+        if not 0.0 <= self.clutch_below < self.clutch_release_above:
+            raise TeleopParametersError(
+                f"teleop needs 0 <= clutch_below < clutch_release_above (hysteresis), got {self.clutch_below} and "
+                f"{self.clutch_release_above} rad"
+            )
+        try:
+            matrix = np.array(self.operator_to_base, dtype=float)
+        except (TypeError, ValueError):
+            matrix = np.zeros(0)
+        if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+            raise TeleopParametersError(
+                f"teleop/operator_to_base must be a 3x3 matrix (rows), got {self.operator_to_base!r}"
+            )
+        if not np.allclose(matrix @ matrix.T, np.eye(3), atol=ROTATION_TOLERANCE) or np.linalg.det(matrix) < 0.0:
+            raise TeleopParametersError(f"teleop/operator_to_base {self.operator_to_base!r} is not a rotation")
+        low, high = (np.array(box, dtype=float) for box in (self.workspace_low, self.workspace_high))
+        if low.shape != (3,) or high.shape != (3,) or not np.all(np.isfinite(low) & np.isfinite(high) & (low < high)):
+            raise TeleopParametersError(
+                f"teleop/workspace_low {self.workspace_low!r} must lie below workspace_high {self.workspace_high!r} "
+                "(3 numbers each, base frame [m])"
+            )
+
+    @property
+    def rotation(self) -> Rotation:
+        """Operator frame -> base frame (``operator_to_base``'s rows are the base frame's axes in operator axes)."""
+        return Rotation.from_matrix(np.array(self.operator_to_base, dtype=float))
+
+
+Constrain = Callable[[np.ndarray, np.ndarray], Tuple[np.ndarray, str]]  # (pose now, position asked) -> (allowed, what
+#                                                                        it did)
+
+
+class Clutch(enum.Enum):
+    """The gripper as a clutch."""
+
+    RELEASED = "released"  # the arm holds its equilibrium
+    CLOSING = "closing"  # closed, not yet long enough to be more than a click
+    ENGAGED = "engaged"  # the equilibrium follows the handle
+
+
+@dataclasses.dataclass(frozen=True)
+class TeleopCommand:
+    """What to command now: ``pose`` (x y z qx qy qz qw, base frame; None before the arm's pose is known)."""
+
+    pose: Optional[np.ndarray]
+    clutch: Clutch
+    reason: str  # why the pose holds or is limited (one line), "" when it follows the handle freely
+
+
+class Teleoperation:
+    """The clutch and the mapping from the handle to the equilibrium pose (see the module docstring)."""
+
+    def __init__(self, parameters: TeleopParameters):
+        self.parameters = parameters
+        self._turn = parameters.rotation
+        self._low = np.array(parameters.workspace_low, dtype=float)
+        self._high = np.array(parameters.workspace_high, dtype=float)
+        self._pose: Optional[np.ndarray] = None
+        self._time: Optional[float] = None
+        self._clutch = Clutch.RELEASED
+        self._closed_since: Optional[float] = None
+        self._must_reopen = False  # a refused device pose released the clutch: it engages again only after a release
+        self._anchor: Optional[Tuple[np.ndarray, Rotation, np.ndarray, Rotation]] = None
+        self._box = (self._low, self._high)
+        self._last_device: Optional[np.ndarray] = None
+
+    @property
+    def pose(self) -> Optional[np.ndarray]:
+        """The equilibrium it holds or moves (x y z qx qy qz qw, base frame), None before the start."""
+        return None if self._pose is None else self._pose.copy()
+
+    @property
+    def clutch(self) -> Clutch:
+        """The clutch's state now."""
+        return self._clutch
+
+    def start(self, arm_pose: Sequence[float], now: float) -> None:
+        """Hold ``arm_pose`` (the arm's measured pose when TELEOP takes it); the clutch starts released."""
+        pose = finite_vector(arm_pose, 7, "arm pose")
+        pose[3:] = validate_quaternion(pose[3:], "arm orientation")
+        self._pose, self._time = pose, now
+        self._release(must_reopen=True)
+        self._last_device = None
+
+    def stop(self) -> None:
+        """Forget the held pose: nothing is commanded until the next start."""
+        self._pose = self._time = None
+        self._release(must_reopen=True)
+
+    def update(
+        self,
+        now: float,
+        gripper: Optional[float],
+        device: Optional[Tuple[Sequence[float], Sequence[float]]],
+        device_age: float,
+        device_timeout: float,
+        constrain: Optional[Constrain] = None,
+    ) -> TeleopCommand:
+        """The pose to command at ``now`` [s].
+
+        Given the gripper angle [rad], the newest device pose (position, quaternion in the operator frame), how long
+        ago [s] it came, and after how long the device counts as lost. ``constrain`` (shared control) turns the
+        position the handle asks for, given the equilibrium's pose now, into the one allowed, and says what it did.
+        """
+        if self._pose is None:
+            return TeleopCommand(None, self._clutch, "not started: waiting for the arm's pose")
+        dt = max(0.0, now - self._time)
+        self._time = now
+        if device is None or device_age > device_timeout:
+            self._release(must_reopen=True)
+            return self._hold(f"device lost (no pose for {device_age:.1f} s): holding the pose")
+        try:
+            position = finite_vector(device[0], 3, "device position")
+            orientation = Rotation.from_quat(validate_quaternion(device[1], "device orientation"))
+        except InvalidCommandError as error:
+            self._release(must_reopen=True)
+            return self._hold(f"device pose refused ({error}): holding the pose")
+        jump = math.inf if self._last_device is None else float(np.linalg.norm(position - self._last_device))
+        self._last_device = position
+        if self._clutch is Clutch.ENGAGED and jump > self.parameters.max_device_jump:
+            self._release(must_reopen=True)
+            return self._hold(
+                f"device pose jumped {jump * 100:.1f} cm (limit {self.parameters.max_device_jump * 100:.1f} cm): "
+                "holding; open and close the gripper to go on"
+            )
+        self._follow_gripper(now, gripper, position, orientation)
+        if self._clutch is not Clutch.ENGAGED:
+            waiting = "open the gripper, then close it to move the arm" if self._must_reopen else ""
+            return self._hold(waiting)
+        return self._follow(position, orientation, dt, constrain)
+
+    def _follow_gripper(self, now: float, gripper: Optional[float], position, orientation: Rotation) -> None:
+        """The clutch's state machine: closed for ``clutch_hold`` engages, opened beyond the release releases."""
+        parameters = self.parameters
+        if gripper is None or not math.isfinite(gripper) or gripper > parameters.clutch_release_above:
+            self._release(must_reopen=False)
+            return
+        if self._must_reopen or (gripper >= parameters.clutch_below and self._clutch is Clutch.RELEASED):
+            return
+        if self._clutch is Clutch.RELEASED:
+            self._clutch, self._closed_since = Clutch.CLOSING, now
+        if self._clutch is Clutch.CLOSING and now - self._closed_since >= parameters.clutch_hold:
+            self._clutch = Clutch.ENGAGED
+            pose = self._pose
+            self._anchor = (position, orientation, pose[:3].copy(), Rotation.from_quat(pose[3:]))
+            # an arm already outside the workspace may move back in, never further out
+            self._box = (np.minimum(self._low, pose[:3]), np.maximum(self._high, pose[:3]))
+
+    def _follow(
+        self, position: np.ndarray, orientation: Rotation, dt: float, constrain: Optional[Constrain]
+    ) -> TeleopCommand:
+        """Move toward where the handle puts the equilibrium, within the assistance, the workspace and the limits."""
+        parameters = self.parameters
+        device_start, device_turn_start, pose_start, turn_start = self._anchor
+        target = pose_start + parameters.scale * self._turn.apply(position - device_start)
+        limits = []
+        if constrain is not None:
+            target, said = constrain(self._pose.copy(), target)
+            limits += [said] if said else []
+        clipped = np.clip(target, *self._box)
+        if not np.allclose(clipped, target):
+            limits.append("workspace limit")
+        turn = orientation * device_turn_start.inv()  # the handle's rotation since the clutch, operator frame
+        turn = Rotation.from_rotvec(parameters.rotation_scale * self._turn.apply(turn.as_rotvec()))
+        target_turn = turn * turn_start
+        step = clipped - self._pose[:3]
+        distance = float(np.linalg.norm(step))
+        if distance > parameters.max_speed * dt:
+            step *= parameters.max_speed * dt / distance
+            limits.append(f"speed limit {parameters.max_speed:g} m/s")
+        current = Rotation.from_quat(self._pose[3:])
+        rotation_step = (target_turn * current.inv()).as_rotvec()
+        angle = float(np.linalg.norm(rotation_step))
+        if angle > parameters.max_angular_speed * dt:
+            rotation_step *= parameters.max_angular_speed * dt / angle
+            limits.append(f"angular speed limit {parameters.max_angular_speed:g} rad/s")
+        quaternion = (Rotation.from_rotvec(rotation_step) * current).as_quat()
+        self._pose = np.concatenate([self._pose[:3] + step, quaternion * (1.0 if quaternion[3] >= 0.0 else -1.0)])
+        return TeleopCommand(self._pose.copy(), self._clutch, "; ".join(limits))
+
+    def _hold(self, reason: str) -> TeleopCommand:
+        return TeleopCommand(self._pose.copy(), self._clutch, reason)
+
+    def _release(self, must_reopen: bool) -> None:
+        self._clutch, self._closed_since, self._anchor = Clutch.RELEASED, None, None
+        self._must_reopen = must_reopen

@@ -1,0 +1,279 @@
+"""Teleoperated placements in-process, with the placement's shared control on or off, judged from the true world.
+
+A scripted operator puts the held product into a gap through TELEOP, as the skills' trials (teleteach.run.trials)
+replay a skill. The trial starts as those do (the base where MoveBase stopped, the product in the fingers, off its
+centre as a pick leaves it), switches the arm to the impedance controller and drives its equilibrium through
+:class:`teleteach.core.teleoperation.Teleoperation` at the GUI's 200 Hz, exactly as TELEOP does, from a device the
+operator moves. The operator is a model, not a person: they see the gap (the true one, off by their own aim error,
+drawn once per trial), hold the clutch, move the hand in minimum-jerk strokes to in front of the gap, in, down, open
+the fingers and pull back, with a small hand tremor, and do not react to what the robot does. With assistance, the
+teleoperation's target goes through teleteach.shared_control.placement, from the opening the robot perceives.
+"""
+
+import dataclasses
+import math
+import time
+from typing import Callable, Optional, Sequence, Tuple
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from teleteach.core import placement
+from teleteach.core.frames import Transform
+from teleteach.core.scene import Scene
+from teleteach.core.teleoperation import AssistanceParameters, Teleoperation, TeleopParameters
+from teleteach.run.sim_robot import SimRobot
+from teleteach.run.trials import (
+    ContactRecordingSim,
+    TrialSetup,
+    bootstrap_median_interval,
+    grasp_offset,
+    hold_product,
+    scene_around,
+    wilson_interval,
+)
+from teleteach.shared_control.placement import Opening, assist
+from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY
+from teleteach.sim.uncertainty import UncertaintySettings
+from teleteach.skills.config import MotionConfig
+
+CYCLE = 0.005  # [s] the GUI's teleoperation tick (publish_rate 200 Hz)
+CLOSED, OPEN = 0.0, 0.25  # [rad] the operator's gripper: holding the clutch, resting
+PLACED = Rotation.from_quat([0.70711, 0.70711, 0.0, 0.0])  # the hand in the gap's frame (config/trajectories)
+
+
+@dataclasses.dataclass(frozen=True)
+class OperatorModel:
+    """How the scripted operator moves.
+
+    Attributes:
+        aim_std: [m] of their error of where the gap is (depth, across, height), one draw per trial.
+        tremor: [m] amplitude of their hand's tremor on each axis (8-12 Hz).
+        strokes: (gap-frame TCP position [m], duration [s]) of each stroke after the first, which goes to
+            ``approach`` from where the hand is in ``approach_time``; the hand turns to the placing orientation
+            during it.
+        release_after: [s] the fingers open this long after the last stroke into the gap.
+        retreat: the strokes out (as ``strokes``), 0.5 s after the fingers opened.
+    """
+
+    aim_std: Tuple[float, float, float] = (0.003, 0.005, 0.003)
+    tremor: float = 0.0005
+    approach: Tuple[float, float, float] = (-0.17, 0.0, 0.075)
+    approach_time: float = 4.0
+    strokes: Tuple[Tuple[Tuple[float, float, float], float], ...] = (
+        ((-0.12, 0.0, 0.075), 1.0),  # lined up in front of the gap
+        ((0.0, 0.0, 0.075), 4.0),  # in, over the shelf's front fence
+        ((0.0, 0.0, 0.035), 1.5),  # down onto the board
+    )
+    release_after: float = 0.5
+    retreat: Tuple[Tuple[Tuple[float, float, float], float], ...] = (
+        ((0.0, 0.0, 0.1), 1.0),  # straight up: the back finger clears the product's top
+        ((-0.15, 0.0, 0.1), 2.0),  # and back out
+    )
+
+
+def minimum_jerk(fraction: float) -> float:
+    """The minimum-jerk profile from 0 to 1 (Flash and Hogan) at ``fraction`` of the movement's time."""
+    s = min(1.0, max(0.0, fraction))
+    return s**3 * (10.0 - 15.0 * s + 6.0 * s * s)
+
+
+class ScriptedOperator:
+    """Where the operator wants the hand at each instant (base frame), and the device pose that asks for it."""
+
+    def __init__(
+        self,
+        model: OperatorModel,
+        gap: Transform,
+        hand: np.ndarray,
+        parameters: TeleopParameters,
+        rng: np.random.Generator,
+    ):
+        """``gap``: the gap as the operator sees it, in the base frame; ``hand``: the hand's pose when they start."""
+        self.model = model
+        self.aim = rng.normal(0.0, 1.0, 3) * np.asarray(model.aim_std)
+        seen = gap * Transform(self.aim, Rotation.identity())
+        self._start = hand[:3].copy()
+        self._turn_start = Rotation.from_quat(hand[3:])
+        self._turn_end = seen.rotation * PLACED
+        self._turn = parameters.rotation
+        self._scale, self._rotation_scale = parameters.scale, parameters.rotation_scale
+        points = [seen.apply_point(model.approach)] + [seen.apply_point(point) for point, _ in model.strokes]
+        times = np.cumsum([model.approach_time] + [duration for _, duration in model.strokes])
+        self.placed_at = float(times[-1])
+        self.release_at = self.placed_at + model.release_after
+        self._legs = [(0.0, times[0], self._start, points[0])]
+        self._legs += [(times[i], times[i + 1], points[i], points[i + 1]) for i in range(len(points) - 1)]
+        begin, last = self.release_at + 0.5, points[-1]
+        for point, duration in model.retreat:
+            goal = seen.apply_point(point)
+            self._legs.append((begin, begin + duration, last, goal))
+            begin, last = begin + duration, goal
+        self.end = begin
+        self._phases = rng.uniform(0.0, 2.0 * math.pi, (3, 2))
+        self._frequencies = rng.uniform(8.0, 12.0, (3, 2))
+
+    def hand(self, t: float) -> Tuple[np.ndarray, Rotation]:
+        """The hand's position (base frame) and orientation the operator wants at ``t`` [s] after they started."""
+        position = self._start
+        for begin, end, start, goal in self._legs:
+            if t >= begin:
+                position = start + (goal - start) * minimum_jerk((t - begin) / (end - begin))
+        fraction = minimum_jerk(t / self.model.approach_time)
+        turn = Rotation.from_rotvec(fraction * (self._turn_end * self._turn_start.inv()).as_rotvec())
+        return position, turn * self._turn_start
+
+    def device(self, t: float) -> Tuple[np.ndarray, np.ndarray]:
+        """The device pose (operator frame, from where the clutch engaged) that asks for :meth:`hand` at ``t``."""
+        position, orientation = self.hand(t)
+        tremor = self.model.tremor * np.sin(2.0 * math.pi * self._frequencies * t + self._phases).sum(axis=1) / 2.0
+        moved = self._turn.inv().apply(position - self._start) / self._scale + tremor
+        turned = (orientation * self._turn_start.inv()).as_rotvec()
+        if self._rotation_scale > 0.0:
+            device_turn = Rotation.from_rotvec(self._turn.inv().apply(turned) / self._rotation_scale)
+        else:
+            device_turn = Rotation.identity()
+        return moved, device_turn.as_quat()
+
+
+def run_teleop_trial(
+    scene: Scene,
+    config: MotionConfig,
+    uncertainty: UncertaintySettings,
+    setup: TrialSetup,
+    parameters: TeleopParameters,
+    assistance: bool,
+    model: OperatorModel,
+    stiffness: float,
+) -> dict:
+    """One teleoperated placement in a fresh world, with or without assistance; what happened, judged from the world."""
+    trial_scene = scene_around(scene, setup.gap, setup.product)
+    trial_uncertainty = uncertainty.with_overrides(seed=setup.seed)
+    sim = ContactRecordingSim(trial_scene, trial_uncertainty)
+    try:
+        offset = grasp_offset(trial_uncertainty, np.random.default_rng([setup.seed, 2]))
+        hold_product(sim, config, setup.product, setup.base_pose, offset)
+        robot = SimRobot(sim)
+        robot.switch_controllers([IMPEDANCE], [TRAJECTORY])
+        robot.command_stiffness([stiffness] * 3, [0.0, 0.0, 0.0, 1.0], sim.time)
+        position, quaternion = robot.cartesian_pose()
+        hand = np.concatenate([position, quaternion])
+        base = Transform.from_planar(*robot.base_pose())
+        gap_truth = trial_scene.gap(setup.gap)
+        operator = ScriptedOperator(
+            model, base.inverse() * gap_truth.frame, hand, parameters, np.random.default_rng([setup.seed, 3])
+        )
+        constrain, why = (
+            _assistance(robot, setup.gap, base, hand, config, parameters.assistance) if assistance else (None, "")
+        )
+        before = {name: pose for name, (pose, _) in sim.world.product_poses().items()}
+        sim.watch(setup.product)
+        teleop = Teleoperation(parameters)
+        start, wall_start = sim.time, time.perf_counter()
+        teleop.start(hand, start)
+        _tick(sim, robot, teleop, start, OPEN, (np.zeros(3), [0.0, 0.0, 0.0, 1.0]), None)  # the gripper rests first
+        clutch_at = sim.time + parameters.clutch_hold + 2 * CYCLE
+        while sim.time < clutch_at:
+            _tick(sim, robot, teleop, sim.time, CLOSED, (np.zeros(3), [0.0, 0.0, 0.0, 1.0]), constrain)
+        began, released, limited = sim.time, False, set()
+        while sim.time - began < operator.end:
+            t = sim.time - began
+            if not released and t >= operator.release_at:
+                robot.move_gripper(config.gripper.release_width, config.gripper.speed)
+                released = True
+            command = _tick(sim, robot, teleop, sim.time, CLOSED, operator.device(t), constrain)
+            limited.update(part.split(":")[0] for part in command.reason.split("; ") if part)
+        wall = time.perf_counter() - wall_start
+        poses = sim.world.product_poses()
+        final = {name: pose for name, (pose, _) in poses.items()}
+        judged = placement.judge(sim.true_scene(), setup.product, poses[setup.product], before, final, setup.gap)
+        in_gap = gap_truth.frame.inverse().apply_point(poses[setup.product][0])
+        return {
+            "seed": setup.seed,
+            "assistance": assistance,
+            "assistance_problem": why,
+            "success": not judged.problems(setup.gap) and sim.world.grasped is None,
+            "peak_force_n": max(sim.peak_force.values()),
+            "peak_shelf_force_n": sim.peak_force["shelf"],
+            "peak_neighbour_force_n": sim.peak_force["neighbours"],
+            "neighbour_max_move_m": judged.neighbours_max_move_m,
+            "distance_m": judged.distance_m,
+            "depth_m": float(in_gap[0]),
+            "lateral_m": float(in_gap[1]),
+            "tilt_deg": judged.tilt_deg,
+            "aim_error_m": operator.aim.tolist(),
+            "grasp_offset": offset.tolist(),
+            "limits_met": sorted(limited),
+            "sim_s": sim.time - start,
+            "wall_s": wall,
+        }
+    finally:
+        sim.close()
+
+
+def _assistance(
+    robot: SimRobot,
+    gap: str,
+    base: Transform,
+    hand: np.ndarray,
+    config: MotionConfig,
+    parameters: AssistanceParameters,
+) -> Tuple[Optional[Callable], str]:
+    """The constraint of the opening the robot perceives (None and why when it cannot tell)."""
+    opening, why = Opening.perceived(robot.observed_scene(), gap, base, hand, config.grasp.height_above_center)
+    if opening is None:
+        return None, why
+    return (lambda now, asked: assist(opening, now, asked, parameters)), ""
+
+
+def _tick(sim, robot: SimRobot, teleop: Teleoperation, now: float, gripper: float, device, constrain):
+    """One teleoperation cycle: the command from the device, sent, then CYCLE of physics."""
+    command = teleop.update(now, gripper, device, 0.0, 1.0, constrain)
+    robot.command_equilibrium(command.pose[:3], command.pose[3:], sim.time)
+    sim.run(CYCLE)
+    return command
+
+
+def summarise_forces(trials: Sequence[dict]) -> dict:
+    """One condition's figures: success, the neighbours' peak force (median and bootstrap interval, mean, largest)."""
+    count = len(trials)
+    successes = sum(trial["success"] for trial in trials)
+    forces = [trial["peak_neighbour_force_n"] for trial in trials]
+    return {
+        "trials": count,
+        "success_rate": successes / count,
+        "success_interval": list(wilson_interval(successes, count)),
+        "touched_neighbours": sum(force > 0.0 for force in forces),
+        "median_peak_neighbour_force_n": float(np.median(forces)),
+        "median_peak_neighbour_force_interval": list(bootstrap_median_interval(forces)),
+        "mean_peak_neighbour_force_n": float(np.mean(forces)),
+        "largest_peak_neighbour_force_n": max(forces),
+        "median_peak_shelf_force_n": float(np.median([trial["peak_shelf_force_n"] for trial in trials])),
+        "sim_s": sum(trial["sim_s"] for trial in trials),
+        "wall_s": sum(trial["wall_s"] for trial in trials),
+    }
+
+
+@dataclasses.dataclass(frozen=True)
+class TeleopJob:
+    """One teleoperated trial for teleteach.run.trials.run_trials: its group, setup and condition."""
+
+    group: str
+    setup: TrialSetup
+    parameters: TeleopParameters
+    assistance: bool
+    model: OperatorModel
+    stiffness: float
+
+    def run(self, process: dict) -> dict:
+        """The trial, in a worker process (``process``: what it loaded once)."""
+        return run_teleop_trial(
+            process["scene"],
+            process["config"],
+            process["uncertainty"],
+            self.setup,
+            self.parameters,
+            self.assistance,
+            self.model,
+            self.stiffness,
+        )
