@@ -15,6 +15,7 @@ model were set before any trial ran; development ran two seeds (1 and 2) at gap_
 gap_1 and the held-out gaps 3-5 (2-8 mm of clearance per side, the base at other distances and angles).
 
     source build/env.sh && python bench/teleop_assistance.py [--trials 20] [--processes 2] [--gaps gap_1 gap_3 ...]
+        [--uncertainty FILE] [--output FILE]
 """
 
 import os
@@ -80,6 +81,13 @@ def main():
     parser.add_argument("--trials", type=int, default=20, help="trials per gap and condition (20)")
     parser.add_argument("--processes", type=int, default=os.cpu_count() or 1, help="parallel simulations")
     parser.add_argument("--gaps", nargs="+", default=["gap_1", "gap_3", "gap_4", "gap_5"], choices=sorted(BASE_POSES))
+    parser.add_argument(
+        "--uncertainty",
+        type=pathlib.Path,
+        default=None,
+        help="the world's uncertainty (default config/uncertainty.yaml)",
+    )
+    parser.add_argument("--output", type=pathlib.Path, default=RESULTS, help=f"results file ({RESULTS})")
     options = parser.parse_args()
     started = time.perf_counter()
     scene, gui = load_scene(), GuiConfig.load()
@@ -89,17 +97,17 @@ def main():
         TeleopJob(
             f"{gap} {condition}",
             TrialSetup(PRODUCT, gap, BASE_POSES[gap], seed),
-            gui.teleop,
+            gui,
             assisted,
             model,
-            gui.initial_stiffness,
         )
         for seed in seeds
         for gap in options.gaps
         for condition, assisted in CONDITIONS.items()
     ]
     print(f"{len(options.gaps)} gaps x 2 conditions x {options.trials} trials on {options.processes} processes")
-    trials = run_trials(jobs, options.processes, lambda line: print(line, flush=True))
+    uncertainty = None if options.uncertainty is None else str(options.uncertainty)
+    trials = run_trials(jobs, options.processes, lambda line: print(line, flush=True), uncertainty)
     wall = time.perf_counter() - started
     results = {"gaps": {}, "settings": {}, "trials": trials}
     print(f"\nseeds {seeds[0]}-{seeds[-1]}; peak force on the neighbours per trial, mean and median [95 % interval]")
@@ -139,6 +147,7 @@ def main():
         "assistance": vars(gui.teleop.assistance),
         "operator": vars(model),
         "stiffness_n_per_m": gui.initial_stiffness,
+        "uncertainty_file": uncertainty,
         "processes": options.processes,
         "total_wall_s": wall,
     }
@@ -151,10 +160,10 @@ def main():
     )
     print(f"{wall / 60:.1f} min wall")
     print(results["goal"])
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps(results, indent=2, default=list))
-    plot(results, RESULTS.with_suffix(".png"))
-    print(f"wrote {RESULTS} and {RESULTS.with_suffix('.png')}")
+    options.output.parent.mkdir(parents=True, exist_ok=True)
+    options.output.write_text(json.dumps(results, indent=2, default=list))
+    plot(results, options.output.with_suffix(".png"))
+    print(f"wrote {options.output} and {options.output.with_suffix('.png')}")
 
 
 if __name__ == "__main__":

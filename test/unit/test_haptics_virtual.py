@@ -7,7 +7,7 @@ from PyQt5.QtTest import QTest
 from scipy.spatial.transform import Rotation
 
 from teleteach.haptics.click import ClickDetector, ClickParameters
-from teleteach.haptics.virtual import OPEN_GRIPPER, RESTING_GRIPPER, VirtualDevice, VirtualDeviceWindow
+from teleteach.haptics.virtual import CLOSED_GRIPPER, OPEN_GRIPPER, RESTING_GRIPPER, VirtualDevice, VirtualDeviceWindow
 
 pytestmark = pytest.mark.gui
 
@@ -106,6 +106,14 @@ def test_holding_o_opens_the_gripper_fully(window):
     assert window.device.state()[2] == pytest.approx(OPEN_GRIPPER)
     assert "gripper 0.50 rad" in window.values.text()
     QTest.keyRelease(window, QtCore.Qt.Key_O)
+    assert window.device.state()[2] == pytest.approx(RESTING_GRIPPER)
+
+
+def test_holding_c_keeps_the_gripper_closed_for_teleop_s_clutch(window):
+    QTest.keyPress(window, QtCore.Qt.Key_C)
+    assert window.device.state()[2] == pytest.approx(CLOSED_GRIPPER)
+    assert "gripper 0.00 rad" in window.values.text()
+    QTest.keyRelease(window, QtCore.Qt.Key_C)
     assert window.device.state()[2] == pytest.approx(RESTING_GRIPPER)
 
 

@@ -266,7 +266,7 @@ def nested(flat):
 
 
 def build_gui(parameters):
-    return GuiConfig.load(**parameters)
+    return GuiConfig.load(**nested(parameters))
 
 
 def build_sigma7(parameters):

@@ -26,12 +26,10 @@ def aside(across: float) -> OperatorModel:
     return dataclasses.replace(STEADY, approach=approach, strokes=strokes)
 
 
-def trial(model: OperatorModel, assistance: bool) -> dict:
+def trial(model: OperatorModel, assistance: bool, teach: str = "") -> dict:
     gui = GuiConfig.load()
     uncertainty = load_uncertainty().with_overrides(**EXACT)
-    return run_teleop_trial(
-        load_scene(), load_motion_config(), uncertainty, SETUP, gui.teleop, assistance, model, gui.initial_stiffness
-    )
+    return run_teleop_trial(load_scene(), load_motion_config(), uncertainty, SETUP, gui, assistance, model, teach)
 
 
 def test_the_scripted_operator_asks_through_the_device_for_the_hand_it_wants():
@@ -50,12 +48,19 @@ def test_the_scripted_operator_asks_through_the_device_for_the_hand_it_wants():
     assert operator.end == pytest.approx(4.0 + 1.0 + 4.0 + 1.5 + 0.5 + 0.5 + 1.0 + 2.0)
 
 
-def test_an_exact_operator_places_with_and_without_assistance():
+def test_an_exact_operator_places_with_and_without_assistance_and_the_placement_can_be_kept_as_a_skill():
     for assistance in (False, True):
-        result = trial(STEADY, assistance)
+        result = trial(STEADY, assistance, teach="Taught" if assistance else "")
         assert result["success"], result
         assert result["peak_neighbour_force_n"] == 0.0
         assert abs(result["lateral_m"]) < 0.002
+    skill = result["skill"]
+    # Expect: relative to gap_1, from the clutch to the release (10.5 s of strokes and 0.5 s before letting go, every
+    # 10 ms), ending where the operator put the hand: 3.5 cm above the gap's centre, at LOW-LEVEL's stiffness
+    assert (skill.frame, skill.target.name, skill.kind) == ("target", "gap_1", "stiffness")
+    assert skill.duration == pytest.approx(11.0, abs=0.05) and np.all(np.diff(skill.time) >= 0.01 - 1e-9)
+    np.testing.assert_allclose(skill.equilibrium_pose[-1, :3], [0.0, 0.0, 0.035], atol=1e-3)
+    np.testing.assert_allclose(skill.stiffness[0], np.diag([GuiConfig.load().initial_stiffness] * 3))
 
 
 def test_an_operator_aiming_aside_pushes_a_neighbour_unless_the_assistance_guides_the_product_in():

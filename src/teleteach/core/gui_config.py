@@ -213,8 +213,20 @@ class GuiConfig:
 
     @classmethod
     def load(cls, path=None, **overrides) -> "GuiConfig":
-        """Read ``config/gui.yaml`` (or ``path``) and apply ``overrides``."""
+        """Read ``config/gui.yaml`` (or ``path``) and apply ``overrides``.
+
+        A section's override (``teleop``) changes the keys it names and keeps the others, as the parameter server
+        merges a launch's value into the yaml.
+        """
         path = pathlib.Path(path) if path else CONFIG_DIR / "gui.yaml"
         values: Dict[str, Any] = yaml.safe_load(path.read_text()) or {}
-        values.update(overrides)
-        return cls.from_mapping(values)
+        return cls.from_mapping(_merged(values, overrides))
+
+
+def _merged(base: Mapping[str, Any], overrides: Mapping[str, Any]) -> Dict[str, Any]:
+    """``base`` with ``overrides`` applied, mappings merged key by key."""
+    merged = dict(base)
+    for key, value in overrides.items():
+        both = isinstance(value, Mapping) and isinstance(merged.get(key), Mapping)
+        merged[key] = _merged(merged[key], value) if both else value
+    return merged

@@ -647,7 +647,10 @@ class MainWindow(QMainWindow):
     def _learn_dmp(self, stiffness_skill: pathlib.Path) -> None:
         """learn_skill in the background: the DMP of a stiffness taught along a taught path joins the library."""
         if self._learning is not None and self._learning.state() != QProcess.NotRunning:
-            self.statusBar().showMessage("still learning the previous skill: this one stays a stiffness file", 15000)
+            name = stiffness_skill.stem  # one learning at a time: this demonstration joins the library as it is
+            request = AddSkillRequest(name, "stiffness", str(stiffness_skill))
+            self.services.call(f"add_skill:{name}", "behaviour_tree/add_skill", AddSkill, request)
+            self.statusBar().showMessage(f"still learning the previous skill: {name} joins as a stiffness skill", 15000)
             return
         process = QProcess(self)
         process.setProcessChannelMode(QProcess.MergedChannels)

@@ -3,7 +3,7 @@
 Keys: arrows (or a mouse drag) move x/y, Page Up/Down move z, Q/A W/S E/D turn roll/pitch/yaw, Space clicks (a
 scripted quick close-and-back of the gripper, detected like a real one), Enter double-clicks (two such flicks
 ``double_click_gap`` apart: a keyboard's two presses are too slow or too irregular for the GUI's double-click window),
-O held down opens the gripper fully.
+O held down opens the gripper fully, C held down keeps it closed (TELEOP's clutch).
 :class:`VirtualDevice` holds the state and is read by the device loop's thread; :class:`VirtualDeviceWindow` only
 edits it from the Qt thread, under the device's lock.
 """
@@ -21,6 +21,7 @@ from teleteach.haptics.device import DeviceBackend, DeviceSample
 
 RESTING_GRIPPER = 0.25  # [rad] finger relaxed
 OPEN_GRIPPER = 0.5  # [rad] fully open (the GUI's "back to START" gesture needs >= 0.45)
+CLOSED_GRIPPER = 0.0  # [rad] held closed (TELEOP's clutch engages after 0.6 s of it)
 POSITION_LIMIT = 0.1  # [m] per axis, about the Sigma.7 workspace
 ANGLE_LIMIT = 1.0  # [rad] per angle
 
@@ -48,6 +49,7 @@ class VirtualDevice(DeviceBackend):
         self._rpy = np.zeros(3)
         self._quaternion = np.array([0.0, 0.0, 0.0, 1.0])  # of _rpy, made when it changes, not in each 1 kHz read
         self._held_open = False
+        self._held_closed = False
         self._flicks = [-float("inf")]  # start times of the scripted flicks, in order
         self._closed = False
 
@@ -82,6 +84,11 @@ class VirtualDevice(DeviceBackend):
         with self._lock:
             self._held_open = held
 
+    def hold_closed(self, held: bool) -> None:
+        """Keeps the gripper closed while ``held`` (TELEOP's clutch); back to resting otherwise."""
+        with self._lock:
+            self._held_closed = held
+
     def close_window(self) -> None:
         """The user closed the window: the device is gone, the loop should end."""
         with self._lock:
@@ -90,7 +97,7 @@ class VirtualDevice(DeviceBackend):
     def state(self) -> Tuple[np.ndarray, np.ndarray, float]:
         """Position [m], roll/pitch/yaw [rad] and gripper angle [rad] now."""
         with self._lock:
-            base = OPEN_GRIPPER if self._held_open else RESTING_GRIPPER
+            base = OPEN_GRIPPER if self._held_open else CLOSED_GRIPPER if self._held_closed else RESTING_GRIPPER
             now = self._clock()
             started = max((start for start in self._flicks if start <= now), default=-float("inf"))
             gripper = flick_gripper_angle(base, now - started, self._click_duration)
@@ -145,7 +152,7 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
         help_text = QtWidgets.QLabel(
             "arrows / mouse drag: x, y    PgUp / PgDn: z\n"
             "Q/A roll   W/S pitch   E/D yaw\n"
-            "Space: click    Enter: double click    O (hold): gripper fully open"
+            "Space: click    Enter: double click    O (hold): gripper fully open    C (hold): gripper closed"
         )
         layout = QtWidgets.QVBoxLayout(self)
         layout.addWidget(self.values)
@@ -179,15 +186,17 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
             self.device.double_click()
         elif key == QtCore.Qt.Key_O and not event.isAutoRepeat():
             self.device.hold_open(True)
+        elif key == QtCore.Qt.Key_C and not event.isAutoRepeat():
+            self.device.hold_closed(True)
         else:
             super().keyPressEvent(event)
             return
         self.refresh()
 
     def keyReleaseEvent(self, event):  # noqa: N802 (Qt API)
-        """Releasing O lets the gripper back to rest."""
-        if event.key() == QtCore.Qt.Key_O and not event.isAutoRepeat():
-            self.device.hold_open(False)
+        """Releasing O or C lets the gripper back to rest."""
+        if event.key() in (QtCore.Qt.Key_O, QtCore.Qt.Key_C) and not event.isAutoRepeat():
+            (self.device.hold_open if event.key() == QtCore.Qt.Key_O else self.device.hold_closed)(False)
             self.refresh()
         else:
             super().keyReleaseEvent(event)

@@ -18,8 +18,9 @@ from typing import Callable, Optional, Sequence, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.core import placement
+from teleteach.core import placement, skill_file
 from teleteach.core.frames import Transform
+from teleteach.core.gui_config import GuiConfig
 from teleteach.core.scene import Scene
 from teleteach.core.teleoperation import AssistanceParameters, Teleoperation, TeleopParameters
 from teleteach.run.sim_robot import SimRobot
@@ -38,6 +39,7 @@ from teleteach.sim.uncertainty import UncertaintySettings
 from teleteach.skills.config import MotionConfig
 
 CYCLE = 0.005  # [s] the GUI's teleoperation tick (publish_rate 200 Hz)
+RECORD_PERIOD = 0.01  # [s] a taught placement keeps a sample this often
 CLOSED, OPEN = 0.0, 0.25  # [rad] the operator's gripper: holding the clutch, resting
 PLACED = Rotation.from_quat([0.70711, 0.70711, 0.0, 0.0])  # the hand in the gap's frame (config/trajectories)
 
@@ -141,12 +143,19 @@ def run_teleop_trial(
     config: MotionConfig,
     uncertainty: UncertaintySettings,
     setup: TrialSetup,
-    parameters: TeleopParameters,
+    gui: GuiConfig,
     assistance: bool,
     model: OperatorModel,
-    stiffness: float,
+    teach: str = "",
 ) -> dict:
-    """One teleoperated placement in a fresh world, with or without assistance; what happened, judged from the world."""
+    """One teleoperated placement in a fresh world, with or without assistance; what happened, judged from the world.
+
+    TELEOP's parameters and stiffness are the GUI's (``gui``: its teleop section, the initial ellipsoid). With
+    ``teach`` (a skill name), the placement is also kept as a skill, as TELEOP and LOW-LEVEL would teach it: the
+    equilibrium and the measured pose from the clutch to the release, every RECORD_PERIOD, at that stiffness, relative
+    to the gap as the robot perceived it (``result["skill"]``, a skill_file.Skill).
+    """
+    parameters, stiffness = gui.teleop, gui.initial_stiffness
     trial_scene = scene_around(scene, setup.gap, setup.product)
     trial_uncertainty = uncertainty.with_overrides(seed=setup.seed)
     sim = ContactRecordingSim(trial_scene, trial_uncertainty)
@@ -175,7 +184,7 @@ def run_teleop_trial(
         clutch_at = sim.time + parameters.clutch_hold + 2 * CYCLE
         while sim.time < clutch_at:
             _tick(sim, robot, teleop, sim.time, CLOSED, (np.zeros(3), [0.0, 0.0, 0.0, 1.0]), constrain)
-        began, released, limited = sim.time, False, set()
+        began, released, limited, recorded = sim.time, False, set(), []
         while sim.time - began < operator.end:
             t = sim.time - began
             if not released and t >= operator.release_at:
@@ -183,12 +192,16 @@ def run_teleop_trial(
                 released = True
             command = _tick(sim, robot, teleop, sim.time, CLOSED, operator.device(t), constrain)
             limited.update(part.split(":")[0] for part in command.reason.split("; ") if part)
+            if teach and not released and (not recorded or sim.time - recorded[-1][0] >= RECORD_PERIOD - 1e-9):
+                recorded.append((sim.time, command.pose, np.concatenate(robot.cartesian_pose())))
         wall = time.perf_counter() - wall_start
         poses = sim.world.product_poses()
         final = {name: pose for name, (pose, _) in poses.items()}
         judged = placement.judge(sim.true_scene(), setup.product, poses[setup.product], before, final, setup.gap)
         in_gap = gap_truth.frame.inverse().apply_point(poses[setup.product][0])
+        taught = _skill(teach, recorded, gui, robot, setup.gap, base) if teach else None
         return {
+            "skill": taught,
             "seed": setup.seed,
             "assistance": assistance,
             "assistance_problem": why,
@@ -209,6 +222,23 @@ def run_teleop_trial(
         }
     finally:
         sim.close()
+
+
+def _skill(name: str, recorded, gui: GuiConfig, robot: SimRobot, gap: str, base: Transform) -> skill_file.Skill:
+    """The recorded placement as a stiffness skill relative to the gap the robot perceives."""
+    times = np.array([t for t, _, _ in recorded])
+    skill = skill_file.Skill(
+        name=name,
+        kind="stiffness",
+        time=times - times[0],
+        stiffness=np.repeat(np.diag([gui.initial_stiffness] * 3)[None], times.size, axis=0),
+        equilibrium_pose=np.array([pose for _, pose, _ in recorded]),
+        cartesian_pose=np.array([measured for _, _, measured in recorded]),
+        rotational_stiffness=gui.rotational_stiffness,
+        provenance={"source": "teleteach.run.teleop_trials", "teleoperated": True},
+    )
+    perceived = robot.observed_scene().gaps[gap].frame
+    return skill.relative_to(gap, base.inverse() * perceived)
 
 
 def _assistance(
@@ -260,10 +290,9 @@ class TeleopJob:
 
     group: str
     setup: TrialSetup
-    parameters: TeleopParameters
+    gui: GuiConfig
     assistance: bool
     model: OperatorModel
-    stiffness: float
 
     def run(self, process: dict) -> dict:
         """The trial, in a worker process (``process``: what it loaded once)."""
@@ -272,8 +301,7 @@ class TeleopJob:
             process["config"],
             process["uncertainty"],
             self.setup,
-            self.parameters,
+            self.gui,
             self.assistance,
             self.model,
-            self.stiffness,
         )

@@ -84,8 +84,12 @@ def check_parameter(name: str, value: Any) -> Optional[str]:
     if _type_name(value) != expected and not (expected == "number" and _type_name(value) == "integer"):
         return f"{name} must be {expected} like its default in {where} ({default!r}), got {value!r}"
     if node == "teaching_gui":
+        *groups, leaf = parameter.split("/")
+        override: Dict[str, Any] = {leaf: value}
+        for group in reversed(groups):  # a parameter of a section (teleop/assistance/enabled) overrides just that key
+            override = {group: override}
         try:
-            GuiConfig.load(**{parameter: value})
+            GuiConfig.load(**override)
         except GuiConfigError as error:
             return f"{name}: {error}"
     return None
