@@ -15,8 +15,8 @@ product's half width across it, less the margin. Each rule is a box, so the assi
 clipped to it, its exact projection (the paper's optimisation with no horizon, which a box needs none for); the
 teleoperation's speed limit then moves the arm there. The gap, its neighbours and the held product's size and turn are
 from perception (the held product is the perceived one nearest the hand); where the product sits in the hand is the
-grasp's (centred between the fingers, ``held_below`` beyond the hand along its axis), as the skills assume: perception's
-bias on a product in the hand (a few millimetres) would steer it into a neighbour as often as the operator would.
+grasp's (centred between the fingers, ``held_below`` beyond the hand along its axis), as the skills assume: believing
+perception's bias on a product in the hand (a few millimetres) steered it into a neighbour in development trials.
 """
 
 import dataclasses
