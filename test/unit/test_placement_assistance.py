@@ -119,3 +119,57 @@ def test_the_product_turns_with_the_hand():
     # and the hand above it
     np.testing.assert_allclose(allowed[1], 0.0, atol=1e-12)
     assert said == "kept in gap_9's opening"
+
+
+def test_the_held_product_is_the_nearest_and_the_neighbours_those_within_the_band():
+    products = dict(scene().products)
+    # a product 14 cm from the hand (10 cm aside, 10 cm up): within reach of it, but not the nearest
+    products["decoy"] = box("decoy", HAND_IN_GAP + np.array([0.0, 0.1, 0.1]), (0.08, 0.08, 0.08))
+    # neighbours that would stand in front of the nearer neighbour's front (-4 cm), at the band's edges: across, just
+    # inside it (counts); deeper than it, higher than it (do not count)
+    products["inside"] = box("inside", [0.0, 0.175, 0.0], (0.1, 0.06, 0.14))  # front at -0.05
+    products["deep"] = box("deep", [0.27, 0.0, 0.0], (0.7, 0.06, 0.14))  # front at -0.08, but 27 cm deep
+    products["high"] = box("high", [0.0, -0.06, 0.12], (0.2, 0.06, 0.14))  # front at -0.1, but 12 cm up
+    products["aside"] = box("aside", [0.0, 0.19, 0.0], (0.14, 0.06, 0.14))  # front at -0.07, but 1 cm beyond the band
+    # and one as far from the hand as can be, on the far side of the world's origin
+    hand_world = (BASE * Transform.from_pose(hand_in_base(HAND_IN_GAP))).position
+    products["far"] = ObservedBox("far", -hand_world, UPRIGHT.as_quat(), (0.08, 0.06, 0.14))
+    found, why = Opening.perceived(
+        ObservedScene(products, {GAP.name: GAP}, {}), "gap_9", BASE, hand_in_base(HAND_IN_GAP), 0.035
+    )
+    assert why == ""
+    np.testing.assert_allclose(found.size, [0.05, 0.07, 0.13])
+    assert found.fronts == pytest.approx(-0.05)
+
+
+def test_without_neighbours_the_front_is_the_gap_s_centre_and_without_products_nothing_is_held():
+    alone = {"held": scene().products["held"]}
+    found, why = Opening.perceived(
+        ObservedScene(alone, {GAP.name: GAP}, {}), "gap_9", BASE, hand_in_base(HAND_IN_GAP), 0.035
+    )
+    assert (found.fronts, why) == (0.0, "")
+    empty = ObservedScene({}, {GAP.name: GAP}, {})
+    assert Opening.perceived(empty, "gap_9", BASE, hand_in_base(HAND_IN_GAP), 0.035) == (
+        None,
+        "no perceived product in the hand",
+    )
+
+
+def test_guided_from_either_side_and_silent_when_already_in_line():
+    allowed, said = assisted([-0.1, -0.014, 0.035], [-0.05, -0.014, 0.035])
+    np.testing.assert_allclose(allowed, [-0.05, -0.004, 0.035], atol=1e-12)
+    assert said == "guided into gap_9's opening"
+    allowed, said = assisted([-0.1, 0.002, 0.035], [-0.05, 0.002, 0.035])
+    np.testing.assert_allclose(allowed, [-0.05, 0.002, 0.035], atol=1e-12)
+    assert said == ""
+
+
+def test_a_tilted_hand_carries_the_product_past_the_front_before_itself():
+    # the hand pitched 30 degrees: the product, 3.5 cm along the hand's axis, lies 1.75 cm deeper than the hand, and
+    # reaches 6.3 cm ahead of its centre (0.5 (0.07 cos 30 + 0.13 sin 30)): the front it may pass is at -10.8 cm
+    tilted = Rotation.from_euler("y", -np.pi / 6) * DOWN
+    allowed, said = assisted([-0.115, 0.02, 0.05], [-0.11, 0.02, 0.05], turn=tilted)
+    # Expect: the product's centre at -9.75 cm, past that front although the hand is not: kept in the corridor across
+    # (its centre at 4 mm, and the hand above it), not held at the front
+    assert said == "kept in gap_9's opening"
+    assert allowed[1] == pytest.approx(0.004, abs=1e-9)
