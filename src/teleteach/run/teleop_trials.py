@@ -31,7 +31,7 @@ from teleteach.run.trials import (
     grasp_offset,
     hold_product,
     scene_around,
-    wilson_interval,
+    success_figures,
 )
 from teleteach.shared_control.placement import Opening, assist
 from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY
@@ -266,13 +266,9 @@ def _tick(sim, robot: SimRobot, teleop: Teleoperation, now: float, gripper: floa
 
 def summarise_forces(trials: Sequence[dict]) -> dict:
     """One condition's figures: success, the neighbours' peak force (median and bootstrap interval, mean, largest)."""
-    count = len(trials)
-    successes = sum(trial["success"] for trial in trials)
     forces = [trial["peak_neighbour_force_n"] for trial in trials]
     return {
-        "trials": count,
-        "success_rate": successes / count,
-        "success_interval": list(wilson_interval(successes, count)),
+        **success_figures(list(trials)),
         "touched_neighbours": sum(force > 0.0 for force in forces),
         "median_peak_neighbour_force_n": float(np.median(forces)),
         "median_peak_neighbour_force_interval": list(bootstrap_median_interval(forces)),

@@ -236,6 +236,17 @@ def bootstrap_median_interval(values, seed: int = 0, resamples: int = 2000, leve
     return (float(np.quantile(medians, tail)), float(np.quantile(medians, 1.0 - tail)))
 
 
+def success_figures(trials: List[dict]) -> dict:
+    """How many trials, and their success (the world's verdict) with its Wilson interval: every kind of trial's."""
+    count = len(trials)
+    successes = sum(trial["success"] for trial in trials)
+    return {
+        "trials": count,
+        "success_rate": successes / count,
+        "success_interval": list(wilson_interval(successes, count)),
+    }
+
+
 def summarise(trials: List[dict], seed: int = 0) -> dict:
     """One group of trials' figures.
 
@@ -243,13 +254,10 @@ def summarise(trials: List[dict], seed: int = 0) -> dict:
     with its bootstrap interval, neighbour displacement, time.
     """
     count = len(trials)
-    successes = sum(trial["success"] for trial in trials)
     peaks = [trial["peak_force_n"] for trial in trials]
     moves = [trial["neighbour_max_move_m"] for trial in trials]
     return {
-        "trials": count,
-        "success_rate": successes / count,
-        "success_interval": list(wilson_interval(successes, count)),
+        **success_figures(trials),
         "skill_success_rate": sum(trial["skill_success"] for trial in trials) / count,
         "verdicts_disagree": sum(trial["success"] != trial["skill_success"] for trial in trials),
         "peak_force_n": max(peaks),
