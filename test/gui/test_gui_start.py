@@ -95,3 +95,72 @@ def test_a_tree_restarted_under_a_gui_that_said_not_paused_waits_for_the_start_g
             stop(tree)
     finally:
         not_paused.unregister()
+
+
+def test_while_a_skill_replays_the_clutch_corrects_it_and_start_says_who_leads(
+    qapp, ros_master, device, make_window, topic_log, artifacts_dir
+):
+    """The skill server's side played by the test: skills/authority at 20 Hz, as a replay reports it."""
+    import threading
+
+    import rospy
+    from geometry_msgs.msg import Vector3Stamped
+
+    from teleteach.msg import SkillAuthority
+
+    corrections = topic_log("/skills/correction", Vector3Stamped)
+    authority = rospy.Publisher("/skills/authority", SkillAuthority, queue_size=10)
+    window = make_window()
+    replaying = threading.Event()
+    replaying.set()
+
+    def replay():
+        while replaying.is_set() and not rospy.is_shutdown():
+            last = corrections.last()
+            report = SkillAuthority(skill="PlaceTaught_dmp", confidence=0.25, operator_weight=0.75, max_correction=0.05)
+            report.header.frame_id = "base_link"
+            if last is not None:  # what the replay applies: the operator's correction, weighted
+                report.correction.x, report.correction.y, report.correction.z = (
+                    0.75 * last.vector.x,
+                    0.75 * last.vector.y,
+                    0.75 * last.vector.z,
+                )
+            authority.publish(report)
+            time.sleep(0.05)
+
+    thread = threading.Thread(target=replay, daemon=True)
+    thread.start()
+    try:
+        label = window.start_tab.authority
+        pump_until(qapp, lambda: label.isVisible() and "PlaceTaught_dmp" in label.text(), 10, "START showing the replay")
+        assert "you lead (confidence 25 %). Your correction counts 75 %" in label.text()
+        assert "hold the gripper closed to correct it" in label.text()
+        # Expect the handle alone (clutch released) to correct nothing
+        device.move(z=0.03)
+        pump(qapp, 1.0)
+        assert corrections.last() is not None and abs(corrections.last().vector.z) < 1e-9
+        device.move()
+        pump(qapp, 0.5)
+        device.set_gripper(0.0)
+        pump_until(qapp, lambda: "correcting" in label.text(), 5, "the clutch engaged")
+        device.move(z=0.03)
+        pump_until(qapp, lambda: corrections.last().vector.z > 0.029, 5, "the correction following the handle up")
+        last = corrections.last()
+        assert last.header.frame_id == "base_link" and abs(last.vector.x) < 1e-6 and abs(last.vector.y) < 1e-6
+        pump_until(qapp, lambda: "moves the arm 22 mm" in label.text(), 5, "START showing the weighted correction")
+        window.screenshot().save(str(artifacts_dir / "gui_start_correcting_a_replay.png"))
+        # Expect the correction to stay within what the replay applies (max_correction, each axis)
+        device.move(z=0.06)
+        pump(qapp, 1.0)
+        device.move(z=0.09)
+        pump(qapp, 1.0)
+        assert 0.049 < corrections.last().vector.z <= 0.05 + 1e-9
+        device.set_gripper(0.25)
+    finally:
+        replaying.clear()
+        thread.join(timeout=2.0)
+    count = len(corrections.messages)
+    # Expect the line gone and no correction sent once the replay's reports stop
+    pump_until(qapp, lambda: not window.start_tab.authority.isVisible(), 5, "the replay's line to go")
+    pump(qapp, 0.5)
+    assert len(corrections.messages) == count

@@ -218,4 +218,10 @@ def test_a_path_taught_in_teleop_is_taught_its_stiffness_in_low_level_and_become
     demonstration = skill_file.load(data_root / "skills" / "DemonstratedPlace_1.npz")
     assert demonstration.provenance["trajectory"] == "TaughtPath_1"
     assert demonstration.provenance["path_demonstrations"] == 2
+    # Expect the path's spread along the skill's time (the replay's confidence), and in the learned skill too
+    spread_time = demonstration.provenance["path_spread_time"]
+    np.testing.assert_allclose(spread_time, taught.times, atol=1e-3)
+    assert spread_time[-1] <= demonstration.duration + 0.5
+    learned = skill_file.load(data_root / "skills" / "DemonstratedPlace_1_dmp.npz")
+    assert learned.provenance["path_spread"] == demonstration.provenance["path_spread"]
     assert window.trajectory.name == window.config.trajectory  # LOW-LEVEL back on its predefined trajectory

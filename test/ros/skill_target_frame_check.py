@@ -8,6 +8,7 @@ product's bottom into the shelf's lip pushes it hard enough to slip and turn in 
 scene and TF)."""
 
 import dataclasses
+import math
 import pathlib
 import tempfile
 import threading
@@ -20,6 +21,7 @@ import rospy
 import rostest
 import tf2_ros
 from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import Vector3Stamped
 from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
@@ -29,10 +31,11 @@ from teleteach.core.observed import observed_from_markers
 from teleteach.core.placement import judge
 from teleteach.core.scene import load_scene
 from teleteach.learning.synthetic import placement_on_trajectory
-from teleteach.msg import ExecuteSkillAction, ExecuteSkillGoal
+from teleteach.msg import ExecuteSkillAction, ExecuteSkillGoal, SkillAuthority
 
 SKILL_TIMEOUT = 180.0  # [s] sim time per skill
 DROP = 0.03  # [m] the pushing skill's reference runs this much lower from the alignment on: into the lip
+LIFT = 0.005  # [m] the operator's correction while the skill is reused at gap_6 (base_link z)
 
 
 def pushing_skill(taught: skill_file.Skill) -> skill_file.Skill:
@@ -114,6 +117,23 @@ class SkillTargetFrameTest(unittest.TestCase):
         with self.lock:
             return None if self.joints is None else self.joints.copy()
 
+    @staticmethod
+    def correct(done):
+        """The operator: LIFT in base_link at 30 Hz, each followed by one in world and one with NaN (refused)."""
+        publisher = rospy.Publisher("/skills/correction", Vector3Stamped, queue_size=10)
+        while not done.is_set() and not rospy.is_shutdown():
+            for frame, vector in (
+                ("base_link", (0.0, 0.0, LIFT)),
+                ("world", (0.3, 0.0, LIFT)),
+                ("base_link", (math.nan, 0.0, 0.0)),
+            ):
+                message = Vector3Stamped()
+                message.header.frame_id = frame
+                message.vector.x, message.vector.y, message.vector.z = vector
+                publisher.publish(message)
+                time.sleep(0.01)
+        publisher.unregister()
+
     def placed(self, product, gap, before):
         rospy.sleep(0.5)  # a true scene published after the skill ended
         truth = self.world()
@@ -139,13 +159,33 @@ class SkillTargetFrameTest(unittest.TestCase):
         rospy.sleep(0.5)
         self.assertLess(np.abs(self.joint_positions()[:7] - before[:7]).max(), 0.005)
 
-        # 2. reused at the held-out gap_6 without naming it: found and placed there, judged from the true scene
+        # 2. reused at the held-out gap_6 without naming it: found and placed there, judged from the true scene,
+        # while the operator lifts it a little (/skills/correction), between corrections in the wrong frame and NaN
         start = {name: box.position for name, box in self.world().products.items()}
-        state, result = self.run_skill("ReplaySkill", f"{{data_file: {self.taught}}}")
+        reports = []
+        listener = rospy.Subscriber("/skills/authority", SkillAuthority, reports.append, queue_size=100)
+        operator = threading.Event()
+        thread = threading.Thread(target=self.correct, args=(operator,), daemon=True)
+        thread.start()
+        try:
+            state, result = self.run_skill("ReplaySkill", f"{{data_file: {self.taught}}}")
+        finally:
+            operator.set()
+            thread.join(timeout=2.0)
+            listener.unregister()
         self.assertEqual(state, GoalStatus.SUCCEEDED, result.message)
         self.assertIn("relative to gap_6 (taught at gap_1)", result.message)
         placement = self.placed("product_pick_1", "gap_6", start)
         self.assertEqual(placement.problems("gap_6"), [])
+        # Expect who leads reported while it replayed: one demonstration (spread_unknown) at a target other than the
+        # taught one: neither leads alone; the correction applied is the operator's, weighted; the refused ones none
+        self.assertGreater(len(reports), 20)
+        last = reports[-1]
+        self.assertEqual({report.skill for report in reports}, {"DemonstratedPlace_1"})
+        self.assertTrue(0.1 < last.confidence < 0.9, last.confidence)
+        self.assertAlmostEqual(last.operator_weight, 1.0 - last.confidence, places=6)
+        self.assertAlmostEqual(last.correction.z, last.operator_weight * LIFT, delta=2e-4)
+        self.assertEqual(max(abs(r.correction.x) + abs(r.correction.y) for r in reports), 0.0)
 
         # 3. product_pick_2 run into gap_7's lip by a skill aimed too low: it slips and turns between the fingers
         for name, parameters in (

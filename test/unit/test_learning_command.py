@@ -211,3 +211,17 @@ def test_a_constant_demonstration_reports_an_error_that_means_something(tmp_path
     line = next(line for line in result.stdout.splitlines() if "reproduction error" in line)
     mean = float(line.split("mean ")[1].split(" %")[0])
     assert mean < 1.0 and "(the demonstration is constant)" in line, line
+
+
+def test_a_skill_taught_along_a_teleoperated_path_keeps_its_spread_stretched_with_the_duration(tmp_path):
+    skill, _, _ = placement_demo(angle=45.0, duration=20.0, gui_rate=4.0, seed=5)
+    skill.name = "AlongPath"
+    skill.provenance.update(path_demonstrations=3, path_spread=[0.0, 0.02, 0.01], path_spread_time=[0.0, 5.0, 10.0])
+    skill_file.save(skill, tmp_path / "skills" / "AlongPath.npz")
+    result = run("AlongPath", "--data-dir", tmp_path, "--duration", 2 * skill.duration)
+    assert result.returncode == 0, result.stderr
+    learned = skill_file.load(tmp_path / "skills" / "AlongPath_dmp.npz")
+    # Expect the replay's confidence to read the path's spread where the learned skill is, twice as long
+    assert learned.provenance["path_demonstrations"] == 3
+    assert learned.provenance["path_spread"] == [0.0, 0.02, 0.01]
+    np.testing.assert_allclose(learned.provenance["path_spread_time"], [0.0, 10.0, 20.0], rtol=1e-6)

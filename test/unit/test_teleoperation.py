@@ -11,6 +11,7 @@ from teleteach.core.gui_config import GuiConfig
 from teleteach.core.teleoperation import (
     AssistanceParameters,
     Clutch,
+    ReplayCorrection,
     Teleoperation,
     TeleopParameters,
     TeleopParametersError,
@@ -359,3 +360,40 @@ def test_the_commanded_orientation_is_written_with_w_at_least_zero():
         assert command.pose[6] >= 0.0 and np.linalg.norm(command.pose[3:]) == pytest.approx(1.0)
     expected = Rotation.from_rotvec([0.1, 0.0, 0.0]) * Rotation.from_quat(ARM[3:])
     np.testing.assert_allclose(command.pose[3:], expected.as_quat() * np.sign(expected.as_quat()[3]), atol=1e-9)
+
+
+def correct(correction, skill, seconds, start, position, gripper, period=0.05, max_correction=0.04):
+    """Feed ``correction`` one skill-server report every ``period`` [s] for ``seconds``; the last command."""
+    command = None
+    for step in range(max(1, round(seconds / period))):
+        now = start + (step + 1) * period
+        command = correction.update(now, skill, max_correction, gripper, (position, LEVEL), 0.0, 0.5)
+    return command, now
+
+
+def test_a_replay_correction_starts_at_zero_follows_the_clutched_handle_and_stays_in_its_box():
+    correction = ReplayCorrection(PARAMETERS)
+    up = np.array([0.0, 0.0, 0.01])
+    assert correction.update(0.0, "", 0.04, REST, (up, LEVEL), 0.0, 0.5) is None  # nothing replays
+    assert correction.update(0.0, "Place", math.nan, REST, (up, LEVEL), 0.0, 0.5) is None  # no box: none
+    command, now = correct(correction, "Place", 1.0, 0.0, up, REST)
+    np.testing.assert_allclose(command.pose, [0, 0, 0, 0, 0, 0, 1])  # the handle alone corrects nothing
+    command, now = correct(correction, "Place", 1.0, now, up, CLOSED)
+    assert command.clutch is Clutch.ENGAGED
+    # 2 cm up the handle, scale 2: 4 cm up, at 0.1 m/s (0.4 s)
+    command, now = correct(correction, "Place", 0.5, now, up + [0.0, 0.0, 0.02], CLOSED)
+    np.testing.assert_allclose(command.pose[:3], [0.0, 0.0, 0.04], atol=1e-9)
+    # farther: held at the box of max_correction, away (operator y) turning into base x
+    command, now = correct(correction, "Place", 1.0, now, up + [0.0, 0.02, 0.03], CLOSED)
+    np.testing.assert_allclose(command.pose[:3], [0.04, 0.0, 0.04], atol=1e-9)
+    assert command.reason == "workspace limit"
+    command, now = correct(correction, "Place", 0.2, now, up + [0.0, 0.02, 0.03], REST)
+    np.testing.assert_allclose(command.pose[:3], [0.04, 0.0, 0.04], atol=1e-9)  # released: held
+    # another skill, or the same after a pause in the reports: a new replay, from zero
+    command, later = correct(correction, "Other", 0.05, now, up, REST)
+    np.testing.assert_allclose(command.pose[:3], 0.0)
+    correct(correction, "Other", 1.0, later, up, CLOSED)
+    command, now = correct(correction, "Other", 0.5, later + 1.0, up + [0.0, 0.0, 0.01], CLOSED)
+    np.testing.assert_allclose(command.pose[:3], [0.0, 0.0, 0.02], atol=1e-9)
+    command, _ = correct(correction, "Other", 0.05, now + ReplayCorrection.REPLAY_GAP + 0.01, up, REST)
+    np.testing.assert_allclose(command.pose[:3], 0.0)

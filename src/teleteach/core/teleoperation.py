@@ -269,3 +269,52 @@ class Teleoperation:
     def _release(self, must_reopen: bool) -> None:
         self._clutch, self._closed_since, self._anchor = Clutch.RELEASED, None, None
         self._must_reopen = must_reopen
+
+
+ORIGIN = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+class ReplayCorrection:
+    """The operator's correction of a skill the robot replays: TELEOP's clutch and handle moving an offset from zero.
+
+    While a skill replays (the skill server reports who leads it), holding the clutch moves the offset with the
+    handle (scaled and turned into the base frame as in TELEOP, with its speed limit) inside a box of
+    +-``max_correction``, what the replay applies at most; the replay weighs it by its unsureness there. Each replay
+    starts from zero (another skill, or reports that paused for ``REPLAY_GAP``); when the reports stop, it ends.
+    """
+
+    REPLAY_GAP = 1.0  # [s] reports further apart belong to two replays
+
+    def __init__(self, parameters: TeleopParameters):
+        self.parameters = parameters
+        self._teleoperation: Optional[Teleoperation] = None
+        self._skill = ""
+        self._last = -math.inf
+
+    def update(
+        self,
+        now: float,
+        replaying: str,
+        max_correction: float,
+        gripper: Optional[float],
+        device: Optional[Tuple[Sequence[float], Sequence[float]]],
+        device_age: float,
+        device_timeout: float,
+    ) -> Optional[TeleopCommand]:
+        """The correction at ``now`` (``pose[:3]``, base frame [m]); None when no skill replays.
+
+        ``replaying`` names the skill that replays (empty: none); the other arguments are as
+        :meth:`Teleoperation.update`'s.
+        """
+        new_replay = now - self._last > self.REPLAY_GAP
+        self._last = now
+        if not replaying or not (math.isfinite(max_correction) and max_correction > 0.0):
+            self._teleoperation, self._skill = None, ""
+            return None
+        if self._teleoperation is None or replaying != self._skill or new_replay:
+            box = dataclasses.replace(
+                self.parameters, workspace_low=(-max_correction,) * 3, workspace_high=(max_correction,) * 3
+            )
+            self._teleoperation, self._skill = Teleoperation(box), replaying
+            self._teleoperation.start(ORIGIN, now)
+        return self._teleoperation.update(now, gripper, device, device_age, device_timeout)

@@ -223,6 +223,7 @@ class MainWindow(QMainWindow):
         self.worker.study_state.connect(self._on_study_state, queued)
         self.worker.execution_changed.connect(self._on_execution, queued)
         self.worker.teleop_changed.connect(self.teleop.on_state, queued)
+        self.worker.authority_changed.connect(self.start_tab.show_authority, queued)
         self.thread.start()
 
     def _session_actions(self):
@@ -509,6 +510,7 @@ class MainWindow(QMainWindow):
         if trajectory.demonstrations:
             provenance["path_demonstrations"] = trajectory.demonstrations
             provenance["path_spread"] = [float(value) for value in trajectory.spread]
+            provenance["path_spread_time"] = [float(value) for value in trajectory.times]  # [s] from the start
         saved = self._save_recording(
             self.recorder,
             "stiffness",

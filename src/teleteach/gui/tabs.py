@@ -4,6 +4,7 @@ Tabs only display and collect the operator's choices; talking to ROS is the main
 device signals only while it is the active one (thesis A.2.1).
 """
 
+import dataclasses
 import math
 import time
 from typing import Callable, List, Optional, Sequence, Tuple
@@ -31,6 +32,7 @@ from PyQt5.QtWidgets import (
 
 from teleteach.bt.editor import EditRequest
 from teleteach.core.gui_config import GuiConfig
+from teleteach.core.teleoperation import Clutch
 from teleteach.gui.device import ClickClassifier, DeviceSample
 from teleteach.gui.ellipsoid import MODES, EllipsoidCommand
 from teleteach.gui.gl_view import ANGLE_NAMES, AXIS_NAMES, EllipsoidView
@@ -96,6 +98,29 @@ def _big(label: QLabel, points: int, bold: bool = True) -> QLabel:
     return label
 
 
+@dataclasses.dataclass(frozen=True)
+class AuthorityView:
+    """Who leads the skill the robot replays (skills/authority), and the operator's clutch on its correction."""
+
+    skill: str
+    confidence: float  # [0, 1]
+    operator_weight: float  # the share of the operator's correction that moves the arm
+    correction: float  # [m] what the correction moves the equilibrium by now
+    clutch: Clutch
+    reason: str
+
+
+def authority_text(view: AuthorityView) -> str:
+    """START's line while a skill replays: who leads, how much a correction counts, what it moves."""
+    leader = "the robot leads" if view.confidence >= 0.5 else "you lead"
+    clutch = "correcting" if view.clutch is Clutch.ENGAGED else "hold the gripper closed to correct it"
+    text = (
+        f"replaying {view.skill}: {leader} (confidence {100 * view.confidence:.0f} %). Your correction counts "
+        f"{100 * view.operator_weight:.0f} %, it moves the arm {1000 * view.correction:.0f} mm; {clutch}."
+    )
+    return f"{text} {view.reason}" if view.reason else text
+
+
 class StartTab(QWidget):
     """Choose the teaching mode with the device, a click opens it; start a tree that waits for the operator.
 
@@ -113,6 +138,7 @@ class StartTab(QWidget):
 
     mode_chosen = pyqtSignal(int)
     start_requested = pyqtSignal()
+    AUTHORITY_SHOWN_FOR = 1000  # [ms] a replay's line stays this long after its last report
 
     def __init__(self, config: GuiConfig):
         super().__init__()
@@ -132,6 +158,15 @@ class StartTab(QWidget):
         )
         hint.setAlignment(Qt.AlignCenter)
         layout.addWidget(hint)
+        self.authority = QLabel()
+        self.authority.setAlignment(Qt.AlignCenter)
+        self.authority.setWordWrap(True)
+        self.authority.setStyleSheet("background: #e1f5fe; color: #01579b; font-size: 13pt; padding: 6px;")
+        self.authority.hide()
+        self._authority_timer = QTimer(self)
+        self._authority_timer.setSingleShot(True)
+        self._authority_timer.timeout.connect(self.authority.hide)
+        layout.addWidget(self.authority)
         row = QHBoxLayout()
         self.buttons: List[QPushButton] = []
         for index, (text, colour, height) in enumerate(
@@ -163,6 +198,12 @@ class StartTab(QWidget):
         layout.addWidget(gesture)
         layout.addStretch(2)
         self._show()
+
+    def show_authority(self, view: AuthorityView) -> None:
+        """A skill replays: who leads it and what the operator's correction does (hidden once the reports stop)."""
+        self.authority.setText(authority_text(view))
+        self.authority.show()
+        self._authority_timer.start(self.AUTHORITY_SHOWN_FOR)
 
     def show_tree(self, waiting: bool, message: str) -> None:
         """What the behaviour tree does (teleteach/TreeExecution): a tree waiting for its start is shown loudly."""

@@ -30,7 +30,7 @@ from teleteach.core.gui_config import GuiConfig
 from teleteach.core.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.core.questionnaire import Item
 from teleteach.core.study_phase import Phase, StudyView, known_phase
-from teleteach.core.teleoperation import Teleoperation
+from teleteach.core.teleoperation import ReplayCorrection, Teleoperation
 from teleteach.core.trajectories import Trajectory
 from teleteach.core.validation import InvalidCommandError
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
@@ -38,8 +38,17 @@ from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import PathRecorder, StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.shared_tab import SharedStatus
+from teleteach.gui.tabs import AuthorityView
 from teleteach.gui.teleop_tab import TeleopView
-from teleteach.msg import BehaviourTree, HelpRequest, SharedControlState, SkillLibrary, StudyState, TreeExecution
+from teleteach.msg import (
+    BehaviourTree,
+    HelpRequest,
+    SharedControlState,
+    SkillAuthority,
+    SkillLibrary,
+    StudyState,
+    TreeExecution,
+)
 from teleteach.runtime.node import publish, shutting_down
 from teleteach.shared_control.placement import Opening, assist
 from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
@@ -232,6 +241,7 @@ class RosWorker(QObject):
     _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
     execution_changed = pyqtSignal(int, str)  # the tree's TreeExecution state and its message
     teleop_changed = pyqtSignal(object)  # TeleopView: when the clutch or the reason changes, else at TELEOP_VIEW_RATE
+    authority_changed = pyqtSignal(object)  # AuthorityView: who leads the skill the robot replays (skills/authority)
 
     def __init__(
         self,
@@ -298,12 +308,14 @@ class RosWorker(QObject):
         self._opening: Tuple[Optional[Callable], str] = (None, "")  # the assistance's constraint, what it is
         self._opening_checked = -math.inf
         self._held_below = load_motion_config().grasp.height_above_center  # the skills' grasp: the product in the hand
+        self.correction = ReplayCorrection(config.teleop)
 
     @pyqtSlot()
     def start(self) -> None:
         """Create subscribers, publishers and timers (runs in the worker thread)."""
         self._eigenvalues = rospy.Publisher("eigenvalues", Vector3Stamped, queue_size=10)
         self._eigenvectors = rospy.Publisher("eigenvectors", QuaternionStamped, queue_size=10)
+        self._correction_publisher = rospy.Publisher("skills/correction", Vector3Stamped, queue_size=5)
         subscriptions: List[Tuple[str, type, Callable]] = [
             ("sigma7/pose", PoseStamped, self._on_pose),
             ("sigma7/button", Bool, self._on_button),
@@ -318,6 +330,7 @@ class RosWorker(QObject):
             ("equilibrium_pose", PoseStamped, self._on_equilibrium),
             ("study/state", StudyState, lambda message: self.study_state.emit(study_view(message))),
             ("behaviour_tree/execution", TreeExecution, self._on_execution),
+            ("skills/authority", SkillAuthority, self._on_authority),
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
@@ -491,6 +504,43 @@ class RosWorker(QObject):
     def _on_execution(self, message: TreeExecution) -> None:
         self._execution = message
         self.execution_changed.emit(message.state, message.message)
+
+    def _on_authority(self, message: SkillAuthority) -> None:
+        """A skill replays: in START the clutch and handle correct it (skills/correction), and START shows who leads.
+
+        Driven by the reports (20 Hz while a skill replays): no timer runs while nothing replays.
+        """
+        if self.active_tab != Tab.START:
+            return  # a teaching tab pauses the tree: its replay is ending, and the handle is the tab's
+        device = self._device_pose
+        age = math.inf if device is None else time.monotonic() - device[2]
+        now = rospy.get_time()
+        command = self.correction.update(
+            now,
+            message.skill,
+            message.max_correction,
+            self._gripper_angle,
+            device and device[:2],
+            age,
+            self.config.device_timeout,
+        )
+        if command is None:
+            return
+        correction = Vector3Stamped()
+        correction.header.stamp, correction.header.frame_id = rospy.Time.from_sec(now), self.config.base_frame
+        correction.vector.x, correction.vector.y, correction.vector.z = (float(value) for value in command.pose[:3])
+        publish(self._correction_publisher, correction)
+        applied = message.correction
+        self.authority_changed.emit(
+            AuthorityView(
+                message.skill,
+                message.confidence,
+                message.operator_weight,
+                float(np.linalg.norm([applied.x, applied.y, applied.z])),
+                command.clutch,
+                command.reason,
+            )
+        )
 
     def _on_joint_states(self, message: JointState) -> None:
         speeds = [abs(value) for value in message.velocity if math.isfinite(value)]

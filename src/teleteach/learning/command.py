@@ -144,6 +144,7 @@ def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
         parameters.dmp_parameters(1.0)
     except ValueError as error:
         raise LearningError(str(error)) from None
+    taught_path = {}  # the demonstrations and spread of a path taught in TELEOP: the replay's confidence
     if source.suffix == ".bag":
         times, stiffness, poses = bag.read_bag(source)
         learned = learn(times, stiffness, poses, name, parameters, source={"bag": str(source)})
@@ -154,11 +155,16 @@ def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
             raise LearningError(str(error)) from None
         learned = learn_skill(demonstrated, name, parameters)
         learned.source["file"] = str(source)
+        taught_path = {key: value for key, value in demonstrated.provenance.items() if key.startswith("path_")}
     goal = goal_stiffness(learned.stiffness.goal, arguments.goal_stiffness, arguments.goal_rotation)
     reproduction = learned.reproduce(arguments.duration, goal)
     same = arguments.duration is None and goal is None
     skill = learned.to_skill(reproduction, name, learned.error(reproduction) if same else None)
     skill.provenance["goal_stiffness"] = None if goal is None else goal.tolist()
+    if "path_spread_time" in taught_path:  # a reproduction of another duration stretches the path's timing with it
+        stretch = skill.duration / learned.demonstration.duration
+        taught_path["path_spread_time"] = [stretch * value for value in taught_path["path_spread_time"]]
+    skill.provenance.update(taught_path)
     error = skill.provenance["reproduction_error"]
     saved = skill_file.save(skill, output)
     demo = learned.demonstration

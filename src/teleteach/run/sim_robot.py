@@ -4,7 +4,7 @@ The skills then run against the same physics, controllers and command validation
 passes only when a skill waits (sleep() steps the simulation), so runs are deterministic and faster than real time.
 """
 
-from typing import Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -13,6 +13,7 @@ from teleteach.control.manager import STRICT
 from teleteach.core.observed import ObservedScene
 from teleteach.core.rotations import yaw_rotation
 from teleteach.sim.robot_sim import RobotSim
+from teleteach.skills.authority import AuthorityReport
 from teleteach.skills.robot import Robot, RobotGoal, SkillError
 
 
@@ -54,10 +55,22 @@ class SimRobot(Robot):
 
     Args:
         sim: the simulated robot (its world, controllers and validated commands).
+        operator: a scripted operator correcting replayed skills: time [s] -> correction [m] (3,) base_link or None.
     """
 
-    def __init__(self, sim: RobotSim):
+    def __init__(self, sim: RobotSim, operator: Optional[Callable[[float], Optional[Sequence[float]]]] = None):
         self.sim = sim
+        self.operator = operator
+        self.authority_reports: List[AuthorityReport] = []
+
+    def operator_correction(self) -> Optional[Tuple[np.ndarray, float]]:
+        """The scripted operator's correction now."""
+        correction = None if self.operator is None else self.operator(self.now())
+        return None if correction is None else (np.asarray(correction, dtype=float), self.now())
+
+    def report_authority(self, report: AuthorityReport) -> None:
+        """Kept in ``authority_reports``."""
+        self.authority_reports.append(report)
 
     def now(self) -> float:
         """Simulated time [s]."""

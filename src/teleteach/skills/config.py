@@ -12,6 +12,7 @@ import yaml
 from teleteach.core.parameters import from_mapping
 from teleteach.core.paths import config_file
 from teleteach.core.robot_controllers import ControllerNames, ControllerNamesError, controller_names
+from teleteach.skills.authority import AuthorityConfig
 
 DEFAULT_MOTION_FILE = config_file("skills_motion.yaml")
 
@@ -125,6 +126,7 @@ class MotionConfig:
     place: PlaceConfig
     skills: Dict[str, Dict[str, str]]
     replay: ReplayConfig
+    authority: AuthorityConfig
 
 
 def load_motion_config(path: Optional[str] = None, controllers: Optional[str] = None) -> MotionConfig:
@@ -182,6 +184,12 @@ def _parse(data, names: ControllerNames):
     grasp = _section(GraspConfig, data["grasp"], positive=["hold_tolerance", "table_tolerance", "approach_height"])
     place = _section(PlaceConfig, data["place"], positive=["approach_distance"])
     replay = _section(ReplayConfig, data["replay"], positive=["approach_tolerance"], non_negative=["settle_time"])
+    authority = _section(
+        AuthorityConfig,
+        data["authority"],
+        positive=[field.name for field in fields(AuthorityConfig) if field.name != "spread_unknown"],
+        non_negative=["spread_unknown"],
+    )
     if replay.rate < 100.0:
         raise ValueError(f"replay.rate must be >= 100 Hz, got {replay.rate}")
     skills = {
@@ -198,4 +206,5 @@ def _parse(data, names: ControllerNames):
         place=place,
         skills=skills,
         replay=replay,
+        authority=authority,
     )

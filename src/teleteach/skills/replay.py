@@ -8,7 +8,8 @@ kinematic reference x_r(t) are resampled at the playback rate (K linearly, which
 orientations by slerp). Each K is sent as its eigendecomposition, the way the GUI commands it: principal stiffnesses
 on /eigenvalues and the right-handed rotation of the principal axes on /eigenvectors. The axes are matched to the
 previous sample's (order, sign, quaternion sign), so the controller sees a continuous ellipsoid even when two
-principal stiffnesses cross.
+principal stiffnesses cross. While it plays, an operator's correction moves the reference by as much as the skill is
+unsure there (:mod:`teleteach.skills.authority`).
 """
 
 import itertools
@@ -23,10 +24,12 @@ from scipy.spatial.transform import Rotation, Slerp
 from teleteach.core import skill_file
 from teleteach.core.frames import Transform, continuous_quaternions
 from teleteach.core.scene import Gap
+from teleteach.skills import authority
 from teleteach.skills.motion import Motion
 from teleteach.skills.predefined import WorldView, release
 from teleteach.skills.robot import SkillError
 
+AUTHORITY_REPORT_PERIOD = 0.05  # [s] robot time between reports of who leads the replay (/skills/authority)
 PERMUTATIONS = np.array(list(itertools.permutations(range(3))))
 
 
@@ -186,10 +189,13 @@ class StiffnessReplay:
             raise SkillError(
                 f"skill file {request.path} holds a '{skill.kind}' skill, the goal asked for '{request.kind}'"
             )
+        distance = 0.0
         if skill.frame == skill_file.TARGET_FRAME:
             gap = replay_target(world, skill, request.target)
             where = f"relative to {gap.name} (taught at {skill.target.name})"
-            skill = skill.in_base(gap_in_base(world, gap))
+            target = gap_in_base(world, gap)
+            distance = authority.target_distance(skill, target)
+            skill = skill.in_base(target)
         elif request.target is not None:
             raise SkillError(f"{skill.name} is a base_link skill (no target frame): it cannot be replayed at a target")
         else:
@@ -208,6 +214,8 @@ class StiffnessReplay:
         motion = world.motion
         config = motion.config
         plan = plan_replay(skill, config.replay.rate)
+        spread = authority.spread_along(skill, plan.times, config.authority)
+        confidence = np.array([authority.confidence(value, distance, config.authority) for value in spread])
         start_position = plan.positions[0]
         start_orientation = Rotation.from_quat(plan.orientations[0])
         before = motion.robot.product_positions()
@@ -222,40 +230,62 @@ class StiffnessReplay:
         robot.command_equilibrium(*robot.cartesian_pose(), now)
         robot.switch_controllers([config.impedance_controller], [config.position_controller])
         try:
-            self._play(motion, plan)
+            corrected = self._play(motion, plan, spread, confidence, distance)
         except BaseException:
             self._hold_and_switch_back(motion)
             raise
         motion.execution.phase("settle", 0.05)
         robot.sleep(config.replay.settle_time)
-        error = float(np.linalg.norm(robot.cartesian_pose()[0] - plan.positions[-1]))
+        error = float(np.linalg.norm(robot.cartesian_pose()[0] - plan.positions[-1] - corrected))
         motion.execution.phase("switch to position control", 0.05)
         robot.switch_controllers([config.position_controller], [config.impedance_controller])
         placed = release(world, product, before, progress=0.15, only_in_gap=True)
         return (
             f"replayed {skill.name} ({skill.kind}) {where}: {len(plan.times)} samples over {plan.duration:.2f} s, "
-            f"final end-effector error {1000.0 * error:.1f} mm; {product} released upright in {placed.gap}, "
+            f"final end-effector error {1000.0 * error:.1f} mm; confidence {confidence.min():.2f}-"
+            f"{confidence.max():.2f}, the operator's correction {1000.0 * np.linalg.norm(corrected):.0f} mm at the "
+            f"end; {product} released upright in {placed.gap}, "
             f"{1000.0 * placed.distance_m:.1f} mm from its centre"
         )
 
     @staticmethod
-    def _play(motion: Motion, plan: ReplayPlan) -> None:
-        """Publish the sample due now every 1/rate; when the loop lags it skips ahead, keeping the recorded timing."""
+    def _play(motion: Motion, plan: ReplayPlan, spread, confidence, distance: float) -> np.ndarray:
+        """Publish the sample due now every 1/rate; when the loop lags it skips ahead, keeping the recorded timing.
+
+        The operator's correction moves the equilibrium weighted by 1 - confidence there (:mod:`.authority`);
+        returns the correction applied at the end [m].
+        """
         robot, execution = motion.robot, motion.execution
         execution.phase("replay", 0.6)
         period, last = 1.0 / motion.config.replay.rate, len(plan.times) - 1
+        correction = authority.Correction(motion.config.authority)
         start = robot.now()
-        next_tick = start
+        next_tick = next_report = start
         while True:
             execution.check()
             elapsed = robot.now() - start
             index = min(max(int(np.searchsorted(plan.times, elapsed, side="right")) - 1, 0), last)
             stamp = start + plan.times[index]
             robot.command_stiffness(plan.eigenvalues[index], plan.eigenvectors[index], stamp)
-            robot.command_equilibrium(plan.positions[index], plan.orientations[index], stamp)
+            weight = 1.0 - confidence[index]
+            corrected = weight * correction.step(robot.now(), robot.operator_correction())
+            robot.command_equilibrium(plan.positions[index] + corrected, plan.orientations[index], stamp)
             execution.report(plan.times[index] / plan.duration)
+            if robot.now() >= next_report or index == last:
+                next_report = robot.now() + AUTHORITY_REPORT_PERIOD
+                robot.report_authority(
+                    authority.AuthorityReport(
+                        plan.name,
+                        float(confidence[index]),
+                        weight,
+                        float(spread[index]),
+                        distance,
+                        corrected,
+                        motion.config.authority.max_correction,
+                    )
+                )
             if index == last:
-                return
+                return corrected
             next_tick += period
             wait = next_tick - robot.now()
             if wait > 0.0:

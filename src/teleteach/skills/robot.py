@@ -12,6 +12,7 @@ from typing import Callable, Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from teleteach.core.observed import ObservedScene
+from teleteach.skills.authority import AuthorityReport
 
 HOLD_TIME = 0.05  # [s] a hold point lies this far ahead (a point at time 0 would already be in the past)
 
@@ -120,6 +121,17 @@ class Robot(abc.ABC):
     @abc.abstractmethod
     def command_equilibrium(self, position: np.ndarray, quaternion: np.ndarray, stamp: float) -> None:
         """Impedance controller: reference pose in base_link (position [m], quaternion (x, y, z, w))."""
+
+    def operator_correction(self) -> Optional[Tuple[np.ndarray, float]]:
+        """The operator's newest correction of a replayed skill ([m] (3,) base_link) and when it came [s]; None: none.
+
+        A robot without an operator's channel has none.
+        """
+        return None
+
+    def report_authority(self, report: AuthorityReport) -> None:
+        """Say who leads the replay now (the GUI shows it); a robot without an operator's channel says nothing."""
+        return None
 
     def hold(self, positions: np.ndarray) -> None:
         """Stop the arm where it is: a one-point trajectory to positions [rad], reached within HOLD_TIME."""

@@ -10,7 +10,7 @@ Names are the ROS graph of docs/reference.md.
 import math
 import threading
 import time
-from typing import Sequence, Tuple
+from typing import Optional, Sequence, Tuple
 
 import actionlib
 import numpy as np
@@ -35,14 +35,17 @@ from teleteach.msg import (
     GraspGoal,
     MoveAction,
     MoveGoal,
+    SkillAuthority,
 )
 from teleteach.runtime.ros_actions import OneGoalActionServer, WallStatusTimer, server_ready
+from teleteach.skills.authority import AuthorityReport
 from teleteach.skills.robot import Execution, Robot, RobotGoal, SkillError
 from teleteach.skills.runner import REPLAY_SKILL, SKILL_NAMES, SkillRunner
 from teleteach.srv import ListControllers, SwitchController, SwitchControllerRequest
 
 WORLD_FRAME = "world"
 BASE_FRAME = "base_link"
+MAX_CORRECTION_MESSAGE = 1.0  # [m] a longer /skills/correction is not a correction but a mistake: refused
 SERVICE_TIMEOUT = 5.0  # [s] wall time to wait for the controller manager
 SCENE_FRESHNESS = 0.15  # [s] sim time: a scene older than this when asked is waited for
 SCENE_WAIT = 2.0  # [s] wall time to wait for a fresh scene before using the last one
@@ -93,8 +96,10 @@ class RosRobot(Robot):
     """Robot interface over topics, TF, the controller manager services and the gripper and base actions.
 
     ROS Publishers (names relative, at the root as shown): /<position controller>/command, /eigenvalues,
-    /eigenvectors, /equilibrium_pose.
-    ROS Subscribers: /joint_states, /teleteach/scene, /cartesian_pose; TF world->base_link.
+    /eigenvectors, /equilibrium_pose, /skills/authority (teleteach/SkillAuthority, while a skill replays).
+    ROS Subscribers: /joint_states, /teleteach/scene, /cartesian_pose, /skills/correction
+    (geometry_msgs/Vector3Stamped in base_link [m]: the operator's correction of a replayed skill); TF
+    world->base_link.
     ROS Services (called): /controller_manager/switch_controller, /controller_manager/list_controllers.
     ROS Action Clients: /franka_gripper/move, /franka_gripper/grasp (franka_gripper's actions), /move_base
     (move_base_msgs/MoveBaseAction, target_pose in world).
@@ -123,6 +128,9 @@ class RosRobot(Robot):
         self._eigenvalues = rospy.Publisher("eigenvalues", Vector3Stamped, queue_size=10)
         self._eigenvectors = rospy.Publisher("eigenvectors", QuaternionStamped, queue_size=10)
         self._equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
+        self._authority = rospy.Publisher("skills/authority", SkillAuthority, queue_size=10)
+        self._correction: Optional[Tuple[np.ndarray, float]] = None
+        rospy.Subscriber("skills/correction", Vector3Stamped, self._on_correction, queue_size=1)
         self._switch = rospy.ServiceProxy("controller_manager/switch_controller", SwitchController)
         self._list = rospy.ServiceProxy("controller_manager/list_controllers", ListControllers)
         self.listen()
@@ -199,6 +207,21 @@ class RosRobot(Robot):
                     np.array([orientation.x, orientation.y, orientation.z, orientation.w]),
                 )
                 self._lock.notify_all()
+
+    def _on_correction(self, msg):
+        vector = np.array([msg.vector.x, msg.vector.y, msg.vector.z])
+        problem = ""
+        if msg.header.frame_id.lstrip("/") != BASE_FRAME:
+            problem = f"frame {msg.header.frame_id!r}, not {BASE_FRAME}"
+        elif not np.all(np.isfinite(vector)):
+            problem = "not finite"
+        elif np.linalg.norm(vector) > MAX_CORRECTION_MESSAGE:
+            problem = f"{np.linalg.norm(vector):.2f} m long (more than {MAX_CORRECTION_MESSAGE} m)"
+        if problem:
+            rospy.logwarn_throttle(2.0, f"skill_server: /skills/correction refused ({problem}): the replay ignores it")
+            return
+        with self._lock:
+            self._correction = (vector, self.now())
 
     # ----------------------------------------------------------------------------------------------- state
     def now(self) -> float:
@@ -400,6 +423,21 @@ class RosRobot(Robot):
         quaternion.x, quaternion.y, quaternion.z, quaternion.w = (float(value) for value in eigenvectors)
         self._publish(self._eigenvectors, vectors)
         self._publish(self._eigenvalues, values)
+
+    def operator_correction(self) -> Optional[Tuple[np.ndarray, float]]:
+        """The newest valid /skills/correction and when it came (ROS time)."""
+        with self._lock:
+            return self._correction
+
+    def report_authority(self, report: AuthorityReport) -> None:
+        """/skills/authority."""
+        msg = SkillAuthority()
+        msg.header.frame_id, msg.header.stamp = BASE_FRAME, rospy.Time.from_sec(self.now())
+        msg.skill, msg.confidence, msg.operator_weight = report.skill, report.confidence, report.operator_weight
+        msg.spread, msg.target_distance = report.spread, report.target_distance
+        msg.correction.x, msg.correction.y, msg.correction.z = (float(value) for value in report.correction)
+        msg.max_correction = report.max_correction
+        self._authority.publish(msg)  # nobody listening (no GUI) is fine: nothing waits for it
 
     def command_equilibrium(self, position, quaternion, stamp: float) -> None:
         """/equilibrium_pose in base_link."""
