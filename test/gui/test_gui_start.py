@@ -132,7 +132,8 @@ def test_while_a_skill_replays_the_clutch_corrects_it_and_start_says_who_leads(
     thread.start()
     try:
         label = window.start_tab.authority
-        pump_until(qapp, lambda: label.isVisible() and "PlaceTaught_dmp" in label.text(), 10, "START showing the replay")
+        replay = "PlaceTaught_dmp"
+        pump_until(qapp, lambda: label.isVisible() and replay in label.text(), 10, "START showing the replay")
         assert "you lead (confidence 25 %). Your correction counts 75 %" in label.text()
         assert "hold the gripper closed to correct it" in label.text()
         # Expect the handle alone (clutch released) to correct nothing

@@ -32,7 +32,12 @@ def test_the_spread_comes_from_the_taught_paths_demonstrations_where_the_hand_is
     skill = placement_on_trajectory("perpendicular")
     times = np.array([0.0, 1.0, 2.0, 10.0])
     # one demonstration: nothing says how sure it is
+    assert authority.spread_along(skill, times, CONFIG).shape == times.shape
     np.testing.assert_allclose(authority.spread_along(skill, times, CONFIG), CONFIG.spread_unknown)
+    without_times = dataclasses.replace(skill, provenance={"path_demonstrations": 2, "path_spread": [0.0, 0.02]})
+    np.testing.assert_allclose(authority.spread_along(without_times, times, CONFIG), CONFIG.spread_unknown)
+    without_spread = dataclasses.replace(skill, provenance={"path_demonstrations": 2, "path_spread_time": [0.0, 2.0]})
+    np.testing.assert_allclose(authority.spread_along(without_spread, times, CONFIG), CONFIG.spread_unknown)
     once = with_path(skill, 1, [0.0, 0.02], [0.0, 2.0])
     np.testing.assert_allclose(authority.spread_along(once, times, CONFIG), CONFIG.spread_unknown)
     twice = with_path(skill, 2, [0.0, 0.02], [0.0, 2.0])
@@ -49,9 +54,12 @@ def test_the_target_distance_is_measured_from_where_the_skill_was_taught():
 
 
 def test_the_applied_correction_is_clipped_rate_limited_and_dropped_when_it_stops_coming():
+    first = authority.Correction(CONFIG).step(3.0, (np.array([0.0, 0.0, 0.01]), 3.0))
+    np.testing.assert_allclose(first, 0.0)  # the first step: no time has passed, nothing moves yet
     correction = authority.Correction(CONFIG)
+    assert correction.step(0.0, None).shape == (3,)
     np.testing.assert_allclose(correction.step(0.0, None), 0.0)
-    asked = (np.array([0.0, 0.0, 1.0]), 0.0)  # far longer than max_correction
+    asked = (np.array([0.0, 0.0, 0.5]), 0.0)  # longer than max_correction
     np.testing.assert_allclose(correction.step(0.0, asked), 0.0)  # no time passed: no step
     step = correction.step(0.1, (asked[0], 0.1))
     np.testing.assert_allclose(step, [0.0, 0.0, CONFIG.correction_speed * 0.1])
@@ -61,6 +69,11 @@ def test_the_applied_correction_is_clipped_rate_limited_and_dropped_when_it_stop
     last = (asked[0], 1.9)  # not renewed from here: held until it is stale, then back at the same speed
     for now in np.arange(2.0, 1.9 + CONFIG.correction_timeout, 0.1):
         np.testing.assert_allclose(correction.step(now, last), [0.0, 0.0, CONFIG.max_correction])
+    at_timeout = authority.Correction(CONFIG)
+    at_timeout.step(1.0, (asked[0], 1.0))
+    timeout = CONFIG.correction_timeout  # a correction exactly that old still counts
+    applied = at_timeout.step(1.0 + timeout, (asked[0], 1.0))
+    np.testing.assert_allclose(applied, [0.0, 0.0, min(CONFIG.correction_speed * timeout, CONFIG.max_correction)])
     stale = 1.9 + CONFIG.correction_timeout + 0.05
     applied = correction.step(stale, last)
     assert applied[2] == pytest.approx(CONFIG.max_correction - CONFIG.correction_speed * (stale - now))

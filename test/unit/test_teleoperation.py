@@ -2,6 +2,7 @@
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -381,19 +382,91 @@ def test_a_replay_correction_starts_at_zero_follows_the_clutched_handle_and_stay
     command, now = correct(correction, "Place", 1.0, now, up, CLOSED)
     assert command.clutch is Clutch.ENGAGED
     # 2 cm up the handle, scale 2: 4 cm up, at 0.1 m/s (0.4 s)
-    command, now = correct(correction, "Place", 0.5, now, up + [0.0, 0.0, 0.02], CLOSED)
+    command, now = correct(correction, "Place", 0.5, now, up + np.array([0.0, 0.0, 0.02]), CLOSED)
     np.testing.assert_allclose(command.pose[:3], [0.0, 0.0, 0.04], atol=1e-9)
     # farther: held at the box of max_correction, away (operator y) turning into base x
-    command, now = correct(correction, "Place", 1.0, now, up + [0.0, 0.02, 0.03], CLOSED)
+    command, now = correct(correction, "Place", 1.0, now, up + np.array([0.0, 0.02, 0.03]), CLOSED)
     np.testing.assert_allclose(command.pose[:3], [0.04, 0.0, 0.04], atol=1e-9)
     assert command.reason == "workspace limit"
-    command, now = correct(correction, "Place", 0.2, now, up + [0.0, 0.02, 0.03], REST)
+    command, now = correct(correction, "Place", 0.2, now, up + np.array([0.0, 0.02, 0.03]), REST)
     np.testing.assert_allclose(command.pose[:3], [0.04, 0.0, 0.04], atol=1e-9)  # released: held
     # another skill, or the same after a pause in the reports: a new replay, from zero
     command, later = correct(correction, "Other", 0.05, now, up, REST)
     np.testing.assert_allclose(command.pose[:3], 0.0)
     correct(correction, "Other", 1.0, later, up, CLOSED)
-    command, now = correct(correction, "Other", 0.5, later + 1.0, up + [0.0, 0.0, 0.01], CLOSED)
+    command, now = correct(correction, "Other", 0.5, later + 1.0, up + np.array([0.0, 0.0, 0.01]), CLOSED)
     np.testing.assert_allclose(command.pose[:3], [0.0, 0.0, 0.02], atol=1e-9)
     command, _ = correct(correction, "Other", 0.05, now + ReplayCorrection.REPLAY_GAP + 0.01, up, REST)
     np.testing.assert_allclose(command.pose[:3], 0.0)
+
+
+@pytest.mark.parametrize("box", [math.inf, 0.0, -0.01, math.nan])
+def test_a_replay_correction_needs_a_box_it_can_move_in(box):
+    correction = ReplayCorrection(PARAMETERS)
+    assert correction.update(1.0, "Place", box, REST, (np.zeros(3), LEVEL), 0.0, 0.5) is None
+
+
+def test_reports_exactly_the_replay_gap_apart_belong_to_one_replay():
+    correction = ReplayCorrection(PARAMETERS)
+    up = np.zeros(3)
+    _, now = correct(correction, "Place", 0.1, 0.0, up, REST)
+    _, now = correct(correction, "Place", 1.0, now, up, CLOSED)
+    command, now = correct(correction, "Place", 0.5, now, up + np.array([0.0, 0.0, 0.01]), CLOSED)
+    np.testing.assert_allclose(command.pose[:3], [0.0, 0.0, 0.02], atol=1e-9)
+    now = float(np.round(now))  # a time the gap adds to exactly
+    correction.update(now, "Place", 0.04, CLOSED, (up + np.array([0.0, 0.0, 0.01]), LEVEL), 0.0, 0.5)
+    command = correction.update(
+        now + ReplayCorrection.REPLAY_GAP, "Place", 0.04, CLOSED, (up + np.array([0.0, 0.0, 0.01]), LEVEL), 0.0, 0.5
+    )
+    np.testing.assert_allclose(command.pose[:3], [0.0, 0.0, 0.02], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "change, named",
+    [
+        ({"enabled": 1}, "teleop/assistance/enabled must be true or false, got 1"),
+        ({"margin": -0.001}, "teleop/assistance/margin must be a number >= 0 [m], got -0.001"),
+        ({"capture": math.nan}, "teleop/assistance/capture must be a number >= 0 [m], got nan"),
+        ({"reach": "far"}, "teleop/assistance/reach must be a number >= 0 [m], got 'far'"),
+    ],
+)
+def test_bad_assistance_parameters_are_named(change, named):
+    with pytest.raises(TeleopParametersError, match=re.escape(named)):
+        dataclasses.replace(PARAMETERS.assistance, **change)
+
+
+def test_assistance_parameters_of_zero_are_accepted():
+    assert dataclasses.replace(PARAMETERS.assistance, margin=0.0, front_margin=0.0).margin == 0.0
+
+
+def test_a_constraint_turns_the_target_the_handle_asks_for_and_says_so():
+    asked = []
+
+    def keep_below(pose_now, target):
+        asked.append((pose_now.copy(), target.copy()))
+        return np.minimum(target, ARM[:3] + [1.0, 1.0, 0.01]), "held in the corridor"
+
+    operator = Operator()
+    operator.clutch()
+    operator.teleop.update(operator.now + DT, CLOSED, (np.zeros(3), LEVEL), 0.0, 0.5, keep_below)
+    operator.now += DT
+    np.testing.assert_allclose(asked[-1][0], ARM)  # what the constraint is given: the pose now, then the target
+    command = None
+    for step in range(1, 201):
+        operator.now += DT
+        device = (np.array([0.0, 0.0, 0.02]) * min(1.0, step / 100), LEVEL)
+        command = operator.teleop.update(operator.now, CLOSED, device, 0.0, 0.5, keep_below)
+    # Expect the handle's 4 cm up (scale 2) turned into the 1 cm the constraint allows, and the reason said
+    np.testing.assert_allclose(asked[-1][1], ARM[:3] + [0.0, 0.0, 0.04], atol=1e-9)
+    np.testing.assert_allclose(command.pose[:3], ARM[:3] + [0.0, 0.0, 0.01], atol=1e-9)
+    assert command.reason == "held in the corridor"
+    quiet = Operator()  # a constraint that says nothing adds nothing to the reason
+    quiet.clutch()
+    quiet.now += DT
+    said = quiet.teleop.update(quiet.now, CLOSED, (np.array([0.0, 0.0, 0.0001]), LEVEL), 0.0, 0.5, lambda p, t: (t, ""))
+    assert said.reason == ""
+    fast = quiet.teleop.update(
+        quiet.now + DT, CLOSED, (np.array([0.0, 0.0, 0.02]), LEVEL), 0.0, 0.5, lambda p, t: (t, "")
+    )
+    assert fast.reason == "speed limit 0.1 m/s"
+    np.testing.assert_allclose(asked[-1][0][:3], command.pose[:3], atol=1e-9)

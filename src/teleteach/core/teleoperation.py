@@ -238,10 +238,8 @@ class Teleoperation:
         parameters = self.parameters
         device_start, device_turn_start, pose_start, turn_start = self._anchor
         target = pose_start + parameters.scale * self._turn.apply(position - device_start)
-        limits = []
-        if constrain is not None:
-            target, said = constrain(self._pose.copy(), target)
-            limits += [said] if said else []
+        target, said = (target, "") if constrain is None else constrain(self._pose.copy(), target)
+        limits = [said] if said else []
         clipped = np.clip(target, *self._box)
         if not np.allclose(clipped, target):
             limits.append("workspace limit")
@@ -311,7 +309,7 @@ class ReplayCorrection:
         if not replaying or not (math.isfinite(max_correction) and max_correction > 0.0):
             self._teleoperation, self._skill = None, ""
             return None
-        if self._teleoperation is None or replaying != self._skill or new_replay:
+        if replaying != self._skill or new_replay:
             box = dataclasses.replace(
                 self.parameters, workspace_low=(-max_correction,) * 3, workspace_high=(max_correction,) * 3
             )

@@ -61,10 +61,9 @@ def spread_along(skill: skill_file.Skill, times: np.ndarray, config: AuthorityCo
     start); a skill with fewer than two demonstrations of its path has ``spread_unknown`` everywhere.
     """
     provenance = skill.provenance
-    spread, at = provenance.get("path_spread"), provenance.get("path_spread_time")
-    if int(provenance.get("path_demonstrations", 0) or 0) < 2 or spread is None or at is None:
+    if provenance.get("path_demonstrations", 0) < 2 or not {"path_spread", "path_spread_time"} <= provenance.keys():
         return np.full(len(times), config.spread_unknown)
-    return np.interp(times, np.asarray(at, dtype=float), np.asarray(spread, dtype=float))
+    return np.interp(times, provenance["path_spread_time"], provenance["path_spread"])
 
 
 def target_distance(skill: skill_file.Skill, target_in_base) -> float:
@@ -87,7 +86,7 @@ class Correction:
         config = self.config
         wanted = np.zeros(3)
         if latest is not None and now - latest[1] <= config.correction_timeout:
-            wanted = np.asarray(latest[0], dtype=float)
+            wanted = np.asarray(latest[0])
             length = float(np.linalg.norm(wanted))
             if length > config.max_correction:
                 wanted = wanted * (config.max_correction / length)
