@@ -62,6 +62,11 @@ class SimRobot(Robot):
         self.sim = sim
         self.operator = operator
         self.authority_reports: List[AuthorityReport] = []
+        self.library: List[Tuple[str, str, str]] = []  # the skill library's (name, kind, data file) entries
+
+    def taught_skills(self) -> Sequence[Tuple[str, str, str]]:
+        """``library``."""
+        return tuple(self.library)
 
     def operator_correction(self) -> Optional[Tuple[np.ndarray, float]]:
         """The scripted operator's correction now."""

@@ -15,7 +15,7 @@ unsure there (:mod:`teleteach.skills.authority`).
 import itertools
 import pathlib
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 import yaml
@@ -301,3 +301,52 @@ class StiffnessReplay:
         robot.command_equilibrium(position, quaternion, robot.now())
         robot.switch_controllers([motion.config.position_controller], [motion.config.impedance_controller])
         motion.hold()
+
+
+TAUGHT_KINDS = ("dmp", "stiffness")  # the library's taught placements, the learned one preferred
+
+
+class PlaceTaught:
+    """Places the held product with what the operator taught for the gap in front of the robot; asks when nothing.
+
+    The library's taught skills (kinds dmp, then stiffness; the newest first) that are relative to a target and find
+    a perceived gap where their taught one would be from the base now (:func:`replay_target`) can place here; the
+    first is replayed there. With none, the skill fails saying so, and the tree asks the operator for help: they
+    teach one (TELEOP, then LOW-LEVEL). A product that already stands in the gap (the operator's demonstration set it
+    down) is only let go: the skill's promise is the product released in the gap.
+    """
+
+    def __init__(self, replay: StiffnessReplay):
+        self.replay = replay
+
+    def run(self, world: WorldView, library: Sequence[Tuple[str, str, str]]) -> str:
+        """Place with the best of ``library``'s (name, kind, data file) skills; the message says which and how."""
+        product, _ = world.product_in_hand()
+        if product is None:
+            raise SkillError("PlaceTaught places the product in the hand, but the hand holds none")
+        gap = world.gap_near_hand()
+        before = world.motion.robot.product_positions()
+        if not world.placement(product, before, gap.name).problems(gap.name):
+            placed = release(world, product, before, progress=1.0, only_in_gap=True)
+            return (
+                f"{product} already stood in {gap.name} (set down while the operator taught): released there, "
+                f"{1000.0 * placed.distance_m:.1f} mm from its centre"
+            )
+        usable = []
+        for newest, (name, kind, data_file) in enumerate(reversed(library)):
+            if kind not in TAUGHT_KINDS:
+                continue
+            try:
+                skill = skill_file.load(data_file)
+                target = replay_target(world, skill, None) if skill.frame == skill_file.TARGET_FRAME else None
+            except (skill_file.SkillFileError, SkillError):
+                continue
+            if target is not None:
+                usable.append((TAUGHT_KINDS.index(kind), newest, name, data_file, target.name))
+        if not usable:
+            raise SkillError(
+                f"no taught skill places at {gap.name}: teach one (TELEOP: put the product in, double click to record "
+                "the path; then LOW-LEVEL: its stiffness along that path)"
+            )
+        _, _, name, data_file, target = min(usable)
+        return f"with {name}: " + self.replay.run(world, yaml.safe_dump({"data_file": data_file, "target": target}))

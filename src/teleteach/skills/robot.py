@@ -122,6 +122,10 @@ class Robot(abc.ABC):
     def command_equilibrium(self, position: np.ndarray, quaternion: np.ndarray, stamp: float) -> None:
         """Impedance controller: reference pose in base_link (position [m], quaternion (x, y, z, w))."""
 
+    def taught_skills(self) -> Sequence[Tuple[str, str, str]]:
+        """The skill library's (name, kind, data file) entries, in the order they joined; none without a library."""
+        return ()
+
     def operator_correction(self) -> Optional[Tuple[np.ndarray, float]]:
         """The operator's newest correction of a replayed skill ([m] (3,) base_link) and when it came [s]; None: none.
 

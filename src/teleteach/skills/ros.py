@@ -36,6 +36,7 @@ from teleteach.msg import (
     MoveAction,
     MoveGoal,
     SkillAuthority,
+    SkillLibrary,
 )
 from teleteach.runtime.ros_actions import OneGoalActionServer, WallStatusTimer, server_ready
 from teleteach.skills.authority import AuthorityReport
@@ -98,8 +99,8 @@ class RosRobot(Robot):
     ROS Publishers (names relative, at the root as shown): /<position controller>/command, /eigenvalues,
     /eigenvectors, /equilibrium_pose, /skills/authority (teleteach/SkillAuthority, while a skill replays).
     ROS Subscribers: /joint_states, /teleteach/scene, /cartesian_pose, /skills/correction
-    (geometry_msgs/Vector3Stamped in base_link [m]: the operator's correction of a replayed skill); TF
-    world->base_link.
+    (geometry_msgs/Vector3Stamped in base_link [m]: the operator's correction of a replayed skill),
+    /behaviour_tree/skill_library (what PlaceTaught may place with); TF world->base_link.
     ROS Services (called): /controller_manager/switch_controller, /controller_manager/list_controllers.
     ROS Action Clients: /franka_gripper/move, /franka_gripper/grasp (franka_gripper's actions), /move_base
     (move_base_msgs/MoveBaseAction, target_pose in world).
@@ -131,6 +132,8 @@ class RosRobot(Robot):
         self._authority = rospy.Publisher("skills/authority", SkillAuthority, queue_size=10)
         self._correction: Optional[Tuple[np.ndarray, float]] = None
         rospy.Subscriber("skills/correction", Vector3Stamped, self._on_correction, queue_size=1)
+        self._library: Tuple[Tuple[str, str, str], ...] = ()
+        rospy.Subscriber("behaviour_tree/skill_library", SkillLibrary, self._on_library, queue_size=1)
         self._switch = rospy.ServiceProxy("controller_manager/switch_controller", SwitchController)
         self._list = rospy.ServiceProxy("controller_manager/list_controllers", ListControllers)
         self.listen()
@@ -207,6 +210,10 @@ class RosRobot(Robot):
                     np.array([orientation.x, orientation.y, orientation.z, orientation.w]),
                 )
                 self._lock.notify_all()
+
+    def _on_library(self, msg):
+        with self._lock:
+            self._library = tuple(zip(msg.names, msg.kinds, msg.data_files))
 
     def _on_correction(self, msg):
         vector = np.array([msg.vector.x, msg.vector.y, msg.vector.z])
@@ -423,6 +430,11 @@ class RosRobot(Robot):
         quaternion.x, quaternion.y, quaternion.z, quaternion.w = (float(value) for value in eigenvectors)
         self._publish(self._eigenvectors, vectors)
         self._publish(self._eigenvalues, values)
+
+    def taught_skills(self) -> Sequence[Tuple[str, str, str]]:
+        """The newest /behaviour_tree/skill_library."""
+        with self._lock:
+            return self._library
 
     def operator_correction(self) -> Optional[Tuple[np.ndarray, float]]:
         """The newest valid /skills/correction and when it came (ROS time)."""

@@ -10,11 +10,12 @@ from teleteach.core.scene import Site
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import InverseKinematics, Motion
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS, WorldView, create_skills
-from teleteach.skills.replay import StiffnessReplay
+from teleteach.skills.replay import PlaceTaught, StiffnessReplay
 from teleteach.skills.robot import Execution, PreemptedError, Robot, SkillError
 
 REPLAY_SKILL = "ReplaySkill"
-SKILL_NAMES = (*PREDEFINED_SKILLS, *CONDITIONS, REPLAY_SKILL)
+PLACE_TAUGHT = "PlaceTaught"
+SKILL_NAMES = (*PREDEFINED_SKILLS, *CONDITIONS, REPLAY_SKILL, PLACE_TAUGHT)
 
 
 @dataclass
@@ -58,6 +59,7 @@ class SkillRunner:
         self.ik = InverseKinematics(kinematics, tolerance=config.arm.ik_tolerance)
         self.skills = create_skills(config)
         self.replay = StiffnessReplay()
+        self.place_taught = PlaceTaught(self.replay)
         self._lock = threading.Lock()
         self.running = None
 
@@ -73,6 +75,8 @@ class SkillRunner:
         try:
             if name == REPLAY_SKILL:
                 message = self.replay.run(WorldView(motion, self.site), parameters)
+            elif name == PLACE_TAUGHT:
+                message = self.place_taught.run(WorldView(motion, self.site), self.robot.taught_skills())
             else:
                 skill = self.skills[name]
                 settings = parse_settings(parameters)
