@@ -159,6 +159,7 @@ def test_run_summary_is_written_as_json_and_in_words():
             }
         ],
         help_requests=[(12.0, "PickItem", "product_pick_1 is not on the table")],
+        help_time_s=41.5,
         tabs=[],
         screenshots=[],
         screenshot_errors=[],
@@ -173,6 +174,7 @@ def test_run_summary_is_written_as_json_and_in_words():
     placed = "- product product_pick_2: on the shelf in gap_2, upright, 0.4 cm from the nearest gap's centre, put there"
     assert placed + " by Taught_1" in text
     assert "- help request: PickItem: product_pick_1 is not on the table" in text
+    assert "- from the first help request to the tree going on: 42 s (ROS time)" in text
     summary.problems.append("product_pick_2 did not end on the shelf (expected in gap_2)")
     assert summary.to_markdown().startswith("# Thesis run: FAILED")
     assert "- PROBLEM: product_pick_2 did not end on the shelf (expected in gap_2)" in summary.to_markdown()
@@ -181,12 +183,37 @@ def test_run_summary_is_written_as_json_and_in_words():
 def test_options_follow_the_scenario():
     full = options_for(ROOT / "config" / "scenarios" / "thesis_full.yaml")
     assert (full.removed, full.insert_index, full.trajectory) == ("PlaceItem", 8, "perpendicular")
-    assert full.placements == (("product_pick_1", "gap_1", False), ("product_pick_2", "gap_2", True))
+    assert full.placements == (("product_pick_1", "gap_1", None), ("product_pick_2", "gap_2", outcome.TAUGHT_SKILL))
+    assert full.skills == ROOT / "config" / "skills.yaml"
     angled = options_for(ROOT / "config" / "scenarios" / "thesis_III_D.yaml", timeout=10.0)
     assert angled.tree == ROOT / "config" / "scenarios" / "thesis_III_D_tree.yaml" and angled.tree.is_file()
     assert (angled.trajectory, angled.removed, angled.insert_index, angled.timeout) == ("angled_45", None, 8, 10.0)
     assert not angled.stiffer_insertion and angled.alignment_yaw == 45.0
     assert angled.placements == full.placements
+    teach = options_for(ROOT / "config" / "scenarios" / "teach_placement.yaml")
+    assert teach.tree.is_file() and teach.skills.is_file() and (teach.removed, teach.insert_index) == (None, None)
+    assert teach.placements[1] == ("product_pick_2", "gap_2", "PlaceTaught2")
+    assert (teach.phases, teach.taught_used_by) == ("teach_placement", "PlaceTaught2")
+
+
+def test_a_placetaught_leaf_must_have_placed_with_the_taught_skill():
+    used = "with Taught_1_dmp: replayed Taught_1_dmp (dmp) relative to gap_2 (taught at gap_1): ..."
+    assert outcome.check_taught_used("Taught_1_dmp", "PlaceTaught2", Status.SUCCESS, used) == []
+    assert outcome.check_taught_used("Taught_1_dmp", None, None, "") == []  # nothing to check
+    other = "with Other_dmp: replayed Other_dmp (dmp) relative to gap_2"
+    assert outcome.check_taught_used("Taught_1_dmp", "PlaceTaught2", Status.SUCCESS, other) == [
+        f"PlaceTaught2 did not place with the taught skill Taught_1_dmp (SUCCESS: {other})"
+    ]
+    assert outcome.check_taught_used("Taught_1_dmp", "PlaceTaught2", None, "") == [
+        "PlaceTaught2 did not place with the taught skill Taught_1_dmp (never run: )"
+    ]
+
+
+def test_the_operators_time_runs_from_the_first_help_request_to_the_last_close():
+    asked = [(10.0, "PlaceTaught", "no taught skill"), (50.0, "PlaceTaught", "no taught skill")]
+    assert outcome.help_time(asked, [40.0, 95.5]) == 85.5
+    assert outcome.help_time(asked, [40.0]) is None  # the last one still open
+    assert outcome.help_time([], []) is None
 
 
 def test_tree_sequences_and_edits():

@@ -24,6 +24,8 @@ from teleteach.recording.session import Session
 PHASES = {
     "perpendicular": ((0.0, 3.0), (3.0, 5.0), (5.0, 11.0)),  # config/trajectories/perpendicular.yaml
     "angled_45": ((0.0, 3.0), (3.0, 7.0), (7.0, 12.0)),  # config/trajectories/angled_45.yaml
+    # the path config/scenarios/teach_placement.yaml teaches, played 3 s (taught_path_approach) after the hand
+    "teach_placement": ((0.0, 7.0), (7.0, 9.5), (9.5, 14.5)),
 }
 
 
@@ -101,6 +103,7 @@ def alignment_axis_yaw(skill: Skill, trajectory: str = "perpendicular") -> float
     return yaw - 180.0 if yaw > 90.0 else yaw + 180.0 if yaw <= -90.0 else yaw
 
 
+TAUGHT_SKILL = "the taught skill"  # a placement's expected setter: the leaf of the skill taught in the run
 LOW_LEVEL_TEACHING = "LOW-LEVEL teaching"  # by_skill of a product set down while the operator taught it
 REST = 0.005  # [m] a product within this of its final position has come to rest there
 
@@ -258,6 +261,16 @@ def check_iii_e(
     return problems
 
 
+def check_taught_used(taught: Optional[str], leaf: Optional[str], status: Optional[Status], message: str) -> List[str]:
+    """The tree's ``leaf`` (a PlaceTaught) succeeded placing with the ``taught`` skill (None leaf: not checked)."""
+    if leaf is None or taught is None:
+        return []
+    if status != Status.SUCCESS or not message.startswith(f"with {taught}:"):
+        state = status.value if status else "never run"
+        return [f"{leaf} did not place with the taught skill {taught} ({state}: {message})"]
+    return []
+
+
 def check_placements(
     session: Session, scene: Scene, expected: Dict[str, Tuple[str, Optional[str]]]
 ) -> Tuple[List[str], List[dict]]:
@@ -296,6 +309,16 @@ def _uncertainty_met(entry: dict) -> str:
     return f"; {' and '.join(said)}" if said else ""
 
 
+def help_time(requests: Sequence[tuple], closed: Sequence[float]) -> Optional[float]:
+    """[s] from the first help request (time, node, reason) to the last one's close: the operator's time answering.
+
+    None without a help request, or while the last one is still open.
+    """
+    if not requests or len(closed) < len(requests):
+        return None
+    return float(closed[-1] - requests[0][0])
+
+
 @dataclasses.dataclass
 class RunSummary:
     """What a run did and found: written as summary.json and, in words, as summary.md."""
@@ -318,6 +341,7 @@ class RunSummary:
     alignment_axis_yaw_deg: Optional[float]
     placements: List[dict]
     help_requests: List[tuple]
+    help_time_s: Optional[float]
     tabs: List[tuple]
     screenshots: List[str]
     screenshot_errors: List[str]
@@ -372,6 +396,8 @@ class RunSummary:
             lines.append("- products: none ended on the shelf")
         for _, node, reason in self.help_requests:
             lines.append(f"- help request: {node}: {reason}")
+        if self.help_time_s is not None:
+            lines.append(f"- from the first help request to the tree going on: {self.help_time_s:.0f} s (ROS time)")
         lines.append(
             f"- files: {self.bag}, report/ ({len(self.figures)} figures), screenshots: {len(self.screenshots)}, "
             "tree_before/after.yaml/.txt, skills/"

@@ -68,12 +68,16 @@ class Options:
     timeout: float = 300.0
     rviz: bool = True
     tree: pathlib.Path = TREE_FILE
+    skills: pathlib.Path = SKILLS_FILE
     trajectory: str = "perpendicular"
-    # (product, gap, placed by the taught skill) for every product that must end in a gap: III-C's demonstration puts
-    # product 1 into gap_1, the tree's second round reuses the taught skill to put product 2 into gap_2 (III-E)
-    placements: Tuple[Tuple[str, str, bool], ...] = (
-        ("product_pick_1", "gap_1", False),
-        ("product_pick_2", "gap_2", True),
+    phases: Optional[str] = None  # the stiffness phases' timing (outcome.PHASES); None: the trajectory's
+    taught_used_by: Optional[str] = None  # a leaf that must succeed placing with the taught skill (PlaceTaught)
+    # (product, gap, who must set it down: a tree leaf, TAUGHT_SKILL for the taught skill's, None for anyone) for
+    # every product that must end in a gap: III-C's demonstration puts product 1 into gap_1, the tree's second round
+    # reuses the taught skill to put product 2 into gap_2 (III-E)
+    placements: Tuple[Tuple[str, str, Optional[str]], ...] = (
+        ("product_pick_1", "gap_1", None),
+        ("product_pick_2", "gap_2", outcome.TAUGHT_SKILL),
     )
     removed: Optional[str] = "PlaceItem"  # III-B; None: the tree must stay as it was
     insert_index: Optional[int] = 8  # III-E: after MoveBase2 (to gap_2); None: the taught skill is not inserted
@@ -83,12 +87,24 @@ class Options:
 
 
 def options_for(scenario: pathlib.Path, **overrides) -> Options:
-    """The expectations of a thesis scenario: thesis_III_D.yaml runs its own tree and the 45-degree trajectory.
+    """The expectations of a scenario: thesis_III_D.yaml runs its own tree and the 45-degree trajectory.
 
-    Both reuse the taught skill at gap_2, inserted at index 8 (after the move to gap_2).
+    Both reuse the taught skill at gap_2, inserted at index 8 (after the move to gap_2). teach_placement.yaml (issue
+    34) runs its own tree and library: nothing is removed or inserted; its second PlaceTaught places product 2 with
+    what the operator taught.
     """
     scenario = pathlib.Path(scenario).resolve()
-    if scenario.stem == "thesis_III_D":
+    if scenario.stem == "teach_placement":
+        profile = dict(
+            tree=scenario.with_name("teach_placement_tree.yaml"),
+            skills=scenario.with_name("teach_placement_skills.yaml"),
+            phases="teach_placement",
+            taught_used_by="PlaceTaught2",
+            removed=None,
+            insert_index=None,
+            placements=(("product_pick_1", "gap_1", None), ("product_pick_2", "gap_2", "PlaceTaught2")),
+        )
+    elif scenario.stem == "thesis_III_D":
         profile = dict(
             tree=scenario.with_name("thesis_III_D_tree.yaml"),
             trajectory="angled_45",
@@ -120,6 +136,7 @@ class Monitor:
         self.initial_products: Dict[str, np.ndarray] = {}
         self.final_products: Dict[str, np.ndarray] = {}
         self.help_requests: List[Tuple[float, str, str]] = []
+        self.help_closed: List[float] = []  # when each help request closed (the tree went on)
         self.tabs: List[Tuple[float, int]] = []
         self._subscribers = [
             rospy.Subscriber("behaviour_tree/log/tree", BehaviourTree, self._tree, queue_size=20),
@@ -159,9 +176,11 @@ class Monitor:
             self.library = message
 
     def _help(self, message) -> None:
-        if message.node_name:
-            with self._lock:
+        with self._lock:
+            if message.node_name:
                 self.help_requests.append((self._now(), message.node_name, message.reason))
+            elif len(self.help_closed) < len(self.help_requests):
+                self.help_closed.append(self._now())
 
     def _scene(self, message) -> None:
         products = product_positions(message.markers)
@@ -261,6 +280,7 @@ class ThesisRun:
             **scripted_device(options.scenario, options.device_rate),
             "headless": True,
             "tree": options.tree,
+            "skills": options.skills,
             "trajectory": options.trajectory,
             "record": True,
             "record_prefix": self.prefix,
@@ -399,7 +419,7 @@ class ThesisRun:
         bag = closed_bag(self.root / "bags", self.prefix, self.folder, timeout=15.0)
         if bag is None:
             problems.append("no bag was written")
-        initial = execution_children(load_tree(options.tree, SkillLibrary.load(SKILLS_FILE)))
+        initial = execution_children(load_tree(options.tree, SkillLibrary.load(options.skills)))
         changes = outcome.sequence_changes([children for _, children in monitor.children])
         final_children = changes[-1] if changes else initial
         self._save_trees(monitor, final_children)
@@ -412,17 +432,21 @@ class ThesisRun:
         # one check per experiment
         problems += outcome.check_iii_b(changes, after_removal, options.removed)
         taught_file = taught[0][1] if taught else None
-        problems_c, seen = outcome.check_iii_c(taught_file, options.trajectory, options.stiffer_insertion)
+        phases = options.phases or options.trajectory
+        problems_c, seen = outcome.check_iii_c(taught_file, phases, options.stiffer_insertion)
         problems += problems_c
         problems += outcome.check_iii_d(seen["alignment_axis_yaw_deg"], options.alignment_yaw)
-        status, message, _ = monitor.leaves.get(taught_name, (None, "", "")) if taught_name else (None, "", "")
+        ran_by = options.taught_used_by or taught_name
+        status, message, _ = monitor.leaves.get(ran_by, (None, "", "")) if taught_name else (None, "", "")
         inserted = options.insert_index is not None
         problems += outcome.check_iii_e(final_children, after_insertion, taught_name, status, message, inserted)
+        problems += outcome.check_taught_used(taught_name, options.taught_used_by, status, message)
         placements: List[dict] = []
         figures: List[str] = []
         if bag is not None:
             expected = {
-                product: (gap, taught_name if by_taught else None) for product, gap, by_taught in options.placements
+                product: (gap, taught_name if setter == outcome.TAUGHT_SKILL else setter)
+                for product, gap, setter in options.placements
             }
             try:
                 problems_p, placements = outcome.check_placements(read_session(bag), load_scene(), expected)
@@ -450,6 +474,7 @@ class ThesisRun:
             taught_skill_result={"status": status.value, "message": message} if status else None,
             placements=placements,
             help_requests=monitor.help_requests,
+            help_time_s=outcome.help_time(monitor.help_requests, monitor.help_closed),
             tabs=monitor.tabs,
             screenshots=sorted(path.name for path in folder.glob("*.png")),
             screenshot_errors=screenshot_errors,
