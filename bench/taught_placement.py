@@ -8,11 +8,15 @@ modelled: the ellipsoid stays constant), becomes a skill relative to gap_1 as th
 skill is replayed by ReplaySkill (teleteach.run.trials, as bench/skill_reuse.py replays the thesis' demonstration) at
 gap_1 and at the held-out gaps 3-7, N trials each, judged from the true world.
 
+With ``--skill FILE`` the skill is not taught here but read from FILE: for example the DMP skill the scripted
+operator of config/scenarios/teach_placement.yaml taught through the real GUI (TELEOP path, LOW-LEVEL stiffness;
+`python bench/teach_from_nothing.py` runs it and says where the file is).
+
 Held out: nothing was tuned here; the teaching seed and the reuse seeds (4000 + k) were not looked at before this
 bench ran. Prints the teaching trial, then per gap the success rate with its Wilson 95 % interval, the median peak
 contact force, and one line for the goal (>= 90 % at every held-out gap). Writes bench/results/taught_placement.json.
 
-    source build/env.sh && python bench/taught_placement.py [--trials 20] [--processes 2]
+    source build/env.sh && python bench/taught_placement.py [--trials 20] [--processes 2] [--skill FILE]
 """
 
 import os
@@ -57,18 +61,27 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=int, default=20, help="reuse trials per gap (20)")
     parser.add_argument("--processes", type=int, default=os.cpu_count() or 1, help="parallel simulations")
+    parser.add_argument("--skill", type=pathlib.Path, help="reuse this taught skill file instead of teaching one here")
     options = parser.parse_args()
     started = time.perf_counter()
-    gui = GuiConfig.load()
-    skill_path = RESULTS.with_name("TeleopPlace_1.npz")
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    taught = teach(gui, skill_path)
-    print(
-        f"taught at {TAUGHT_AT[0]} by teleoperation (seed {TEACH_SEED}): placed {taught['success']}, "
-        f"{taught['lateral_m'] * 1000:+.1f} mm across, peak force on the neighbours "
-        f"{taught['peak_neighbour_force_n']:.1f} N; "
-        f"operator time {taught['sim_s']:.1f} s (clutch to pulled back), the skill {taught['skill_duration_s']:.1f} s"
-    )
+    if options.skill:
+        skill_path, results_path = options.skill.resolve(), RESULTS.with_name("taught_placement_from_file.json")
+        loaded = skill_file.load(skill_path)
+        taught = {"file": str(skill_path), "kind": loaded.kind, "success": True, "skill_duration_s": loaded.duration}
+        print(
+            f"taught skill from {skill_path}: {loaded.name} ({loaded.kind}, {loaded.duration:.1f} s, taught at "
+            f"{loaded.target.name if loaded.target else 'no target'})"
+        )
+    else:
+        skill_path, results_path = RESULTS.with_name("TeleopPlace_1.npz"), RESULTS
+        taught = teach(GuiConfig.load(), skill_path)
+        print(
+            f"taught at {TAUGHT_AT[0]} by teleoperation (seed {TEACH_SEED}): placed {taught['success']}, "
+            f"{taught['lateral_m'] * 1000:+.1f} mm across, peak force on the neighbours "
+            f"{taught['peak_neighbour_force_n']:.1f} N; operator time {taught['sim_s']:.1f} s (clutch to pulled "
+            f"back), the skill {taught['skill_duration_s']:.1f} s"
+        )
     seeds = list(range(SEEDS, SEEDS + options.trials))
     places = (TAUGHT_AT, *HELD_OUT)
     jobs = [
@@ -108,8 +121,8 @@ def main():
         f"held-out gap at >= {GOAL_RATE:.0%} (worst: {worst[1]} at {100 * worst[0]:.0f} %)"
     )
     print(results["goal"])
-    RESULTS.write_text(json.dumps(results, indent=2, default=list))
-    print(f"wrote {RESULTS} and {skill_path}")
+    results_path.write_text(json.dumps(results, indent=2, default=list))
+    print(f"wrote {results_path} ({skill_path})")
 
 
 if __name__ == "__main__":

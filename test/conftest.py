@@ -36,3 +36,43 @@ def roscore(tmp_path_factory):
         yield env
     finally:
         processes.stop_all()
+
+
+# --- the skills on the real in-process simulation (pybullet, no ROS) ---------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def kinematics():
+    """Panda forward kinematics and Jacobian (pybullet, its own client), shared by a module's tests."""
+    from teleteach.control.kinematics import PandaKinematics
+
+    model = PandaKinematics(0.40)
+    yield model
+    model.close()
+
+
+@pytest.fixture
+def sim():
+    """A fresh simulated robot in the supermarket (exact base and perception: RobotSim's defaults)."""
+    from teleteach.sim.robot_sim import RobotSim
+
+    simulation = RobotSim()
+    yield simulation
+    simulation.close()
+
+
+@pytest.fixture
+def sim_robot(sim):
+    """The skills' robot interface over ``sim``."""
+    from teleteach.run.sim_robot import SimRobot
+
+    return SimRobot(sim)
+
+
+@pytest.fixture
+def runner(sim, sim_robot, kinematics):
+    """The skill runner over ``sim_robot``, with the package's motion configuration."""
+    from teleteach.skills.config import load_motion_config
+    from teleteach.skills.runner import SkillRunner
+
+    return SkillRunner(sim_robot, load_motion_config(), sim.scene, kinematics)

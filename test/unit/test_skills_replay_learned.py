@@ -2,31 +2,12 @@
 ReplaySkill on the real in-process simulation (pybullet physics, controller manager), no ROS."""
 
 import numpy as np
-import pytest
 
-from teleteach.control.kinematics import PandaKinematics
 from teleteach.core import skill_file
 from teleteach.learning.skill import learn_skill
 from teleteach.learning.synthetic import placement_on_trajectory
-from teleteach.run.sim_robot import SimRobot
-from teleteach.sim.robot_sim import TRAJECTORY, RobotSim
-from teleteach.skills.config import load_motion_config
+from teleteach.sim.robot_sim import TRAJECTORY
 from teleteach.skills.robot import Execution
-from teleteach.skills.runner import SkillRunner
-
-
-@pytest.fixture
-def sim():
-    simulation = RobotSim()
-    yield simulation
-    simulation.close()
-
-
-@pytest.fixture
-def runner(sim):
-    kinematics = PandaKinematics(0.40)
-    yield SkillRunner(SimRobot(sim), load_motion_config(), sim.scene, kinematics)
-    kinematics.close()
 
 
 def test_a_learned_dmp_skill_places_the_product_like_the_demonstrated_one(sim, runner, tmp_path):

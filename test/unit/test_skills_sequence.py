@@ -8,34 +8,14 @@ import pybullet
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach.control.kinematics import PandaKinematics
 from teleteach.core import skill_file
 from teleteach.learning.synthetic import placement_on_trajectory
 from teleteach.run.sim_robot import SimRobot
-from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY, RobotSim
+from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY
 from teleteach.skills.config import load_motion_config
 from teleteach.skills.predefined import PREDEFINED_SKILLS
 from teleteach.skills.robot import Execution, SkillError
 from teleteach.skills.runner import SkillRunner
-
-
-@pytest.fixture(scope="module")
-def kinematics():
-    model = PandaKinematics(0.40)
-    yield model
-    model.close()
-
-
-@pytest.fixture
-def sim():
-    simulation = RobotSim()
-    yield simulation
-    simulation.close()
-
-
-@pytest.fixture
-def runner(sim, kinematics):
-    return SkillRunner(SimRobot(sim), load_motion_config(), sim.scene, kinematics)
 
 
 def product_position(sim, name):
