@@ -57,13 +57,15 @@ def test_every_module_of_the_issue_is_configured_with_existing_tests(mutation):
     # the issue's core, and the modules added since (core/parameters.py: how every <Part>Config is read;
     # shared_control/constraints.py: what keeps the MPC's states and plans inside the boundary;
     # runtime/experiment.py: what every experiment on a ROS system runs on; core/teleoperation.py: what moves the arm
-    # from the device in TELEOP; shared_control/placement.py: what keeps the held product out of the neighbours)
+    # from the device in TELEOP; shared_control/placement.py: what keeps the held product out of the neighbours;
+    # skills/authority.py: how much of the operator's correction moves a replayed skill)
     added = {
         "core/parameters.py",
         "shared_control/constraints.py",
         "runtime/experiment.py",
         "core/teleoperation.py",
         "shared_control/placement.py",
+        "skills/authority.py",
     }
     assert set(modules) == expected | added
     for module, entry in modules.items():
