@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import yaml
 from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, thesis_tree
+from conftest import ROOT
 
 from teleteach.bt.library import CONDITION, PREDEFINED, LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.ros import ActionClients, ActionSkill, BehaviourTreeConfig
@@ -199,3 +200,20 @@ def test_a_burst_of_saves_is_made_durable_by_one_background_fsync(tmp_path, monk
     previous = str(store.tree_path.with_name("current_tree.previous.yaml"))
     assert sorted(synced[:-1]) == sorted([str(store.tree_path), previous]) and synced[-1] == str(store.directory)
     assert load_tree(store.tree_path, tree.library).root == describe(tree.root)
+
+
+def test_a_library_extends_another_and_may_not_extend_itself(tmp_path):
+    base = SkillLibrary.load(ROOT / "config" / "skills.yaml")
+    extended = SkillLibrary.load(ROOT / "config" / "scenarios" / "teach_placement_skills.yaml")
+    # Expect the predefined library's skills, in their order, then PlaceTaught
+    assert [entry["name"] for entry in extended.to_dict()["skills"]] == [
+        *(entry["name"] for entry in base.to_dict()["skills"]),
+        "PlaceTaught",
+    ]
+    (tmp_path / "a.yaml").write_text("extends: b.yaml\nskills: [LookToShelf]\n")
+    (tmp_path / "b.yaml").write_text("extends: a.yaml\nskills: [PickItem]\n")
+    with pytest.raises(LibraryError, match="extends itself"):
+        SkillLibrary.load(tmp_path / "a.yaml")
+    (tmp_path / "c.yaml").write_text("extends: missing.yaml\nskills: []\n")
+    with pytest.raises(LibraryError, match="cannot read skill library .*missing.yaml"):
+        SkillLibrary.load(tmp_path / "c.yaml")

@@ -160,11 +160,20 @@ class SkillLibrary:
             raise LibraryError(f"{source}: {error}") from None
 
     @classmethod
-    def load(cls, path: typing.Union[str, pathlib.Path]) -> "SkillLibrary":
-        """Read a library yaml file (config/skills.yaml or a saved library)."""
-        path = pathlib.Path(path)
+    def load(cls, path: typing.Union[str, pathlib.Path], _read: typing.Tuple[pathlib.Path, ...] = ()) -> "SkillLibrary":
+        """Read a library yaml file (config/skills.yaml or a saved library).
+
+        ``extends: <file>`` (relative to this one) puts that library's skills before this file's.
+        """
+        path = pathlib.Path(path).resolve()
+        if path in _read:
+            raise LibraryError(f"skill library {path} extends itself (through {', '.join(map(str, _read))})")
         try:
             data = yaml.safe_load(path.read_text())
         except (OSError, yaml.YAMLError) as error:
             raise LibraryError(f"cannot read skill library {path}: {error}") from None
+        if isinstance(data, dict) and "extends" in data:
+            data = dict(data)
+            base = cls.load(path.parent / str(data.pop("extends")), (*_read, path))
+            data["skills"] = [*base.to_dict()["skills"], *(data.get("skills") or [])]
         return cls.from_dict(data, source=str(path))

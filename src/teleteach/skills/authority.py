@@ -68,7 +68,7 @@ def spread_along(skill: skill_file.Skill, times: np.ndarray, config: AuthorityCo
 
 def target_distance(skill: skill_file.Skill, target_in_base) -> float:
     """How far [m] the target a target-frame skill replays at lies from where it was taught (base_link); 0 else."""
-    if skill.frame != skill_file.TARGET_FRAME or target_in_base is None:
+    if skill.frame != skill_file.TARGET_FRAME:
         return 0.0
     return float(np.linalg.norm(target_in_base.position - skill.target.transform.position))
 

@@ -26,6 +26,7 @@ from visualization_msgs.msg import MarkerArray
 from teleteach.control import panda
 from teleteach.core.observed import ObservedScene, observed_from_markers
 from teleteach.core.rotations import yaw_rotation
+from teleteach.core.validation import InvalidCommandError, check_frame, finite_vector
 from teleteach.msg import (
     ExecuteSkillAction,
     ExecuteSkillFeedback,
@@ -216,16 +217,13 @@ class RosRobot(Robot):
             self._library = tuple(zip(msg.names, msg.kinds, msg.data_files))
 
     def _on_correction(self, msg):
-        vector = np.array([msg.vector.x, msg.vector.y, msg.vector.z])
-        problem = ""
-        if msg.header.frame_id.lstrip("/") != BASE_FRAME:
-            problem = f"frame {msg.header.frame_id!r}, not {BASE_FRAME}"
-        elif not np.all(np.isfinite(vector)):
-            problem = "not finite"
-        elif np.linalg.norm(vector) > MAX_CORRECTION_MESSAGE:
-            problem = f"{np.linalg.norm(vector):.2f} m long (more than {MAX_CORRECTION_MESSAGE} m)"
-        if problem:
-            rospy.logwarn_throttle(2.0, f"skill_server: /skills/correction refused ({problem}): the replay ignores it")
+        try:
+            check_frame(msg.header.frame_id, BASE_FRAME)
+            vector = finite_vector([msg.vector.x, msg.vector.y, msg.vector.z], 3, "correction")
+            if np.linalg.norm(vector) > MAX_CORRECTION_MESSAGE:
+                raise InvalidCommandError(f"{np.linalg.norm(vector):.2f} m long (more than {MAX_CORRECTION_MESSAGE} m)")
+        except InvalidCommandError as error:
+            rospy.logwarn_throttle(2.0, f"skill_server: /skills/correction refused ({error}): the replay ignores it")
             return
         with self._lock:
             self._correction = (vector, self.now())
