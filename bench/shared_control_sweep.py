@@ -35,7 +35,7 @@ import sys
 import tempfile
 import threading
 import time
-from typing import List
+from typing import List, Optional
 
 import numpy as np
 import yaml
@@ -77,7 +77,10 @@ GOALS = {
 
 @dataclasses.dataclass
 class Cell:
-    """One operator: commands every DT (n x 2) [m/s], the skill before and after ``switch`` (a command index)."""
+    """One operator: commands every DT (n x 2) [m/s], the skill before and after ``switch`` (a command index).
+
+    ``path`` is the underlying path U the patterns were drawn around, every DT (n x 2) [m], where there is one.
+    """
 
     group: str
     name: str
@@ -85,6 +88,7 @@ class Cell:
     first: str
     second: str
     switch: int
+    path: Optional[np.ndarray] = None
 
 
 def synthetic_cells() -> List[Cell]:
@@ -156,7 +160,7 @@ def around(group: str, name: str, path: np.ndarray, order: int, rng) -> Cell:
     first, second = (WAVE, CYCLOID) if order == 0 else (CYCLOID, WAVE)
     switch = len(path) // 2
     commands = commands_around_path(path, DT, (first, second), switch * DT, HUMAN_NOISE, rng)
-    return Cell(group, name, commands, first[0], second[0], switch)
+    return Cell(group, name, commands, first[0], second[0], switch, path)
 
 
 def fit_in_box(path: np.ndarray, box: Box, clearance: float) -> np.ndarray:

@@ -9,6 +9,7 @@ from teleteach.msg import SharedControlState
 from teleteach.shared_control.constraints import Box, StraightEdge, violation
 from teleteach.shared_control.loop import DIRECT, FALLBACK, SHARED, UNKNOWN, Mode, SharedControl, SharedControlConfig
 from teleteach.shared_control.models import synthetic_commands
+from teleteach.shared_control.operators import commands_around_path, lasa_path
 from teleteach.shared_control.problems import recency_weights
 
 DT = 0.02
@@ -185,6 +186,54 @@ def test_operator_pushing_into_the_boundary_stays_shared_and_slides_along_it():
     assert identified.count("wave") >= 0.99 * len(pushing)
     assert min(r.state[0] for r in pushing) < -0.1 + 0.006
     assert any("no plan keeps the 5 mm margin" in r.message for r in pushing)
+
+
+def test_no_executed_step_is_faster_than_the_fastest_allowed_command():
+    # A cycloid of 11 cm/s meets the top of the boundary; one cycle's optimisation (its last iterate at the iteration
+    # cap) fitted a 5.5 cm loop at 20 cm/s to stay inside, whose first step was 1.58 m/s before the step limit.
+    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), (0.0, 0.0), Box(-0.25, -0.15, 0.25, 0.15))
+    rng = np.random.default_rng(5)
+    times = np.arange(0.0, 4.0, DT)
+    commands = np.vstack(
+        [synthetic_commands(s, (0.015, 12.0, 0.0), 1.21, 0.05, times, 0.01, rng) for s in ("wave", "cycloid")]
+    )
+    assert np.linalg.norm(commands, axis=1).max() < 0.2
+    records = [controller.step(command) for command in commands]
+    states = np.array([(0.0, 0.0)] + [r.state for r in records])
+    speeds = np.linalg.norm(np.diff(states, axis=0), axis=1) / DT
+    assert speeds.max() <= controller.config.max_command_speed + TOLERANCE
+    assert any("limited to 1.00 m/s" in r.message for r in records)
+    assert max(violation(np.array(r.state), controller.box, None) for r in records) <= TOLERANCE
+
+
+def test_a_wave_around_a_turning_human_stroke_is_identified_with_a_free_heading():
+    # The LASA stroke "Sine" (one of the sweep's tuned shapes), 40 cm long at 5 cm/s, turns at up to 1 rad/s; the
+    # estimation's Clothoid may bend 0.1 rad/s (2 1/m). With the heading held near the followed skill's (0.001 rad a
+    # cycle) the wave's fit lags the turn and the cycloid explains half the windows better.
+    path = lasa_path("Sine", 0, DT, 0.4, 0.05)
+    wave = ("wave", (0.015, 14.0, 0.0))
+    commands = commands_around_path(path, DT, (wave, wave), math.inf, 0.008, np.random.default_rng(1))
+    shares = {}
+    for heading_continuity in (3.1416, 0.001):
+        config = SharedControlConfig.from_yaml(solver="fast", heading_continuity=heading_continuity)
+        skills = identified_skills(SharedControl(config), commands)
+        shares[heading_continuity] = skills.count("wave") / len(skills)
+    assert shares[3.1416] >= 0.85
+    assert shares[3.1416] - shares[0.001] >= 0.25
+
+
+@pytest.mark.parametrize("skill, other", [("wave", "cycloid"), ("cycloid", "wave")])
+def test_a_window_alone_is_fitted_best_by_its_own_skill_whatever_came_before(controller, skill, other):
+    # The controller has just followed the other pattern: window_fits must not carry its heading or estimates over.
+    times = np.arange(0.0, controller.config.window_time, DT)
+    rng = np.random.default_rng(4)
+    controller.reset((0.5, 0.0))
+    for command in synthetic_commands(other, (0.03, 20.0, 0.0), 0.5, 0.05, np.arange(0.0, 2.0, DT), 0.0, rng):
+        controller.step(command)
+    window = synthetic_commands(skill, (0.02, 15.0, 0.01), 2.5, 0.05, times, 0.005, rng)
+    fits = controller.window_fits(window)
+    assert set(fits) == {"wave", "cycloid"}
+    assert fits[skill] < 0.2 * fits[other]
 
 
 def test_coasting_follows_the_previous_plan_and_keeps_the_window_on_the_grid():

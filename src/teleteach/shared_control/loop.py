@@ -58,10 +58,11 @@ class SharedControlConfig:
         speed_bounds: (min, max) of v0 [m/s].
         heading_continuity: allowed change of alpha_c per cycle [rad]. 0 is the paper's equality alpha_c =
             alpha_c_prev: a heading error then grows through the extrapolated curvature (measured: ~1 rad of drift
-            in 14 s of noisy input); a small value corrects it slowly while the bends the optimisation makes to
-            avoid constraints still carry over to the next cycles.
+            in 14 s of noisy input). pi or more: every skill fits the heading its window asks for (warm-started at
+            the followed skill's), which a person's path needs: it turns faster than the estimation's Clothoid may
+            bend (docs/reference.md, *Operators nobody tuned to*).
         speed_scale: typical operator speed [m/s] (scales the fitting residuals).
-        max_command_speed: commands faster than this are clipped [m/s].
+        max_command_speed: commands faster than this are clipped, and no executed step is faster [m/s].
         idle_speed: when the RMS command speed over a full window is below this, the operator is idle: the window
             restarts (direct control for t_w again), so estimation starts afresh when they move again; commands
             slower than this before the first move are left out of the window [m/s].
@@ -558,6 +559,13 @@ class SharedControl:
         self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
         authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
         state, velocity = self._blend(planned, planned_velocity, command, authority)
+        step = float(np.linalg.norm(state - self.state))
+        if step > cfg.max_command_speed * cfg.dt:
+            # A plan fitted to a pattern can ask for more than the operator may (its skill's speed within Theta^TO):
+            # the step is shortened towards it, inside the free region (convex: box and half-plane).
+            state = self.state + (state - self.state) * (cfg.max_command_speed * cfg.dt / step)
+            velocity = (state - self.state) / cfg.dt
+            message += f"; step of {step / cfg.dt:.2f} m/s limited to {cfg.max_command_speed:.2f} m/s"
         # The stored plan passes through the executed state, so a fallback continues from where the robot is.
         self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
         self.state = state
@@ -632,10 +640,9 @@ class SharedControl:
         layout = self.estimation_layouts[name]
         estimation = self.estimations[name]
         previous = self.estimates[name]
-        curvature = np.zeros(layout.n)
-        curvature[: layout.i_alpha] = cfg.curvature_weight
+        curvature = self._curvature_weights(layout)
         if previous is None:
-            guess = self._seed(name, commands)
+            guess = self._seed(name, commands, self.alpha_c)
             return estimation.solve(commands, guess, None, np.zeros(layout.n), None, curvature)
         weights = _weights(layout, cfg.regularisation_weights)
         result = estimation.solve(
@@ -651,11 +658,10 @@ class SharedControl:
             return result
         cfg = self.config
         layout, estimation = self.estimation_layouts[name], self.estimations[name]
-        seed = self._seed(name, commands)
+        seed = self._seed(name, commands, self.alpha_c)
         if estimation.fitting_error(seed, commands) >= estimation.fitting_error(result.theta, commands):
             return result
-        curvature = np.zeros(layout.n)
-        curvature[: layout.i_alpha] = cfg.curvature_weight
+        curvature = self._curvature_weights(layout)
         weights = _weights(layout, cfg.regularisation_weights)
         reseeded = estimation.solve(commands, seed, seed, weights, self.alpha_c, curvature, cfg.heading_continuity)
         if reseeded.theta is not None and np.isfinite(reseeded.cost) and reseeded.cost < result.cost:
@@ -671,19 +677,41 @@ class SharedControl:
             return False
         return (self._estimation_cycles + self.skills.index(name) * period // len(self.skills)) % period == 0
 
-    def _seed(self, name: str, commands: np.ndarray) -> np.ndarray:
+    def window_fits(self, commands: np.ndarray) -> Dict[str, float]:
+        """Each skill's fitting error on one window, fitted from a fresh grid seed with nothing from earlier cycles.
+
+        What the window alone says, without continuity or hysteresis: ``bench/shared_control_identifiability.py``
+        measures with it how often the best-fitting skill is the operator's.
+        """
+        commands = np.asarray(commands, dtype=float)
+        fits = {}
+        for name in self.skills:
+            layout = self.estimation_layouts[name]
+            curvature = self._curvature_weights(layout)
+            guess = self._seed(name, commands, None)
+            result = self.estimations[name].solve(commands, guess, None, np.zeros(layout.n), None, curvature)
+            fits[name] = self.estimations[name].fitting_error(result.theta, commands)
+        return fits
+
+    def _curvature_weights(self, layout: ParameterLayout) -> np.ndarray:
+        """The estimation's always-on penalty on the Clothoid's curvature entries (phi), zero elsewhere."""
+        weights = np.zeros(layout.n)
+        weights[: layout.i_alpha] = self.config.curvature_weight
+        return weights
+
+    def _seed(self, name: str, commands: np.ndarray, heading: Optional[float]) -> np.ndarray:
         """First guess of an estimation: the best fit over a grid of heading, speed, amplitude, frequency and phase.
 
         The mean command alone is a biased heading and speed when the window holds a fraction of a large, fast loop
         (measured: a 4.5 cm cycloid at 1.5 Hz seeded 3 rad off, and heading continuity kept it there); a single
         guessed amplitude left small, fast loops in a local minimum where the wrong skill fitted better. After the
-        first estimate the heading is alpha_c's.
+        first estimate the heading is alpha_c's (``heading``; None: a grid of headings).
         """
         layout = self.estimation_layouts[name]
         skill = layout.skill
         mean = commands.mean(axis=0)
-        if self.alpha_c is not None:
-            headings = np.array([self.alpha_c])
+        if heading is not None:
+            headings = np.array([heading])
         else:
             mean_heading = math.atan2(mean[1], mean[0]) if np.linalg.norm(mean) > 1e-9 else 0.0
             headings = mean_heading + np.linspace(0.0, 2 * math.pi, 8, endpoint=False)
