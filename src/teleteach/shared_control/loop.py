@@ -58,9 +58,9 @@ class SharedControlConfig:
         speed_bounds: (min, max) of v0 [m/s].
         heading_continuity: allowed change of alpha_c per cycle [rad]. 0 is the paper's equality alpha_c =
             alpha_c_prev: a heading error then grows through the extrapolated curvature (measured: ~1 rad of drift
-            in 14 s of noisy input). pi or more: every skill fits the heading its window asks for (warm-started at
-            the followed skill's), which a person's path needs: it turns faster than the estimation's Clothoid may
-            bend (docs/reference.md, *Operators nobody tuned to*).
+            in 14 s of noisy input). pi or more: every skill fits the heading its window asks for (warm-started from
+            its previous estimate; a fresh seed starts at the followed skill's), which a person's path needs: it
+            turns faster than the estimation's Clothoid may bend (docs/reference.md, *Operators nobody tuned to*).
         speed_scale: typical operator speed [m/s] (scales the fitting residuals).
         max_command_speed: commands faster than this are clipped, and no executed step is faster [m/s].
         idle_speed: when the RMS command speed over a full window is below this, the operator is idle: the window
