@@ -207,9 +207,9 @@ def test_no_executed_step_is_faster_than_the_fastest_allowed_command():
 
 
 def test_a_wave_around_a_turning_human_stroke_is_identified_with_a_free_heading():
-    # The LASA stroke "Sine" (one of the sweep's tuned shapes), 40 cm long at 5 cm/s, turns at up to 1 rad/s; the
-    # estimation's Clothoid may bend 0.1 rad/s (2 1/m). With the heading held near the followed skill's (0.001 rad a
-    # cycle) the wave's fit lags the turn and the cycloid explains half the windows better.
+    # The LASA stroke "Sine" (one of the sweep's tuned shapes), 40 cm across at 5 cm/s, turns at 0.6 rad/s (median
+    # curvature 12.5 1/m); the estimation's Clothoid may bend 0.1 rad/s (2 1/m). With the heading held near the
+    # followed skill's (0.001 rad a cycle) the fits lag the turn and the cycloid explains half the windows better.
     path = lasa_path("Sine", 0, DT, 0.4, 0.05)
     wave = ("wave", (0.015, 14.0, 0.0))
     commands = commands_around_path(path, DT, (wave, wave), math.inf, 0.008, np.random.default_rng(1))
