@@ -23,6 +23,8 @@ class Skill:
         self.server.start()
         self.started = []
         self.release = threading.Event()
+        self.may_stop = threading.Event()  # cleared: a preempted "work" holds on before it stops
+        self.may_stop.set()
 
     def execute(self, goal):
         self.started.append(goal.skill)
@@ -35,6 +37,7 @@ class Skill:
             if self.release.wait(0.01):
                 self.server.set_succeeded(ExecuteSkillResult(success=True, message="done"), "done")
                 return
+        self.may_stop.wait(10.0)
         self.server.set_preempted(ExecuteSkillResult(success=False, message="preempted"), "preempted")
 
 
@@ -48,6 +51,7 @@ class OneGoal(unittest.TestCase):
     def setUp(self):
         self.skill.started.clear()
         self.skill.release.clear()
+        self.skill.may_stop.set()
 
     def send(self, skill):
         feedback = []
@@ -83,9 +87,15 @@ class OneGoal(unittest.TestCase):
     def test_a_cancel_drops_a_waiting_goal_that_never_runs(self):
         running = self.send("work")
         wait_until(lambda: self.skill.started == ["work"], 10.0, "the goal to run")
+        self.skill.may_stop.clear()
         waiting = self.send("never")
+        # Goal and cancel travel on separate topics: a cancel sent at once may overtake its goal, which is then
+        # recalled before the server sees it (a fresh machine saw that). So the cancel goes once the server holds the
+        # goal (it asked the running one to stop), and the running one stops only after that.
+        wait_until(self.skill.server.is_preempt_requested, 10.0, "the server to hold the second goal")
         waiting.cancel()
         self.assertEqual(self.wait_done(waiting)[0], GoalStatus.RECALLED)
+        self.skill.may_stop.set()
         self.assertEqual(self.wait_done(running)[0], GoalStatus.PREEMPTED)  # the waiting goal had asked it to stop
         time.sleep(0.3)
         self.assertEqual(self.skill.started, ["work"])
