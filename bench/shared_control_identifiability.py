@@ -82,12 +82,7 @@ def main():
     args = parser.parse_args()
     params = yaml.safe_load((sweep.ROOT / "config" / "shared_control.yaml").read_text())
     box = Box(*params["boundary"])
-    makers = {
-        "synthetic": sweep.synthetic_cells,
-        "lasa-tuned": lambda: sweep.lasa_cells(False, box),
-        "lasa-held-out": lambda: sweep.lasa_cells(True, box),
-        "minimum-jerk": lambda: sweep.minimum_jerk_cells(box),
-    }
+    makers = sweep.cell_makers(box)
     cells = {group: makers[group]() for group in args.groups}
     rows = []
     print(f"node's window: {params['window_time']} s; every {STRIDE}th cycle, windows wholly on one side of the switch")

@@ -208,6 +208,17 @@ def minimum_jerk_cells(box: Box) -> List[Cell]:
     return cells
 
 
+def cell_makers(box: Box) -> dict:
+    """Group name -> a function making that group's cells (``box``: the node's boundary)."""
+    return {
+        "synthetic": synthetic_cells,
+        "push": lambda: push_cells(box),
+        "lasa-tuned": lambda: lasa_cells(False, box),
+        "lasa-held-out": lambda: lasa_cells(True, box),
+        "minimum-jerk": lambda: minimum_jerk_cells(box),
+    }
+
+
 def score(states, cell: Cell, box: Box, switch_time: float, duration: float) -> dict:
     """The goals' figures of one cell from its states (time [s], mode, skill, x, y, solve [s], cycle, late)."""
     limit = GOALS["switch_delay_s"]
@@ -459,13 +470,7 @@ def main():
     overrides = {name: yaml.safe_load(value) for name, value in (item.split("=", 1) for item in args.set)}
     params.update(overrides)
     box = Box(*params["boundary"])
-    makers = {
-        "synthetic": synthetic_cells,
-        "push": lambda: push_cells(box),
-        "lasa-tuned": lambda: lasa_cells(False, box),
-        "lasa-held-out": lambda: lasa_cells(True, box),
-        "minimum-jerk": lambda: minimum_jerk_cells(box),
-    }
+    makers = cell_makers(box)
     cells = [cell for group in args.groups for cell in makers[group]()]
     runs = {"idle": None}
     if args.busy:
