@@ -4,6 +4,7 @@ The GUI runs in the X server pytest-xvfb starts (real Mesa OpenGL); the test pro
 hosts the GUI and plays the operator (it publishes the /sigma7 topics the sigma7 node would publish).
 """
 
+import gc
 import os
 import pathlib
 import signal
@@ -199,7 +200,13 @@ def device(ros_master):
 
 @pytest.fixture
 def make_window(qapp, ros_master, data_root):
-    """Builds the real main window (config/gui.yaml + overrides) and closes it after the test."""
+    """Builds the real main window (config/gui.yaml + overrides); closes and destroys it after the test.
+
+    Destroyed here, not by a later garbage collection: a window's Qt objects (its worker thread, its OpenGL view)
+    must go while the X server and the event loop are up, and a failure must point at the test that made it.
+    """
+    from PyQt5.QtCore import QCoreApplication, QEvent
+
     from teleteach.core.gui_config import GuiConfig
     from teleteach.gui.app import MainWindow
 
@@ -215,7 +222,12 @@ def make_window(qapp, ros_master, data_root):
     yield make
     for window in windows:
         window.close()
+        assert window.thread.isFinished(), "the closed window's ROS worker thread still runs"
+        window.deleteLater()
     pump(qapp, 0.2)
+    QCoreApplication.sendPostedEvents(None, QEvent.DeferredDelete)
+    windows.clear()
+    gc.collect()
 
 
 class TopicLog:

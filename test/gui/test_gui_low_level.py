@@ -293,6 +293,13 @@ def test_an_arm_that_does_not_come_to_rest_is_not_switched_and_the_tab_says_why(
         assert [
             request for request in switched if request.start_controllers != ["position_joint_trajectory_controller"]
         ] == []
+        # LOW-LEVEL hears TF and the perceived scene (a recording may need its gap); the closed window hears nothing
+        heard = ("/tf", "/tf_static", "/teleteach/scene", "/sigma7/pose", "/joint_states")
+        assert all(gui_hears(topic) for topic in heard)
+        window.close()
+        pump_until(
+            qapp, lambda: not any(gui_hears(topic) for topic in heard), 5, f"the closed GUI to hear none of {heard}"
+        )
     finally:
         stop.set()
         thread.join(2)

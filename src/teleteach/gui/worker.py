@@ -411,9 +411,10 @@ class RosWorker(QObject):
 
     @pyqtSlot()
     def stop(self) -> None:
-        """Cooperative stop: timers off, subscribers gone (runs in the worker thread)."""
+        """Cooperative stop: timers off, subscribers gone, TF listener too (runs in the worker thread)."""
         for timer in self._timers:
             timer.stop()
+        self._follow_target(False)
         for subscriber in self._subscribers.values():
             subscriber.unregister()
         self._subscribers.clear()
