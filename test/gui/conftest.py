@@ -29,6 +29,13 @@ def stop(process, timeout=10.0):
             process.wait()
 
 
+@pytest.fixture(autouse=True)
+def collect_garbage():
+    """After each GUI test, its garbage goes (Qt widgets in reference cycles included), here and not in a later test."""
+    yield
+    gc.collect()
+
+
 @pytest.fixture(scope="session")
 def ros_master(tmp_path_factory):
     """A roscore on a free port of its own (teleteach.runtime.processes.own_roscore).
@@ -226,8 +233,6 @@ def make_window(qapp, ros_master, data_root):
         window.deleteLater()
     pump(qapp, 0.2)
     QCoreApplication.sendPostedEvents(None, QEvent.DeferredDelete)
-    windows.clear()
-    gc.collect()
 
 
 class TopicLog:
