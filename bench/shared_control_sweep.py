@@ -219,6 +219,27 @@ def cell_makers(box: Box) -> dict:
     }
 
 
+def executed_motion(states) -> tuple:
+    """Top speed [m/s] and p99 acceleration [m/s^2] of the executed states, from consecutive cycles (dt each).
+
+    No goal: they show what a faster solve costs the motion (a last iterate at the iteration cap can ask for a fast
+    step where the operator moved slowly).
+    """
+    cycles = np.array([s["cycle"] for s in states])
+    xy = np.array([(s["x"], s["y"]) for s in states])
+    if len(states) < 3:
+        return None, None
+    consecutive = np.diff(cycles) == 1
+    velocity = np.diff(xy, axis=0) / DT
+    speeds = np.linalg.norm(velocity[consecutive], axis=1)
+    both = consecutive[1:] & consecutive[:-1]
+    accelerations = np.linalg.norm(np.diff(velocity, axis=0)[both], axis=1) / DT
+    return (
+        float(speeds.max()) if speeds.size else None,
+        float(np.percentile(accelerations, 99)) if accelerations.size else None,
+    )
+
+
 def score(states, cell: Cell, box: Box, switch_time: float, duration: float) -> dict:
     """The goals' figures of one cell from its states (time [s], mode, skill, x, y, solve [s], cycle, late)."""
     limit = GOALS["switch_delay_s"]
@@ -237,6 +258,7 @@ def score(states, cell: Cell, box: Box, switch_time: float, duration: float) -> 
     solves = [1e3 * s["solve"] for s in states if s["solve"] > 0]
     cycles = states[-1]["cycle"] - states[0]["cycle"] + 1 if states else 0
     late = states[-1]["late"] - states[0]["late"] if states else 0
+    top_speed, acceleration_p99 = executed_motion(states)
     return {
         "group": cell.group,
         "cell": cell.name,
@@ -252,6 +274,8 @@ def score(states, cell: Cell, box: Box, switch_time: float, duration: float) -> 
         "switch_delay_s": None if detected is None else detected - switch_time,
         "violation_m": max((violation(np.array([s["x"], s["y"]]), box, None) for s in states), default=0.0),
         "solve_p99_ms": float(np.percentile(solves, 99)) if solves else None,
+        "top_speed_m_s": top_speed,
+        "acceleration_p99_m_s2": acceleration_p99,
         "fallback_reasons": collections.Counter(
             s["message"].split("; ")[-1] for s in states if s["mode"] == FALLBACK
         ).most_common(3),
@@ -436,6 +460,7 @@ def sweep(runner, cells, box, measured_rate) -> list:
             f"flicker {row['flicker']} delay {delay:>6} {row['rate_hz']:5.1f} Hz late "
             f"{100 * row['late_fraction']:4.1f} % FALLBACK {100 * row['fallback_fraction']:4.1f} % "
             f"viol {1e3 * row['violation_m']:.1f} mm solve p99 {solve} ms "
+            f"vmax {row['top_speed_m_s'] or 0.0:.2f} m/s acc p99 {row['acceleration_p99_m_s2'] or 0.0:.1f} m/s2 "
             f"{'ok' if not missed else 'MISSES ' + ','.join(missed)}",
             flush=True,
         )

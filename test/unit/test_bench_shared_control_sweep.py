@@ -1,0 +1,24 @@
+"""bench/shared_control_sweep.py's figures of the executed motion, on states with a known motion."""
+
+import numpy as np
+import pytest
+from bench_scripts import bench_module
+
+sweep = bench_module("shared_control_sweep")
+
+
+def states(positions, cycles):
+    return [{"cycle": cycle, "x": x, "y": 0.0} for x, cycle in zip(positions, cycles)]
+
+
+def test_the_executed_motion_is_measured_over_consecutive_cycles_only():
+    dt = sweep.DT
+    steady = [0.1 * dt * k for k in range(10)]  # 0.1 m/s along x
+    # a state message lost (cycle 10): the 0.5 m between cycles 9 and 11 is no step of one cycle
+    top_speed, acceleration = sweep.executed_motion(states([*steady, 0.5, 0.5 + 0.1 * dt], [*range(10), 11, 12]))
+    assert top_speed == pytest.approx(0.1)
+    assert acceleration == pytest.approx(0.0, abs=1e-9)
+    # one step of 1 m/s after the steady motion: the top speed, and a jump of 0.9 m/s in one cycle
+    top_speed, acceleration = sweep.executed_motion(states([*steady, steady[-1] + 1.0 * dt], range(11)))
+    assert top_speed == pytest.approx(1.0)
+    assert acceleration == pytest.approx(np.percentile([0.0] * 8 + [0.9 / dt], 99))
