@@ -225,10 +225,10 @@ def executed_motion(states) -> tuple:
     No goal: they show what a faster solve costs the motion (a last iterate at the iteration cap can ask for a fast
     step where the operator moved slowly).
     """
-    cycles = np.array([s["cycle"] for s in states])
-    xy = np.array([(s["x"], s["y"]) for s in states])
     if len(states) < 3:
         return None, None
+    cycles = np.array([s["cycle"] for s in states])
+    xy = np.array([(s["x"], s["y"]) for s in states])
     consecutive = np.diff(cycles) == 1
     velocity = np.diff(xy, axis=0) / DT
     speeds = np.linalg.norm(velocity[consecutive], axis=1)

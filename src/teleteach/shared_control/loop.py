@@ -640,11 +640,10 @@ class SharedControl:
         layout = self.estimation_layouts[name]
         estimation = self.estimations[name]
         previous = self.estimates[name]
-        curvature = self._curvature_weights(layout)
         if previous is None:
-            guess = self._seed(name, commands, self.alpha_c)
-            return estimation.solve(commands, guess, None, np.zeros(layout.n), None, curvature)
+            return self._fresh_estimate(name, commands, self.alpha_c)
         weights = _weights(layout, cfg.regularisation_weights)
+        curvature = self._curvature_weights(layout)
         result = estimation.solve(
             commands, previous, previous, weights, self.alpha_c, curvature, cfg.heading_continuity
         )
@@ -686,12 +685,16 @@ class SharedControl:
         commands = np.asarray(commands, dtype=float)
         fits = {}
         for name in self.skills:
-            layout = self.estimation_layouts[name]
-            curvature = self._curvature_weights(layout)
-            guess = self._seed(name, commands, None)
-            result = self.estimations[name].solve(commands, guess, None, np.zeros(layout.n), None, curvature)
+            result = self._fresh_estimate(name, commands, None)
             fits[name] = self.estimations[name].fitting_error(result.theta, commands)
         return fits
+
+    def _fresh_estimate(self, name: str, commands: np.ndarray, heading: Optional[float]) -> SolveResult:
+        """A skill's estimation from the grid seed (``_seed``), pulled towards no earlier estimate."""
+        layout = self.estimation_layouts[name]
+        guess = self._seed(name, commands, heading)
+        curvature = self._curvature_weights(layout)
+        return self.estimations[name].solve(commands, guess, None, np.zeros(layout.n), None, curvature)
 
     def _curvature_weights(self, layout: ParameterLayout) -> np.ndarray:
         """The estimation's always-on penalty on the Clothoid's curvature entries (phi), zero elsewhere."""
