@@ -206,12 +206,18 @@ def test_a_path_taught_in_teleop_is_taught_its_stiffness_in_low_level_and_become
     pump(qapp, duration / REAL_TIME_FACTOR + 1.0)
     double_click(device)
     pump_until(qapp, lambda: not window.recorder.active, 5, "the stiffness recording stopped")
+    learning = "learning DemonstratedPlace_1_dmp"
+    pump_until(qapp, lambda: learning in window.statusBar().currentMessage(), 5, "the DMP being learned")
+
+    # Expect the window closed while the DMP is learned to let it finish: the skill is there once the window is gone
+    window.close()
+    learned = skill_file.load(data_root / "skills" / "DemonstratedPlace_1_dmp.npz")
 
     def in_library():
         message = library_log.last()
         return message is not None and "DemonstratedPlace_1_dmp" in message.names
 
-    pump_until(qapp, in_library, 90, "DemonstratedPlace_1_dmp in /behaviour_tree/skill_library")
+    pump_until(qapp, in_library, 5, "DemonstratedPlace_1_dmp in /behaviour_tree/skill_library")
     message = library_log.last()
     assert message.kinds[list(message.names).index("DemonstratedPlace_1_dmp")] == "dmp"
     assert "DemonstratedPlace_1" not in message.names  # the raw demonstration is what the DMP was learned from
@@ -222,6 +228,5 @@ def test_a_path_taught_in_teleop_is_taught_its_stiffness_in_low_level_and_become
     spread_time = demonstration.provenance["path_spread_time"]
     np.testing.assert_allclose(spread_time, taught.times, atol=1e-3)
     assert spread_time[-1] <= demonstration.duration + 0.5
-    learned = skill_file.load(data_root / "skills" / "DemonstratedPlace_1_dmp.npz")
     assert learned.provenance["path_spread"] == demonstration.provenance["path_spread"]
     assert window.trajectory.name == window.config.trajectory  # LOW-LEVEL back on its predefined trajectory

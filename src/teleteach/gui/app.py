@@ -56,6 +56,7 @@ from teleteach.srv import (
 )
 
 SWITCH_SERVICE = "controller_manager/switch_controller"
+LEARNING_GRACE_MS = 60000  # a DMP being learned as the window closes gets this long to join the library
 
 
 class WindowTopics:
@@ -721,7 +722,10 @@ class MainWindow(QMainWindow):
         super().closeEvent(event)
 
     def shutdown(self) -> None:
-        """Idempotent: what closing the window does (the device is left without guidance: no force)."""
+        """Idempotent: what closing the window does.
+
+        The device is left without guidance (no force), a DMP being learned is waited for.
+        """
         if self.thread.isRunning():
             self._guidance_timer.stop()
             publish(self.topics.guidance, HapticGuidance(**guidance_fields(self._guidance.free())))
@@ -730,6 +734,22 @@ class MainWindow(QMainWindow):
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)
             self.thread.quit()
             self.thread.wait(3000)
+        self._finish_learning()
+
+    def _finish_learning(self) -> None:
+        """A DMP still being learned is learned to the end, not lost: Qt would kill its process with the window."""
+        process = self._learning
+        if process is None or process.state() == QProcess.NotRunning:
+            return
+        process.finished.disconnect()  # its answer has no window left to be shown in
+        rospy.loginfo("waiting up to %.0f s for learn_skill to finish the DMP it learns", LEARNING_GRACE_MS / 1000)
+        if process.waitForFinished(LEARNING_GRACE_MS):
+            output = bytes(process.readAll()).decode(errors="replace").strip().splitlines()
+            rospy.loginfo(output[-1] if output else f"learn_skill ended with exit status {process.exitCode()}")
+        else:
+            process.kill()
+            process.waitForFinished(1000)
+            rospy.logwarn("learn_skill did not finish in %.0f s and was stopped", LEARNING_GRACE_MS / 1000)
 
 
 def run() -> int:
