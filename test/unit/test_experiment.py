@@ -11,7 +11,7 @@ import time
 import pytest
 
 from teleteach.runtime.experiment import Experiment, SystemEndedError
-from teleteach.runtime.processes import master_pid, parent_pid
+from teleteach.runtime.processes import descendants, master_pid, parent_pid, running, stop_tree
 
 SLEEPER = [sys.executable, "-c", "import time; time.sleep(60)"]
 PYTHON = pathlib.Path(sys.executable).name
@@ -206,6 +206,27 @@ def test_a_process_deaf_to_sigint_is_stopped_after_the_grace_asked_for(tmp_path,
         started = time.monotonic()
         assert experiment.stop(process, grace=0.5) == -signal.SIGTERM
         assert time.monotonic() - started < 5.0
+
+
+def test_what_a_stopped_process_left_running_in_a_session_of_its_own_is_killed(tmp_path):
+    """Like roslaunch's nodes: each in a session of its own, so the launch's process group does not reach them."""
+    pid_file = tmp_path / "pid"
+    launcher = ["bash", "-c", f"setsid sleep 600 & echo $! > {pid_file}; exec sleep 600"]
+    with Experiment(tmp_path) as experiment:
+        process = experiment.start("launcher", launcher)
+        deadline = time.monotonic() + 30.0
+        while not (pid_file.is_file() and pid_file.read_text().strip()) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        apart = int(pid_file.read_text())
+        assert descendants(process.pid) == [apart] and running(apart)
+        # Expect the launcher stopped by SIGINT, and what it left in its own session killed and reported
+        assert stop_tree(process, grace=5.0) == (-signal.SIGINT, [apart])
+        deadline = time.monotonic() + 5.0
+        while running(apart) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not running(apart)
+        # Expect a process that leaves nothing behind to report nothing
+        assert stop_tree(experiment.start("alone", SLEEPER), grace=5.0) == (-signal.SIGINT, [])
 
 
 def test_a_process_that_ended_without_a_log_is_named_with_its_exit_code(tmp_path):

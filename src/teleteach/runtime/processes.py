@@ -3,7 +3,8 @@
 A screenshot is of the screen once, or of each stage of an experiment while it runs (:class:`StageScreenshots`).
 
 Processes are started in their own session and stopped by PID, in reverse order of starting (RViz before Xvfb),
-first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL. A process
+first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL, and then
+what they started and left running (roslaunch's nodes live in sessions of their own) is killed too. A process
 may be told to stop when ours dies, however it dies (Linux's parent-death signal): a killed study runner leaves no
 roslaunch behind.
 """
@@ -54,6 +55,64 @@ def parent_pid(pid: int) -> Optional[int]:
     except OSError:
         return None
     return int(stat.rsplit(")", 1)[1].split()[1])
+
+
+def descendants(pid: int) -> List[int]:
+    """The processes below ``pid``: its children, theirs, and so on.
+
+    roslaunch starts each node in a session of its own, so signalling the launch's process group does not reach them.
+    """
+    children: Dict[int, List[int]] = {}
+    for entry in pathlib.Path("/proc").iterdir():
+        if entry.name.isdigit():
+            parent = parent_pid(int(entry.name))
+            if parent is not None:
+                children.setdefault(parent, []).append(int(entry.name))
+    found, pending = [], [pid]
+    while pending:
+        below = children.get(pending.pop(), [])
+        found.extend(below)
+        pending.extend(below)
+    return found
+
+
+def stop_tree(process: subprocess.Popen, grace: float = 20.0) -> Tuple[Optional[int], List[int]]:
+    """Stop ``process`` and all it started: the exit code, and the pids it left running (killed here).
+
+    SIGINT, then SIGTERM, then SIGKILL to ``process`` (its process group when it leads one), each after a wait; then
+    SIGKILL to whatever it started and left running (the nodes of a launch killed before it stopped them).
+    """
+    below = descendants(process.pid)
+    for sig, wait in ((signal.SIGINT, grace), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+        if process.poll() is not None:
+            break
+        try:
+            if os.getpgid(process.pid) == process.pid:
+                os.killpg(process.pid, sig)  # a session of its own: a wrapper's child (rosrun's) hears it too
+            else:
+                os.kill(process.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            process.wait(wait)
+        except subprocess.TimeoutExpired:
+            continue
+    leftovers = [pid for pid in below if running(pid)]
+    for pid in leftovers:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass  # it ended since
+    return process.poll(), leftovers
+
+
+def running(pid: int) -> bool:
+    """Whether ``pid`` is a process that still runs (not gone, not a zombie waiting to be reaped)."""
+    try:
+        stat = pathlib.Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
 
 
 def wait_for_own_master(uri: str, starter: subprocess.Popen, timeout: float) -> bool:
@@ -151,25 +210,15 @@ class Processes:
         return process
 
     def stop(self, process: subprocess.Popen, grace: float = 20.0) -> Optional[int]:
-        """SIGINT, then SIGTERM, then SIGKILL, each after a wait; returns the exit code."""
-        for sig, wait in ((signal.SIGINT, grace), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
-            if process.poll() is not None:
-                break
-            try:
-                os.kill(process.pid, sig)
-            except ProcessLookupError:
-                break
-            try:
-                process.wait(wait)
-            except subprocess.TimeoutExpired:
-                continue
+        """:func:`stop_tree` (nothing it started is left running); returns the exit code."""
+        code, _ = stop_tree(process, grace)
         for index, (_, started, stream) in enumerate(self._started):
             if started is process:
                 if stream is not None:
                     stream.close()
                 del self._started[index]
                 break
-        return process.poll()
+        return code
 
     def stop_all(self) -> None:
         """Stop everything still known, newest first."""
