@@ -7,26 +7,24 @@ hosts the GUI and plays the operator (it publishes the /sigma7 topics the sigma7
 import gc
 import os
 import pathlib
-import signal
 import subprocess
 import threading
 import time
+import warnings
 
 import pytest
 
-from teleteach.runtime.processes import own_roscore
+from teleteach.runtime.processes import own_roscore, stop_tree
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def stop(process, timeout=10.0):
-    if process.poll() is None:
-        os.killpg(process.pid, signal.SIGINT)
-        try:
-            process.wait(timeout)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
+    """Stop a node or launch, and kill what it left running: a launch's node alive after its test (it would publish
+    into the next tests: its TF, its /clock) is reported as a warning."""
+    _, leftovers = stop_tree(process, timeout)
+    if leftovers:
+        warnings.warn(f"{' '.join(process.args)} left processes {leftovers} running; killed them", stacklevel=2)
 
 
 @pytest.fixture(autouse=True)
@@ -34,6 +32,32 @@ def collect_garbage():
     """After each GUI test, its garbage goes (Qt widgets in reference cycles included), here and not in a later test."""
     yield
     gc.collect()
+
+
+@pytest.fixture(autouse=True)
+def no_topics_left_behind():
+    """A test's publishers and subscribers in this process end with it: one left behind (a stand-in robot's latched
+    base in /tf_static) is heard by the next tests' windows, which then fail for a reason that is not theirs."""
+    before = own_topics()
+    yield
+    left = own_topics() - before
+    assert not left, f"the test left this process publishing or subscribing: {sorted(left)}"
+
+
+def own_topics():
+    """("publishes" | "subscribes", topic) of this process's node, by the master; empty while it is no node."""
+    import rospy
+
+    if not rospy.core.is_initialized():
+        return set()
+    name = rospy.get_name()
+    publishers, subscribers, _ = rospy.get_master().getSystemState()[2]
+    return {
+        (role, topic)
+        for role, table in (("publishes", publishers), ("subscribes", subscribers))
+        for topic, nodes in table
+        if name in nodes
+    }
 
 
 @pytest.fixture(scope="session")
@@ -122,14 +146,17 @@ def pump(qapp, seconds):
 
 
 def pump_until(qapp, predicate, timeout, what):
-    """Run the GUI until ``predicate()`` holds; fail naming ``what`` after ``timeout`` seconds."""
+    """Run the GUI until ``predicate()`` holds; fail naming ``what`` after ``timeout`` seconds.
+
+    ``what`` may be a function: what it returns at the timeout names the wait (so it can say what was seen instead).
+    """
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         qapp.processEvents()
         if predicate():
             return
         time.sleep(0.005)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+    raise AssertionError(f"timed out after {timeout} s waiting for {what() if callable(what) else what}")
 
 
 class DeviceStandIn:
@@ -196,6 +223,8 @@ class DeviceStandIn:
     def close(self):
         self._stop.set()
         self._thread.join(2)
+        for publisher in (self._pose, self._gripper, self._button):
+            publisher.unregister()
 
 
 @pytest.fixture

@@ -230,8 +230,11 @@ class RobotStandIn:
             tick += 1
 
     def close(self):
+        """Stop publishing, latched topics too: the next tests' windows would hear this base and scene."""
         self._stop.set()
         self._thread.join(2)
+        for publisher in (self._pose, self._scene, self._tf.pub_tf):
+            publisher.unregister()
 
 
 def test_gui_killed_while_recording_leaves_no_skill_file(qapp, bt_node, device, topic_log, data_root):

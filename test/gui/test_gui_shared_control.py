@@ -47,6 +47,7 @@ class Operator:
     def close(self):
         self._stop.set()
         self._thread.join(2)
+        self._publisher.unregister()
 
 
 @pytest.fixture

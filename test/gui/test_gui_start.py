@@ -160,6 +160,7 @@ def test_while_a_skill_replays_the_clutch_corrects_it_and_start_says_who_leads(
     finally:
         replaying.clear()
         thread.join(timeout=2.0)
+        authority.unregister()
     count = len(corrections.messages)
     # Expect the line gone and no correction sent once the replay's reports stop
     pump_until(qapp, lambda: not window.start_tab.authority.isVisible(), 5, "the replay's line to go")

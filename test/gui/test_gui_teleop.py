@@ -70,7 +70,9 @@ def test_teleop_shows_the_clutch_and_why_the_arm_holds(
     pump_until(qapp, lambda: tab.view.driving and tab.view.equilibrium is not None, 10, "TELEOP driving the arm")
     assert tab.clutch_label.text() == "clutch released: the arm holds its pose"
     # Expect the placement's assistance to say it has no gap to help at (the base stands 1.75 m from the shelf)
-    pump_until(qapp, lambda: tab.assistance_label.text() == "assistance: no gap within 35 cm", 5, "the assistance")
+    no_gap = "assistance: no gap within 35 cm"
+    shown = tab.assistance_label.text
+    pump_until(qapp, lambda: shown() == no_gap, 5, lambda: f"{no_gap!r} (the tab shows {shown()!r})")
     start = tab.view.equilibrium.copy()
     # Expect the commanded pose to start where the arm is (no jump when the device takes it)
     assert np.linalg.norm(start[:3] - tab.view.measured[:3]) < 0.01
@@ -98,9 +100,9 @@ def test_teleop_shows_the_clutch_and_why_the_arm_holds(
     assert equilibria.last().pose.position == held
 
     # Expect the device's loss to be shown loudly, the arm held
-    device.close()
+    device.close()  # like the device node ending: its topics go with it
     pump_until(qapp, lambda: tab.device_lost.isVisible(), 5, "DEVICE LOST shown")
-    assert tab.reason_label.text().startswith("device lost")
+    pump_until(qapp, lambda: tab.reason_label.text().startswith("device lost"), 5, "the reason: the device's silence")
     assert equilibria.last().pose.position == held
     window.screenshot().save(str(artifacts_dir / "gui_teleop_device_lost.png"))
 

@@ -77,6 +77,11 @@ class WindowTopics:
         publish(self.recording, Bool(False))
         publish(self.shared_control, Bool(False))
 
+    def close(self) -> None:
+        """Publish no more: latched values of a closed window must not reach nodes that start later."""
+        for publisher in vars(self).values():
+            publisher.unregister()
+
 
 def _banner(style: str) -> QLabel:
     """A coloured line across the window, hidden until it has something to say; long texts wrap."""
@@ -724,7 +729,7 @@ class MainWindow(QMainWindow):
     def shutdown(self) -> None:
         """Idempotent: what closing the window does.
 
-        The device is left without guidance (no force), a DMP being learned is waited for.
+        The device is left without guidance (no force), the window's topics end, a DMP being learned is waited for.
         """
         if self.thread.isRunning():
             self._guidance_timer.stop()
@@ -734,6 +739,7 @@ class MainWindow(QMainWindow):
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)
             self.thread.quit()
             self.thread.wait(3000)
+            self.topics.close()
         self._finish_learning()
 
     def _finish_learning(self) -> None:

@@ -411,13 +411,15 @@ class RosWorker(QObject):
 
     @pyqtSlot()
     def stop(self) -> None:
-        """Cooperative stop: timers off, subscribers gone, TF listener too (runs in the worker thread)."""
+        """Cooperative stop: timers off, topics and the TF listener gone (runs in the worker thread)."""
         for timer in self._timers:
             timer.stop()
         self._follow_target(False)
         for subscriber in self._subscribers.values():
             subscriber.unregister()
         self._subscribers.clear()
+        for publisher in (self._eigenvalues, self._eigenvectors, self._correction_publisher):
+            publisher.unregister()
 
     def latest_sample(self):
         """The newest filtered device sample (None before the first), whether or not it was emitted yet."""
