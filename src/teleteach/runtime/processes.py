@@ -3,8 +3,8 @@
 A screenshot is of the screen once, or of each stage of an experiment while it runs (:class:`StageScreenshots`).
 
 Processes are started in their own session and stopped by PID, in reverse order of starting (RViz before Xvfb),
-first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL, and then
-what they started and left running (roslaunch's nodes live in sessions of their own) is killed too. A process
+first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL; then what
+they started and left running (roslaunch's nodes live in sessions of their own) is waited for and stopped too. A process
 may be told to stop when ours dies, however it dies (Linux's parent-death signal): a killed study runner leaves no
 roslaunch behind.
 """
@@ -77,33 +77,45 @@ def descendants(pid: int) -> List[int]:
 
 
 def stop_tree(process: subprocess.Popen, grace: float = 20.0) -> Tuple[Optional[int], List[int]]:
-    """Stop ``process`` and all it started: the exit code, and the pids it left running (killed here).
+    """Stop ``process`` and all it started: the exit code, and the pids it left running (stopped here).
 
-    SIGINT, then SIGTERM, then SIGKILL to ``process`` (its process group when it leads one), each after a wait; then
-    SIGKILL to whatever it started and left running (the nodes of a launch killed before it stopped them).
+    SIGINT, then SIGTERM, then SIGKILL to ``process``, each after a wait. What it started may still be finishing (the
+    recorder under ``rosbag record`` closes its bag after the wrapper has exited) and gets ``grace`` to end by itself;
+    what still runs then (the nodes of a launch killed before it stopped them) gets SIGINT, ``grace``, then SIGKILL.
     """
     below = descendants(process.pid)
     for sig, wait in ((signal.SIGINT, grace), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
         if process.poll() is not None:
             break
         try:
-            if os.getpgid(process.pid) == process.pid:
-                os.killpg(process.pid, sig)  # a session of its own: a wrapper's child (rosrun's) hears it too
-            else:
-                os.kill(process.pid, sig)
+            os.kill(process.pid, sig)
         except ProcessLookupError:
             break
         try:
             process.wait(wait)
         except subprocess.TimeoutExpired:
             continue
-    leftovers = [pid for pid in below if running(pid)]
-    for pid in leftovers:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass  # it ended since
+    leftovers = still_running(below, grace)
+    for sig, wait in ((signal.SIGINT, grace), (signal.SIGKILL, 5.0)):
+        alive = still_running(leftovers, 0.0)
+        for pid in alive:
+            try:
+                os.kill(pid, sig)
+            except ProcessLookupError:
+                pass  # it ended since
+        if not still_running(alive, wait):
+            break
     return process.poll(), leftovers
+
+
+def still_running(pids: Sequence[int], timeout: float) -> List[int]:
+    """Those of ``pids`` still running after waiting up to ``timeout`` seconds for them to end."""
+    deadline = time.monotonic() + timeout
+    while True:
+        alive = [pid for pid in pids if running(pid)]
+        if not alive or time.monotonic() >= deadline:
+            return alive
+        time.sleep(0.05)
 
 
 def running(pid: int) -> bool:
