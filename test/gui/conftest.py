@@ -20,11 +20,11 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def stop(process, timeout=10.0):
-    """Stop a node or launch, and kill what it left running: a launch's node alive after its test (it would publish
-    into the next tests: its TF, its /clock) is reported as a warning."""
+    """Stop a node or launch and what it left running, reported as a warning: a launch's node alive after its test
+    would publish into the next tests (its TF, its /clock)."""
     _, leftovers = stop_tree(process, timeout)
     if leftovers:
-        warnings.warn(f"{' '.join(process.args)} left processes {leftovers} running; killed them", stacklevel=2)
+        warnings.warn(f"{' '.join(process.args)} left processes {leftovers} running; stopped them", stacklevel=2)
 
 
 @pytest.fixture(autouse=True)
