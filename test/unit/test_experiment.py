@@ -11,7 +11,7 @@ import time
 import pytest
 
 from teleteach.runtime.experiment import Experiment, SystemEndedError
-from teleteach.runtime.processes import descendants, master_pid, parent_pid, running, stop_tree
+from teleteach.runtime.processes import descendants, master_pid, parent_pid, running, still_running, stop_tree
 
 SLEEPER = [sys.executable, "-c", "import time; time.sleep(60)"]
 PYTHON = pathlib.Path(sys.executable).name
@@ -104,9 +104,14 @@ def test_a_roslaunch_brings_its_master_and_gets_the_experiment_s_environment(tmp
             time.sleep(0.2)
         assert value.strip() == str(tmp_path / "launch_data")
         assert "started roslaunch server" in log.read_text()  # roslaunch's own output, in its log
+        orphans = descendants(launch.pid)  # its master and rosout, which its SIGKILL leaves running
         os.kill(launch.pid, signal.SIGKILL)
-        with pytest.raises(SystemEndedError, match=rf"roslaunch ended early \(exit -9\); see {log}"):
-            experiment.wait_until(lambda: False, 30.0)
+        try:
+            with pytest.raises(SystemEndedError, match=rf"roslaunch ended early \(exit -9\); see {log}"):
+                experiment.wait_until(lambda: False, 30.0)
+        finally:
+            for pid in still_running(orphans, 0.0):
+                os.kill(pid, signal.SIGKILL)
 
 
 def test_joining_makes_this_process_a_node_of_its_master(tmp_path):
