@@ -3,6 +3,7 @@
 import json
 import os
 import pathlib
+import signal
 import subprocess
 import sys
 
@@ -13,7 +14,7 @@ from teleteach.core import skill_file
 from teleteach.learning import spd
 from teleteach.learning.command import main
 from teleteach.learning.synthetic import placement_demo
-from teleteach.runtime.processes import own_roscore, stop_tree
+from teleteach.runtime.processes import own_roscore
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 COMMAND = ROOT / "nodes" / "learn_skill"
@@ -76,7 +77,13 @@ def test_add_without_a_running_system_says_so_and_keeps_the_saved_skill(data):
 
 
 def stop(process):
-    stop_tree(process, grace=20.0)
+    if process.poll() is None:
+        os.killpg(process.pid, signal.SIGINT)
+        try:
+            process.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait(timeout=10)
 
 
 def test_add_puts_the_learned_skill_into_the_running_behaviour_tree_library(data):

@@ -84,25 +84,28 @@ def stop_tree(process: subprocess.Popen, grace: float = 20.0) -> Tuple[Optional[
     what still runs then (the nodes of a launch killed before it stopped them) gets SIGINT, ``grace``, then SIGKILL.
     """
     below = descendants(process.pid)
-    if process.poll() is None:  # not reaped yet, so its pid is still its own
-        escalate([process.pid], ((signal.SIGINT, grace), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)))
-    code = process.poll()  # a zombie by now: reaped here
+    for sig, wait in ((signal.SIGINT, grace), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+        if process.poll() is not None:
+            break
+        try:
+            os.kill(process.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            process.wait(wait)
+        except subprocess.TimeoutExpired:
+            continue
     leftovers = still_running(below, grace)
-    escalate(leftovers, ((signal.SIGINT, grace), (signal.SIGKILL, 5.0)))
-    return code, leftovers
-
-
-def escalate(pids: Sequence[int], steps: Sequence[Tuple[int, float]]) -> None:
-    """Each (signal, wait) in turn to those of ``pids`` still running, until none is."""
-    for sig, wait in steps:
-        alive = still_running(pids, 0.0)
+    for sig, wait in ((signal.SIGINT, grace), (signal.SIGKILL, 5.0)):
+        alive = still_running(leftovers, 0.0)
         for pid in alive:
             try:
                 os.kill(pid, sig)
             except ProcessLookupError:
                 pass  # it ended since
         if not still_running(alive, wait):
-            return
+            break
+    return process.poll(), leftovers
 
 
 def still_running(pids: Sequence[int], timeout: float) -> List[int]:
