@@ -62,7 +62,8 @@ class SharedControlConfig:
             its previous estimate; a fresh seed starts at the followed skill's), which a person's path needs: it
             turns faster than the estimation's Clothoid may bend (docs/reference.md, *Operators nobody tuned to*).
         speed_scale: typical operator speed [m/s] (scales the fitting residuals).
-        max_command_speed: commands faster than this are clipped, and no executed step is faster [m/s].
+        max_command_speed: commands faster than this are clipped [m/s] (an executed step is no faster than the
+            fastest command of the window: ``SharedControl._paced``).
         idle_speed: when the RMS command speed over a full window is below this, the operator is idle: the window
             restarts (direct control for t_w again), so estimation starts afresh when they move again; commands
             slower than this before the first move are left out of the window [m/s].
@@ -419,7 +420,10 @@ class SharedControl:
             candidate = self.state if safe is None else safe
             velocity = (candidate - self.state) / self.config.dt
             notes.append("step stopped at the constraint")
-        self.state = np.array(candidate, dtype=float)
+        candidate, velocity, paced = self._paced(candidate, velocity)
+        if paced:
+            notes.append(paced)
+        self.state = candidate
         self._advance({name: self._coasted(name) for name in self.skills}, self.theta_star)
         message = "; ".join([*notes, f"late cycle: following the previous plan ({self.skill})"])
         return self._record(SHARED, report, message, self.plan, velocity, 1.0)
@@ -559,13 +563,9 @@ class SharedControl:
         self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
         authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
         state, velocity = self._blend(planned, planned_velocity, command, authority)
-        step = float(np.linalg.norm(state - self.state))
-        if step > cfg.max_command_speed * cfg.dt:
-            # A plan fitted to a pattern can ask for more than the operator may (its skill's speed within Theta^TO):
-            # the step is shortened towards it, inside the free region (convex: box and half-plane).
-            state = self.state + (state - self.state) * (cfg.max_command_speed * cfg.dt / step)
-            velocity = (state - self.state) / cfg.dt
-            message += f"; step of {step / cfg.dt:.2f} m/s limited to {cfg.max_command_speed:.2f} m/s"
+        state, velocity, paced = self._paced(state, velocity)
+        if paced:
+            message += f"; {paced}"
         # The stored plan passes through the executed state, so a fallback continues from where the robot is.
         self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
         self.state = state
@@ -574,6 +574,21 @@ class SharedControl:
         if authority < 1.0:
             message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
         return self._record(mode, report, "; ".join([*notes, message]), plan, velocity, authority)
+
+    def _paced(self, target, velocity) -> Tuple[np.ndarray, np.ndarray, str]:
+        """The step towards ``target`` no faster than the operator's fastest command in the window, and why if cut.
+
+        A plan keeps the operator's pattern, not a pace of its own: a last iterate at the iteration cap can ask for
+        far more (1.81 m/s measured at the boundary, where the operator moved at 0.1 m/s). The step is shortened
+        along its line, so it stays in the free region (convex: box and half-plane) when its ends are.
+        """
+        dt = self.config.dt
+        pace = float(np.max(np.linalg.norm(np.array(self.window), axis=1), initial=0.0))
+        step = float(np.linalg.norm(target - self.state))
+        if step <= pace * dt:
+            return np.array(target, dtype=float), np.array(velocity, dtype=float), ""
+        target = self.state + (target - self.state) * (pace * dt / step)
+        return target, (target - self.state) / dt, f"step of {step / dt:.2f} m/s paced to the operator's {pace:.2f} m/s"
 
     def _authority(self, error: float, confidence: float, commands: np.ndarray) -> float:
         """Weight of the plan: high when one skill explains the commands well and clearly better than the others."""
@@ -779,9 +794,11 @@ class SharedControl:
             candidate = self.plan[:, self.plan_index + 1]
             if constraints.violation(candidate, self.box, self.obstacle) == 0.0:
                 self.plan_index += 1
-                self.state = candidate.copy()
                 notes.append("fallback: following the previous plan")
                 velocity = plan_velocity(self.plan, self.config.dt, self.plan_index)
+                self.state, velocity, paced = self._paced(candidate, velocity)
+                if paced:
+                    notes.append(paced)
                 return self._record(FALLBACK, report, "; ".join(notes), self.plan, velocity)
         self.plan = np.zeros((2, 0))
         notes.append("fallback: holding the current state")
