@@ -17,9 +17,11 @@ Cells (each: one pattern, then a switch to the other, the hand blending over 0.2
 
 Per cell it prints the figures, and it ends with one line per goal (met / not met over every cell). ``--busy`` runs
 the sweep again with a busy loop on one core; ``--in-process`` runs the node's code without ROS on a simulated clock
-(quick, for development: rate and lateness are then not measured). Writes bench/results/shared_control_sweep.json.
+(quick, for development: rate and lateness are then not measured), with ``--wall-clock`` each cycle waiting for its
+20 ms slot as the node's loop does (what a periodic loop pays in solve time, without ROS). Writes
+bench/results/shared_control_sweep.json.
 
-    source build/env.sh && python bench/shared_control_sweep.py [--busy] [--in-process] [--groups G ...]
+    source build/env.sh && python bench/shared_control_sweep.py [--busy] [--in-process [--wall-clock]] [--groups G ...]
 """
 
 import argparse
@@ -299,20 +301,28 @@ def meets(cell: dict, measured_rate: bool) -> dict:
 
 
 class InProcess:
-    """The node's code without ROS: commands by stamp with random delivery delays, a simulated clock."""
+    """The node's code without ROS: commands by stamp with random delivery delays, a simulated clock.
 
-    def __init__(self, params: dict, box: Box):
+    ``wall_clock``: each cycle also waits for its 20 ms slot on the wall clock, as the node's loop does, so the solve
+    times include what a periodic loop pays after each sleep (without ROS).
+    """
+
+    def __init__(self, params: dict, box: Box, wall_clock: bool = False):
         config = SharedControlConfig.from_parameters(params)
         self.controller = SharedControl(config, tuple(params["initial_state"]), box)
         self.params = params
+        self.wall_clock = wall_clock
 
     def run(self, cell: Cell, rng) -> tuple:
         self.controller.reset(tuple(self.params["initial_state"]))
         timeline = CommandTimeline(self.params["command_timeout"])
         arrivals = DT * np.arange(len(cell.commands)) + rng.uniform(0.0, 0.015, len(cell.commands))
         states, received = [], 0
+        start = time.perf_counter()
         for k in range(len(cell.commands)):
             cycle_time = DT * (k + 1)
+            if self.wall_clock:
+                time.sleep(max(start + cycle_time - time.perf_counter(), 0.0))
             while received < len(cell.commands) and arrivals[received] <= cycle_time:
                 timeline.add(DT * received, cell.commands[received])
                 received += 1
@@ -486,10 +496,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--busy", action="store_true", help="run the sweep again with a busy loop on one core")
     parser.add_argument("--in-process", action="store_true", help="the node's code without ROS, simulated clock")
+    parser.add_argument(
+        "--wall-clock", action="store_true", help="with --in-process: each cycle waits for its 20 ms slot, as the node"
+    )
     groups = ("synthetic", "push", "lasa-tuned", "lasa-held-out", "minimum-jerk")
     parser.add_argument("--groups", nargs="+", choices=groups, default=list(groups))
     parser.add_argument("--set", nargs="+", default=[], metavar="NAME=YAML", help="override shared_control.yaml")
     args = parser.parse_args()
+    if args.wall_clock and not args.in_process:
+        parser.error("--wall-clock is an option of --in-process (over ROS the node keeps its own clock)")
     with open(ROOT / "config" / "shared_control.yaml") as stream:
         params = yaml.safe_load(stream)
     overrides = {name: yaml.safe_load(value) for name, value in (item.split("=", 1) for item in args.set)}
@@ -501,14 +516,18 @@ def main():
     if args.busy:
         runs["busy_one_core"] = [sys.executable, "-c", "while True: pass"]
     result = {
-        "mode": "in-process (simulated clock)" if args.in_process else "over ROS (shared_control.launch, compiled)",
+        "mode": (
+            ("in-process (20 ms slots on the wall clock)" if args.wall_clock else "in-process (simulated clock)")
+            if args.in_process
+            else "over ROS (shared_control.launch, compiled)"
+        ),
         "goals": GOALS,
         "tuned_shapes": TUNED_SHAPES,
         "overrides": overrides,
         "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
     }
     log_dir = pathlib.Path(tempfile.mkdtemp(prefix="sweep_"))
-    runner = InProcess(params, box) if args.in_process else OverRos(log_dir, overrides)
+    runner = InProcess(params, box, args.wall_clock) if args.in_process else OverRos(log_dir, overrides)
     print(f"logs in {log_dir}", flush=True)
     try:
         for name, busy_command in runs.items():
