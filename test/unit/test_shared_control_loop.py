@@ -243,10 +243,10 @@ def test_a_plan_faster_than_the_operator_is_followed_at_the_operators_pace(cycle
         assert record.mode == FALLBACK and "fallback: following the previous plan" in record.message
     # Expect: towards the plan's next state, as fast as the operator's fastest command of the window, said so.
     assert "paced to the operator's" in record.message
-    step = np.array(record.state) - before
+    step, towards = np.array(record.state) - before, planned - before
     assert np.linalg.norm(step) == pytest.approx(paces[k + 1] * DT)
-    assert np.cross(step, planned - before) == pytest.approx(0.0, abs=1e-12)
-    assert np.dot(step, planned - before) > 0.0
+    assert step[0] * towards[1] - step[1] * towards[0] == pytest.approx(0.0, abs=1e-12)
+    assert np.dot(step, towards) > 0.0
 
 
 def test_a_wave_around_a_turning_human_stroke_is_identified_with_a_free_heading():
