@@ -1,6 +1,7 @@
 """teleteach.runtime.experiment: what the thesis run, the study and the ROS benches run on, driven for real (a
 roscore, an Xvfb, child processes that end on their own)."""
 
+import contextlib
 import os
 import pathlib
 import signal
@@ -111,7 +112,8 @@ def test_a_roslaunch_brings_its_master_and_gets_the_experiment_s_environment(tmp
                 experiment.wait_until(lambda: False, 30.0)
         finally:
             for pid in still_running(orphans, 0.0):
-                os.kill(pid, signal.SIGKILL)
+                with contextlib.suppress(ProcessLookupError):  # it ended since
+                    os.kill(pid, signal.SIGKILL)
 
 
 def test_joining_makes_this_process_a_node_of_its_master(tmp_path):

@@ -443,8 +443,11 @@ class SharedControl:
             self.window.popleft()
 
     def _idle(self) -> bool:
-        speeds = np.linalg.norm(np.array(self.window), axis=1)
-        return float(np.sqrt(np.mean(speeds**2))) < self.config.idle_speed
+        return float(np.sqrt(np.mean(self._window_speeds() ** 2))) < self.config.idle_speed
+
+    def _window_speeds(self) -> np.ndarray:
+        """Speed of each command in the window [m/s]."""
+        return np.linalg.norm(np.array(self.window).reshape(-1, 2), axis=1)
 
     def _sanitise(self, command) -> Tuple[np.ndarray, List[str]]:
         notes = []
@@ -583,7 +586,7 @@ class SharedControl:
         along its line, so it stays in the free region (convex: box and half-plane) when its ends are.
         """
         dt = self.config.dt
-        pace = float(np.max(np.linalg.norm(np.array(self.window), axis=1), initial=0.0))
+        pace = float(np.max(self._window_speeds(), initial=0.0))
         step = float(np.linalg.norm(target - self.state))
         if step <= pace * dt:
             return np.array(target, dtype=float), np.array(velocity, dtype=float), ""
