@@ -17,6 +17,11 @@ from teleteach.skills.config import load_motion_config
 EXACT = dict(base_error=False, perception_noise=False)  # the world as it is: only the operator errs
 STEADY = OperatorModel(aim_std=(0.0, 0.0, 0.0), tremor=0.0)
 SETUP = TrialSetup("product_pick_1", "gap_1", "place_perpendicular", seed=4)
+# [N] a neighbour's filtered contact force (ContactRecordingSim: 50 Hz) below this is a graze, not a push. The least
+# force that can move either neighbour of gap_1 is about 0.5 N: product_shelf_8 (0.30 kg, 5 cm wide, 14 cm tall) tips
+# when pushed at its top edge with m g (w / 2) / h = 0.53 N, and slides at 0.36 m g = 1.1 N (pybullet multiplies
+# cardboard's 0.6 by the board's 0.6). An operator who pushes a neighbour without assistance exceeds 1 N.
+NOT_A_PUSH_N = 0.1
 
 
 def aside(across: float) -> OperatorModel:
@@ -66,8 +71,13 @@ def test_an_exact_operator_places_with_and_without_assistance_and_the_placement_
 def test_an_operator_aiming_aside_pushes_a_neighbour_unless_the_assistance_guides_the_product_in():
     model = aside(0.012)  # 1.2 cm beside the centre: 5 mm of clearance per side, within the corridor's capture
     alone, assisted = trial(model, False), trial(model, True)
-    assert alone["peak_neighbour_force_n"] > 1.0
-    assert assisted["peak_neighbour_force_n"] == 0.0 and assisted["success"], assisted
+    assert alone["peak_neighbour_force_n"] > 10 * NOT_A_PUSH_N and alone["neighbour_max_move_m"] > 0.01, alone
+    # Expect: assisted, the held product is kept in the corridor, 2 mm from each neighbour (gui.yaml assistance.margin).
+    # The assistance steers the hand only: once the fingers open, the product settles on its own and may graze a
+    # neighbour (0.009 N filtered, one 1 ms step of 10 um overlap at the neighbour's top edge, 40 ms after the release,
+    # on fresh Debian 12 machines), which neither pushes nor moves it
+    assert assisted["peak_neighbour_force_n"] < NOT_A_PUSH_N and assisted["neighbour_max_move_m"] < 0.001, assisted
+    assert assisted["success"], assisted
     assert "guided into gap_1's opening" in assisted["limits_met"]
     # Expect: from 2.5 cm aside (beyond the capture), the shelf front holds the product out of the gap (this operator
     # lets go anyway, and the product falls in front of the shelf); alone, it is pushed in, shoving a neighbour
