@@ -233,6 +233,23 @@ def test_what_a_stopped_process_left_running_in_a_session_of_its_own_is_killed(t
         assert stop_tree(experiment.start("alone", SLEEPER), grace=1.0) == (-signal.SIGINT, [])
 
 
+def test_a_child_is_stopped_by_sigint_even_when_ours_ignores_sigint(tmp_path):
+    """A shell without job control starts its background commands with SIGINT ignored, and children inherit that."""
+    code = """
+import pathlib, signal, sys
+from teleteach.runtime.experiment import Experiment
+from teleteach.runtime.processes import stop_tree
+assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+with Experiment(pathlib.Path(sys.argv[1])) as experiment:
+    print(*stop_tree(experiment.start("sleeper", ["sleep", "60"]), grace=10.0))
+"""
+    ignoring = ["bash", "-c", 'trap "" INT; exec "$0" "$@"', sys.executable, "-c", code, str(tmp_path)]
+    result = subprocess.run(ignoring, env=with_our_path(os.environ), capture_output=True, text=True, timeout=60)
+    # Expect the sleeper (which does not catch SIGINT) ended by the first, polite signal, leaving nothing behind
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == [str(-signal.SIGINT), "[]"]
+
+
 def test_a_process_that_ended_without_a_log_is_named_with_its_exit_code(tmp_path):
     with Experiment(tmp_path) as experiment:
         experiment.start("short", [sys.executable, "-c", "exit(2)"], watched=True).wait(30)

@@ -6,7 +6,9 @@ Processes are started in their own session and stopped by PID, in reverse order 
 first politely (SIGINT: roslaunch stops its nodes and rosbag closes the bag), then SIGTERM, then SIGKILL; then what
 they started and left running (roslaunch's nodes live in sessions of their own) is waited for and stopped too. A process
 may be told to stop when ours dies, however it dies (Linux's parent-death signal): a killed study runner leaves no
-roslaunch behind.
+roslaunch behind. Every process starts with SIGINT's default action, even when ours ignores SIGINT (a shell without job
+control starts its background commands so, and a child inherits that): else SIGINT would not stop a child that does not
+catch it itself, and each polite stop would wait out its grace and end in SIGTERM.
 """
 
 import ctypes
@@ -216,7 +218,7 @@ class Processes:
             env=env,
             start_new_session=True,
             pass_fds=pass_fds,
-            preexec_fn=None if parent_death_signal is None else _on_parent_death(parent_death_signal),
+            preexec_fn=_child_setup(parent_death_signal),
         )
         self._started.append((name, process, stream))
         return process
@@ -238,13 +240,23 @@ class Processes:
             self.stop(self._started[-1][1])
 
 
-def _on_parent_death(signal_number: int) -> Callable[[], None]:
-    """A preexec function: the child gets ``signal_number`` when its parent dies (prctl PR_SET_PDEATHSIG)."""
+def _child_setup(parent_death_signal: Optional[int]) -> Optional[Callable[[], None]]:
+    """A preexec function for a child, or None when it needs none (no Python runs in the child then).
 
-    def set_signal() -> None:
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal_number, 0, 0, 0)
+    SIGINT back to its default action when ours ignores it (an ignored signal stays ignored across exec);
+    ``parent_death_signal``: the signal the child gets when its parent dies (prctl PR_SET_PDEATHSIG).
+    """
+    sigint_ignored = signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+    if parent_death_signal is None and not sigint_ignored:
+        return None
 
-    return set_signal
+    def set_up() -> None:
+        if sigint_ignored:
+            signal.signal(signal.SIGINT, signal.SIG_DFL)
+        if parent_death_signal is not None:
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, parent_death_signal, 0, 0, 0)
+
+    return set_up
 
 
 def ros_environment(master_uri: str, display: str, data_root: pathlib.Path) -> Dict[str, str]:
