@@ -17,7 +17,7 @@ import yaml
 
 from teleteach.core.frames import Transform
 from teleteach.core.paths import config_file
-from teleteach.core.rotations import yaw_quaternion
+from teleteach.core.rotations import rpy_rotation, yaw_quaternion
 
 DEFAULT_SCENE_FILE = config_file("supermarket.yaml")
 
@@ -85,6 +85,48 @@ class Gap:
 
 
 @dataclass(frozen=True)
+class Surface:
+    """A flat surface to wipe: the pose of its top face's centre, its size and the area marked on it.
+
+    Attributes:
+        name: the surface's name.
+        center: the top face's centre in world [m].
+        rpy: (roll, pitch, yaw) [rad] of its frame in world: x (u) and y (v) along the face, z its outward normal.
+        size: (u, v, thickness) [m].
+        area: the rectangle to sweep, (u_min, v_min, u_max, v_max) [m] in the surface frame.
+        friction: lateral friction coefficient [-] (pybullet multiplies it with the tool's).
+    """
+
+    name: str
+    center: Tuple[float, float, float]
+    rpy: Tuple[float, float, float]
+    size: Tuple[float, float, float]
+    area: Tuple[float, float, float, float]
+    friction: float
+
+    @property
+    def frame(self) -> Transform:
+        """The surface's frame in world: maps (u, v, height above the face) to world."""
+        return Transform(np.array(self.center, dtype=float), rpy_rotation(self.rpy))
+
+
+@dataclass(frozen=True)
+class WipingTool:
+    """The tool mounted in the hand to wipe.
+
+    A box (size along the TCP's x, y, z [m]) whose contact face lies ``reach`` [m] beyond the TCP along its z, with its
+    mass [kg], friction [-] and contact compliance (stiffness [N/m], damping [N s/m]).
+    """
+
+    size: Tuple[float, float, float]
+    reach: float
+    mass: float
+    friction: float
+    contact_stiffness: float
+    contact_damping: float
+
+
+@dataclass(frozen=True)
 class RobotSetup:
     """How the Panda sits on the mobile base, and where it starts."""
 
@@ -145,6 +187,8 @@ class Scene(GapLookup):
     pick_table: Box
     products: List[Product]
     gaps: Dict[str, Gap]
+    surfaces: Dict[str, Surface] = dataclasses.field(default_factory=dict)
+    wiping_tool: Optional[WipingTool] = None
 
     def product(self, name):
         """The product called name (KeyError if there is none)."""
@@ -152,6 +196,19 @@ class Scene(GapLookup):
             if product.name == name:
                 return product
         raise KeyError(f"no product '{name}' in the scene")
+
+    def surface(self, name) -> Surface:
+        """The surface called name.
+
+        Raises:
+            SceneError: the scene has no such surface (the message lists the ones it has).
+        """
+        try:
+            return self.surfaces[name]
+        except KeyError:
+            raise SceneError(
+                f"the scene has no surface '{name}' (it has {', '.join(self.surfaces) or 'none'})"
+            ) from None
 
     def without_products(self, names: Iterable[str]) -> "Scene":
         """The scene with the named products left out: a product missing from the start, e.g. so that a pick fails.
@@ -257,6 +314,42 @@ def _parse_objects(data):
     )
 
 
+def _parse_surface(name, values) -> Surface:
+    area = tuple(float(value) for value in values["area"])
+    surface = Surface(
+        name=str(name),
+        center=_triple(values["center"]),
+        rpy=_triple(values["rpy"]),
+        size=_triple(values["size"]),
+        area=area,
+        friction=float(values["friction"]),
+    )
+    half_u, half_v = surface.size[0] / 2.0, surface.size[1] / 2.0
+    if len(area) != 4 or not (-half_u <= area[0] < area[2] <= half_u and -half_v <= area[1] < area[3] <= half_v):
+        raise ValueError(f"surface {name}: area {list(area)} must be (u_min, v_min, u_max, v_max) on the surface")
+    if min(surface.size) <= 0.0 or surface.friction < 0.0:
+        raise ValueError(f"surface {name}: size must be > 0 m and friction >= 0")
+    return surface
+
+
+def _parse_tool(values) -> Optional[WipingTool]:
+    if values is None:
+        return None
+    tool = WipingTool(
+        size=_triple(values["size"]),
+        reach=float(values["reach"]),
+        mass=float(values["mass"]),
+        friction=float(values["friction"]),
+        contact_stiffness=float(values["contact_stiffness"]),
+        contact_damping=float(values["contact_damping"]),
+    )
+    if min(tool.size) <= 0.0 or tool.mass <= 0.0 or tool.contact_stiffness <= 0.0 or tool.contact_damping < 0.0:
+        raise ValueError("wiping_tool: size, mass and contact_stiffness must be > 0, contact_damping >= 0")
+    if tool.reach <= 0.0:
+        raise ValueError(f"wiping_tool: reach {tool.reach} m must put the contact face beyond the TCP (> 0)")
+    return tool
+
+
 def _parse(data):
     site, objects = _parse_site(data), _parse_objects(data)
     shelf_friction = float(data["shelf"]["friction"])
@@ -277,4 +370,6 @@ def _parse(data):
         pick_table=objects.pick_table,
         products=objects.products,
         gaps=objects.gaps,
+        surfaces={str(name): _parse_surface(name, values) for name, values in (data.get("surfaces") or {}).items()},
+        wiping_tool=_parse_tool(data.get("wiping_tool")),
     )

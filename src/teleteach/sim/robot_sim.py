@@ -18,7 +18,7 @@ from teleteach.core.frames import Transform
 from teleteach.core.observed import ObservedScene, observed_from_scene
 from teleteach.core.paths import config_file
 from teleteach.core.robot_controllers import controller_names
-from teleteach.core.scene import BasePose, Scene, load_scene
+from teleteach.core.scene import BasePose, Scene, Surface, load_scene
 from teleteach.sim.gripper import SimGripper
 from teleteach.sim.uncertainty import BaseError, PerceptionNoise, UncertaintySettings, base_stream
 from teleteach.sim.world import SupermarketWorld
@@ -185,6 +185,10 @@ class RobotSim:
     def true_scene(self) -> ObservedScene:
         """The world's products as they are, the scene's gaps and table: what judges an outcome."""
         return observed_from_scene(self.scene, self.world.product_poses(), self.time)
+
+    def perceived_surface(self, name: str) -> Surface:
+        """The surface called name as the robot's perception reports it now."""
+        return self.perception.perceive_surface(self.scene.surface(name))
 
     def perceived_scene(self) -> ObservedScene:
         """The scene as the robot's perception reports it now (teleteach/scene)."""

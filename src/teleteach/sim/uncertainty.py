@@ -15,9 +15,11 @@ import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation
 
+from teleteach.core.frames import Transform
 from teleteach.core.observed import ObservedBox, ObservedScene
 from teleteach.core.paths import config_file
-from teleteach.core.scene import Gap
+from teleteach.core.rotations import FIXED_AXES
+from teleteach.core.scene import Gap, Surface
 
 DEFAULT_UNCERTAINTY_FILE = config_file("uncertainty.yaml")
 MAX_POSITION = 0.5  # [m] a standard deviation or limit above this is a mistake, not an uncertainty
@@ -100,23 +102,65 @@ class ObjectNoise:
 
 
 @dataclasses.dataclass(frozen=True)
+class SurfaceNoise:
+    """Perception error of a surface to wipe, in its own frame (u, v along it, n its normal): bias and noise.
+
+    Attributes:
+        position_bias_std: (u, v, n) [m]; n is the error of the surface's distance.
+        tilt_bias_std: about u and about v, each [rad].
+        yaw_bias_std: about n [rad].
+        position_noise_std: each axis, each look [m].
+        tilt_noise_std: each of the three angles, each look [rad].
+    """
+
+    position_bias_std: np.ndarray
+    tilt_bias_std: float
+    yaw_bias_std: float
+    position_noise_std: float
+    tilt_noise_std: float
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any], where: str) -> "SurfaceNoise":
+        """Validated settings of ``perception.surfaces``."""
+        return cls(
+            position_bias_std=_triple(values, "position_bias_std", where, MAX_POSITION),
+            tilt_bias_std=_number(values, "tilt_bias_std", where, MAX_ANGLE),
+            yaw_bias_std=_number(values, "yaw_bias_std", where, MAX_ANGLE),
+            position_noise_std=_number(values, "position_noise_std", where, MAX_POSITION),
+            tilt_noise_std=_number(values, "tilt_noise_std", where, MAX_ANGLE),
+        )
+
+    def draw(self, rng: np.random.Generator, bias: bool) -> Transform:
+        """One error (the bias, or one look's noise) as the perceived frame in the true one."""
+        if bias:
+            position = rng.normal(0.0, 1.0, 3) * self.position_bias_std
+            angles = rng.normal(0.0, 1.0, 3) * np.array([self.tilt_bias_std, self.tilt_bias_std, self.yaw_bias_std])
+        else:
+            position = rng.normal(0.0, self.position_noise_std, 3)
+            angles = rng.normal(0.0, self.tilt_noise_std, 3)
+        return Transform(position, Rotation.from_rotvec(angles))
+
+
+@dataclasses.dataclass(frozen=True)
 class PerceptionSettings:
-    """Whether perception errs, and how, for products and for gaps."""
+    """Whether perception errs, and how, for products, gaps and surfaces to wipe."""
 
     enabled: bool
     products: ObjectNoise
     gaps: ObjectNoise
+    surfaces: SurfaceNoise
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any]) -> "PerceptionSettings":
         """Validated settings of the ``perception`` section."""
-        for section in ("products", "gaps"):
+        for section in ("products", "gaps", "surfaces"):
             if not isinstance(values.get(section), Mapping):
                 raise UncertaintyError(f"uncertainty perception: missing section {section}")
         return cls(
             enabled=_enabled(values, "perception"),
             products=ObjectNoise.from_mapping(values["products"], "perception.products"),
             gaps=ObjectNoise.from_mapping(values["gaps"], "perception.gaps"),
+            surfaces=SurfaceNoise.from_mapping(values["surfaces"], "perception.surfaces"),
         )
 
 
@@ -168,7 +212,8 @@ class UncertaintySettings:
     def none(cls) -> "UncertaintySettings":
         """A world that forgives everything: MoveBase exact, perception perfect."""
         exact = ObjectNoise(np.zeros(3), 0.0, 0.0, 0.0)
-        return cls(0, BaseErrorSettings(False, 0.0, 0.0, 0.0, 0.0), PerceptionSettings(False, exact, exact))
+        flat = SurfaceNoise(np.zeros(3), 0.0, 0.0, 0.0, 0.0)
+        return cls(0, BaseErrorSettings(False, 0.0, 0.0, 0.0, 0.0), PerceptionSettings(False, exact, exact, flat))
 
 
 def load_uncertainty(path: Optional[str] = None) -> UncertaintySettings:
@@ -260,11 +305,13 @@ class PerceptionNoise:
         self.viewpoint = 0
         self.rng = np.random.default_rng([seed, NOISE_STREAM])
         self._biases: Dict[Tuple[str, str], PoseError] = {}
+        self._surface_biases: Dict[str, Transform] = {}
 
     def new_viewpoint(self) -> None:
         """The robot stopped somewhere new: every object's bias is drawn again when next seen."""
         self.viewpoint += 1
         self._biases.clear()
+        self._surface_biases.clear()
 
     def bias(self, kind: str, name: str) -> PoseError:
         """The bias of object name of kind products | gaps at this viewpoint."""
@@ -283,6 +330,25 @@ class PerceptionNoise:
         return PoseError(
             bias.position + self.rng.normal(0.0, noise.position_noise_std, 3),
             bias.yaw + float(self.rng.normal(0.0, noise.yaw_noise_std)),
+        )
+
+    def surface_bias(self, name: str) -> Transform:
+        """The bias of surface name at this viewpoint: the perceived surface frame in the true one."""
+        if name not in self._surface_biases:
+            rng = np.random.default_rng(
+                [self.seed, BIAS_STREAM, self.viewpoint, zlib.crc32(f"surfaces/{name}".encode())]
+            )
+            self._surface_biases[name] = self.settings.surfaces.draw(rng, bias=True)
+        return self._surface_biases[name]
+
+    def perceive_surface(self, truth: Surface) -> Surface:
+        """The surface as perception reports it now: its frame moved and turned by bias and noise in its own frame."""
+        if not self.settings.enabled:
+            return truth
+        error = self.surface_bias(truth.name) * self.settings.surfaces.draw(self.rng, bias=False)
+        seen = truth.frame * error
+        return dataclasses.replace(
+            truth, center=tuple(seen.position.tolist()), rpy=tuple(seen.rotation.as_euler(FIXED_AXES).tolist())
         )
 
     def perceive(self, truth: ObservedScene) -> ObservedScene:

@@ -18,14 +18,18 @@ import pybullet_data
 from teleteach.control import panda
 from teleteach.control.impedance import JointCommand, RobotState
 from teleteach.core.rotations import yaw_quaternion
-from teleteach.core.scene import BasePose, Scene
+from teleteach.core.scene import BasePose, Scene, Surface, WipingTool
 
 BASE_LINK_COLOUR = (0.25, 0.25, 0.3, 1.0)
 SHELF_COLOUR = (0.55, 0.4, 0.25, 1.0)
 TABLE_COLOUR = (0.5, 0.5, 0.5, 1.0)
 PRODUCT_COLOUR = (0.8, 0.2, 0.2, 1.0)
+BOARD_COLOUR = (0.95, 0.95, 0.95, 1.0)
+TOOL_COLOUR = (0.2, 0.3, 0.8, 1.0)
+GRAVITY = 9.81  # [m/s^2]
 CORNER_SEGMENTS = 4  # straight pieces per rounded corner of a product's outline
 HULL_MARGIN = 0.001  # [m] pybullet's collision margin around a convex mesh
+TOOL_JOINT_FORCE = 2000.0  # [N] the fixed joint holding a mounted tool (far above any wiping force)
 _ORIGIN = [0.0, 0.0, 0.0]
 _ZEROS9 = [0.0] * 9
 
@@ -95,7 +99,7 @@ class SupermarketWorld:
         self.base_turn_rate = base_turn_rate
         self.client = pybullet.connect(pybullet.GUI if gui else pybullet.DIRECT)
         self._call = {"physicsClientId": self.client}
-        pybullet.setGravity(0.0, 0.0, -9.81, **self._call)
+        pybullet.setGravity(0.0, 0.0, -GRAVITY, **self._call)
         pybullet.setTimeStep(time_step, **self._call)
         pybullet.setPhysicsEngineParameter(solverResidualThreshold=solver_residual_threshold, **self._call)
         self.floor = pybullet.loadURDF(str(pybullet_data.getDataPath()) + "/plane.urdf", **self._call)
@@ -106,6 +110,8 @@ class SupermarketWorld:
         }
         table = scene.pick_table
         self.static_bodies[table.name] = self._add_box(table.center, table.size, 0.0, table.friction, TABLE_COLOUR)
+        for surface in scene.surfaces.values():
+            self._add_surface(surface)
         self.products = {
             product.name: self._add_box(
                 product.position,
@@ -136,6 +142,7 @@ class SupermarketWorld:
         for index in panda.FINGER_INDICES:
             pybullet.resetJointState(self.robot, index, self.gripper_width / 2.0, **self._call)
         self.set_gripper_width(self.gripper_width)
+        self.tool = None
         self._arm_mode = None
         self._tcp_world = (0.0, 0.0, 0.0)
         self._pending_force = None
@@ -164,6 +171,65 @@ class SupermarketWorld:
             pybullet.changeDynamics(body, -1, activationState=pybullet.ACTIVATION_STATE_ENABLE_SLEEPING, **self._call)
             pybullet.changeDynamics(body, -1, activationState=pybullet.ACTIVATION_STATE_SLEEP, **self._call)
         return body
+
+    def _add_surface(self, surface: Surface):
+        """The board (its top face at the surface's frame) on a stand from the floor to the board's lowest edge."""
+        frame = surface.frame
+        thickness = surface.size[2]
+        centre = frame.apply_point([0.0, 0.0, -thickness / 2.0])
+        half = [value / 2.0 for value in surface.size]
+        shape = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half, **self._call)
+        visual = pybullet.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=BOARD_COLOUR, **self._call)
+        quaternion = frame.rotation.as_quat().tolist()
+        board = pybullet.createMultiBody(0.0, shape, visual, centre.tolist(), quaternion, **self._call)
+        pybullet.changeDynamics(board, -1, lateralFriction=surface.friction, **self._call)
+        self.static_bodies[surface.name] = board
+        corners = [frame.apply_point([su * half[0], sv * half[1], -thickness]) for su in (-1, 1) for sv in (-1, 1)]
+        lowest = min(corner[2] for corner in corners)
+        if lowest > 0.0:
+            yaw = surface.rpy[2]
+            footprint = [surface.size[0] * 0.8, surface.size[1] * 0.8, lowest]
+            stand = self._add_box((centre[0], centre[1], lowest / 2.0), footprint, 0.0, 0.6, TABLE_COLOUR, yaw)
+            self.static_bodies[surface.name + "_stand"] = stand
+
+    def mount_tool(self, tool: WipingTool):
+        """Mount the wiping tool in the hand: fixed to the TCP, its contact face ``tool.reach`` beyond it.
+
+        The fingers close on it and a fixed joint holds it, as a tool changer would (a wiping load would make a
+        friction grasp slip). Its weight is compensated as a Franka's configured end-effector load is.
+        """
+        if self.tool is not None:
+            raise ValueError("a tool is mounted already")
+        half = [value / 2.0 for value in tool.size]
+        offset = [0.0, 0.0, tool.reach - half[2]]
+        tcp = pybullet.getLinkState(self.robot, panda.TCP_LINK, computeForwardKinematics=True, **self._call)
+        centre, orientation = pybullet.multiplyTransforms(tcp[4], tcp[5], offset, [0.0, 0.0, 0.0, 1.0])
+        shape = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half, **self._call)
+        visual = pybullet.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=TOOL_COLOUR, **self._call)
+        body = pybullet.createMultiBody(tool.mass, shape, visual, centre, orientation, **self._call)
+        pybullet.changeDynamics(
+            body,
+            -1,
+            lateralFriction=tool.friction,
+            contactStiffness=tool.contact_stiffness,
+            contactDamping=tool.contact_damping,
+            **self._call,
+        )
+        for link in range(-1, pybullet.getNumJoints(self.robot, **self._call)):
+            pybullet.setCollisionFilterPair(self.robot, body, link, -1, 0, **self._call)
+        joint = pybullet.createConstraint(
+            self.robot, panda.TCP_LINK, body, -1, pybullet.JOINT_FIXED, _ORIGIN, offset, _ORIGIN, **self._call
+        )
+        pybullet.changeConstraint(joint, maxForce=TOOL_JOINT_FORCE, **self._call)
+        self.tool = body
+        self._tool_weight = [0.0, 0.0, tool.mass * GRAVITY]
+        self.set_gripper_width(tool.size[0])
+
+    def tool_face(self):
+        """The tool's contact face: its centre [m] and orientation (x, y, z, w) in world (z out of the face)."""
+        position, orientation = pybullet.getBasePositionAndOrientation(self.tool, **self._call)
+        half_height = pybullet.getCollisionShapeData(self.tool, -1, **self._call)[0][3][2] / 2.0
+        return pybullet.multiplyTransforms(position, orientation, [0.0, 0.0, half_height], [0.0, 0.0, 0.0, 1.0])
 
     # ----------------------------------------------------------------------------------------------- base frame
     def _panda_base_pose(self):
@@ -226,7 +292,7 @@ class SupermarketWorld:
         Summed from pybullet's contact points (the wrench the environment applies), in base_link.
         """
         force, torque = np.zeros(3), np.zeros(3)
-        held = set(self._held_bodies())
+        held = set(self._held_bodies()) | ({self.tool} if self.tool is not None else set())
         contacts = [
             contact
             for contact in pybullet.getContactPoints(bodyA=self.robot, **self._call)
@@ -331,6 +397,9 @@ class SupermarketWorld:
             self._pending_force = None
             return
         self._apply_arm(command)
+        if self.tool is not None:
+            position = pybullet.getBasePositionAndOrientation(self.tool, **self._call)[0]
+            pybullet.applyExternalForce(self.tool, -1, self._tool_weight, position, pybullet.WORLD_FRAME, **self._call)
         if self._pending_force is not None:
             pybullet.applyExternalForce(
                 self.robot,
@@ -397,8 +466,8 @@ class SupermarketWorld:
         return names[held[0]] if held else None
 
     def _offsets_in_hand(self):
-        """Each held product's pose in the hand's frame (URDF link frame)."""
-        bodies = self._held_bodies()
+        """Each held product's (and the mounted tool's) pose in the hand's frame (URDF link frame)."""
+        bodies = self._held_bodies() + ([self.tool] if self.tool is not None else [])
         if not bodies:
             return {}
         hand = pybullet.getLinkState(self.robot, panda.HAND_LINK, computeForwardKinematics=True, **self._call)
