@@ -20,15 +20,19 @@ import numpy as np
 SWITCH_BLEND = 0.2
 
 
-def pattern_offset(skill: str, rho: Sequence[float], s: np.ndarray, tangent: np.ndarray) -> np.ndarray:
-    """S_i(s; rho) U' (eqs 3, 5, Table I) for unit tangents (n x 2) at arc lengths s (n) [m] -> n x 2 [m]."""
-    amplitude, frequency, phase = rho
+def pattern_offset(skill: str, rho: Sequence, s: np.ndarray, tangent: np.ndarray) -> np.ndarray:
+    """S_i(s; rho) U' (eqs 3, 5, Table I) for unit tangents (n x 2) at arc lengths s (n) [m] -> n x 2 [m].
+
+    Each of rho's three values is a number or one value per sample (n): a hand whose pattern wanders in size and
+    timing along the stroke.
+    """
+    amplitude, frequency, phase = (np.broadcast_to(np.asarray(value, dtype=float), np.shape(s)) for value in rho)
     normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+    angle = 2 * math.pi * frequency * (s + phase)
     if skill == "wave":
-        return (amplitude * np.sin(2 * math.pi * frequency * (s + phase)))[:, None] * normal
+        return (amplitude * np.sin(angle))[:, None] * normal
     if skill == "cycloid":
-        angle = 2 * math.pi * frequency * (s + phase)
-        return amplitude * (np.cos(angle)[:, None] * tangent + np.sin(angle)[:, None] * normal)
+        return amplitude[:, None] * (np.cos(angle)[:, None] * tangent + np.sin(angle)[:, None] * normal)
     raise ValueError(f"unknown skill {skill!r}")
 
 
@@ -45,7 +49,7 @@ def commands_around_path(
     Args:
         path: the underlying path U sampled every dt (n x 2) [m]; it must keep moving (no rest).
         dt: sample period [s].
-        patterns: two (skill, rho) pairs: the pattern before and after the switch.
+        patterns: two (skill, rho) pairs: the pattern before and after the switch (rho as ``pattern_offset`` takes it).
         switch_time: when the hand changes pattern [s] (blended over SWITCH_BLEND).
         noise: standard deviation of white noise added per axis [m/s].
         rng: numpy random generator (for the noise).

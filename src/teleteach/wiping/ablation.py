@@ -51,12 +51,17 @@ def operator_pattern(seed: int, dt: float):
     return skill, commands, targets
 
 
-def wipe_figures(record, commands: np.ndarray, skill: str, config: WipingConfig, footprint, area) -> dict:
-    """One wipe's figures, from the world: contact, force, tracking, the pattern's fit (F_h, F_x), area covered."""
+def wipe_figures(
+    record, commands: np.ndarray, skill: str, config: WipingConfig, footprint, area, skip: int = 0
+) -> dict:
+    """One wipe's figures, from the world: contact, force, tracking, the pattern's fit (F_h, F_x), area covered.
+
+    The fit leaves out the first ``skip`` cycles (the paper leaves out the shared controller's first window).
+    """
     in_contact = measures.contact_mask(record.normal_forces, config.contact_threshold)
     figures = measures.force_figures(record.normal_forces, in_contact)
     tracking = measures.tracking_error(record.targets, record.positions)
-    fits = measures.pattern_fits(skill, record.times, commands, record.positions)
+    fits = measures.pattern_fits(skill, record.times[skip:], commands[skip:], record.positions[skip:])
     covered = measures.covered_area(
         record.positions, record.yaws, in_contact, footprint, area, config.coverage_resolution
     )
