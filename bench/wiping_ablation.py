@@ -55,7 +55,7 @@ def plot_forces(seed: int, path: pathlib.Path) -> None:
     figure = Figure(figsize=(10, 4.5), layout="constrained")
     axes = figure.subplots()
     for name, stiffness in CELLS.items():
-        record = run_wipe(
+        record, _ = run_wipe(
             scene, kinematics, load_uncertainty(), config, scene.surface(SURFACE), BASE_POSE, seed, targets, stiffness
         )
         axes.plot(record.times, record.normal_forces, label=f"{name} {tuple(int(k) for k in stiffness.eigenvalues())}")

@@ -91,7 +91,7 @@ class WipeJob:
         skill, commands, targets = operator_pattern(self.seed, self.config.dt)
         row = {"seed": self.seed, "skill": skill}
         try:
-            record = run_wipe(
+            record, _ = run_wipe(
                 scene,
                 process["kinematics"],
                 process["uncertainty"],

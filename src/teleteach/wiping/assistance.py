@@ -125,7 +125,7 @@ class AssistedWipeJob:
         window = config.n_window
         times = config.dt * np.arange(len(commands))
         for mode, targets in (("direct", direct_targets(commands, start, config.dt)), ("shared", shared)):
-            record = run_wipe(
+            record, _ = run_wipe(
                 scene,
                 process["kinematics"],
                 process["uncertainty"],

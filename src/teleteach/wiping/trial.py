@@ -13,7 +13,7 @@ tool's contact face in the true surface's frame.
 import dataclasses
 import math
 import pathlib
-from typing import Callable, Optional, Sequence
+from typing import Optional, Tuple, Union
 
 import numpy as np
 import pybullet
@@ -25,9 +25,11 @@ from teleteach.core.frames import Transform
 from teleteach.core.parameters import from_mapping
 from teleteach.core.paths import config_file
 from teleteach.core.scene import Scene, Surface
+from teleteach.core.skill_file import TARGET_FRAME, Skill, Target
 from teleteach.shared_control.operators import minimum_jerk
-from teleteach.sim.robot_sim import IMPEDANCE, TRAJECTORY, RobotSim
+from teleteach.sim.robot_sim import IMPEDANCE, RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings
+from teleteach.skills.replay import ReplayPlan, plan_replay
 
 DEFAULT_WIPING_FILE = config_file("wiping.yaml")
 TOOL_DOWN = Rotation.from_euler("x", math.pi)  # the TCP's z into the surface, its x along u
@@ -82,16 +84,19 @@ class SurfaceStiffness:
 
 @dataclasses.dataclass
 class WipeRecord:
-    """What one wipe did, one row per cycle of the pattern (times [s] from the pattern's start).
+    """What one wipe did, one row per cycle (times [s] from the wipe's start).
 
     Attributes:
         times: cycle times [s].
-        targets: the pattern's point of each cycle in the perceived surface's frame (u, v) [m].
+        targets: where the equilibrium put the tool's face in the perceived surface's frame (u, v) [m].
         positions: the tool's contact face in the true surface's frame (u, v) [m], at the end of each cycle.
         heights: the face's height above the true surface [m] (negative: pressed into the felt).
         yaws: the face's turn about the true normal [rad].
         normal_forces: the surface's push on the tool along its true normal, mean over the cycle [N].
         tangential_forces: the surface's drag on the tool along the face, mean over the cycle [N].
+        stiffness: the commanded translational stiffness in base_link (N x 3 x 3) [N/m].
+        equilibrium_poses: the commanded equilibrium (x, y, z, qx, qy, qz, qw) in base_link.
+        tcp_poses: the measured TCP pose in base_link at the end of each cycle.
         seen_error: where perception put the surface: its frame in the true one (u, v, n [m], tilt about u, v [rad]).
     """
 
@@ -102,15 +107,22 @@ class WipeRecord:
     yaws: np.ndarray
     normal_forces: np.ndarray
     tangential_forces: np.ndarray
+    stiffness: np.ndarray
+    equilibrium_poses: np.ndarray
+    tcp_poses: np.ndarray
     seen_error: np.ndarray
 
 
 class SurfaceWiper:
-    """The arm pressing the mounted tool on a surface it perceives, following in-plane targets.
+    """The arm pressing the mounted tool on a surface it perceives, playing a wiping skill in that surface's frame.
+
+    A pattern (in-plane targets and a stiffness) becomes such a skill with :meth:`pattern_skill`; a demonstration's
+    record becomes one with :meth:`demonstrated_skill`; either, or a skill learned from one, is played on the surface
+    as perceived now (:meth:`execute`), as ReplaySkill plays a placement relative to the gap it perceives.
 
     Args:
         sim: the simulated robot, its base standing where it wipes from, the tool not yet mounted.
-        kinematics: Panda kinematics (its IK puts the arm over the pattern's start).
+        kinematics: Panda kinematics (its IK puts the arm over the skill's start).
         surface: the true surface (the world's); the wiper sees it only through ``sim``'s perception.
         config: the wiping settings.
     """
@@ -121,22 +133,67 @@ class SurfaceWiper:
         base = Transform.from_planar(*sim.world.base_pose).inverse()
         self.seen_in_base = base * self.seen.frame
         self.true_in_base = base * surface.frame
-        self.tool_quaternion = (self.seen_in_base.rotation * TOOL_DOWN).as_quat()
         self.reach = sim.scene.wiping_tool.reach
         self._kinematics = kinematics
-        self._stiffness: Optional[SurfaceStiffness] = None
 
     def seen_error(self) -> np.ndarray:
         """The perceived surface's frame in the true one: (u, v, n) [m] and the tilt about u and v [rad]."""
         error = self.truth.frame.inverse() * self.seen.frame
         return np.concatenate([error.position, error.rotation.as_rotvec()[:2]])
 
-    def _tcp_at(self, point, height: float) -> np.ndarray:
-        """The TCP's position in base_link that puts the tool's face at (u, v) and height above the perceived face."""
-        return self.seen_in_base.apply_point([point[0], point[1], height + self.reach])
+    def pattern_skill(self, targets: np.ndarray, stiffness: SurfaceStiffness, name: str = "Pattern") -> Skill:
+        """In-plane targets (one per cycle) pressed with ``stiffness`` as a skill in the surface's frame.
 
-    def start_over(self, point: Sequence[float]) -> None:
-        """Put the arm over the point at the approach height, mount the tool, and hold it there by impedance.
+        The TCP's equilibrium lies ``contact_force / K_n`` beyond the face along the normal, the tool square to it.
+        """
+        targets = np.asarray(targets, dtype=float)
+        height = self.reach - self.config.contact_force / stiffness.normal
+        poses = np.column_stack(
+            [targets, np.full(len(targets), height), np.tile(TOOL_DOWN.as_quat(), (len(targets), 1))]
+        )
+        matrices = np.tile(np.diag(stiffness.eigenvalues()), (len(targets), 1, 1))
+        times = self.config.dt * np.arange(len(targets))
+        pose = tuple(float(value) for value in self.seen_in_base.as_pose())
+        return Skill(
+            name, "stiffness", times, matrices, poses, poses, frame=TARGET_FRAME, target=Target(self.truth.name, pose)
+        )
+
+    def demonstrated_skill(self, record: WipeRecord, name: str) -> Skill:
+        """What a wipe demonstrated, as a skill in the perceived surface's frame.
+
+        The equilibrium the arm was given, the TCP's measured pose and the stiffness, every cycle: the pattern as it
+        was executed, whoever made it (the operator directly, the shared controller).
+        """
+        demonstrated = Skill(
+            name, "stiffness", record.times, record.stiffness, record.equilibrium_poses, record.tcp_poses
+        )
+        return demonstrated.relative_to(self.truth.name, self.seen_in_base)
+
+    def _tcp_quaternion(self) -> np.ndarray:
+        return (self.seen_in_base.rotation * TOOL_DOWN).as_quat()
+
+    def _hold(self, position, quaternion, velocity=(0.0, 0.0, 0.0)) -> None:
+        sim = self.sim
+        sim.command_equilibrium("base_link", list(position), list(quaternion), sim.time)
+        sim.command_equilibrium_twist("base_link", list(velocity), [0.0, 0.0, 0.0], sim.time)
+
+    def _stiffness(self, eigenvalues, eigenvectors) -> None:
+        self.sim.command_eigenvalues(list(eigenvalues), stamp=self.sim.time)
+        self.sim.command_eigenvectors(list(eigenvectors), stamp=self.sim.time)
+
+    def _raised(self, position) -> np.ndarray:
+        """A TCP position moved off the perceived face by the approach height, along the perceived normal."""
+        return np.asarray(position) + self.seen_in_base.rotation.apply([0.0, 0.0, self.config.approach_height])
+
+    def _move(self, start, end, quaternion, duration: float) -> None:
+        """The equilibrium from one position to another, minimum jerk, one step a cycle."""
+        steps = max(int(round(duration * self.config.rate)), 1)
+        for k in range(1, steps + 1):
+            self._hold(start + (end - start) * float(minimum_jerk(np.array(k / steps))), quaternion)
+            self.sim.run(self.config.dt)
+
+    def start_over(self, plan: ReplayPlan) -> None:
+        """Put the arm over the plan's first pose at the approach height, mount the tool, hold it there by impedance.
 
         Raises:
             WipingError: the arm cannot reach the pose (nothing was mounted then).
@@ -144,81 +201,47 @@ class SurfaceWiper:
         from teleteach.control.kinematics import IKError
 
         sim = self.sim
-        target = self._tcp_at(point, self.config.approach_height)
+        above = self._raised(plan.positions[0])
         try:
-            joints = self._kinematics.inverse(target, self.tool_quaternion)
+            joints = self._kinematics.inverse(above, plan.orientations[0])
         except IKError as error:
             raise WipingError(f"the surface {self.truth.name} is out of the arm's reach: {error}") from None
         world = sim.world
         for index, value in zip(panda.ARM_INDICES, joints):
             pybullet.resetJointState(world.robot, index, value, physicsClientId=world.client)
-        if sim.manager.running != TRAJECTORY:
-            sim.switch_controllers([TRAJECTORY], [sim.manager.running] if sim.manager.running else [], 2)
-        sim.command_trajectory(panda.ARM_JOINTS, [(list(joints), [0.0] * 7, 0.05)], stamp=sim.time)
-        world.mount_tool(sim.scene.wiping_tool)
-        sim.run(0.1)
-        ok, message = sim.switch_controllers([IMPEDANCE], [TRAJECTORY], 2)
+        self._stiffness(plan.eigenvalues[0], plan.eigenvectors[0])
+        running = [sim.manager.running] if sim.manager.running not in (None, IMPEDANCE) else []
+        ok, message = sim.switch_controllers([IMPEDANCE], running, 2)  # it starts holding the pose it finds
         if not ok:
             raise WipingError(f"cannot start the impedance controller: {message}")
-        self._equilibrium(point, self.config.approach_height, np.zeros(2))
+        self._hold(above, plan.orientations[0])
+        world.mount_tool(sim.scene.wiping_tool)
+        sim.run(0.1)
 
-    def set_stiffness(self, stiffness: SurfaceStiffness) -> None:
-        """The translational stiffness, its axes the perceived surface's (the robot knows no other)."""
-        self._stiffness = stiffness
-        self.sim.command_eigenvalues(stiffness.eigenvalues().tolist(), stamp=self.sim.time)
-        self.sim.command_eigenvectors(self.seen_in_base.rotation.as_quat().tolist(), stamp=self.sim.time)
+    def plan(self, skill: Skill) -> ReplayPlan:
+        """The skill on the surface as perceived now, in base_link, one step a cycle."""
+        return plan_replay(skill.in_base(self.seen_in_base), self.config.rate)
 
-    def pressing_height(self) -> float:
-        """Where the equilibrium lies along the perceived normal so that K_n asks for contact_force [m]."""
-        return -self.config.contact_force / self._stiffness.normal
-
-    def _equilibrium(self, point, height: float, velocity) -> None:
-        sim = self.sim
-        sim.command_equilibrium(
-            "base_link", self._tcp_at(point, height).tolist(), self.tool_quaternion.tolist(), sim.time
-        )
-        linear = self.seen_in_base.rotation.apply([velocity[0], velocity[1], 0.0])
-        sim.command_equilibrium_twist("base_link", linear.tolist(), [0.0, 0.0, 0.0], sim.time)
-
-    def _move_height(self, point, start: float, end: float, duration: float) -> None:
-        """The equilibrium from one height over point to another, minimum jerk, then held."""
-        steps = int(round(duration * self.config.rate))
-        for k in range(1, steps + 1):
-            height = start + (end - start) * float(minimum_jerk(np.array(k / steps)))
-            self._equilibrium(point, height, np.zeros(2))
-            self.sim.run(self.config.dt)
-
-    def press(self, point) -> None:
-        """From the approach height down to the pressing equilibrium, then still for the settle time."""
-        self._move_height(point, self.config.approach_height, self.pressing_height(), self.config.approach_time)
+    def execute(self, skill: Skill) -> WipeRecord:
+        """Approach, press and play the skill on the perceived surface, recording each cycle; then retract."""
+        plan = self.plan(skill)
+        self.start_over(plan)
+        first, last = plan.positions[0], plan.positions[-1]
+        self._move(self._raised(first), first, plan.orientations[0], self.config.approach_time)
         self.sim.run(self.config.settle_time)
+        record = self._play(plan)
+        self._move(last, self._raised(last), plan.orientations[-1], self.config.retract_time)
+        return record
 
-    def retract(self, point) -> None:
-        """Back up to the approach height, off the surface."""
-        self._move_height(point, self.pressing_height(), self.config.approach_height, self.config.retract_time)
-
-    def _tool_in_surface(self):
-        """The tool's face in the true surface's frame: (u, v), height [m], yaw about the normal [rad]."""
-        world = self.sim.world
-        position, quaternion = world.tool_face()
-        face = self.truth.frame.inverse() * Transform(np.array(position), Rotation.from_quat(quaternion))
-        along = face.rotation.apply([1.0, 0.0, 0.0])
-        return face.position[:2], float(face.position[2]), math.atan2(along[1], along[0])
-
-    def follow(self, targets: np.ndarray, stiffness: Optional[Callable[[int], SurfaceStiffness]] = None) -> WipeRecord:
-        """Press along the targets (N x 2, one per cycle, in the perceived surface's frame), recording each cycle.
-
-        ``stiffness(k)``, when given, sets cycle k's stiffness (a taught profile); the depth follows its K_n.
-        """
+    def _play(self, plan: ReplayPlan) -> WipeRecord:
         sim, config = self.sim, self.config
         ticks = int(round(config.dt / sim.world.time_step))
         normal_in_base = self.true_in_base.rotation.apply([0.0, 0.0, 1.0])
+        velocities = np.gradient(plan.positions, config.dt, axis=0) if len(plan.times) > 1 else np.zeros((1, 3))
         rows = []
-        velocities = np.gradient(targets, config.dt, axis=0) if len(targets) > 1 else np.zeros_like(targets)
-        for k, (point, velocity) in enumerate(zip(targets, velocities)):
-            if stiffness is not None:
-                self.set_stiffness(stiffness(k))
-            self._equilibrium(point, self.pressing_height(), velocity)
+        for k in range(len(plan.times)):
+            self._stiffness(plan.eigenvalues[k], plan.eigenvectors[k])
+            self._hold(plan.positions[k], plan.orientations[k], velocities[k])
             force = np.zeros(3)
             for _ in range(ticks):
                 sim.tick()
@@ -226,19 +249,38 @@ class SurfaceWiper:
             force /= ticks
             normal = float(force @ normal_in_base)
             tangential = float(np.linalg.norm(force - normal * normal_in_base))
-            uv, height, yaw = self._tool_in_surface()
-            rows.append((k * config.dt, *point, *uv, height, yaw, normal, tangential))
+            rows.append((normal, tangential, *self._tool_in_surface(), *sim.state.position, *sim.state.quaternion))
         table = np.array(rows)
+        stiffness = np.array(
+            [
+                Rotation.from_quat(quaternion).as_matrix()
+                @ np.diag(values)
+                @ Rotation.from_quat(quaternion).as_matrix().T
+                for values, quaternion in zip(plan.eigenvalues, plan.eigenvectors)
+            ]
+        )
         return WipeRecord(
-            times=table[:, 0],
-            targets=table[:, 1:3],
-            positions=table[:, 3:5],
-            heights=table[:, 5],
-            yaws=table[:, 6],
-            normal_forces=table[:, 7],
-            tangential_forces=table[:, 8],
+            times=plan.times,
+            targets=self.seen_in_base.inverse().apply_poses(np.column_stack([plan.positions, plan.orientations]))[
+                :, :2
+            ],
+            positions=table[:, 2:4],
+            heights=table[:, 4],
+            yaws=table[:, 5],
+            normal_forces=table[:, 0],
+            tangential_forces=table[:, 1],
+            stiffness=stiffness,
+            equilibrium_poses=np.column_stack([plan.positions, plan.orientations]),
+            tcp_poses=table[:, 6:13],
             seen_error=self.seen_error(),
         )
+
+    def _tool_in_surface(self):
+        """The tool's face in the true surface's frame: u, v, height [m], yaw about the normal [rad]."""
+        position, quaternion = self.sim.world.tool_face()
+        face = self.truth.frame.inverse() * Transform(np.array(position), Rotation.from_quat(quaternion))
+        along = face.rotation.apply([1.0, 0.0, 0.0])
+        return (*face.position, math.atan2(along[1], along[0]))
 
 
 def wiping_scene(scene: Scene, surface: Surface) -> Scene:
@@ -256,10 +298,13 @@ def run_wipe(
     surface: Surface,
     base_pose: str,
     seed: int,
-    targets: np.ndarray,
-    stiffness: SurfaceStiffness,
-) -> WipeRecord:
+    pattern: Union[np.ndarray, Skill],
+    stiffness: Optional[SurfaceStiffness] = None,
+) -> Tuple[WipeRecord, SurfaceWiper]:
     """One wipe in a fresh world: the base where MoveBase stops for base_pose, perception with the seed's errors.
+
+    ``pattern`` is in-plane targets (one per cycle, pressed with ``stiffness``) or a wiping skill in a surface's frame.
+    Returns the record and the wiper (what it perceived; :meth:`SurfaceWiper.demonstrated_skill`).
 
     Raises:
         WipingError: the surface is out of reach (nothing was wiped).
@@ -268,11 +313,7 @@ def run_wipe(
     try:
         sim.place_base(scene.base_poses[base_pose])
         wiper = SurfaceWiper(sim, kinematics, surface, config)
-        wiper.set_stiffness(stiffness)
-        wiper.start_over(targets[0])
-        wiper.press(targets[0])
-        record = wiper.follow(np.asarray(targets, dtype=float))
-        wiper.retract(targets[-1])
-        return record
+        skill = pattern if isinstance(pattern, Skill) else wiper.pattern_skill(pattern, stiffness)
+        return wiper.execute(skill), wiper
     finally:
         sim.close()
