@@ -80,7 +80,7 @@ def main() -> int:
     first = 0 if arguments.development else HELD_OUT_SEEDS
     seeds = list(range(first, first + arguments.trials))
     config = load_wiping_config()
-    start = time.perf_counter()
+    start, origin = time.perf_counter(), provenance([DEFAULT_SCENE_FILE, DEFAULT_UNCERTAINTY_FILE, DEFAULT_WIPING_FILE])
     trials = run_trials(jobs(seeds, config), arguments.processes, lambda line: print(line, flush=True))
     cells = {name: summarise_cell(trials[name], CONTACT_GOAL) for name in CELLS}
     checks = goals(cells, CONTACT_GOAL)
@@ -107,9 +107,7 @@ def main() -> int:
         "cells": cells,
         "goals": checks,
         "trials": trials,
-        "provenance": provenance(
-            [DEFAULT_SCENE_FILE, DEFAULT_UNCERTAINTY_FILE, DEFAULT_WIPING_FILE], time.perf_counter() - start
-        ),
+        "provenance": {**origin, "wall_s": round(time.perf_counter() - start, 1)},
     }
     path = RESULTS if not arguments.development else RESULTS.with_name("wiping_ablation_development.json")
     path.write_text(json.dumps(results, indent=1))

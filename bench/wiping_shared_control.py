@@ -124,7 +124,13 @@ def main() -> int:
         AssistedWipeJob("wipes", seed, "wave" if seed % 2 == 0 else "cycloid", TAUGHT, wiping, SURFACE, BASE_POSE)
         for seed in seeds
     ]
-    start = time.perf_counter()
+    config_files = [
+        DEFAULT_SCENE_FILE,
+        DEFAULT_UNCERTAINTY_FILE,
+        DEFAULT_WIPING_FILE,
+        config_file("shared_control.yaml"),
+    ]
+    start, origin = time.perf_counter(), provenance(config_files)
     rows = run_trials(jobs, arguments.processes, lambda line: print(line, flush=True))["wipes"]
     summary = summarise(rows)
     checks = goals(summary)
@@ -143,18 +149,12 @@ def main() -> int:
         print(f"  {'met' if check['met'] else 'NOT met'}: {check['goal']}: {check['measured']}")
     RESULTS.parent.mkdir(exist_ok=True)
     path = RESULTS if not arguments.development else RESULTS.with_name("wiping_shared_control_development.json")
-    config_files = [
-        DEFAULT_SCENE_FILE,
-        DEFAULT_UNCERTAINTY_FILE,
-        DEFAULT_WIPING_FILE,
-        config_file("shared_control.yaml"),
-    ]
     results = {
         "settings": {"trials": arguments.trials, "seeds": seeds, "held_out": not arguments.development},
         "summary": summary,
         "goals": checks,
         "trials": rows,
-        "provenance": provenance(config_files, time.perf_counter() - start),
+        "provenance": {**origin, "wall_s": round(time.perf_counter() - start, 1)},
     }
     path.write_text(json.dumps(results, indent=1))
     print(f"wrote {path}")

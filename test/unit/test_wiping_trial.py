@@ -8,9 +8,12 @@ import numpy as np
 import pytest
 
 from teleteach.core.scene import SceneError, load_scene
+from teleteach.core.skill_file import TARGET_FRAME
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import PerceptionNoise, UncertaintySettings, load_uncertainty
-from teleteach.wiping.ablation import CELLS, END_U, START_U, goals, operator_pattern
+from teleteach.wiping import measures
+from teleteach.wiping.ablation import CELLS, END_U, START_U, TAUGHT, goals, operator_pattern
+from teleteach.wiping.skill import covered_grid, learned_wiping_skill
 from teleteach.wiping.trial import SurfaceStiffness, WipingError, load_wiping_config, run_wipe
 
 SCENE = load_scene()
@@ -169,3 +172,24 @@ def test_the_goals_are_judged_from_the_cells_figures():
     low_close = goals({**cells, "constant_low": cell(30, 1.0, 1.99), "taught_anisotropic": cell(30, 1, 1)}, 0.95)
     assert low_close[2]["met"] is False
     assert math.isclose(float(met[1]["measured"].rstrip("%")), 50.0)
+
+
+def test_a_demonstrated_wipe_learned_with_dmps_wipes_a_board_turned_and_moved_where_it_was_not_taught(kinematics):
+    exact = UncertaintySettings.none()
+    count = int(round(2.5 / CONFIG.dt))
+    phase = np.linspace(0.0, 1.0, count)
+    targets = np.column_stack([0.1 - 0.2 * phase, 0.04 * np.sin(2 * np.pi * 3 * phase)])  # a wave, right to left
+    record, wiper = run_wipe(SCENE, kinematics, exact, CONFIG, BOARD, "wipe_counter", 0, targets, TAUGHT)
+    demonstration = wiper.demonstrated_skill(record, "DemonstratedWipe_1")
+    assert demonstration.frame == TARGET_FRAME and demonstration.target.name == BOARD.name
+    np.testing.assert_allclose(demonstration.equilibrium_pose[:, :2], targets, atol=1e-6)  # in the board's frame
+    learned = learned_wiping_skill(demonstration, "LearnedWipe_1")
+    assert learned.kind == "dmp" and learned.frame == TARGET_FRAME
+    elsewhere = dataclasses.replace(BOARD, center=(0.66, 0.98, 0.64), rpy=(0.0, 0.1, BOARD.rpy[2] + 0.3))
+    scene = dataclasses.replace(SCENE, surfaces={elsewhere.name: elsewhere})
+    replay, _ = run_wipe(scene, kinematics, exact, CONFIG, elsewhere, "wipe_counter", 0, learned)
+    footprint = SCENE.wiping_tool.size[:2]
+    reference = covered_grid(record, CONFIG, BOARD, footprint)
+    assert np.mean(replay.normal_forces >= CONFIG.contact_threshold) >= 0.95
+    assert measures.coverage_of(covered_grid(replay, CONFIG, elsewhere, footprint), reference) >= 0.9
+    np.testing.assert_allclose(replay.positions[::10], replay.targets[::10], atol=0.006)  # where the skill said

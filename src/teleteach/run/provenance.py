@@ -34,11 +34,11 @@ def _version(package: str) -> str:
         return "not installed"
 
 
-def provenance(config_files: Iterable[pathlib.Path], wall_s: float) -> dict:
-    """The provenance of a result made now.
+def provenance(config_files: Iterable[pathlib.Path]) -> dict:
+    """The provenance of a result whose run starts now (call it first: the code may change while a bench runs).
 
     The git commit (and whether tracked files differed from it), the command line, the SHA-256 of each configuration
-    file read, the machine (cores, Python, key packages), the date and the wall time [s].
+    file read, the machine (cores, Python, key packages), the date; the bench adds its wall time [s] as ``wall_s``.
     """
     return {
         "commit": _git("rev-parse", "HEAD") or "unknown",
@@ -54,5 +54,4 @@ def provenance(config_files: Iterable[pathlib.Path], wall_s: float) -> dict:
             "packages": {package: _version(package) for package in PACKAGES},
         },
         "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "wall_s": round(wall_s, 1),
     }
