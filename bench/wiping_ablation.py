@@ -37,9 +37,10 @@ from teleteach.control.kinematics import PandaKinematics
 from teleteach.core.scene import DEFAULT_SCENE_FILE, load_scene
 from teleteach.run.provenance import provenance
 from teleteach.run.trials import run_trials
+from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
 from teleteach.wiping.ablation import BASE_POSE, CELLS, SURFACE, goals, jobs, operator_pattern, summarise_cell
-from teleteach.wiping.trial import DEFAULT_WIPING_FILE, load_wiping_config, run_wipe
+from teleteach.wiping.trial import run_wipe
 
 BENCH = pathlib.Path(__file__).resolve().parent
 RESULTS = BENCH / "results" / "wiping_ablation.json"

@@ -34,10 +34,10 @@ from teleteach.core.paths import config_file
 from teleteach.core.scene import DEFAULT_SCENE_FILE
 from teleteach.run.provenance import provenance
 from teleteach.run.trials import bootstrap_median_interval, run_trials
+from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT
 from teleteach.wiping.assistance import AssistedWipeJob
-from teleteach.wiping.trial import DEFAULT_WIPING_FILE, load_wiping_config
 
 BENCH = pathlib.Path(__file__).resolve().parent
 RESULTS = BENCH / "results" / "wiping_shared_control.json"

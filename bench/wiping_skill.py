@@ -37,11 +37,12 @@ from teleteach.core.scene import DEFAULT_SCENE_FILE, load_scene
 from teleteach.run.provenance import provenance
 from teleteach.run.trials import bootstrap_median_interval, run_trials, wilson_interval
 from teleteach.shared_control.loop import SharedControlConfig
+from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config, wiping_box
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
 from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT
-from teleteach.wiping.assistance import human_wipe, shared_targets, wiping_box
+from teleteach.wiping.assistance import human_wipe, shared_targets
 from teleteach.wiping.skill import ReplayJob, covered_grid, learned_wiping_skill
-from teleteach.wiping.trial import DEFAULT_WIPING_FILE, load_wiping_config, run_wipe
+from teleteach.wiping.trial import run_wipe
 
 BENCH = pathlib.Path(__file__).resolve().parent
 RESULTS = BENCH / "results" / "wiping_skill.json"

@@ -15,7 +15,7 @@ from test_gui_recording import robot_sim  # noqa: F401 - the fixture
 from teleteach.core import skill_file
 from teleteach.msg import SharedControlState, SkillLibrary
 from teleteach.shared_control.models import synthetic_commands
-from teleteach.shared_control.ros import TaskPlane
+from teleteach.shared_control.plane import TaskPlane
 
 pytestmark = pytest.mark.gui
 BOUNDARY = (-0.25, -0.15, 0.25, 0.15)  # config/shared_control.yaml

@@ -18,7 +18,7 @@ from geometry_msgs.msg import PoseStamped, Vector3Stamped
 from teleteach.msg import SharedControlState
 from teleteach.shared_control.constraints import Box, StraightEdge, violation
 from teleteach.shared_control.models import synthetic_commands
-from teleteach.shared_control.ros import TaskPlane
+from teleteach.shared_control.plane import TaskPlane
 
 STIFFNESS = 1500.0  # [N/m] as in issue 15
 SPEED = 0.05  # [m/s] the paper's v0

@@ -14,7 +14,7 @@ from nav_msgs.msg import Path
 
 from teleteach.msg import SharedControlState
 from teleteach.shared_control.models import synthetic_commands
-from teleteach.shared_control.ros import TaskPlane
+from teleteach.shared_control.plane import TaskPlane
 
 # From the .test file
 BOUNDARY = (-0.25, -0.05, 0.25, 0.08)

@@ -18,7 +18,7 @@ from geometry_msgs.msg import PoseStamped
 
 from teleteach.msg import SharedControlState
 from teleteach.shared_control.constraints import Box, violation
-from teleteach.shared_control.ros import TaskPlane
+from teleteach.shared_control.plane import TaskPlane
 
 SCENARIO_TIMEOUT = 240.0  # [s] wall: GUI, simulator and the scripted hand on a loaded machine
 WINDOW = 0.5  # [s] of sim time over which the hand's and the arm's ways are compared

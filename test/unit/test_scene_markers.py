@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 from visualization_msgs.msg import Marker
 
 from teleteach.core.observed import (
@@ -49,6 +50,11 @@ def test_the_scene_file_read_back_from_its_markers_is_the_same():
         assert (got.yaw, got.width, got.tolerance) == pytest.approx((gap.yaw, gap.width, gap.tolerance))
     assert list(received.tables) == ["pick_table"]
     assert received.tables["pick_table"].size == pytest.approx(objects.pick_table.size)
+    board = objects.surfaces["counter_board"]  # a surface keeps its whole orientation, not only its yaw
+    assert list(received.surfaces) == ["counter_board"]
+    np.testing.assert_allclose(received.surfaces["counter_board"].position, board.center)
+    seen = Rotation.from_quat(received.surfaces["counter_board"].quaternion)
+    assert (seen.inv() * board.frame.rotation).magnitude() < 1e-9
     # the pick products stand on the table, the shelf's do not
     assert table_on(received, received.product("product_pick_1"), 0.02) == "pick_table"
     assert table_on(received, received.product("product_shelf_1"), 0.02) is None

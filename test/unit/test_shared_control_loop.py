@@ -347,9 +347,9 @@ def test_ros_message_conversions_and_task_plane():
     from geometry_msgs.msg import PoseStamped, TwistStamped, Vector3Stamped
     from sensor_msgs.msg import Joy
 
+    from teleteach.shared_control.plane import TaskPlane
     from teleteach.shared_control.ros import (
         InvalidMessageError,
-        TaskPlane,
         command_from_joy,
         command_from_twist,
         command_from_vector,

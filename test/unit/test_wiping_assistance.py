@@ -10,8 +10,9 @@ from bench_scripts import bench_module
 
 from teleteach.core.scene import load_scene
 from teleteach.shared_control.loop import SharedControlConfig
+from teleteach.shared_control.surface import wiping_box
 from teleteach.wiping import measures
-from teleteach.wiping.assistance import direct_targets, human_wipe, shared_targets, solve_times, wiping_box
+from teleteach.wiping.assistance import direct_targets, human_wipe, shared_targets, solve_times
 
 SCENE = load_scene()
 BOARD = SCENE.surface("counter_board")

@@ -9,12 +9,13 @@ import pytest
 
 from teleteach.core.scene import SceneError, load_scene
 from teleteach.core.skill_file import TARGET_FRAME
+from teleteach.shared_control.surface import WipingError, load_wiping_config
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import PerceptionNoise, UncertaintySettings, load_uncertainty
 from teleteach.wiping import measures
 from teleteach.wiping.ablation import CELLS, END_U, START_U, TAUGHT, goals, operator_pattern
 from teleteach.wiping.skill import covered_grid, learned_wiping_skill
-from teleteach.wiping.trial import SurfaceStiffness, WipingError, load_wiping_config, run_wipe
+from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 
 SCENE = load_scene()
 CONFIG = load_wiping_config()
@@ -193,3 +194,15 @@ def test_a_demonstrated_wipe_learned_with_dmps_wipes_a_board_turned_and_moved_wh
     assert np.mean(replay.normal_forces >= CONFIG.contact_threshold) >= 0.95
     assert measures.coverage_of(covered_grid(replay, CONFIG, elsewhere, footprint), reference) >= 0.9
     np.testing.assert_allclose(replay.positions[::10], replay.targets[::10], atol=0.006)  # where the skill said
+
+
+def test_the_scene_message_carries_the_surface_as_perceived_and_as_it_is():
+    from teleteach.core.observed import observed_from_scene
+
+    settings = only_surface_error([0.002, 0.004, 0.006], 0.02).perception
+    noise = PerceptionNoise(settings, seed=5)
+    truth = observed_from_scene(SCENE)
+    np.testing.assert_allclose(truth.surfaces[BOARD.name].position, BOARD.center)
+    seen = noise.perceive(truth).surfaces[BOARD.name]
+    error = BOARD.frame.inverse().apply_point(seen.position)
+    np.testing.assert_allclose(error, noise.surface_bias(BOARD.name).position, atol=1e-9)  # no noise: the bias

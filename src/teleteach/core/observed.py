@@ -1,4 +1,4 @@
-"""What the robot sees of the shop: products, free slots on the shelf (gaps) and pick tables, in one perception message.
+"""What the robot sees of the shop: products, free slots (gaps), pick tables and surfaces to wipe, in one message.
 
 The interface is the topic ``teleteach/scene``, a visualization_msgs/MarkerArray in frame ``world``, which a perception
 node fills: robot_sim from its world, static_scene from a yaml of a real shelf, or a real detector. One marker per
@@ -9,6 +9,8 @@ object (any shape; RViz draws it), ``ns`` its class, ``text`` its name, ``pose``
   into the shelf); scale.y: the free width between the neighbours [m]; scale.x: twice the placement tolerance [m] (a
   product whose centre is that close horizontally counts as placed), so RViz draws the slot's tolerance.
 - ns ``tables``: a surface products are picked from. Pose: its box's centre, turned about z only; scale: its size.
+- ns ``surfaces``: a surface to wipe. Pose: the centre of its top face, its x and y along the face and z its outward
+  normal (any orientation); scale: its size (along x, along y, thickness) [m].
 
 Other namespaces (robot_sim's ``shelf`` boards) are for RViz: the skills ignore them. Each message is the whole scene:
 an object it does not name is not seen. A marker that cannot be an object (another frame, no name, NaN, a zero or
@@ -17,7 +19,7 @@ the reason in the list :func:`observed_from_markers` returns.
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Dict, Iterable, List, Optional, Tuple
 
 import genpy
@@ -36,6 +38,7 @@ TRUE_SCENE_TOPIC = "teleteach/true_scene"  # the world as it is (a simulation's)
 PRODUCTS = "products"
 GAPS = "gaps"
 TABLES = "tables"
+SURFACES = "surfaces"
 ADD = 0  # visualization_msgs/Marker.ADD: other actions (DELETE, DELETEALL) carry no object
 
 
@@ -61,12 +64,16 @@ class ObservedBox:
 
 @dataclass(frozen=True)
 class ObservedScene(GapLookup):
-    """The products, gaps and tables of one ``teleteach/scene`` message; ``stamp`` [s] is its newest marker's."""
+    """The products, gaps, tables and surfaces of one ``teleteach/scene`` message; ``stamp`` [s] is its newest marker's.
+
+    A surface's box is its frame (origin at the top face's centre, z the outward normal) and its size.
+    """
 
     products: Dict[str, ObservedBox]
     gaps: Dict[str, Gap]
     tables: Dict[str, ObservedBox]
     stamp: float = 0.0
+    surfaces: Dict[str, ObservedBox] = field(default_factory=dict)
 
     def product(self, name) -> ObservedBox:
         """The product called name (KeyError if it is not seen)."""
@@ -95,7 +102,11 @@ def observed_from_scene(scene: Scene, product_poses=None, stamp: float = 0.0) ->
         )
     table = scene.pick_table
     tables = {table.name: ObservedBox(table.name, np.array(table.center), np.array([0.0, 0.0, 0.0, 1.0]), table.size)}
-    return ObservedScene(products, dict(scene.gaps), tables, stamp)
+    surfaces = {
+        surface.name: ObservedBox(surface.name, surface.frame.position, surface.frame.rotation.as_quat(), surface.size)
+        for surface in scene.surfaces.values()
+    }
+    return ObservedScene(products, dict(scene.gaps), tables, stamp, surfaces)
 
 
 def marker_stamp(stamp) -> float:
@@ -132,14 +143,15 @@ def observed_from_markers(markers: Iterable) -> Tuple[ObservedScene, List[str]]:
     products: Dict[str, ObservedBox] = {}
     gaps: Dict[str, Gap] = {}
     tables: Dict[str, ObservedBox] = {}
+    surfaces: Dict[str, ObservedBox] = {}
     rejected: List[str] = []
     stamps: List[float] = []
     for marker in markers:
-        if marker.action != ADD or marker.ns not in (PRODUCTS, GAPS, TABLES):
+        if marker.action != ADD or marker.ns not in (PRODUCTS, GAPS, TABLES, SURFACES):
             continue
-        taken = {PRODUCTS: products, GAPS: gaps, TABLES: tables}[marker.ns]
+        taken = {PRODUCTS: products, GAPS: gaps, TABLES: tables, SURFACES: surfaces}[marker.ns]
         try:
-            box = _box(marker, yaw_only=marker.ns != PRODUCTS)
+            box = _box(marker, yaw_only=marker.ns in (GAPS, TABLES))
             if box.name in taken:
                 raise InvalidCommandError("the name is taken by an earlier marker")
         except InvalidCommandError as error:
@@ -150,7 +162,7 @@ def observed_from_markers(markers: Iterable) -> Tuple[ObservedScene, List[str]]:
         else:
             taken[box.name] = box
         stamps.append(marker_stamp(marker.header.stamp))
-    return ObservedScene(products, gaps, tables, max(stamps) if stamps else 0.0), rejected
+    return ObservedScene(products, gaps, tables, max(stamps) if stamps else 0.0, surfaces), rejected
 
 
 def product_poses(markers: Iterable) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
@@ -184,6 +196,7 @@ def table_on(scene: ObservedScene, product: ObservedBox, tolerance: float) -> Op
 PRODUCT_COLOUR = (0.8, 0.2, 0.2, 1.0)
 GAP_COLOUR = (0.1, 0.8, 0.1, 0.5)
 TABLE_COLOUR = (0.5, 0.5, 0.5, 1.0)
+SURFACE_COLOUR = (0.95, 0.95, 0.95, 0.6)
 
 
 def box_marker(header, namespace, marker_id, position, quaternion, size, colour, text) -> Marker:
@@ -207,6 +220,19 @@ def scene_markers(observed: ObservedScene, stamp: float, extras: Iterable[Marker
         )
     for index, gap in enumerate(observed.gaps.values()):
         markers.append(box_marker(header, GAPS, index, *gap_box(gap), GAP_COLOUR, gap.name))
+    for index, surface in enumerate(observed.surfaces.values()):
+        markers.append(
+            box_marker(
+                header,
+                SURFACES,
+                index,
+                surface.position,
+                surface.quaternion,
+                surface.size,
+                SURFACE_COLOUR,
+                surface.name,
+            )
+        )
     for index, product in enumerate(observed.products.values()):
         markers.append(
             box_marker(

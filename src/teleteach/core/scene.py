@@ -169,11 +169,12 @@ class Site:
 
 @dataclass(frozen=True)
 class SceneObjects(GapLookup):
-    """The objects of a scene file: products where they start, the pick table, the gaps."""
+    """The objects of a scene file: products where they start, the pick table, the gaps, the surfaces to wipe."""
 
     products: List[Product]
     pick_table: Box
     gaps: Dict[str, Gap]
+    surfaces: Dict[str, Surface] = dataclasses.field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -251,7 +252,7 @@ def load_site(path: Optional[str] = None) -> Site:
 
 
 def load_objects(path: Optional[str] = None) -> SceneObjects:
-    """Read the sections ``product_defaults``, ``products``, ``pick_table`` and ``gaps`` of a scene file.
+    """Read the sections ``product_defaults``, ``products``, ``pick_table``, ``gaps`` and ``surfaces`` of a scene file.
 
     Raises:
         SceneError: one is missing or holds a value of the wrong shape.
@@ -311,6 +312,7 @@ def _parse_objects(data):
         products=products,
         pick_table=Box("pick_table", _triple(table["center"]), _triple(table["size"]), float(table["friction"])),
         gaps=gaps,
+        surfaces={str(name): _parse_surface(name, values) for name, values in (data.get("surfaces") or {}).items()},
     )
 
 
@@ -370,6 +372,6 @@ def _parse(data):
         pick_table=objects.pick_table,
         products=objects.products,
         gaps=objects.gaps,
-        surfaces={str(name): _parse_surface(name, values) for name, values in (data.get("surfaces") or {}).items()},
+        surfaces=objects.surfaces,
         wiping_tool=_parse_tool(data.get("wiping_tool")),
     )

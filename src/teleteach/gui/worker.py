@@ -51,7 +51,8 @@ from teleteach.msg import (
 )
 from teleteach.runtime.node import publish, shutting_down
 from teleteach.shared_control.placement import Opening, assist
-from teleteach.shared_control.ros import TaskPlane, obstacle_from_pose
+from teleteach.shared_control.plane import TaskPlane
+from teleteach.shared_control.ros import obstacle_from_pose
 from teleteach.skills.config import load_motion_config
 
 

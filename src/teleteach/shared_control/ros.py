@@ -11,7 +11,11 @@ import time
 from typing import Optional, Sequence, Tuple
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
+from teleteach.control.stiffness import translational_stiffness
+from teleteach.core.frames import Transform
+from teleteach.core.observed import SCENE_TOPIC, WORLD_FRAME, observed_from_markers
 from teleteach.core.rotations import quaternion_to_rpy
 from teleteach.shared_control import cache
 from teleteach.shared_control.approach import Approach, start_in_plane
@@ -24,6 +28,8 @@ from teleteach.shared_control.loop import (
     SharedControlConfig,
     SharedControlRecord,
 )
+from teleteach.shared_control.plane import TaskPlane
+from teleteach.shared_control.surface import SurfaceError, SurfaceWipe, load_wiping_config
 from teleteach.shared_control.timeline import CommandTimeline
 
 INPUTS = ("operator_command", "twist", "joy")
@@ -36,6 +42,9 @@ REPORT_PERIOD = 10.0
 # How long enabling waits for the first arm pose when /cartesian_pose has a publisher [s] (without one the MPC
 # starts at initial_state at once).
 ARM_POSE_TIMEOUT = 5.0
+BASE_FRAME = "base_link"  # the arm's frame: a wiped surface is located in it through TF
+# How long enabling a wipe waits for perception to report the surface and for a stiffness [s].
+SURFACE_TIMEOUT = 5.0
 # Seconds between "still compiling" messages, and the compile time of the default configuration to announce.
 PROGRESS_PERIOD = 15.0
 COMPILE_ESTIMATE = "3 minutes"
@@ -43,61 +52,6 @@ COMPILE_ESTIMATE = "3 minutes"
 
 class InvalidMessageError(ValueError):
     """A message that cannot be used (non-finite values, wrong frame)."""
-
-
-@dataclasses.dataclass
-class TaskPlane:
-    """The task plane in ``base_link``: x_base = origin + x e_x + y e_y, end-effector orientation fixed.
-
-    Attributes:
-        origin: plane origin in base_link [m].
-        x_axis: plane x direction in base_link (normalised here).
-        y_axis: plane y direction in base_link (made orthogonal to x_axis and normalised here).
-        orientation: end-effector orientation quaternion (x, y, z, w) in base_link.
-    """
-
-    origin: Sequence[float] = (0.5, 0.0, 0.4)
-    x_axis: Sequence[float] = (0.0, 1.0, 0.0)
-    y_axis: Sequence[float] = (0.0, 0.0, 1.0)
-    orientation: Sequence[float] = (0.0, 0.7071067811865476, 0.0, 0.7071067811865476)
-
-    def __post_init__(self):
-        origin = np.asarray(self.origin, dtype=float)
-        x_axis = np.asarray(self.x_axis, dtype=float)
-        y_axis = np.asarray(self.y_axis, dtype=float)
-        quaternion = np.asarray(self.orientation, dtype=float)
-        if origin.shape != (3,) or x_axis.shape != (3,) or y_axis.shape != (3,) or quaternion.shape != (4,):
-            raise ValueError("origin, x_axis, y_axis need 3 numbers and orientation 4")
-        if not all(np.all(np.isfinite(v)) for v in (origin, x_axis, y_axis, quaternion)):
-            raise ValueError("task plane values must be finite")
-        if np.linalg.norm(x_axis) < 1e-9 or np.linalg.norm(quaternion) < 1e-9:
-            raise ValueError("x_axis and orientation must be non-zero")
-        x_axis = x_axis / np.linalg.norm(x_axis)
-        y_axis = y_axis - (y_axis @ x_axis) * x_axis
-        if np.linalg.norm(y_axis) < 1e-9:
-            raise ValueError("y_axis must not be parallel to x_axis")
-        self.origin = origin
-        self.x_axis = x_axis
-        self.y_axis = y_axis / np.linalg.norm(y_axis)
-        self.orientation = quaternion / np.linalg.norm(quaternion)
-
-    def to_base(self, point: Sequence[float]) -> np.ndarray:
-        """Task-plane point (x, y) [m] -> base_link position [m]."""
-        return self.origin + self.vector_to_base(point)
-
-    def vector_to_base(self, vector: Sequence[float]) -> np.ndarray:
-        """Task-plane vector (x, y) (e.g. a velocity) -> base_link vector."""
-        return vector[0] * self.x_axis + vector[1] * self.y_axis
-
-    def to_plane(self, position: Sequence[float]) -> np.ndarray:
-        """base_link position [m] -> task-plane point (x, y) [m] (the orthogonal projection)."""
-        offset = np.asarray(position, dtype=float) - self.origin
-        return np.array([offset @ self.x_axis, offset @ self.y_axis])
-
-    @classmethod
-    def from_params(cls, params: dict) -> "TaskPlane":
-        """From the node's ``plane`` parameter (missing keys take the defaults)."""
-        return cls(**{key: params[key] for key in ("origin", "x_axis", "y_axis", "orientation") if key in params})
 
 
 def _finite(values, what):
@@ -149,6 +103,101 @@ def obstacle_from_pose(message) -> StraightEdge:
     if qx * qx + qy * qy + qz * qz + qw * qw < 1e-12:
         raise InvalidMessageError("obstacle orientation is a zero quaternion")
     return StraightEdge(x, y, float(quaternion_to_rpy((qx, qy, qz, qw))[2]))
+
+
+class PerceivedSurface:
+    """The surface of a wipe as the node sees it.
+
+    Its pose from perception (teleteach/scene, in world), world in base_link from TF, and the stiffness the arm is
+    given (/eigenvalues, /eigenvectors: the pressing depth follows it). The surface is located once per wipe (when
+    the node is enabled): the plane does not follow perception's noise while the tool is on it.
+    """
+
+    def __init__(self, rospy, wipe: SurfaceWipe):
+        import tf2_ros
+        from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+        from visualization_msgs.msg import MarkerArray
+
+        self._rospy = rospy
+        self.wipe = wipe
+        self._lock = threading.Lock()
+        self._seen = None  # the surface's ObservedBox in world, newest
+        self._eigenvalues: Optional[np.ndarray] = None
+        self._eigenvectors = np.array([0.0, 0.0, 0.0, 1.0])  # the arm's axes until /eigenvectors says otherwise
+        self.in_base: Optional[Transform] = None
+        self._buffer = tf2_ros.Buffer()
+        self._listener = tf2_ros.TransformListener(self._buffer)
+        self._subscribers = [
+            rospy.Subscriber(SCENE_TOPIC, MarkerArray, self._on_scene, queue_size=1),
+            rospy.Subscriber("eigenvalues", Vector3Stamped, self._on_eigenvalues, queue_size=1),
+            rospy.Subscriber("eigenvectors", QuaternionStamped, self._on_eigenvectors, queue_size=1),
+        ]
+
+    def _on_scene(self, message) -> None:
+        seen = observed_from_markers(message.markers)[0].surfaces.get(self.wipe.surface.name)
+        if seen is not None:
+            with self._lock:
+                self._seen = seen
+
+    def _on_eigenvalues(self, message) -> None:
+        values = np.array([message.vector.x, message.vector.y, message.vector.z])
+        if np.all(np.isfinite(values)):
+            with self._lock:
+                self._eigenvalues = values
+
+    def _on_eigenvectors(self, message) -> None:
+        q = message.quaternion
+        quaternion = np.array([q.x, q.y, q.z, q.w])
+        if np.all(np.isfinite(quaternion)) and np.linalg.norm(quaternion) > 0.5:
+            with self._lock:
+                self._eigenvectors = quaternion / np.linalg.norm(quaternion)
+
+    def stiffness(self) -> np.ndarray:
+        """The translational stiffness the arm was last given, in base_link [N/m]."""
+        with self._lock:
+            return translational_stiffness(self._eigenvalues, self._eigenvectors)
+
+    def start(self, timeout: float) -> Tuple[TaskPlane, Box]:
+        """Locate the surface (waiting up to timeout [s] for perception and a stiffness): the plane and boundary.
+
+        Raises:
+            SurfaceError: why the wipe cannot start (not perceived, no TF, no stiffness, out of reach).
+        """
+        rospy, name = self._rospy, self.wipe.surface.name
+        deadline = time.monotonic() + timeout
+        while (self._seen is None or self._eigenvalues is None) and time.monotonic() < deadline:
+            if rospy.is_shutdown():
+                raise SurfaceError("shutting down")
+            time.sleep(0.05)
+        if self._seen is None:
+            raise SurfaceError(f"perception ({rospy.resolve_name(SCENE_TOPIC)}) reports no surface '{name}'")
+        if self._eigenvalues is None:
+            raise SurfaceError("no stiffness on /eigenvalues yet: the pressing depth is the contact force over it")
+        try:
+            transform = self._buffer.lookup_transform(
+                BASE_FRAME, WORLD_FRAME, rospy.Time(0), rospy.Duration(max(deadline - time.monotonic(), 0.1))
+            ).transform
+        except Exception as error:  # tf2's lookup errors share no base class with a useful message
+            raise SurfaceError(f"no transform {WORLD_FRAME} -> {BASE_FRAME}: {error}") from None
+        world_in_base = Transform(
+            np.array([transform.translation.x, transform.translation.y, transform.translation.z]),
+            Rotation.from_quat(
+                [transform.rotation.x, transform.rotation.y, transform.rotation.z, transform.rotation.w]
+            ),
+        )
+        with self._lock:
+            seen = self._seen
+        self.in_base = world_in_base * Transform(seen.position, Rotation.from_quat(seen.quaternion))
+        return self.wipe.start(self.in_base, self.stiffness())
+
+    def plane(self) -> TaskPlane:
+        """The plane of the located surface, pressing with the stiffness given now."""
+        return self.wipe.plane(self.in_base, self.stiffness())
+
+    def close(self) -> None:
+        """Unregister the topics."""
+        for subscriber in self._subscribers:
+            subscriber.unregister()
 
 
 class SharedControlNode:
@@ -210,6 +259,17 @@ class SharedControlNode:
 
         parameters = node_parameters("shared_control.yaml")
         boundary = parameters["boundary"]
+        surface = None
+        if parameters["surface"]:
+            from teleteach.core.scene import load_scene
+
+            scene = load_scene()
+            surface = SurfaceWipe(
+                scene.surface(str(parameters["surface"])),
+                scene.wiping_tool,
+                load_wiping_config().contact_force,
+                scene.robot.mount_height,
+            )
         return cls(
             SharedControlConfig.from_parameters(parameters),
             TaskPlane(**parameters["plane"]),
@@ -229,6 +289,7 @@ class SharedControlNode:
             approach_speed=float(parameters["approach_speed"]),
             approach_turn_rate=float(parameters["approach_turn_rate"]),
             state_from_arm=bool(parameters["state_from_arm"]),
+            surface=surface,
         )
 
     def __init__(
@@ -252,6 +313,7 @@ class SharedControlNode:
         approach_speed: float,
         approach_turn_rate: float,
         state_from_arm: bool,
+        surface: Optional[SurfaceWipe] = None,
     ):
         import rospy
         from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped, Vector3Stamped
@@ -300,13 +362,9 @@ class SharedControlNode:
         self.state_publisher = rospy.Publisher("shared_control/state", SharedControlState, queue_size=10)
         self.plan_publisher = rospy.Publisher("shared_control/plan", Path, queue_size=1)
         self.boundary_publisher = rospy.Publisher("shared_control/boundary", PolygonStamped, queue_size=1, latch=True)
-        boundary = PolygonStamped()
-        boundary.header.stamp = rospy.Time.now()
-        boundary.header.frame_id = frame_id
-        if box is not None:
-            corners = ((box.x_min, box.y_min), (box.x_max, box.y_min), (box.x_max, box.y_max), (box.x_min, box.y_max))
-            boundary.polygon.points = [Point32(*(float(v) for v in plane.to_base(c))) for c in corners]
-        self.boundary_publisher.publish(boundary)
+        self._polygon_types = (PolygonStamped, Point32)
+        self._publish_boundary()
+        self._surface = PerceivedSurface(rospy, surface) if surface is not None else None
         if source == "operator_command":
             topic, message_type = "shared_control/operator_command", Vector3Stamped
             convert = command_from_vector
@@ -339,6 +397,31 @@ class SharedControlNode:
         self._stopping = False
         self._thread = threading.Thread(target=self._run, name="shared_control_cycles", daemon=True)
         self._thread.start()
+
+    def _publish_boundary(self) -> None:
+        """The boundary on the plane, in ``frame_id`` (latched; empty without one)."""
+        polygon_type, point_type = self._polygon_types
+        boundary = polygon_type()
+        boundary.header.stamp = self._rospy.Time.now()
+        boundary.header.frame_id = self.frame_id
+        box = self.box
+        if box is not None:
+            corners = ((box.x_min, box.y_min), (box.x_max, box.y_min), (box.x_max, box.y_max), (box.x_min, box.y_max))
+            boundary.polygon.points = [point_type(*(float(v) for v in self.plane.to_base(c))) for c in corners]
+        self.boundary_publisher.publish(boundary)
+
+    def _locate_surface(self) -> bool:
+        """On a wipe: the plane and boundary from the surface as perceived now; False (and one line why) if none."""
+        try:
+            plane, box = self._surface.start(SURFACE_TIMEOUT)
+        except SurfaceError as error:
+            self._rospy.logerr(f"shared_control: not enabled, cannot wipe {self._surface.wipe.surface.name}: {error}")
+            return False
+        with self._lock:
+            self.plane, self.box = plane, box
+            self.controller.set_boundary(box)
+        self._publish_boundary()
+        return True
 
     def _build(self, config: SharedControlConfig, box, initial_state) -> SharedControl:
         """The controller; with ``compiled`` solvers not cached yet (scripts/setup builds them), compile them first.
@@ -385,6 +468,8 @@ class SharedControlNode:
         half-second wait ran out on a loaded machine and the equilibrium jumped 3 cm).
         """
         enabled = bool(enabled)
+        if enabled and not self.enabled and self._surface is not None and not self._locate_surface():
+            return
         if enabled and not self.enabled:
             self._subscribe_while_enabled()
             self._wait_for_arm()
@@ -513,6 +598,8 @@ class SharedControlNode:
             self._approach = None if approach.done(elapsed) else (approach, elapsed)
             schedule.finish(self._rospy.get_time())
             return None
+        if self._surface is not None:
+            self.plane = self._surface.plane()  # the pressing depth follows the stiffness being taught
         command = self._commands.sample(cycle_time - self.command_delay)
         obstacle = self._obstacle
         if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
@@ -615,3 +702,5 @@ class SharedControlNode:
         self.state_publisher.unregister()
         self.plan_publisher.unregister()
         self.boundary_publisher.unregister()
+        if self._surface is not None:
+            self._surface.close()

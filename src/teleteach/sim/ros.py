@@ -102,6 +102,7 @@ class RobotSimConfig:
     gui: bool
     scene_file: str
     absent_products: Tuple[str, ...]
+    wiping_tool: bool
     controllers_file: str
     uncertainty_file: str
     seed: Optional[int]
@@ -239,6 +240,10 @@ class RobotSimNode:
         config["simulation"] = simulation = params.simulation(config["simulation"])
         rates = ("clock_rate", "cartesian_pose_rate", "state_rate", "scene_rate")
         sim = RobotSim(scene, config, gui=params.gui, uncertainty=uncertainty)
+        if params.wiping_tool:
+            if scene.wiping_tool is None:
+                raise ValueError("wiping_tool: true, but the scene file has no wiping_tool section")
+            sim.world.mount_tool(scene.wiping_tool)
         if simulation["clock"] not in ("publish", "follow"):
             raise ControllerConfigError(f"simulation clock must be publish or follow, got {simulation['clock']!r}")
         return cls(

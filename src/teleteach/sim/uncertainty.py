@@ -341,12 +341,15 @@ class PerceptionNoise:
             self._surface_biases[name] = self.settings.surfaces.draw(rng, bias=True)
         return self._surface_biases[name]
 
+    def _seen_surface_frame(self, name: str, frame: Transform) -> Transform:
+        """A surface's true frame as perception reports it now: moved and turned by bias and noise in its own frame."""
+        return frame * self.surface_bias(name) * self.settings.surfaces.draw(self.rng, bias=False)
+
     def perceive_surface(self, truth: Surface) -> Surface:
-        """The surface as perception reports it now: its frame moved and turned by bias and noise in its own frame."""
+        """The surface as perception reports it now (the truth itself when disabled)."""
         if not self.settings.enabled:
             return truth
-        error = self.surface_bias(truth.name) * self.settings.surfaces.draw(self.rng, bias=False)
-        seen = truth.frame * error
+        seen = self._seen_surface_frame(truth.name, truth.frame)
         return dataclasses.replace(
             truth, center=tuple(seen.position.tolist()), rpy=tuple(seen.rotation.as_euler(FIXED_AXES).tolist())
         )
@@ -364,4 +367,8 @@ class PerceptionNoise:
             error = self._error("gaps", name)
             position, _ = error.apply(gap.position, Rotation.from_euler("z", gap.yaw).as_quat())
             gaps[name] = Gap(name, tuple(position.tolist()), gap.yaw + error.yaw, gap.width, gap.tolerance)
-        return ObservedScene(products, gaps, dict(truth.tables), truth.stamp)
+        surfaces = {}
+        for name, box in truth.surfaces.items():
+            seen = self._seen_surface_frame(name, Transform(box.position, Rotation.from_quat(box.quaternion)))
+            surfaces[name] = ObservedBox(name, seen.position, seen.rotation.as_quat(), box.size)
+        return ObservedScene(products, gaps, dict(truth.tables), truth.stamp, surfaces)

@@ -15,8 +15,9 @@ import numpy as np
 
 from teleteach.run.trials import bootstrap_median_interval, wilson_interval
 from teleteach.shared_control.operators import commands_around_path
+from teleteach.shared_control.surface import WipingConfig, WipingError
 from teleteach.wiping import measures
-from teleteach.wiping.trial import SurfaceStiffness, WipingConfig, WipingError, run_wipe
+from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 
 HIGH, LOW = 3000.0, 300.0  # [N/m] the impedance controller's maximum, and a tenth of it
 TAUGHT = SurfaceStiffness(HIGH, HIGH, LOW)

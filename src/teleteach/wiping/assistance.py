@@ -15,13 +15,13 @@ from typing import List, Sequence, Tuple
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from teleteach.core.scene import Surface
 from teleteach.shared_control.constraints import Box
 from teleteach.shared_control.loop import MODE_NAMES, SharedControl, SharedControlConfig
 from teleteach.shared_control.operators import commands_around_path, reaching_path, retime
+from teleteach.shared_control.surface import WipingConfig, wiping_box
 from teleteach.wiping import measures
 from teleteach.wiping.ablation import wipe_figures
-from teleteach.wiping.trial import SurfaceStiffness, WipingConfig, run_wipe
+from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 
 REACHES = 4  # minimum-jerk reaches of the underlying path
 AMPLITUDE = {"wave": (0.035, 0.05), "cycloid": (0.025, 0.035)}  # [m] range the seed draws the pattern's size from
@@ -37,13 +37,6 @@ AMPLITUDE_WANDER = 0.2  # [-] relative to the pattern's size
 PHASE_WANDER = 0.1  # [periods] of the pattern's timing
 BOUNDARY_TOLERANCE = 0.002  # [m] the tool's centre beyond the boundary by more than this is a violation (the arm
 #                             tracks its equilibrium within a few millimetres: issue 31's margin)
-
-
-def wiping_box(surface: Surface, footprint: Tuple[float, float]) -> Box:
-    """The boundary of the tool's centre: the marked area shrunk by half the contact patch (u, v) [m] on each side."""
-    u_min, v_min, u_max, v_max = surface.area
-    half_u, half_v = footprint[0] / 2.0, footprint[1] / 2.0
-    return Box(u_min + half_u, v_min + half_v, u_max - half_u, v_max - half_v)
 
 
 def _smooth_noise(rng: np.random.Generator, count: int, samples: float) -> np.ndarray:

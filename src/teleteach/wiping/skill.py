@@ -17,8 +17,9 @@ import numpy as np
 from teleteach.core import skill_file
 from teleteach.core.scene import Surface
 from teleteach.learning.skill import learn_skill
+from teleteach.shared_control.surface import WipingConfig
 from teleteach.wiping import measures
-from teleteach.wiping.trial import WipeRecord, WipingConfig, run_wipe
+from teleteach.wiping.trial import WipeRecord, run_wipe
 
 
 def learned_wiping_skill(demonstration: skill_file.Skill, name: str) -> skill_file.Skill:

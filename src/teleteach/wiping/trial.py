@@ -12,61 +12,27 @@ tool's contact face in the true surface's frame.
 
 import dataclasses
 import math
-import pathlib
 from typing import Optional, Tuple, Union
 
 import numpy as np
 import pybullet
-import yaml
 from scipy.spatial.transform import Rotation
 
 from teleteach.control import panda
+from teleteach.control.stiffness import translational_stiffness
 from teleteach.core.frames import Transform
-from teleteach.core.parameters import from_mapping
-from teleteach.core.paths import config_file
 from teleteach.core.scene import Scene, Surface
 from teleteach.core.skill_file import TARGET_FRAME, Skill, Target
 from teleteach.shared_control.operators import minimum_jerk
+from teleteach.shared_control.surface import (
+    TOOL_DOWN,
+    WipingConfig,
+    WipingError,
+    pressing_depth,
+)
 from teleteach.sim.robot_sim import IMPEDANCE, RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings
 from teleteach.skills.replay import ReplayPlan, plan_replay
-
-DEFAULT_WIPING_FILE = config_file("wiping.yaml")
-TOOL_DOWN = Rotation.from_euler("x", math.pi)  # the TCP's z into the surface, its x along u
-
-
-class WipingError(ValueError):
-    """A wipe cannot be done as asked (bad settings, a surface the arm cannot reach); nothing was wiped."""
-
-
-@dataclasses.dataclass(frozen=True)
-class WipingConfig:
-    """The wiping task's settings (config/wiping.yaml: units and reasons there)."""
-
-    rate: float
-    contact_force: float
-    contact_threshold: float
-    approach_height: float
-    approach_time: float
-    settle_time: float
-    retract_time: float
-    coverage_resolution: float
-
-    def __post_init__(self):
-        values = dataclasses.asdict(self)
-        if not all(math.isfinite(value) and value > 0.0 for value in values.values()):
-            raise WipingError(f"every wiping setting must be finite and > 0: {values}")
-
-    @property
-    def dt(self) -> float:
-        """The pattern's cycle [s]."""
-        return 1.0 / self.rate
-
-
-def load_wiping_config(path: Optional[str] = None) -> WipingConfig:
-    """The wiping settings (default: config/wiping.yaml)."""
-    path = pathlib.Path(path or DEFAULT_WIPING_FILE)
-    return from_mapping(WipingConfig, yaml.safe_load(path.read_text()), str(path), WipingError)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,7 +113,7 @@ class SurfaceWiper:
         The TCP's equilibrium lies ``contact_force / K_n`` beyond the face along the normal, the tool square to it.
         """
         targets = np.asarray(targets, dtype=float)
-        height = self.reach - self.config.contact_force / stiffness.normal
+        height = self.reach - pressing_depth(self.config.contact_force, np.diag(stiffness.eigenvalues()), (0, 0, 1))
         poses = np.column_stack(
             [targets, np.full(len(targets), height), np.tile(TOOL_DOWN.as_quat(), (len(targets), 1))]
         )
@@ -253,9 +219,7 @@ class SurfaceWiper:
         table = np.array(rows)
         stiffness = np.array(
             [
-                Rotation.from_quat(quaternion).as_matrix()
-                @ np.diag(values)
-                @ Rotation.from_quat(quaternion).as_matrix().T
+                translational_stiffness(values, quaternion)
                 for values, quaternion in zip(plan.eigenvalues, plan.eigenvectors)
             ]
         )

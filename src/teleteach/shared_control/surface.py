@@ -1,0 +1,141 @@
+"""The shared controller's task plane on a surface it wipes, from the surface as perceived and the stiffness commanded.
+
+The plane has the surface's own axes (u, v), so the MPC plans in the surface's frame; its origin lies beyond the face
+along the normal by the pressing depth, ``contact_force / K_n`` with K_n the commanded stiffness along the normal: the
+equilibrium asks for the same force whatever the operator teaches, where perception is right. The boundary is the
+marked area shrunk by half the tool's contact patch.
+"""
+
+import dataclasses
+import math
+import pathlib
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+import yaml
+from scipy.spatial.transform import Rotation
+
+from teleteach.core.frames import Transform
+from teleteach.core.parameters import from_mapping
+from teleteach.core.paths import config_file
+from teleteach.core.scene import Surface, WipingTool
+from teleteach.shared_control.constraints import Box
+from teleteach.shared_control.plane import TaskPlane
+
+DEFAULT_WIPING_FILE = config_file("wiping.yaml")
+TOOL_DOWN = Rotation.from_euler("x", math.pi)  # the TCP's z into the surface, its x along u
+ARM_REACH = 0.8  # [m] from panda_link0, a little inside the Panda's 0.855 m: farther the arm cannot press
+
+
+class SurfaceError(ValueError):
+    """The surface cannot be wiped as asked; the message says why (nothing is driven then)."""
+
+
+class WipingError(ValueError):
+    """A wipe cannot be done as asked (bad settings, a surface the arm cannot reach); nothing was wiped."""
+
+
+@dataclasses.dataclass(frozen=True)
+class WipingConfig:
+    """The wiping task's settings (config/wiping.yaml: units and reasons there)."""
+
+    rate: float
+    contact_force: float
+    contact_threshold: float
+    approach_height: float
+    approach_time: float
+    settle_time: float
+    retract_time: float
+    coverage_resolution: float
+
+    def __post_init__(self):
+        values = dataclasses.asdict(self)
+        if not all(math.isfinite(value) and value > 0.0 for value in values.values()):
+            raise WipingError(f"every wiping setting must be finite and > 0: {values}")
+
+    @property
+    def dt(self) -> float:
+        """The pattern's cycle [s]."""
+        return 1.0 / self.rate
+
+
+def load_wiping_config(path: Optional[str] = None) -> WipingConfig:
+    """The wiping settings (default: config/wiping.yaml)."""
+    path = pathlib.Path(path or DEFAULT_WIPING_FILE)
+    return from_mapping(WipingConfig, yaml.safe_load(path.read_text()), str(path), WipingError)
+
+
+def pressing_depth(contact_force: float, stiffness: np.ndarray, normal: Sequence[float]) -> float:
+    """How far beyond the face the equilibrium lies [m]: contact_force [N] over the stiffness along the normal.
+
+    Args:
+        contact_force: the force asked for [N].
+        stiffness: translational stiffness (3 x 3) [N/m], in the frame of ``normal``.
+        normal: the surface's normal (unit vector).
+    """
+    normal = np.asarray(normal, dtype=float)
+    along = float(normal @ np.asarray(stiffness, dtype=float) @ normal)
+    if not math.isfinite(along) or along <= 0.0:
+        raise SurfaceError(f"the stiffness along the surface's normal must be > 0 N/m, got {along}")
+    return contact_force / along
+
+
+def wiping_box(surface: Surface, footprint: Tuple[float, float]) -> Box:
+    """The boundary of the tool's centre: the marked area shrunk by half the contact patch (u, v) [m] on each side."""
+    u_min, v_min, u_max, v_max = surface.area
+    half_u, half_v = footprint[0] / 2.0, footprint[1] / 2.0
+    if u_max - u_min <= 2 * half_u or v_max - v_min <= 2 * half_v:
+        raise SurfaceError(f"the marked area of {surface.name} is smaller than the tool's patch {list(footprint)} m")
+    return Box(u_min + half_u, v_min + half_v, u_max - half_u, v_max - half_v)
+
+
+def surface_plane(surface_in_base: Transform, tool: WipingTool, depth: float) -> TaskPlane:
+    """The task plane of a wipe: the surface's axes, the TCP pressing ``depth`` beyond the face, the tool square."""
+    rotation = surface_in_base.rotation
+    return TaskPlane(
+        origin=surface_in_base.apply_point([0.0, 0.0, tool.reach - depth]),
+        x_axis=rotation.apply([1.0, 0.0, 0.0]),
+        y_axis=rotation.apply([0.0, 1.0, 0.0]),
+        orientation=(rotation * TOOL_DOWN).as_quat(),
+    )
+
+
+def check_reach(plane: TaskPlane, box: Box, mount_height: float) -> None:
+    """Raise SurfaceError when a corner of the boundary lies beyond the arm's reach from panda_link0."""
+    shoulder = np.array([0.0, 0.0, mount_height])
+    corners = [(box.x_min, box.y_min), (box.x_max, box.y_min), (box.x_max, box.y_max), (box.x_min, box.y_max)]
+    farthest = max(float(np.linalg.norm(plane.to_base(corner) - shoulder)) for corner in corners)
+    if farthest > ARM_REACH:
+        raise SurfaceError(f"the surface is out of the arm's reach: a corner is {farthest:.2f} m away (> {ARM_REACH})")
+
+
+@dataclasses.dataclass(frozen=True)
+class SurfaceWipe:
+    """A wipe of one surface under shared control: the surface (its marked area), the tool, the force to press with.
+
+    Attributes:
+        surface: the surface as the scene file has it (its pose is perceived; its marked area is known).
+        tool: the mounted wiping tool.
+        contact_force: the force the equilibrium asks for [N].
+        mount_height: panda_link0 above base_link [m] (the arm's reach is measured from there).
+    """
+
+    surface: Surface
+    tool: WipingTool
+    contact_force: float
+    mount_height: float
+
+    def plane(self, surface_in_base: Transform, stiffness: np.ndarray) -> TaskPlane:
+        """The task plane on the surface perceived at ``surface_in_base``, pressing with ``stiffness`` (base_link)."""
+        normal = surface_in_base.rotation.apply([0.0, 0.0, 1.0])
+        return surface_plane(surface_in_base, self.tool, pressing_depth(self.contact_force, stiffness, normal))
+
+    def box(self) -> Box:
+        """The boundary of the tool's centre on the surface."""
+        return wiping_box(self.surface, self.tool.size[:2])
+
+    def start(self, surface_in_base: Transform, stiffness: np.ndarray) -> Tuple[TaskPlane, Box]:
+        """Plane and boundary to start a wipe with; SurfaceError says why the wipe cannot start."""
+        plane, box = self.plane(surface_in_base, stiffness), self.box()
+        check_reach(plane, box, self.mount_height)
+        return plane, box

@@ -1,0 +1,78 @@
+"""The shared controller's task plane on a wiped surface (teleteach.shared_control.surface), at turned frames."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from teleteach.control.stiffness import translational_stiffness
+from teleteach.core.frames import Transform
+from teleteach.core.scene import load_scene
+from teleteach.shared_control.surface import (
+    SurfaceError,
+    SurfaceWipe,
+    WipingError,
+    load_wiping_config,
+    pressing_depth,
+    surface_plane,
+    wiping_box,
+)
+
+SCENE = load_scene()
+BOARD = SCENE.surface("counter_board")
+TOOL = SCENE.wiping_tool
+TURNED = Transform(np.array([0.55, -0.1, 0.3]), Rotation.from_euler("xyz", [0.2, -0.15, 2.0]))
+
+
+def taught_in(frame: Transform) -> np.ndarray:
+    """3000 N/m along the surface, 300 N/m along its normal, in the frame the surface is given in."""
+    return translational_stiffness([3000.0, 3000.0, 300.0], frame.rotation)
+
+
+def test_the_depth_is_the_force_over_the_stiffness_along_the_normal_whatever_the_frame():
+    normal = TURNED.rotation.apply([0.0, 0.0, 1.0])
+    assert pressing_depth(10.0, taught_in(TURNED), normal) == pytest.approx(10.0 / 300.0)
+    assert pressing_depth(10.0, taught_in(Transform.identity()), normal) != pytest.approx(10.0 / 300.0)
+    with pytest.raises(SurfaceError, match="normal"):
+        pressing_depth(10.0, np.zeros((3, 3)), normal)
+
+
+def test_the_plane_has_the_surfaces_axes_and_holds_the_tcp_pressing_beyond_the_face_the_tool_square():
+    plane = surface_plane(TURNED, TOOL, 0.02)
+    np.testing.assert_allclose(plane.x_axis, TURNED.rotation.apply([1.0, 0.0, 0.0]), atol=1e-12)
+    np.testing.assert_allclose(plane.y_axis, TURNED.rotation.apply([0.0, 1.0, 0.0]), atol=1e-12)
+    np.testing.assert_allclose(plane.to_base((0.1, -0.05)), TURNED.apply_point([0.1, -0.05, TOOL.reach - 0.02]))
+    tool_z = Rotation.from_quat(plane.orientation).apply([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(tool_z, -TURNED.rotation.apply([0.0, 0.0, 1.0]), atol=1e-12)  # into the surface
+
+
+def test_a_wipe_starts_on_a_surface_in_reach_and_its_depth_follows_the_stiffness():
+    wipe = SurfaceWipe(BOARD, TOOL, 10.0, SCENE.robot.mount_height)
+    in_base = Transform(np.array([0.55, 0.0, 0.63]), BOARD.frame.rotation)
+    plane, box = wipe.start(in_base, taught_in(in_base))
+    assert (box.x_min, box.y_max) == pytest.approx((-0.175, 0.07))
+    stiff = wipe.plane(in_base, translational_stiffness([3000.0] * 3, np.eye(3)))
+    normal = in_base.rotation.apply([0.0, 0.0, 1.0])
+    assert (plane.origin - stiff.origin) @ normal == pytest.approx(-(10.0 / 300.0 - 10.0 / 3000.0))
+
+
+def test_a_surface_out_of_reach_or_with_an_area_smaller_than_the_tool_is_refused_with_the_reason():
+    wipe = SurfaceWipe(BOARD, TOOL, 10.0, SCENE.robot.mount_height)
+    far = Transform(np.array([1.2, 0.0, 0.63]), BOARD.frame.rotation)
+    with pytest.raises(SurfaceError, match="out of the arm's reach"):
+        wipe.start(far, taught_in(far))
+    tiny = dataclasses.replace(BOARD, area=(-0.02, -0.02, 0.02, 0.02))
+    with pytest.raises(SurfaceError, match="smaller than the tool"):
+        wiping_box(tiny, TOOL.size[:2])
+
+
+def test_wiping_settings_out_of_range_are_refused(tmp_path):
+    path = tmp_path / "wiping.yaml"
+    text = (load_wiping_config.__globals__["DEFAULT_WIPING_FILE"]).read_text()
+    path.write_text(text.replace("contact_force: 10.0", "contact_force: -1.0"))
+    with pytest.raises(WipingError, match="finite and > 0"):
+        load_wiping_config(str(path))
+    path.write_text(text.replace("contact_force: 10.0", "contact_force: .nan"))
+    with pytest.raises(WipingError):
+        load_wiping_config(str(path))
