@@ -48,7 +48,7 @@ def test_the_plane_has_the_surfaces_axes_and_holds_the_tcp_pressing_beyond_the_f
 
 
 def test_a_wipe_starts_on_a_surface_in_reach_and_its_depth_follows_the_stiffness():
-    wipe = SurfaceWipe(BOARD, TOOL, 10.0, SCENE.robot.mount_height)
+    wipe = SurfaceWipe(BOARD, TOOL, load_wiping_config(), SCENE.robot.mount_height)
     in_base = Transform(np.array([0.55, 0.0, 0.63]), BOARD.frame.rotation)
     plane, box = wipe.start(in_base, taught_in(in_base))
     assert (box.x_min, box.y_max) == pytest.approx((-0.175, 0.07))
@@ -58,7 +58,7 @@ def test_a_wipe_starts_on_a_surface_in_reach_and_its_depth_follows_the_stiffness
 
 
 def test_a_surface_out_of_reach_or_with_an_area_smaller_than_the_tool_is_refused_with_the_reason():
-    wipe = SurfaceWipe(BOARD, TOOL, 10.0, SCENE.robot.mount_height)
+    wipe = SurfaceWipe(BOARD, TOOL, load_wiping_config(), SCENE.robot.mount_height)
     far = Transform(np.array([1.2, 0.0, 0.63]), BOARD.frame.rotation)
     with pytest.raises(SurfaceError, match="out of the arm's reach"):
         wipe.start(far, taught_in(far))
@@ -76,3 +76,10 @@ def test_wiping_settings_out_of_range_are_refused(tmp_path):
     path.write_text(text.replace("contact_force: 10.0", "contact_force: .nan"))
     with pytest.raises(WipingError):
         load_wiping_config(str(path))
+
+
+def test_a_wipe_that_ends_holds_the_tool_off_the_surface_over_where_it_was():
+    wipe = SurfaceWipe(BOARD, TOOL, load_wiping_config(), SCENE.robot.mount_height)
+    off = wipe.off_surface(TURNED, (0.1, -0.05))
+    face = TURNED.inverse().apply_point(off) - [0.0, 0.0, TOOL.reach]  # where the tool's face is, in the surface frame
+    np.testing.assert_allclose(face, [0.1, -0.05, load_wiping_config().approach_height], atol=1e-12)

@@ -194,6 +194,10 @@ class PerceivedSurface:
         """The plane of the located surface, pressing with the stiffness given now."""
         return self.wipe.plane(self.in_base, self.stiffness())
 
+    def off_surface(self, point) -> np.ndarray:
+        """Where the TCP holds the tool off the located surface over ``point`` (u, v) [m], in base_link."""
+        return self.wipe.off_surface(self.in_base, point)
+
     def close(self) -> None:
         """Unregister the topics."""
         for subscriber in self._subscribers:
@@ -267,7 +271,7 @@ class SharedControlNode:
             surface = SurfaceWipe(
                 scene.surface(str(parameters["surface"])),
                 scene.wiping_tool,
-                load_wiping_config().contact_force,
+                load_wiping_config(),
                 scene.robot.mount_height,
             )
         return cls(
@@ -356,6 +360,9 @@ class SharedControlNode:
         self._rejected = ""  # why the newest bad message since the last cycle was rejected
         self._coasts = 0  # cycles coasted in a row
         self._approach: Optional[Tuple[Approach, float]] = None  # (the move, its time so far [s]) while it runs
+        self._last_input = -math.inf  # when the newest operator command arrived [s, ROS time]
+        self._retracting = False  # the wipe ended: the tool goes off the surface, then the node disables itself
+        self._disable = False  # the retract has arrived: the loop disables the node after this cycle
         self.controller = self._build(config, box, initial_state)
         self.pose_publisher = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=1)
         self.twist_publisher = rospy.Publisher("equilibrium_twist", TwistStamped, queue_size=1)
@@ -487,6 +494,8 @@ class SharedControlNode:
                     self._approach = (approach, 0.0)
                 self.controller.reset(start)
                 self._commands = CommandTimeline(self.command_timeout)
+                self._last_input = -math.inf  # input counts as lost only once it has come
+                self._retracting = self._disable = False
             if enabled != self.enabled:
                 self._schedule = None  # a fresh cycle grid from the next cycle on
                 self._statistics = CycleStatistics(REPORT_PERIOD, MODE_NAMES)
@@ -554,6 +563,7 @@ class SharedControlNode:
     def _set_command(self, command: np.ndarray, stamp: float) -> None:
         with self._lock:
             self._commands.add(stamp, command)
+            self._last_input = self._rospy.get_time()
 
     def _set_obstacle(self, obstacle: StraightEdge) -> None:
         with self._lock:
@@ -582,8 +592,11 @@ class SharedControlNode:
                 if skipped:
                     rospy.logwarn(f"shared_control: {skipped} cycles behind the 50 Hz grid: skipped, counted late")
                 record = self._cycle(schedule)
+                disable, self._disable = self._disable, False
             if record is not None:
                 self.publish(record)
+            if disable:
+                self.set_enabled(False)
 
     def _cycle(self, schedule: CycleSchedule) -> Optional[SharedControlRecord]:
         """One cycle at the schedule's next time (under the lock); a cycle that is overdue catches up by coasting."""
@@ -596,9 +609,14 @@ class SharedControlNode:
             elapsed += self.dt
             self._publish_reference(self._rospy.Time.now(), *approach.at(elapsed))
             self._approach = None if approach.done(elapsed) else (approach, elapsed)
+            self._disable = self._approach is None and self._retracting
             schedule.finish(self._rospy.get_time())
             return None
         if self._surface is not None:
+            if math.isfinite(self._last_input) and now - self._last_input > self._surface.wipe.settings.input_loss_time:
+                self._retract(now - self._last_input)
+                schedule.finish(self._rospy.get_time())
+                return None
             self.plane = self._surface.plane()  # the pressing depth follows the stiffness being taught
         command = self._commands.sample(cycle_time - self.command_delay)
         obstacle = self._obstacle
@@ -626,6 +644,18 @@ class SharedControlNode:
         if line:
             self._rospy.loginfo(f"shared_control: {line}")
         return record
+
+    def _retract(self, silence: float) -> None:
+        """The operator's input is lost mid-wipe: take the tool off the surface (then the node disables itself)."""
+        state = self.controller.state
+        position, off = self.plane.to_base(state), self._surface.off_surface(state)
+        orientation = self.plane.orientation
+        self._approach = (Approach.at_most(position, orientation, off, orientation, *self.approach_limits), 0.0)
+        self._retracting = True
+        self._rospy.logwarn(
+            f"shared_control: no operator input for {silence:.1f} s: the wipe ends, the tool retracts off "
+            f"{self._surface.wipe.surface.name} and shared control disables itself"
+        )
 
     def _pose(self, stamp, point):
         pose = self._pose_type()

@@ -46,6 +46,7 @@ class WipingConfig:
     approach_time: float
     settle_time: float
     retract_time: float
+    input_loss_time: float
     coverage_resolution: float
 
     def __post_init__(self):
@@ -116,19 +117,24 @@ class SurfaceWipe:
     Attributes:
         surface: the surface as the scene file has it (its pose is perceived; its marked area is known).
         tool: the mounted wiping tool.
-        contact_force: the force the equilibrium asks for [N].
+        settings: the wiping settings (the force to press with, how far to retract, when the input counts as lost).
         mount_height: panda_link0 above base_link [m] (the arm's reach is measured from there).
     """
 
     surface: Surface
     tool: WipingTool
-    contact_force: float
+    settings: WipingConfig
     mount_height: float
 
     def plane(self, surface_in_base: Transform, stiffness: np.ndarray) -> TaskPlane:
         """The task plane on the surface perceived at ``surface_in_base``, pressing with ``stiffness`` (base_link)."""
         normal = surface_in_base.rotation.apply([0.0, 0.0, 1.0])
-        return surface_plane(surface_in_base, self.tool, pressing_depth(self.contact_force, stiffness, normal))
+        depth = pressing_depth(self.settings.contact_force, stiffness, normal)
+        return surface_plane(surface_in_base, self.tool, depth)
+
+    def off_surface(self, surface_in_base: Transform, point: Sequence[float]) -> np.ndarray:
+        """The TCP's position that holds the tool's face ``approach_height`` off the surface over ``point`` (u, v)."""
+        return surface_in_base.apply_point([point[0], point[1], self.tool.reach + self.settings.approach_height])
 
     def box(self) -> Box:
         """The boundary of the tool's centre on the surface."""
