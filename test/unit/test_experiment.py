@@ -15,6 +15,7 @@ from teleteach.runtime.experiment import Experiment, SystemEndedError
 from teleteach.runtime.processes import descendants, master_pid, parent_pid, running, still_running, stop_tree
 
 SLEEPER = [sys.executable, "-c", "import time; time.sleep(60)"]
+READY_SLEEPER = [sys.executable, "-c", "import time; print('ready', flush=True); time.sleep(60)"]
 PYTHON = pathlib.Path(sys.executable).name
 
 
@@ -30,6 +31,14 @@ def gone(pid, timeout=10.0):
             return True
         time.sleep(0.1)
     return False
+
+
+def wait_until_ready(log, timeout=30.0):
+    """Wait until the process that writes ``log`` says it is ready: a Python interrupted while it starts up (imports
+    its site module) exits with 1, not by the signal."""
+    deadline = time.monotonic() + timeout
+    while "ready" not in log.read_text() and time.monotonic() < deadline:
+        time.sleep(0.05)
 
 
 def with_our_path(env):
@@ -207,9 +216,7 @@ def test_a_process_deaf_to_sigint_is_stopped_after_the_grace_asked_for(tmp_path,
     with Experiment(tmp_path) as experiment:
         assert experiment.master_uri == ""  # no master yet: its processes get none until it brings one
         process = experiment.start("deaf", deaf, tmp_path / "deaf.log")
-        deadline = time.monotonic() + 30.0
-        while "ready" not in (tmp_path / "deaf.log").read_text() and time.monotonic() < deadline:
-            time.sleep(0.05)
+        wait_until_ready(tmp_path / "deaf.log")
         started = time.monotonic()
         assert experiment.stop(process, grace=0.5) == -signal.SIGTERM
         assert time.monotonic() - started < 5.0
@@ -230,7 +237,9 @@ def test_what_a_stopped_process_left_running_in_a_session_of_its_own_is_killed(t
         assert stop_tree(process, grace=1.0) == (-signal.SIGINT, [apart])
         assert not running(apart)
         # Expect a process that leaves nothing behind to report nothing
-        assert stop_tree(experiment.start("alone", SLEEPER), grace=1.0) == (-signal.SIGINT, [])
+        alone = experiment.start("alone", READY_SLEEPER, tmp_path / "alone.log")
+        wait_until_ready(tmp_path / "alone.log")
+        assert stop_tree(alone, grace=1.0) == (-signal.SIGINT, [])
 
 
 def test_a_child_is_stopped_by_sigint_even_when_ours_ignores_sigint(tmp_path):
