@@ -387,10 +387,16 @@ def test_run_thesis_refuses_a_bad_scenario(tmp_path):
     assert "run_thesis: error:" in result.stdout and "bad.yaml" in result.stdout
 
 
-def launch_nodes(*args):
-    """The nodes full.launch would start with these args (roslaunch --nodes parses it without running anything)."""
+def launch_nodes(*args, display=":0"):
+    """The nodes full.launch would start with these args (roslaunch --nodes parses it without running anything), on
+    a machine whose DISPLAY is ``display`` ("": none), whatever the test run's is (RViz's default follows it)."""
+    env = {key: value for key, value in os.environ.items() if key != "DISPLAY"}
     result = subprocess.run(
-        ["roslaunch", "--nodes", "teleteach", "full.launch", *args], capture_output=True, text=True, check=True
+        ["roslaunch", "--nodes", "teleteach", "full.launch", *args],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=dict(env, DISPLAY=display) if display else env,
     )
     return {line.strip() for line in result.stdout.splitlines() if line.startswith("/")}
 
@@ -399,6 +405,7 @@ def test_full_launch_includes_the_parts_by_its_args():
     everything = {"/robot_sim", "/robot_state_publisher", "/skill_server", "/behaviour_tree", "/teaching_gui"}
     everything |= {"/sigma7_node", "/ellipsoid_marker", "/rviz", "/shared_control"}
     assert launch_nodes() == everything
+    assert launch_nodes(display="") == everything - {"/rviz"}  # RViz by default only where there is a display
     assert launch_nodes("shared_control:=false") == everything - {"/shared_control"}
     # the device on another machine of the same ROS network (docs/real_robot.md: several machines)
     assert launch_nodes("device_node:=false") == everything - {"/sigma7_node"}
