@@ -36,7 +36,7 @@ from matplotlib.figure import Figure
 from teleteach.control.kinematics import PandaKinematics
 from teleteach.core.scene import DEFAULT_SCENE_FILE, load_scene
 from teleteach.run.provenance import provenance
-from teleteach.run.trials import run_trials
+from teleteach.run.trials import add_trial_arguments, run_trials, trial_seeds
 from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
 from teleteach.wiping.ablation import BASE_POSE, CELLS, SURFACE, goals, jobs, operator_pattern, summarise_cell
@@ -72,14 +72,9 @@ def plot_forces(seed: int, path: pathlib.Path) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--trials", type=int, default=30)
-    parser.add_argument("--processes", type=int, default=2)
-    parser.add_argument("--development", action="store_true", help="seeds 0.. instead of the held-out ones")
+    add_trial_arguments(parser, 30)
     arguments = parser.parse_args()
-    if arguments.trials < 1 or arguments.processes < 1:
-        parser.error("--trials and --processes must be >= 1")
-    first = 0 if arguments.development else HELD_OUT_SEEDS
-    seeds = list(range(first, first + arguments.trials))
+    seeds = trial_seeds(parser, arguments, HELD_OUT_SEEDS)
     config = load_wiping_config()
     start, origin = time.perf_counter(), provenance([DEFAULT_SCENE_FILE, DEFAULT_UNCERTAINTY_FILE, DEFAULT_WIPING_FILE])
     trials = run_trials(jobs(seeds, config), arguments.processes, lambda line: print(line, flush=True))

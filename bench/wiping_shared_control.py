@@ -33,7 +33,7 @@ import numpy as np
 from teleteach.core.paths import config_file
 from teleteach.core.scene import DEFAULT_SCENE_FILE
 from teleteach.run.provenance import provenance
-from teleteach.run.trials import bootstrap_median_interval, run_trials
+from teleteach.run.trials import add_trial_arguments, bootstrap_median_interval, run_trials, trial_seeds
 from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT
@@ -111,14 +111,9 @@ def goals(summary: dict) -> list:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--trials", type=int, default=20)
-    parser.add_argument("--processes", type=int, default=2)
-    parser.add_argument("--development", action="store_true", help="seeds 0.. instead of the held-out ones")
+    add_trial_arguments(parser, 20, least=2)
     arguments = parser.parse_args()
-    if arguments.trials < 2 or arguments.processes < 1:
-        parser.error("--trials must be >= 2 (a wave and a cycloid) and --processes >= 1")
-    first = 0 if arguments.development else HELD_OUT_SEEDS
-    seeds = list(range(first, first + arguments.trials))
+    seeds = trial_seeds(parser, arguments, HELD_OUT_SEEDS)
     wiping = load_wiping_config()
     jobs = [
         AssistedWipeJob("wipes", seed, "wave" if seed % 2 == 0 else "cycloid", TAUGHT, wiping, SURFACE, BASE_POSE)

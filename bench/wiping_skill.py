@@ -35,7 +35,13 @@ from teleteach.core import skill_file
 from teleteach.core.paths import config_file
 from teleteach.core.scene import DEFAULT_SCENE_FILE, load_scene
 from teleteach.run.provenance import provenance
-from teleteach.run.trials import bootstrap_median_interval, run_trials, wilson_interval
+from teleteach.run.trials import (
+    add_trial_arguments,
+    bootstrap_median_interval,
+    run_trials,
+    trial_seeds,
+    wilson_interval,
+)
 from teleteach.shared_control.loop import SharedControlConfig
 from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config, wiping_box
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
@@ -109,12 +115,9 @@ def summarise(rows):
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--trials", type=int, default=10)
-    parser.add_argument("--processes", type=int, default=2)
-    parser.add_argument("--development", action="store_true", help="replay seeds 0.. instead of the held-out ones")
+    add_trial_arguments(parser, 10)
     arguments = parser.parse_args()
-    if arguments.trials < 1 or arguments.processes < 1:
-        parser.error("--trials and --processes must be >= 1")
+    seeds = trial_seeds(parser, arguments, HELD_OUT_SEEDS)
     config_files = [
         DEFAULT_SCENE_FILE,
         DEFAULT_UNCERTAINTY_FILE,
@@ -123,8 +126,6 @@ def main() -> int:
     ]
     start, origin = time.perf_counter(), provenance(config_files)
     scene, config = load_scene(), load_wiping_config()
-    first = 0 if arguments.development else HELD_OUT_SEEDS
-    seeds = list(range(first, first + arguments.trials))
     with tempfile.TemporaryDirectory() as folder:
         skill_path, grid_path, demonstration = demonstrate(scene, config, pathlib.Path(folder))
         print(

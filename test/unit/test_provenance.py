@@ -18,3 +18,20 @@ def test_the_provenance_names_the_commit_the_command_the_configuration_and_the_m
     assert record["config_sha256"] == {"supermarket.yaml": hashlib.sha256(scene.read_bytes()).hexdigest()}
     assert record["machine"]["cores"] >= 1 and record["machine"]["packages"]["numpy"] != "not installed"
     assert re.match(r"\d{4}-\d\d-\d\dT", record["date"])
+
+
+def test_a_bench_asks_for_held_out_seeds_unless_told_development():
+    import argparse
+
+    import pytest
+
+    from teleteach.run.trials import add_trial_arguments, trial_seeds
+
+    parser = argparse.ArgumentParser()
+    add_trial_arguments(parser, 3, least=2)
+    assert trial_seeds(parser, parser.parse_args([]), 4900) == [4900, 4901, 4902]
+    assert trial_seeds(parser, parser.parse_args(["--development", "--trials", "2"]), 4900) == [0, 1]
+    with pytest.raises(SystemExit):
+        trial_seeds(parser, parser.parse_args(["--trials", "1"]), 4900)
+    with pytest.raises(SystemExit):
+        trial_seeds(parser, parser.parse_args(["--processes", "0"]), 4900)

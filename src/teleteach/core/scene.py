@@ -136,6 +136,14 @@ class RobotSetup:
     start_gripper_width: float
 
 
+def _named(objects: Dict[str, object], kind: str, name: str):
+    """The object called name; SceneError lists the ones there are."""
+    try:
+        return objects[name]
+    except KeyError:
+        raise SceneError(f"the scene has no {kind} '{name}' (it has {', '.join(objects) or 'none'})") from None
+
+
 class GapLookup:
     """Finding gaps by name or position in a ``gaps`` mapping (the scene file's, or the perceived one)."""
 
@@ -147,10 +155,7 @@ class GapLookup:
         Raises:
             SceneError: the scene has no such gap (the message lists the ones it has).
         """
-        try:
-            return self.gaps[name]
-        except KeyError:
-            raise SceneError(f"the scene has no gap '{name}' (it has {', '.join(self.gaps) or 'none'})") from None
+        return _named(self.gaps, "gap", name)
 
     def nearest_gap(self, position) -> Gap:
         """The gap whose target is horizontally closest to position (world) [m]."""
@@ -204,12 +209,7 @@ class Scene(GapLookup):
         Raises:
             SceneError: the scene has no such surface (the message lists the ones it has).
         """
-        try:
-            return self.surfaces[name]
-        except KeyError:
-            raise SceneError(
-                f"the scene has no surface '{name}' (it has {', '.join(self.surfaces) or 'none'})"
-            ) from None
+        return _named(self.surfaces, "surface", name)
 
     def without_products(self, names: Iterable[str]) -> "Scene":
         """The scene with the named products left out: a product missing from the start, e.g. so that a pick fails.

@@ -336,3 +336,19 @@ def run_trials(
     for group in results.values():
         group.sort(key=lambda trial: trial["seed"])
     return results
+
+
+def add_trial_arguments(parser, trials: int, least: int = 1) -> None:
+    """A bench's --trials (default ``trials``, at least ``least``), --processes and --development options."""
+    parser.add_argument("--trials", type=int, default=trials, help=f"trials per cell (at least {least})")
+    parser.add_argument("--processes", type=int, default=2, help="parallel simulations")
+    parser.add_argument("--development", action="store_true", help="seeds 0.. instead of the held-out ones")
+    parser.set_defaults(least_trials=least)
+
+
+def trial_seeds(parser, arguments, held_out_first: int) -> List[int]:
+    """The seeds the parsed options ask for: the held-out ones from ``held_out_first``, or 0.. with --development."""
+    if arguments.trials < arguments.least_trials or arguments.processes < 1:
+        parser.error(f"--trials must be >= {arguments.least_trials} and --processes >= 1")
+    first = 0 if arguments.development else held_out_first
+    return list(range(first, first + arguments.trials))
