@@ -176,6 +176,7 @@ class WipeUnderSharedControl(unittest.TestCase):
                 state.skill for state in record.states if state.header.stamp.to_sec() >= start + 2.0 and state.skill
             ]
             stopped = all(state.header.stamp.to_sec() < end + 2.5 for state in record.states)
+            cycles, late = record.states[-1].cycle, record.states[-1].late_cycles
         print(
             f"input lost: force {np.max(lifted):.2f} N at most, the eraser's face {1000 * last_face:.0f} mm off the "
             f"board, shared control {'stopped' if stopped else 'still running'}",
@@ -185,7 +186,8 @@ class WipeUnderSharedControl(unittest.TestCase):
             f"wipe: in contact {in_contact:.0%}, median force {np.median(pressing):.1f} N, tool outside the boundary "
             f"by at most {1000 * max(float(outside.max()), 0.0):.1f} mm as perceived, "
             f"{1000 * max(float(outside_true.max()), 0.0):.1f} mm in the world, u down to {face[:, 0].min():.3f} m, "
-            f"v spans {np.ptp(face[:, 1]):.3f} m, recognised wave in {shared.count('wave')} of {len(shared)} cycles",
+            f"v spans {np.ptp(face[:, 1]):.3f} m, recognised wave in {shared.count('wave')} of {len(shared)} cycles, "
+            f"{late} of {cycles} cycles late",
             flush=True,
         )
         self.assertGreater(len(shared), 50)
