@@ -5,10 +5,42 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
+# --- the tiers (docs/architecture.md, "Tests"): the full run collects everything; --fast what needs no system ------
+SYSTEM_FOLDERS = ("ros", "gui", "e2e")  # under test/: real nodes over a master, the GUI in an X server, whole runs
+FULL_RUN_ONLY = ("rostest", "gui", "system", "slow")  # markers (pyproject.toml) of what --fast leaves out
 
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--fast",
+        action="store_true",
+        help="the fast tier: lint and every test that needs no ROS master, X server or launch, unless marked slow",
+    )
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xvfb's: the fast tier starts no X server
 def pytest_configure(config):
     if "TELETEACH_ROOT" not in os.environ:
         raise pytest.UsageError("run the tests through `bash scripts/test` (it sources build/env.sh first)")
+    if config.getoption("fast"):
+        config.option.no_xvfb = True
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark ``system`` what brings up a system (a test in SYSTEM_FOLDERS, or one that uses the roscore fixture); with
+    --fast, leave out everything marked with one of FULL_RUN_ONLY."""
+    folders = [ROOT / "test" / folder for folder in SYSTEM_FOLDERS]
+    for item in items:
+        if any(folder in item.path.parents for folder in folders) or "roscore" in item.fixturenames:
+            item.add_marker(pytest.mark.system)
+    if not config.getoption("fast"):
+        return
+    kept, left_out = [], []
+    for item in items:
+        (left_out if any(item.get_closest_marker(name) for name in FULL_RUN_ONLY) else kept).append(item)
+    if left_out:
+        config.hook.pytest_deselected(items=left_out)
+        items[:] = kept
 
 
 @pytest.fixture

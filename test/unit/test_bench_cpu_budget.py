@@ -31,6 +31,7 @@ def cpu_budget():
     return bench_module("cpu_budget")
 
 
+@pytest.mark.slow
 def test_a_profile_names_the_function_the_cpu_went_to(cpu_budget, tmp_path, monkeypatch):
     monkeypatch.setattr(cpu_budget, "PROFILES", tmp_path)
     busy = subprocess.Popen([sys.executable, "-c", BUSY])

@@ -56,6 +56,7 @@ def probe(tmp_path, code, env):
     return result.stdout.split()
 
 
+@pytest.mark.system
 def test_its_own_roscore_answers_until_the_experiment_closes(tmp_path, monkeypatch):
     monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path / "ros"))
     with Experiment(tmp_path) as experiment:
@@ -86,6 +87,7 @@ def test_its_processes_run_on_its_master_display_and_data_directory(tmp_path, mo
     assert (tmp_path / "b.log").read_text().split() == ["http://localhost:11999", ":77", str(tmp_path / "trial")]
 
 
+@pytest.mark.system
 def test_a_roscore_on_another_host_name_is_reached_by_it(tmp_path, monkeypatch):
     monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path / "ros"))
     with Experiment(tmp_path) as experiment:
@@ -94,6 +96,7 @@ def test_a_roscore_on_another_host_name_is_reached_by_it(tmp_path, monkeypatch):
     assert (tmp_path / "core.log").is_file()
 
 
+@pytest.mark.system
 def test_a_roslaunch_brings_its_master_and_gets_the_experiment_s_environment(tmp_path, monkeypatch):
     monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path / "ros"))
     launch_file = tmp_path / "probe.launch"
@@ -125,6 +128,7 @@ def test_a_roslaunch_brings_its_master_and_gets_the_experiment_s_environment(tmp
                     os.kill(pid, signal.SIGKILL)
 
 
+@pytest.mark.system
 def test_joining_makes_this_process_a_node_of_its_master(tmp_path):
     code = f"""
 import os, pathlib, rospy, signal
@@ -150,6 +154,7 @@ with Experiment(pathlib.Path({str(tmp_path)!r})) as experiment:
     assert name == "/joined" and ip == "unset"  # the user's ROS_HOSTNAME is left alone
 
 
+@pytest.mark.system
 def test_what_it_started_stops_when_its_process_dies_however_it_dies(tmp_path):
     code = f"""
 import os, pathlib, sys, time
@@ -273,6 +278,7 @@ def test_every_process_stops_when_it_closes(tmp_path):
     assert first.poll() is not None and second.poll() is not None
 
 
+@pytest.mark.system
 def test_without_a_display_it_brings_its_own_x_server(tmp_path, monkeypatch):
     monkeypatch.delenv("DISPLAY", raising=False)
     with Experiment(tmp_path) as experiment:

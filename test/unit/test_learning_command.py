@@ -86,6 +86,7 @@ def stop(process):
             process.wait(timeout=10)
 
 
+@pytest.mark.system
 def test_add_puts_the_learned_skill_into_the_running_behaviour_tree_library(data):
     env = dict(os.environ)
     quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True, "env": env}

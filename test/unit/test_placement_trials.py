@@ -127,6 +127,7 @@ def test_a_trial_that_pushes_a_neighbour_fails_in_the_world_whatever_the_skill_s
     assert result["peak_neighbour_force_n"] > 1.0
 
 
+@pytest.mark.slow
 def test_the_trials_processes_meet_the_uncertainty_file_they_are_given(tmp_path):
     """bench/stiffness_ablation.py --uncertainty: the file reaches every simulation process, a bad one stops all."""
     exact = tmp_path / "exact.yaml"

@@ -253,6 +253,7 @@ def test_thesis_full_drives_the_gui_to_the_expected_buttons():
     assert scale_to_index(by_time[38.1].rpy[0], turn, 10) == 8
 
 
+@pytest.mark.system
 def test_free_port_and_xvfb_on_a_display_it_picked(tmp_path):
     port = free_port()
     assert 1024 < port < 65536
@@ -273,6 +274,7 @@ def wait_for(path, timeout=20.0):
     return path.is_file()
 
 
+@pytest.mark.system
 def test_each_stage_is_pictured_after_its_delay_then_its_latest_state_while_it_lasts(tmp_path):
     processes = Processes()
     stage = {"name": None}
@@ -309,6 +311,7 @@ def test_without_a_display_nothing_is_pictured(tmp_path):
     assert list(tmp_path.iterdir()) == [] and shots.errors == []
 
 
+@pytest.mark.system
 def test_an_rviz_that_dies_is_started_again_and_the_run_says_what_each_start_did(tmp_path, monkeypatch):
     programs = tmp_path / "bin"
     programs.mkdir()
@@ -328,6 +331,7 @@ def test_an_rviz_that_dies_is_started_again_and_the_run_says_what_each_start_did
     assert len(said) == 2 and not (run.folder / "rviz.png").exists()
 
 
+@pytest.mark.system
 def test_own_master_moves_to_another_port_when_someone_else_took_the_probed_one(tmp_path):
     processes = Processes()
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path))

@@ -249,6 +249,7 @@ def test_a_plan_faster_than_the_operator_is_followed_at_the_operators_pace(cycle
     assert np.dot(step, towards) > 0.0
 
 
+@pytest.mark.slow
 def test_a_wave_around_a_turning_human_stroke_is_identified_with_a_free_heading():
     # The LASA stroke "Sine" (one of the sweep's tuned shapes), 40 cm across at 5 cm/s, turns at 0.6 rad/s (median
     # curvature 12.5 1/m); the estimation's Clothoid may bend 0.1 rad/s (2 1/m). With the heading held near the
@@ -394,6 +395,7 @@ def test_two_clothoid_segments_run_and_keep_the_boundary():
 
 
 @pytest.mark.parametrize("skill", ["wave", "cycloid"])
+@pytest.mark.slow
 def test_start_from_rest_follows_the_operator_at_every_start_timing(controller, skill):
     """Issue 15: after rest, a window half full of zeros made the first heading arbitrary (21 of 50 went backwards)."""
     controller.set_boundary(None)

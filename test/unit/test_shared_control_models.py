@@ -235,6 +235,7 @@ def test_synthetic_commands_add_the_noise_of_the_generator_given():
     assert unseeded.shape == clean.shape and 0.3 < np.std(unseeded - clean) < 0.7
 
 
+@pytest.mark.slow
 def test_nearest_free_point_matches_a_brute_force_search():
     box = Box(-0.2, -0.1, 0.3, 0.25)
     edge = StraightEdge(0.05, 0.0, 2.3)

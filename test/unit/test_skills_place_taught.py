@@ -4,6 +4,7 @@ operator taught for the gap in front of the robot, judged from the world, and sa
 import dataclasses
 
 import numpy as np
+import pytest
 
 from teleteach.core import skill_file
 from teleteach.core.frames import Transform
@@ -41,6 +42,7 @@ def test_with_nothing_taught_for_the_gap_it_fails_before_moving_and_says_what_to
     assert np.abs(sim_robot.joint_positions() - joints).max() < 0.01
 
 
+@pytest.mark.slow
 def test_it_places_with_the_taught_skill_the_learned_one_first(sim, sim_robot, runner, tmp_path):
     in_front_of_gap_1(runner)
     taught = placement_on_trajectory("perpendicular")
@@ -58,6 +60,7 @@ def test_it_places_with_the_taught_skill_the_learned_one_first(sim, sim_robot, r
     assert stands_in(sim, "product_pick_1", "gap_1")
 
 
+@pytest.mark.slow
 def test_a_product_the_operator_set_down_in_the_gap_is_only_let_go(sim, sim_robot, runner):
     in_front_of_gap_1(runner)
     # the operator's demonstration: the taught reference and stiffness played on the impedance controller, the

@@ -33,6 +33,7 @@ def replay_with_an_operator_lifting(sim, kinematics, skill, tmp_path):
     return heights[-1], robot.authority_reports, outcome.message
 
 
+@pytest.mark.slow
 def test_a_confident_skill_leads_and_the_operators_correction_moves_nothing(sim, kinematics, tmp_path):
     taught = placement_on_trajectory("perpendicular")
     confident = with_path(taught, 3, [0.0, 0.0], [0.0, taught.duration])  # three demonstrations, no spread
@@ -44,6 +45,7 @@ def test_a_confident_skill_leads_and_the_operators_correction_moves_nothing(sim,
     assert "confidence 1.00-1.00, the operator's correction 0 mm" in message
 
 
+@pytest.mark.slow
 def test_an_unsure_skill_lets_the_operator_lead(sim, kinematics, tmp_path):
     taught = placement_on_trajectory("perpendicular")
     unsure = with_path(taught, 2, [CONFIG.spread_unsure] * 2, [0.0, taught.duration])  # demonstrations far apart

@@ -2,6 +2,7 @@
 ReplaySkill on the real in-process simulation (pybullet physics, controller manager), no ROS."""
 
 import numpy as np
+import pytest
 
 from teleteach.core import skill_file
 from teleteach.learning.skill import learn_skill
@@ -10,6 +11,7 @@ from teleteach.sim.robot_sim import TRAJECTORY
 from teleteach.skills.robot import Execution
 
 
+@pytest.mark.slow
 def test_a_learned_dmp_skill_places_the_product_like_the_demonstrated_one(sim, runner, tmp_path):
     demo = placement_on_trajectory("perpendicular")
     learned = learn_skill(demo, "place_dmp")

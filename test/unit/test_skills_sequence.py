@@ -27,6 +27,7 @@ def gap_offset(sim, name):
     return math.hypot(offset[0], offset[1]), abs(offset[2])
 
 
+@pytest.mark.slow
 def test_the_predefined_sequence_puts_the_product_in_the_gap(sim, runner):
     for name in PREDEFINED_SKILLS:
         feedback = []
@@ -66,6 +67,7 @@ def test_pick_fails_saying_the_product_is_not_on_the_table(sim, runner):
     np.testing.assert_allclose(sim.world.joint_states()[0][:7], before, atol=1e-3)
 
 
+@pytest.mark.slow
 def test_conditions_read_the_world_and_move_nothing(sim, runner):
     assert sim.switch_controllers([IMPEDANCE], [TRAJECTORY], 2)[0]
     before = np.array(sim.world.joint_states()[0][:7])
@@ -239,6 +241,7 @@ class LateSceneRobot(SimRobot):
         return poses
 
 
+@pytest.mark.slow
 def test_a_late_scene_does_not_make_a_carried_product_look_gone(sim, kinematics):
     robot = LateSceneRobot(sim)
     runner = SkillRunner(robot, load_motion_config(), sim.scene, kinematics)
@@ -252,6 +255,7 @@ def test_a_late_scene_does_not_make_a_carried_product_look_gone(sim, kinematics)
     assert runner.execute("DropItem").message == "no product in the gripper to drop"
 
 
+@pytest.mark.slow
 def test_replay_places_the_product_in_the_gap_and_releases_it(sim, kinematics, tmp_path):
     robot = StampRecordingRobot(sim)
     runner = SkillRunner(robot, load_motion_config(), sim.scene, kinematics)
@@ -281,6 +285,7 @@ def test_replay_places_the_product_in_the_gap_and_releases_it(sim, kinematics, t
     assert sim.manager.running == TRAJECTORY
 
 
+@pytest.mark.slow
 def test_replay_that_leaves_the_product_outside_the_gap_fails_naming_product_gap_and_distance(sim, runner, tmp_path):
     pick_and_face_the_shelf(runner)
     path = placing_skill(tmp_path / "short", until=5.0)  # stops 15 cm in front of the shelf
@@ -337,6 +342,7 @@ def test_replay_of_a_bad_skill_file_fails_with_its_error(sim, runner, tmp_path):
     assert sim.manager.running == TRAJECTORY
 
 
+@pytest.mark.slow
 def test_a_preempted_replay_switches_back_to_position_control(sim, runner, tmp_path):
     pick_and_face_the_shelf(runner)
     path = placing_skill(tmp_path / "long")

@@ -53,6 +53,7 @@ def test_the_scripted_operator_asks_through_the_device_for_the_hand_it_wants():
     assert operator.end == pytest.approx(4.0 + 1.0 + 4.0 + 1.5 + 0.5 + 0.5 + 1.0 + 2.0)
 
 
+@pytest.mark.slow
 def test_an_exact_operator_places_with_and_without_assistance_and_the_placement_can_be_kept_as_a_skill():
     for assistance in (False, True):
         result = trial(STEADY, assistance, teach="Taught" if assistance else "")
@@ -68,6 +69,7 @@ def test_an_exact_operator_places_with_and_without_assistance_and_the_placement_
     np.testing.assert_allclose(skill.stiffness[0], np.diag([GuiConfig.load().initial_stiffness] * 3))
 
 
+@pytest.mark.slow
 def test_an_operator_aiming_aside_pushes_a_neighbour_unless_the_assistance_guides_the_product_in():
     model = aside(0.012)  # 1.2 cm beside the centre: 5 mm of clearance per side, within the corridor's capture
     alone, assisted = trial(model, False), trial(model, True)
