@@ -12,7 +12,8 @@ def test_record_command_writes_timestamped_bags_into_the_data_directory(tmp_path
     assert (tmp_path / "data" / "bags").is_dir()  # rosbag record does not create it
     assert command[4:] == [f"/{topic}" for topic in TEACHING_TOPICS]  # the root's names
     assert set(DEVICE_TOPICS) <= set(TEACHING_TOPICS)
-    for topic in ("eigenvalues", "eigenvectors", "behaviour_tree/log/tree", "tf_static", "teleteach/active_tab"):
+    teaching = ("eigenvalues", "eigenvectors", "behaviour_tree/log/tree", "tf_static", "teleteach/active_tab")
+    for topic in (*teaching, "teleteach/recording"):  # the GUI's tab and recording flag mark each demonstration
         assert topic in TEACHING_TOPICS
     # a recorder in a namespace records that namespace's topics, named in full in the bag
     inside = record_command("lesson_1", tmp_path / "data", namespace="/robot_2/")

@@ -2,13 +2,18 @@
 
 Everything the node does lives here, so that it runs (and is tested) without a ROS master; only ``--add`` talks to
 ROS, through the ``/behaviour_tree/add_skill`` service.
+
+A session bag is learned one demonstration at a time (teleteach.learning.bag: each LOW-LEVEL recording, never the
+time between recordings or a skill the tree replayed): each one becomes a skill of its own, ``<name>_<number>`` when
+there are several, or only the one ``--demonstration N`` names. Nothing is written unless every one was learned.
 """
 
 import argparse
+import dataclasses
 import pathlib
 import re
 import sys
-from typing import Callable, Dict, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -19,7 +24,7 @@ from teleteach.core.rotations import rpy_rotation
 from teleteach.learning import bag
 from teleteach.learning.plot import write_figure_c1
 from teleteach.learning.preprocess import LearningError
-from teleteach.learning.skill import LearningParameters, learn, learn_skill, principal_axes_like_base
+from teleteach.learning.skill import LearnedSkill, LearningParameters, learn, learn_skill, principal_axes_like_base
 
 ADD_SKILL_SERVICE = "behaviour_tree/add_skill"
 
@@ -29,12 +34,20 @@ def parser() -> argparse.ArgumentParser:
     defaults = LearningParameters()
     result = argparse.ArgumentParser(
         prog="learn_skill",
-        description="Learn a geometry-aware DMP stiffness skill from a taught skill (.npz) or a session bag (.bag), "
-        "reproduce it (optionally with a new duration and goal stiffness), save it as a skill of kind 'dmp' in the "
-        "data directory's skills/, write a Fig. C.1-like PNG, and optionally add it to the running BT library.",
+        description="Learn a geometry-aware DMP stiffness skill from a taught skill (.npz) or from each demonstration "
+        "(LOW-LEVEL recording) of a session bag (.bag), reproduce it (optionally with a new duration and goal "
+        "stiffness), save it as a skill of kind 'dmp' in the data directory's skills/, write a Fig. C.1-like PNG, and "
+        "optionally add it to the running BT library.",
     )
     result.add_argument("source", help="skill file (.npz), session bag (.bag), or the name of a skill in skills/")
     result.add_argument("--name", default="", help="name of the learned skill (default: <source name>_dmp)")
+    result.add_argument(
+        "--demonstration",
+        type=int,
+        metavar="N",
+        help="learn only the session bag's N-th demonstration (LOW-LEVEL recording, from 1; default: each one, "
+        "named <name>_<N> when there are several)",
+    )
     result.add_argument("--duration", type=float, default=None, help="duration of the reproduction [s]")
     result.add_argument(
         "--goal-stiffness",
@@ -121,6 +134,82 @@ def add_to_library(name: str, path: pathlib.Path, timeout: float) -> str:
     return response.message
 
 
+@dataclasses.dataclass
+class Source:
+    """What one skill is learned from: a skill file, a whole bag, or one recording of a session bag."""
+
+    what: str  # for the output: "<file>", "demonstration 2 of <bag>, 18.6-31.1 s into the bag", ...
+    session: Optional[bag.SessionBag] = None
+    recording: Optional[bag.Recording] = None  # None: all of the session's bag
+    demonstrated: Optional[skill_file.Skill] = None
+
+    def learn(self, name: str, parameters: LearningParameters) -> LearnedSkill:
+        """The DMPs of this source. Raises :class:`LearningError`."""
+        if self.demonstrated is not None:
+            learned = learn_skill(self.demonstrated, name, parameters)
+            learned.source["file"] = self.what
+            return learned
+        origin = {"bag": str(self.session.path), "found_by": self.session.found_by}
+        if self.recording is not None:
+            origin.update(
+                demonstration=self.recording.number,
+                demonstrations=len(self.session.recordings),
+                start=self.recording.start,  # [s] into the bag
+                end=self.recording.end,
+            )
+        times, stiffness, poses = self.session.demonstration(self.recording)
+        return learn(times, stiffness, poses, name, parameters, source=origin)
+
+
+def sources(path: pathlib.Path, number: Optional[int], report: Callable[[str], None]) -> List[Source]:
+    """What to learn from ``path``: a skill file, or a session bag's demonstrations (only the ``number``-th if given).
+
+    Lists a session bag's demonstrations. Raises :class:`LearningError`, also for a session bag with no
+    demonstration.
+    """
+    if path.suffix != ".bag":
+        if number is not None:
+            raise LearningError(f"--demonstration picks a demonstration of a session bag; {path} is not a .bag")
+        try:
+            return [Source(str(path), demonstrated=skill_file.load(path))]
+        except skill_file.SkillFileError as error:
+            raise LearningError(str(error)) from None
+    session = bag.read_session_bag(path)
+    if session.recordings is None:
+        found = [Source(f"all of {path} ({session.found_by})", session)]
+    else:
+        found = [
+            Source(f"demonstration {recording.number} of {path}, {recording.span}", session, recording)
+            for recording in session.recordings
+        ]
+    if not found:
+        raise LearningError(
+            f"bag {path} holds no demonstration to learn from: no LOW-LEVEL recording, by {session.found_by}"
+        )
+    if number is not None and not 1 <= number <= len(found):
+        raise LearningError(f"--demonstration {number}: bag {path} holds demonstrations 1 to {len(found)}")
+    if session.recordings:
+        plural = "s" if len(found) > 1 else ""
+        report(f"{path} holds {len(found)} demonstration{plural} (LOW-LEVEL recording{plural}), by {session.found_by}:")
+        for recording in session.recordings:
+            report(f"  {recording}")
+    return found if number is None else [found[number - 1]]
+
+
+def files(arguments: argparse.Namespace, root: pathlib.Path, name: str, number: Optional[int]):
+    """(skill file, plot) of the skill ``name``; ``number``: which of several, appended to --output's and --plot's."""
+
+    def numbered(path: pathlib.Path) -> pathlib.Path:
+        return path if number is None else path.with_name(f"{path.stem}_{number}{path.suffix}")
+
+    output = root / "skills" / f"{name}.npz"
+    if arguments.output:
+        output = pathlib.Path(arguments.output).expanduser()
+        output = numbered(output if output.suffix == ".npz" else output.with_name(output.name + ".npz"))
+    plot = numbered(pathlib.Path(arguments.plot).expanduser()) if arguments.plot else output.with_suffix(".png")
+    return output, plot
+
+
 def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
     """Do what the arguments ask, calling ``report`` with each result line. Raises :class:`LearningError`."""
     root = data_dir(arguments.data_dir or None)
@@ -128,12 +217,6 @@ def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
     name = arguments.name or _default_name(source)
     if not name.isidentifier():
         raise LearningError(f"skill name {name!r} must be an identifier (letters, digits, _)")
-    output = pathlib.Path(arguments.output).expanduser() if arguments.output else root / "skills" / f"{name}.npz"
-    if output.suffix != ".npz":
-        output = output.with_name(output.name + ".npz")
-    if output.exists() and not arguments.force:
-        raise LearningError(f"{output} exists; choose another --name or pass --force to overwrite it")
-    plot = pathlib.Path(arguments.plot).expanduser() if arguments.plot else output.with_suffix(".png")
     try:
         parameters = LearningParameters(
             rate=arguments.rate,
@@ -144,41 +227,58 @@ def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
         parameters.dmp_parameters(1.0)
     except ValueError as error:
         raise LearningError(str(error)) from None
-    taught_path = {}  # the demonstrations and spread of a path taught in TELEOP: the replay's confidence
-    if source.suffix == ".bag":
-        times, stiffness, poses = bag.read_bag(source)
-        learned = learn(times, stiffness, poses, name, parameters, source={"bag": str(source)})
-    else:
+    found = sources(source, arguments.demonstration, report)
+    several = len(found) > 1
+    planned = []  # every skill is learned before any file is written
+    for index, origin in enumerate(found, 1):
+        skill_name = f"{name}_{index}" if several else name
+        output, plot = files(arguments, root, skill_name, index if several else None)
+        if output.exists() and not arguments.force:
+            raise LearningError(f"{output} exists; choose another --name or pass --force to overwrite it")
+        planned.append((skill_name, output, plot, origin))
+    learned = []
+    for skill_name, output, plot, origin in planned:
         try:
-            demonstrated = skill_file.load(source)
-        except skill_file.SkillFileError as error:
-            raise LearningError(str(error)) from None
-        learned = learn_skill(demonstrated, name, parameters)
-        learned.source["file"] = str(source)
-        taught_path = {key: value for key, value in demonstrated.provenance.items() if key.startswith("path_")}
+            learned.append((*reproduced(arguments, skill_name, origin, parameters), output, plot, origin))
+        except LearningError as error:
+            raise LearningError(f"{origin.what}: {error}" if origin.recording else str(error)) from None
+    for skill, result, reproduction, output, plot, origin in learned:
+        saved = skill_file.save(skill, output)
+        demo = result.demonstration
+        write_figure_c1(
+            plot, demo.sample_time, demo.samples, reproduction.time, reproduction.stiffness, title=skill.name
+        )
+        for line in (
+            f"learned {skill.name} from {origin.what} ({demo.samples.shape[0]} stiffness samples, "
+            f"{demo.duration:.1f} s) in {result.learning_time:.3f} s with "
+            f"N = {result.stiffness.parameters.basis_count} basis functions",
+            f"reproduction error (same duration and goal): {describe_error(skill.provenance['reproduction_error'])}",
+            f"saved {saved} (kind dmp, {skill.time.size} samples, {skill.duration:.1f} s)",
+            f"plot {plot}",
+        ):
+            report(line)
+    if arguments.add:
+        for skill, _, _, output, _, _ in learned:
+            report(f"added to the BT library: {add_to_library(skill.name, output, arguments.timeout)}")
+
+
+def reproduced(arguments: argparse.Namespace, name: str, origin: Source, parameters: LearningParameters):
+    """(skill, learned DMPs, reproduction) of one source, with the duration and goal the arguments ask for."""
+    learned = origin.learn(name, parameters)
     goal = goal_stiffness(learned.stiffness.goal, arguments.goal_stiffness, arguments.goal_rotation)
     reproduction = learned.reproduce(arguments.duration, goal)
     same = arguments.duration is None and goal is None
     skill = learned.to_skill(reproduction, name, learned.error(reproduction) if same else None)
     skill.provenance["goal_stiffness"] = None if goal is None else goal.tolist()
+    demonstrated = origin.demonstrated
+    taught_path = {}  # the demonstrations and spread of a path taught in TELEOP: the replay's confidence
+    if demonstrated is not None:
+        taught_path = {key: value for key, value in demonstrated.provenance.items() if key.startswith("path_")}
     if "path_spread_time" in taught_path:  # a reproduction of another duration stretches the path's timing with it
         stretch = skill.duration / learned.demonstration.duration
         taught_path["path_spread_time"] = [stretch * value for value in taught_path["path_spread_time"]]
     skill.provenance.update(taught_path)
-    error = skill.provenance["reproduction_error"]
-    saved = skill_file.save(skill, output)
-    demo = learned.demonstration
-    write_figure_c1(plot, demo.sample_time, demo.samples, reproduction.time, reproduction.stiffness, title=name)
-    for line in (
-        f"learned {name} from {source} ({demo.samples.shape[0]} stiffness samples, {demo.duration:.1f} s) "
-        f"in {learned.learning_time:.3f} s with N = {learned.stiffness.parameters.basis_count} basis functions",
-        f"reproduction error (same duration and goal): {describe_error(error)}",
-        f"saved {saved} (kind dmp, {skill.time.size} samples, {skill.duration:.1f} s)",
-        f"plot {plot}",
-    ):
-        report(line)
-    if arguments.add:
-        report(f"added to the BT library: {add_to_library(name, saved, arguments.timeout)}")
+    return skill, learned, reproduction
 
 
 SPREAD_WORTH_COMPARING = 0.05  # a demonstration varying less (affine-invariant, ~5 %) is constant for the error's sake

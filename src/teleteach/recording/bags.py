@@ -18,6 +18,7 @@ DEVICE_TOPICS = ("sigma7/pose", "sigma7/twist", "sigma7/gripper_angle", "sigma7/
 TEACHING_TOPICS = (
     *DEVICE_TOPICS,
     "teleteach/active_tab",
+    "teleteach/recording",
     "eigenvalues",
     "eigenvectors",
     "equilibrium_pose",
@@ -34,7 +35,8 @@ TEACHING_TOPICS = (
     "robot_sim/base_error",
 )
 """Everything a session bag records (the scene too, so that a visual replay shows the shelf and the products; in a
-simulation the true scene and the base's errors, so that the run is judged from the world).
+simulation the true scene and the base's errors, so that the run is judged from the world; the GUI's recording flag,
+so that learn_skill takes each demonstration on its own).
 
 Relative names: the recorder records them in its namespace (``/eigenvalues`` at the root, where the offline
 readers, teleteach.recording.session and teleteach.learning.bag, expect them).
