@@ -9,6 +9,9 @@ through the shared controller (config/shared_control.yaml, in-process, its bound
 tool's patch); the arm presses with the taught stiffness (3000, 3000, 300) N/m on a surface perceived with the seed's
 error (config/uncertainty.yaml).
 
+With --obstacle-trials N (default 20, seeds 5200 and up), N more operators wipe while IV-D's straight edge comes down
+across the board and goes back (teleteach.wiping.assistance.moving_edge): its violations by the tool, both modes.
+
 Per mode and skill: F_h and F_x (eqs 11-12, after the first window; F_x of the tool's path as the world moved it, and of
 the targets), boundary violations of the tool's centre (> 2 mm beyond), contact, the area covered; for shared control
 the solve time per cycle (CPU, in process: the node adds ROS) and the cycles over 20 ms. Paired: the same operator in
@@ -42,6 +45,7 @@ from teleteach.wiping.assistance import AssistedWipeJob
 BENCH = pathlib.Path(__file__).resolve().parent
 RESULTS = BENCH / "results" / "wiping_shared_control.json"
 HELD_OUT_SEEDS = 4950  # trial k uses seed HELD_OUT_SEEDS + k; --development: seed k
+OBSTACLE_SEEDS = 5200  # the moving-edge trials' held-out seeds (--development: 100 + k)
 
 
 def median(rows, mode, key):
@@ -74,6 +78,31 @@ def summarise(rows) -> dict:
             "over_cycle": sum(row["shared"]["over_cycle"] for row in group),
         }
     return summary
+
+
+def obstacle_summary(rows) -> dict:
+    """IV-D: the moving edge's violations by the tool's centre, directly and with shared control."""
+    return {
+        "trials": len(rows),
+        "direct_violations": sum(row["direct"]["obstacle_violations"] for row in rows),
+        "direct_trials_violating": sum(row["direct"]["obstacle_violations"] > 0 for row in rows),
+        "shared_violations": sum(row["shared"]["obstacle_violations"] for row in rows),
+        "shared_boundary_violations": sum(row["shared"]["boundary_violations"] for row in rows),
+        "shared_contact_fraction": float(np.median([row["shared"]["contact_fraction"] for row in rows])),
+        "solve_p99_ms": max(row["shared"]["solve_p99_ms"] for row in rows),
+        "over_cycle": sum(row["shared"]["over_cycle"] for row in rows),
+        "cycles": sum(row["cycles"] for row in rows),
+    }
+
+
+def obstacle_goal(edge: dict) -> dict:
+    """0 violations of the moving edge with shared control (IV-D), counted without it."""
+    return {
+        "goal": "IV-D: 0 violations of the moving edge (or the boundary) with shared control, counted without it",
+        "measured": f"shared {edge['shared_violations']} (boundary {edge['shared_boundary_violations']}), direct "
+        f"{edge['direct_violations']} cycles in {edge['direct_trials_violating']} of {edge['trials']} wipes",
+        "met": edge["shared_violations"] == 0 and edge["shared_boundary_violations"] == 0,
+    }
 
 
 def goals(summary: dict) -> list:
@@ -112,13 +141,18 @@ def goals(summary: dict) -> list:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_trial_arguments(parser, 20, least=2)
+    parser.add_argument("--obstacle-trials", type=int, default=20, help="wipes with IV-D's moving edge")
     arguments = parser.parse_args()
     seeds = trial_seeds(parser, arguments, HELD_OUT_SEEDS)
+    edge_first = 100 if arguments.development else OBSTACLE_SEEDS
+    edge_seeds = list(range(edge_first, edge_first + max(arguments.obstacle_trials, 0)))
     wiping = load_wiping_config()
-    jobs = [
-        AssistedWipeJob("wipes", seed, "wave" if seed % 2 == 0 else "cycloid", TAUGHT, wiping, SURFACE, BASE_POSE)
-        for seed in seeds
-    ]
+
+    def job(group, seed, obstacle):
+        skill = "wave" if seed % 2 == 0 else "cycloid"
+        return AssistedWipeJob(group, seed, skill, TAUGHT, wiping, SURFACE, BASE_POSE, obstacle)
+
+    jobs = [job("wipes", seed, False) for seed in seeds] + [job("edge", seed, True) for seed in edge_seeds]
     config_files = [
         DEFAULT_SCENE_FILE,
         DEFAULT_UNCERTAINTY_FILE,
@@ -126,9 +160,19 @@ def main() -> int:
         config_file("shared_control.yaml"),
     ]
     start, origin = time.perf_counter(), provenance(config_files)
-    rows = run_trials(jobs, arguments.processes, lambda line: print(line, flush=True))["wipes"]
+    trials = run_trials(jobs, arguments.processes, lambda line: print(line, flush=True))
+    rows, edge_rows = trials["wipes"], trials.get("edge", [])
     summary = summarise(rows)
     checks = goals(summary)
+    edge = obstacle_summary(edge_rows) if edge_rows else None
+    if edge is not None:
+        checks.append(obstacle_goal(edge))
+        print(
+            f"\nIV-D, {edge['trials']} wipes with the moving edge (seeds {edge_seeds[0]}-{edge_seeds[-1]}): edge "
+            f"violations direct {edge['direct_violations']} cycles ({edge['direct_trials_violating']} wipes), shared "
+            f"{edge['shared_violations']}; shared in contact {edge['shared_contact_fraction']:.0%} (median), solve "
+            f"p99 {edge['solve_p99_ms']:.1f} ms"
+        )
     print(f"\n{arguments.trials} operators, seeds {seeds[0]}-{seeds[-1]}, each directly and with shared control")
     for skill, row in summary.items():
         print(
@@ -145,10 +189,17 @@ def main() -> int:
     RESULTS.parent.mkdir(exist_ok=True)
     path = RESULTS if not arguments.development else RESULTS.with_name("wiping_shared_control_development.json")
     results = {
-        "settings": {"trials": arguments.trials, "seeds": seeds, "held_out": not arguments.development},
+        "settings": {
+            "trials": arguments.trials,
+            "seeds": seeds,
+            "obstacle_seeds": edge_seeds,
+            "held_out": not arguments.development,
+        },
         "summary": summary,
+        "moving_edge": edge,
         "goals": checks,
         "trials": rows,
+        "edge_trials": edge_rows,
         "provenance": {**origin, "wall_s": round(time.perf_counter() - start, 1)},
     }
     path.write_text(json.dumps(results, indent=1))

@@ -100,3 +100,26 @@ def test_the_bench_judges_each_goal_from_the_paired_trials():
     assert [check["met"] for check in bench.goals(summary)] == [True, True, True, True]
     bad = rows("cycloid", [1.0] * 3, [1.2] * 3, shared_violations=1, over=3) + rows("wave", [1.0] * 3, [1.11] * 3)
     assert [check["met"] for check in bench.goals(bench.summarise(bad))] == [False, False, False, False]
+
+
+def test_the_moving_edge_comes_down_over_the_board_and_shared_control_keeps_off_it_where_direct_control_crosses():
+    from teleteach.wiping.assistance import OBSTACLE_FAR, OBSTACLE_NEAR, OBSTACLE_PERIOD, moving_edge
+
+    assert moving_edge(0.0).y == pytest.approx(OBSTACLE_FAR) and moving_edge(OBSTACLE_PERIOD / 2).y == pytest.approx(
+        OBSTACLE_NEAR
+    )
+    assert moving_edge(0.3).distance(np.array([0.0, -0.05]))[0] > 0.0  # below the edge is free
+
+    def crossings(targets):
+        edges = [moving_edge(k * CONFIG.dt) for k in range(len(targets))]
+        return measures.obstacle_violations(targets, edges, 1e-6)["count"]
+
+    seed = next(
+        seed
+        for seed in range(40)
+        if crossings(direct_targets(*human_wipe(seed, "wave", BOX, CONFIG.dt), CONFIG.dt)) > 10
+    )
+    commands, start = human_wipe(seed, "wave", BOX, CONFIG.dt)
+    shared, _ = shared_targets(commands, start, BOX, CONFIG, moving_edge)
+    assert crossings(shared) == 0
+    assert measures.boundary_violations(shared, BOX, 1e-6)["count"] == 0

@@ -10,12 +10,12 @@ Henis 1991), its own speed changes, a pattern whose size and frequency the seed 
 
 import dataclasses
 import math
-from typing import List, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from teleteach.shared_control.constraints import Box
+from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.loop import MODE_NAMES, SharedControl, SharedControlConfig
 from teleteach.shared_control.operators import commands_around_path, reaching_path, retime
 from teleteach.shared_control.surface import WipingConfig, wiping_box
@@ -35,6 +35,11 @@ NOISE = 0.01  # [m/s] a hand's noise on each command axis
 WANDER_TIME = 0.5  # [s] the wander's correlation time
 AMPLITUDE_WANDER = 0.2  # [-] relative to the pattern's size
 PHASE_WANDER = 0.1  # [periods] of the pattern's timing
+# IV-D's moving obstacle: a straight edge across the board, parallel to u, that comes down from beyond the
+# boundary's top to OBSTACLE_NEAR and goes back every OBSTACLE_PERIOD (free side below it), as the paper's experimenter
+# moved a straight edge across the whiteboard. Given in the board's coordinates (tracked relative to the board).
+OBSTACLE_PERIOD = 6.0  # [s]
+OBSTACLE_FAR, OBSTACLE_NEAR = 0.10, 0.03  # [m] along v
 BOUNDARY_TOLERANCE = 0.002  # [m] the tool's centre beyond the boundary by more than this is a violation (the arm
 #                             tracks its equilibrium within a few millimetres: issue 31's margin)
 
@@ -72,15 +77,34 @@ def human_wipe(seed: int, skill: str, box: Box, dt: float) -> Tuple[np.ndarray, 
     return commands, start
 
 
+def moving_edge(time: float) -> StraightEdge:
+    """Where IV-D's edge is at ``time`` [s] into the wipe (its free side toward -v)."""
+    v = OBSTACLE_FAR + (OBSTACLE_NEAR - OBSTACLE_FAR) * 0.5 * (1.0 - math.cos(2.0 * math.pi * time / OBSTACLE_PERIOD))
+    return StraightEdge(0.0, v, -0.5 * math.pi)
+
+
 def direct_targets(commands: np.ndarray, start: Sequence[float], dt: float) -> np.ndarray:
     """Direct control: the tool goes where the operator's commands take it, boundary or not."""
     return np.asarray(start, dtype=float) + np.cumsum(np.asarray(commands, dtype=float) * dt, axis=0)
 
 
-def shared_targets(commands: np.ndarray, start: Sequence[float], box: Box, config: SharedControlConfig):
-    """Shared control: the MPC's executed state of each cycle over the commands; also each cycle's record."""
+def shared_targets(
+    commands: np.ndarray,
+    start: Sequence[float],
+    box: Box,
+    config: SharedControlConfig,
+    obstacle: Optional[Callable[[float], StraightEdge]] = None,
+):
+    """Shared control: the MPC's executed state of each cycle over the commands; also each cycle's record.
+
+    ``obstacle(t)``, when given, is the edge the controller senses at the cycle's time ``t`` [s].
+    """
     controller = SharedControl(config, tuple(start), box)
-    records = [controller.step(command) for command in np.asarray(commands, dtype=float)]
+    records = []
+    for k, command in enumerate(np.asarray(commands, dtype=float)):
+        if obstacle is not None:
+            controller.set_obstacle(obstacle(k * config.dt))
+        records.append(controller.step(command))
     return np.array([record.state for record in records]), records
 
 
@@ -95,7 +119,8 @@ class AssistedWipeJob:
 
     Both modes press with the same stiffness on the same surface, with the same perception error (the seed's); the
     figures are the paper's (F_h, F_x after the first window, eqs 11-12) on the tool's path as the world moved it,
-    and the world's: boundary violations of the tool's centre, contact, the area covered.
+    and the world's: boundary violations of the tool's centre, contact, the area covered; with ``obstacle``, IV-D's
+    moving edge is there (shared control senses it) and the violations of it are counted too.
     """
 
     group: str
@@ -105,6 +130,7 @@ class AssistedWipeJob:
     wiping: WipingConfig
     surface: str
     base_pose: str
+    obstacle: bool = False
 
     def run(self, process: dict) -> dict:
         """Both wipes of this operator, judged from the world."""
@@ -113,10 +139,11 @@ class AssistedWipeJob:
         box = wiping_box(surface, tool.size[:2])
         config = SharedControlConfig.from_yaml()
         commands, start = human_wipe(self.seed, self.skill, box, config.dt)
-        shared, records = shared_targets(commands, start, box, config)
+        shared, records = shared_targets(commands, start, box, config, moving_edge if self.obstacle else None)
         row = {"seed": self.seed, "skill": self.skill, "cycles": len(commands)}
         window = config.n_window
         times = config.dt * np.arange(len(commands))
+        edges = [moving_edge(time) if self.obstacle else None for time in times]
         for mode, targets in (("direct", direct_targets(commands, start, config.dt)), ("shared", shared)):
             record, _ = run_wipe(
                 scene,
@@ -140,6 +167,9 @@ class AssistedWipeJob:
                 "boundary_violations": violations["count"],
                 "boundary_worst_m": violations["worst_m"],
                 "target_violations": planned["count"],
+                "obstacle_violations": measures.obstacle_violations(record.positions, edges, BOUNDARY_TOLERANCE)[
+                    "count"
+                ],
             }
         solves = solve_times(records)
         row["shared"]["solve_p50_ms"] = 1000 * float(np.median(solves))
