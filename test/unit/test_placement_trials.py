@@ -80,6 +80,7 @@ def test_a_held_product_stays_put_in_the_fingers_and_slips_when_pushed_hard(kine
         sim.close()
 
 
+@pytest.mark.slow
 def test_a_trial_places_relative_to_the_perceived_gap_and_is_judged_from_the_world(kinematics, tmp_path):
     path = skill_file.save(placement_on_trajectory("perpendicular"), tmp_path / "Place")
     scene = load_scene()
@@ -105,6 +106,7 @@ def test_a_trial_places_relative_to_the_perceived_gap_and_is_judged_from_the_wor
     assert result["sim_s"] > 11.0
 
 
+@pytest.mark.slow
 def test_a_trial_that_pushes_a_neighbour_fails_in_the_world_whatever_the_skill_says(kinematics, tmp_path):
     """A skill aimed 2 cm beside the gap: the product meets a neighbour; the world's verdict is a failure."""
     taught = placement_on_trajectory("perpendicular")
