@@ -32,10 +32,14 @@ def taught_in(frame: Transform) -> np.ndarray:
 
 def test_the_depth_is_the_force_over_the_stiffness_along_the_normal_whatever_the_frame():
     normal = TURNED.rotation.apply([0.0, 0.0, 1.0])
-    assert pressing_depth(10.0, taught_in(TURNED), normal) == pytest.approx(10.0 / 300.0)
-    assert pressing_depth(10.0, taught_in(Transform.identity()), normal) != pytest.approx(10.0 / 300.0)
+    settings = load_wiping_config()
+    assert settings.contact_force == 10.0
+    assert pressing_depth(settings, taught_in(TURNED), normal) == pytest.approx(10.0 / 300.0)
+    assert pressing_depth(settings, taught_in(Transform.identity()), normal) != pytest.approx(10.0 / 300.0)
     with pytest.raises(SurfaceError, match="normal"):
-        pressing_depth(10.0, np.zeros((3, 3)), normal)
+        pressing_depth(settings, np.zeros((3, 3)), normal)
+    soft = translational_stiffness([3000.0, 3000.0, 100.0], TURNED.rotation)  # 10 cm asked: clipped as the arm clips
+    assert pressing_depth(settings, soft, normal) == pytest.approx(settings.max_depth)
 
 
 def test_the_plane_has_the_surfaces_axes_and_holds_the_tcp_pressing_beyond_the_face_the_tool_square():

@@ -141,16 +141,20 @@ class PerceivedSurface:
 
     def _on_eigenvalues(self, message) -> None:
         values = np.array([message.vector.x, message.vector.y, message.vector.z])
-        if np.all(np.isfinite(values)):
-            with self._lock:
-                self._eigenvalues = values
+        if not (np.all(np.isfinite(values)) and np.all(values >= 0.0)):
+            self._rospy.logwarn_throttle(5.0, f"shared_control: rejected /eigenvalues {values.tolist()}: not >= 0")
+            return
+        with self._lock:
+            self._eigenvalues = values
 
     def _on_eigenvectors(self, message) -> None:
         q = message.quaternion
         quaternion = np.array([q.x, q.y, q.z, q.w])
-        if np.all(np.isfinite(quaternion)) and np.linalg.norm(quaternion) > 0.5:
-            with self._lock:
-                self._eigenvectors = quaternion / np.linalg.norm(quaternion)
+        if not (np.all(np.isfinite(quaternion)) and abs(np.linalg.norm(quaternion) - 1.0) < 0.01):
+            self._rospy.logwarn_throttle(5.0, f"shared_control: rejected /eigenvectors {quaternion.tolist()}: not unit")
+            return
+        with self._lock:
+            self._eigenvectors = quaternion / np.linalg.norm(quaternion)
 
     def stiffness(self) -> np.ndarray:
         """The translational stiffness the arm was last given, in base_link [N/m]."""
@@ -617,7 +621,10 @@ class SharedControlNode:
                 self._retract(now - self._last_input)
                 schedule.finish(self._rospy.get_time())
                 return None
-            self.plane = self._surface.plane()  # the pressing depth follows the stiffness being taught
+            try:
+                self.plane = self._surface.plane()  # the pressing depth follows the stiffness being taught
+            except SurfaceError as error:
+                self._rejected = f"kept the last plane: {error}"
         command = self._commands.sample(cycle_time - self.command_delay)
         obstacle = self._obstacle
         if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:

@@ -41,6 +41,7 @@ class WipingConfig:
 
     rate: float
     contact_force: float
+    max_depth: float
     contact_threshold: float
     approach_height: float
     approach_time: float
@@ -66,11 +67,13 @@ def load_wiping_config(path: Optional[str] = None) -> WipingConfig:
     return from_mapping(WipingConfig, yaml.safe_load(path.read_text()), str(path), WipingError)
 
 
-def pressing_depth(contact_force: float, stiffness: np.ndarray, normal: Sequence[float]) -> float:
-    """How far beyond the face the equilibrium lies [m]: contact_force [N] over the stiffness along the normal.
+def pressing_depth(settings: WipingConfig, stiffness: np.ndarray, normal: Sequence[float]) -> float:
+    """How far beyond the face the equilibrium lies [m]: the contact force [N] over the stiffness along the normal.
+
+    At most ``settings.max_depth``: a stiffness that soft along the normal presses with less than the force asked.
 
     Args:
-        contact_force: the force asked for [N].
+        settings: the wiping settings (the force asked for, the deepest equilibrium).
         stiffness: translational stiffness (3 x 3) [N/m], in the frame of ``normal``.
         normal: the surface's normal (unit vector).
     """
@@ -78,7 +81,7 @@ def pressing_depth(contact_force: float, stiffness: np.ndarray, normal: Sequence
     along = float(normal @ np.asarray(stiffness, dtype=float) @ normal)
     if not math.isfinite(along) or along <= 0.0:
         raise SurfaceError(f"the stiffness along the surface's normal must be > 0 N/m, got {along}")
-    return contact_force / along
+    return min(settings.contact_force / along, settings.max_depth)
 
 
 def wiping_box(surface: Surface, footprint: Tuple[float, float]) -> Box:
@@ -129,7 +132,7 @@ class SurfaceWipe:
     def plane(self, surface_in_base: Transform, stiffness: np.ndarray) -> TaskPlane:
         """The task plane on the surface perceived at ``surface_in_base``, pressing with ``stiffness`` (base_link)."""
         normal = surface_in_base.rotation.apply([0.0, 0.0, 1.0])
-        depth = pressing_depth(self.settings.contact_force, stiffness, normal)
+        depth = pressing_depth(self.settings, stiffness, normal)
         return surface_plane(surface_in_base, self.tool, depth)
 
     def off_surface(self, surface_in_base: Transform, point: Sequence[float]) -> np.ndarray:

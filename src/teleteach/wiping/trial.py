@@ -113,7 +113,7 @@ class SurfaceWiper:
         The TCP's equilibrium lies ``contact_force / K_n`` beyond the face along the normal, the tool square to it.
         """
         targets = np.asarray(targets, dtype=float)
-        height = self.reach - pressing_depth(self.config.contact_force, np.diag(stiffness.eigenvalues()), (0, 0, 1))
+        height = self.reach - pressing_depth(self.config, np.diag(stiffness.eigenvalues()), (0, 0, 1))
         poses = np.column_stack(
             [targets, np.full(len(targets), height), np.tile(TOOL_DOWN.as_quat(), (len(targets), 1))]
         )
