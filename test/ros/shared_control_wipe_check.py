@@ -132,11 +132,19 @@ class WipeUnderSharedControl(unittest.TestCase):
         start = rospy.Time.now().to_sec()
         rate = rospy.Rate(RATE)
         times = np.arange(0.0, 9.0, 1.0 / RATE)
-        for x, y in synthetic_commands("wave", WAVE, math.pi, SPEED, times, 0.005, np.random.default_rng(49)):
+        bad = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1)  # a bad message mid-wipe changes nothing
+        for k, (x, y) in enumerate(
+            synthetic_commands("wave", WAVE, math.pi, SPEED, times, 0.005, np.random.default_rng(49))
+        ):
             message = Vector3Stamped()
             message.header.stamp = rospy.Time.now()
             message.vector.x, message.vector.y = float(x), float(y)
             command.publish(message)
+            if k == len(times) // 2:
+                nan = Vector3Stamped()
+                nan.header.stamp = message.header.stamp
+                nan.vector.x = nan.vector.y = nan.vector.z = float("nan")
+                bad.publish(nan)
             rate.sleep()
         end = rospy.Time.now().to_sec()
         # The operator's input is lost (nothing more is sent): the tool must leave the board and the node stop.
