@@ -33,14 +33,11 @@ import time
 
 import numpy as np
 
-from teleteach.core.paths import config_file
-from teleteach.core.scene import DEFAULT_SCENE_FILE
 from teleteach.run.provenance import provenance
 from teleteach.run.trials import add_trial_arguments, bootstrap_median_interval, run_trials, trial_seeds
-from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config
-from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
+from teleteach.shared_control.surface import load_wiping_config
 from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT
-from teleteach.wiping.assistance import AssistedWipeJob
+from teleteach.wiping.assistance import CONFIG_FILES, AssistedWipeJob
 
 BENCH = pathlib.Path(__file__).resolve().parent
 RESULTS = BENCH / "results" / "wiping_shared_control.json"
@@ -153,13 +150,7 @@ def main() -> int:
         return AssistedWipeJob(group, seed, skill, TAUGHT, wiping, SURFACE, BASE_POSE, obstacle)
 
     jobs = [job("wipes", seed, False) for seed in seeds] + [job("edge", seed, True) for seed in edge_seeds]
-    config_files = [
-        DEFAULT_SCENE_FILE,
-        DEFAULT_UNCERTAINTY_FILE,
-        DEFAULT_WIPING_FILE,
-        config_file("shared_control.yaml"),
-    ]
-    start, origin = time.perf_counter(), provenance(config_files)
+    start, origin = time.perf_counter(), provenance(CONFIG_FILES)
     trials = run_trials(jobs, arguments.processes, lambda line: print(line, flush=True))
     rows, edge_rows = trials["wipes"], trials.get("edge", [])
     summary = summarise(rows)

@@ -32,8 +32,7 @@ import numpy as np
 
 from teleteach.control.kinematics import PandaKinematics
 from teleteach.core import skill_file
-from teleteach.core.paths import config_file
-from teleteach.core.scene import DEFAULT_SCENE_FILE, load_scene
+from teleteach.core.scene import load_scene
 from teleteach.run.provenance import provenance
 from teleteach.run.trials import (
     add_trial_arguments,
@@ -43,10 +42,10 @@ from teleteach.run.trials import (
     wilson_interval,
 )
 from teleteach.shared_control.loop import SharedControlConfig
-from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config, wiping_box
-from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
+from teleteach.shared_control.surface import load_wiping_config, wiping_box
+from teleteach.sim.uncertainty import load_uncertainty
 from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT
-from teleteach.wiping.assistance import human_wipe, shared_targets
+from teleteach.wiping.assistance import CONFIG_FILES, human_wipe, shared_targets
 from teleteach.wiping.skill import ReplayJob, covered_grid, learned_wiping_skill
 from teleteach.wiping.trial import run_wipe
 
@@ -118,13 +117,7 @@ def main() -> int:
     add_trial_arguments(parser, 10)
     arguments = parser.parse_args()
     seeds = trial_seeds(parser, arguments, HELD_OUT_SEEDS)
-    config_files = [
-        DEFAULT_SCENE_FILE,
-        DEFAULT_UNCERTAINTY_FILE,
-        DEFAULT_WIPING_FILE,
-        config_file("shared_control.yaml"),
-    ]
-    start, origin = time.perf_counter(), provenance(config_files)
+    start, origin = time.perf_counter(), provenance(CONFIG_FILES)
     scene, config = load_scene(), load_wiping_config()
     with tempfile.TemporaryDirectory() as folder:
         skill_path, grid_path, demonstration = demonstrate(scene, config, pathlib.Path(folder))

@@ -15,6 +15,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from teleteach.core.paths import config_file
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.loop import MODE_NAMES, SharedControl, SharedControlConfig
 from teleteach.shared_control.operators import commands_around_path, reaching_path, retime
@@ -40,6 +41,11 @@ PHASE_WANDER = 0.1  # [periods] of the pattern's timing
 # moved a straight edge across the whiteboard. Given in the board's coordinates (tracked relative to the board).
 OBSTACLE_PERIOD = 6.0  # [s]
 OBSTACLE_FAR, OBSTACLE_NEAR = 0.10, 0.03  # [m] along v
+# What a wipe under shared control reads: the scene (board, tool), the world's uncertainty, the wiping and the shared
+# controller's settings (a bench's result names their digests).
+CONFIG_FILES = tuple(
+    config_file(name) for name in ("supermarket.yaml", "uncertainty.yaml", "wiping.yaml", "shared_control.yaml")
+)
 BOUNDARY_TOLERANCE = 0.002  # [m] the tool's centre beyond the boundary by more than this is a violation (the arm
 #                             tracks its equilibrium within a few millimetres: issue 31's margin)
 
