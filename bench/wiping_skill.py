@@ -44,9 +44,9 @@ from teleteach.run.trials import (
 from teleteach.shared_control.loop import SharedControlConfig
 from teleteach.shared_control.surface import load_wiping_config, wiping_box
 from teleteach.sim.uncertainty import load_uncertainty
-from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT
+from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT, coverage
 from teleteach.wiping.assistance import CONFIG_FILES, human_wipe, shared_targets
-from teleteach.wiping.skill import ReplayJob, covered_grid, learned_wiping_skill
+from teleteach.wiping.skill import ReplayJob, learned_wiping_skill
 from teleteach.wiping.trial import run_wipe
 
 BENCH = pathlib.Path(__file__).resolve().parent
@@ -82,7 +82,7 @@ def demonstrate(scene, config, folder: pathlib.Path):
     kinematics.close()
     demonstration = wiper.demonstrated_skill(record, "DemonstratedWipe_1")
     learned = learned_wiping_skill(demonstration, "LearnedWipe_1")
-    grid = covered_grid(record, config, board, scene.wiping_tool.size[:2])
+    grid = coverage(record, config, scene.wiping_tool.size[:2], board.area)["grid"]
     np.save(folder / "demonstration_grid.npy", grid)
     path = skill_file.save(learned, folder / "LearnedWipe_1")
     contact = float(np.mean(record.normal_forces >= config.contact_threshold))

@@ -13,8 +13,8 @@ from teleteach.shared_control.surface import WipingError, load_wiping_config
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import PerceptionNoise, UncertaintySettings, load_uncertainty
 from teleteach.wiping import measures
-from teleteach.wiping.ablation import CELLS, END_U, START_U, TAUGHT, goals, operator_pattern
-from teleteach.wiping.skill import covered_grid, learned_wiping_skill
+from teleteach.wiping.ablation import CELLS, END_U, START_U, TAUGHT, coverage, goals, operator_pattern
+from teleteach.wiping.skill import learned_wiping_skill
 from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 
 SCENE = load_scene()
@@ -190,9 +190,9 @@ def test_a_demonstrated_wipe_learned_with_dmps_wipes_a_board_turned_and_moved_wh
     scene = dataclasses.replace(SCENE, surfaces={elsewhere.name: elsewhere})
     replay, _ = run_wipe(scene, kinematics, exact, CONFIG, elsewhere, "wipe_counter", 0, learned)
     footprint = SCENE.wiping_tool.size[:2]
-    reference = covered_grid(record, CONFIG, BOARD, footprint)
+    reference = coverage(record, CONFIG, footprint, BOARD.area)["grid"]
     assert np.mean(replay.normal_forces >= CONFIG.contact_threshold) >= 0.95
-    assert measures.coverage_of(covered_grid(replay, CONFIG, elsewhere, footprint), reference) >= 0.9
+    assert measures.coverage_of(coverage(replay, CONFIG, footprint, elsewhere.area)["grid"], reference) >= 0.9
     np.testing.assert_allclose(replay.positions[::10], replay.targets[::10], atol=0.006)  # where the skill said
 
 

@@ -223,13 +223,13 @@ class SupermarketWorld:
         pybullet.changeConstraint(joint, maxForce=TOOL_JOINT_FORCE, **self._call)
         self.tool = body
         self._tool_weight = [0.0, 0.0, tool.mass * GRAVITY]
+        self._tool_face = [0.0, 0.0, half[2]]  # the contact face in the tool's frame
         self.set_gripper_width(tool.size[0])
 
     def tool_face(self):
         """The tool's contact face: its centre [m] and orientation (x, y, z, w) in world (z out of the face)."""
         position, orientation = pybullet.getBasePositionAndOrientation(self.tool, **self._call)
-        half_height = pybullet.getCollisionShapeData(self.tool, -1, **self._call)[0][3][2] / 2.0
-        return pybullet.multiplyTransforms(position, orientation, [0.0, 0.0, half_height], [0.0, 0.0, 0.0, 1.0])
+        return pybullet.multiplyTransforms(position, orientation, self._tool_face, [0.0, 0.0, 0.0, 1.0])
 
     # ----------------------------------------------------------------------------------------------- base frame
     def _panda_base_pose(self):

@@ -52,6 +52,12 @@ def operator_pattern(seed: int, dt: float):
     return skill, commands, targets
 
 
+def coverage(record, config: WipingConfig, footprint, area) -> dict:
+    """The part of the marked ``area`` the wipe's contact patch swept while in contact (measures.covered_area)."""
+    in_contact = measures.contact_mask(record.normal_forces, config.contact_threshold)
+    return measures.covered_area(record.positions, record.yaws, in_contact, footprint, area, config.coverage_resolution)
+
+
 def wipe_figures(
     record, commands: np.ndarray, skill: str, config: WipingConfig, footprint, area, skip: int = 0
 ) -> dict:
@@ -63,9 +69,7 @@ def wipe_figures(
     figures = measures.force_figures(record.normal_forces, in_contact)
     tracking = measures.tracking_error(record.targets, record.positions)
     fits = measures.pattern_fits(skill, record.times[skip:], commands[skip:], record.positions[skip:])
-    covered = measures.covered_area(
-        record.positions, record.yaws, in_contact, footprint, area, config.coverage_resolution
-    )
+    covered = coverage(record, config, footprint, area)
     return {
         **figures,
         "tracking_rms_m": tracking["rms_m"],

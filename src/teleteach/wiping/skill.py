@@ -19,22 +19,14 @@ from teleteach.core.scene import Surface
 from teleteach.learning.skill import learn_skill
 from teleteach.shared_control.surface import WipingConfig
 from teleteach.wiping import measures
-from teleteach.wiping.trial import WipeRecord, run_wipe
+from teleteach.wiping.ablation import coverage
+from teleteach.wiping.trial import run_wipe
 
 
 def learned_wiping_skill(demonstration: skill_file.Skill, name: str) -> skill_file.Skill:
     """The demonstration learned with DMPs and reproduced at its own duration, in the demonstration's frame."""
     learned = learn_skill(demonstration, name)
     return learned.to_skill(learned.reproduce(), name)
-
-
-def covered_grid(record: WipeRecord, config: WipingConfig, surface: Surface, footprint) -> np.ndarray:
-    """The cells of the surface's marked area that the wipe's contact patch swept."""
-    in_contact = measures.contact_mask(record.normal_forces, config.contact_threshold)
-    covered = measures.covered_area(
-        record.positions, record.yaws, in_contact, footprint, surface.area, config.coverage_resolution
-    )
-    return covered["grid"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,7 +56,7 @@ class ReplayJob:
             skill,
         )
         footprint = scene.wiping_tool.size[:2]
-        grid = covered_grid(record, self.config, self.surface, footprint)
+        grid = coverage(record, self.config, footprint, self.surface.area)["grid"]
         reference = np.load(pathlib.Path(self.reference_path))
         in_contact = measures.contact_mask(record.normal_forces, self.config.contact_threshold)
         return {

@@ -59,7 +59,6 @@ class WipeRecord:
         heights: the face's height above the true surface [m] (negative: pressed into the felt).
         yaws: the face's turn about the true normal [rad].
         normal_forces: the surface's push on the tool along its true normal, mean over the cycle [N].
-        tangential_forces: the surface's drag on the tool along the face, mean over the cycle [N].
         stiffness: the commanded translational stiffness in base_link (N x 3 x 3) [N/m].
         equilibrium_poses: the commanded equilibrium (x, y, z, qx, qy, qz, qw) in base_link.
         tcp_poses: the measured TCP pose in base_link at the end of each cycle.
@@ -72,7 +71,6 @@ class WipeRecord:
     heights: np.ndarray
     yaws: np.ndarray
     normal_forces: np.ndarray
-    tangential_forces: np.ndarray
     stiffness: np.ndarray
     equilibrium_poses: np.ndarray
     tcp_poses: np.ndarray
@@ -214,8 +212,7 @@ class SurfaceWiper:
                 force += sim.world.external_wrench()[0]
             force /= ticks
             normal = float(force @ normal_in_base)
-            tangential = float(np.linalg.norm(force - normal * normal_in_base))
-            rows.append((normal, tangential, *self._tool_in_surface(), *sim.state.position, *sim.state.quaternion))
+            rows.append((normal, *self._tool_in_surface(), *sim.state.position, *sim.state.quaternion))
         table = np.array(rows)
         stiffness = np.array(
             [
@@ -228,14 +225,13 @@ class SurfaceWiper:
             targets=self.seen_in_base.inverse().apply_poses(np.column_stack([plan.positions, plan.orientations]))[
                 :, :2
             ],
-            positions=table[:, 2:4],
-            heights=table[:, 4],
-            yaws=table[:, 5],
+            positions=table[:, 1:3],
+            heights=table[:, 3],
+            yaws=table[:, 4],
             normal_forces=table[:, 0],
-            tangential_forces=table[:, 1],
             stiffness=stiffness,
             equilibrium_poses=np.column_stack([plan.positions, plan.orientations]),
-            tcp_poses=table[:, 6:13],
+            tcp_poses=table[:, 5:12],
             seen_error=self.seen_error(),
         )
 
