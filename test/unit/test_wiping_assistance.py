@@ -11,7 +11,7 @@ from bench_scripts import bench_module
 from teleteach.core.scene import load_scene
 from teleteach.shared_control.loop import SharedControlConfig
 from teleteach.shared_control.surface import wiping_box
-from teleteach.wiping import measures
+from teleteach.shared_control import wipe_measures
 from teleteach.wiping.assistance import direct_targets, human_wipe, shared_targets, solve_times
 
 SCENE = load_scene()
@@ -41,7 +41,7 @@ def test_the_operators_pattern_is_not_the_models_it_wanders_in_size():
     commands, start = human_wipe(1, "cycloid", BOX, CONFIG.dt)
     targets = direct_targets(commands, start, CONFIG.dt)
     times = CONFIG.dt * np.arange(len(commands))
-    fit = measures.pattern_fits("cycloid", times, commands, targets)
+    fit = wipe_measures.pattern_fits("cycloid", times, commands, targets)
     assert fit["F_x"] > 1e-4  # a model-made cycloid fits to ~1e-10 (test_wiping_measures)
 
 
@@ -49,14 +49,14 @@ def test_shared_control_keeps_the_tool_inside_where_a_drifting_operator_leaves_i
     seed = next(
         seed
         for seed in range(40)
-        if measures.boundary_violations(direct_targets(*human_wipe(seed, "wave", BOX, CONFIG.dt), CONFIG.dt), BOX)[
+        if wipe_measures.boundary_violations(direct_targets(*human_wipe(seed, "wave", BOX, CONFIG.dt), CONFIG.dt), BOX)[
             "count"
         ]
         > 10
     )
     commands, start = human_wipe(seed, "wave", BOX, CONFIG.dt)
     shared, records = shared_targets(commands, start, BOX, CONFIG)
-    assert measures.boundary_violations(shared, BOX, 1e-6)["count"] == 0
+    assert wipe_measures.boundary_violations(shared, BOX, 1e-6)["count"] == 0
     recognised = [record.skill for record in records[CONFIG.n_window :]]
     assert recognised.count("wave") > 0.8 * len(recognised)
     assert len(solve_times(records)) == len(commands) and np.all(solve_times(records) >= 0.0)
@@ -112,7 +112,7 @@ def test_the_moving_edge_comes_down_over_the_board_and_shared_control_keeps_off_
 
     def crossings(targets):
         edges = [moving_edge(k * CONFIG.dt) for k in range(len(targets))]
-        return measures.obstacle_violations(targets, edges, 1e-6)["count"]
+        return wipe_measures.obstacle_violations(targets, edges, 1e-6)["count"]
 
     seed = next(
         seed
@@ -122,4 +122,4 @@ def test_the_moving_edge_comes_down_over_the_board_and_shared_control_keeps_off_
     commands, start = human_wipe(seed, "wave", BOX, CONFIG.dt)
     shared, _ = shared_targets(commands, start, BOX, CONFIG, moving_edge)
     assert crossings(shared) == 0
-    assert measures.boundary_violations(shared, BOX, 1e-6)["count"] == 0
+    assert wipe_measures.boundary_violations(shared, BOX, 1e-6)["count"] == 0

@@ -9,7 +9,7 @@ import pytest
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.models import synthetic_commands
 from teleteach.shared_control.operators import pattern_offset
-from teleteach.wiping.measures import (
+from teleteach.shared_control.wipe_measures import (
     boundary_violations,
     contact_mask,
     coverage_of,

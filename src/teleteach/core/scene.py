@@ -166,10 +166,11 @@ class GapLookup:
 
 @dataclass(frozen=True)
 class Site:
-    """What the skills know of a site without perceiving it: how the arm sits on the base, and named base poses."""
+    """What the skills know of a site without perceiving it: the arm on the base, base poses, the tool to wipe with."""
 
     robot: RobotSetup
     base_poses: Dict[str, BasePose]
+    wiping_tool: Optional[WipingTool] = None
 
 
 @dataclass(frozen=True)
@@ -243,7 +244,7 @@ def load_scene(path: Optional[str] = None) -> Scene:
 
 
 def load_site(path: Optional[str] = None) -> Site:
-    """Read the sections ``robot`` and ``base_poses`` of a scene file (default: config/supermarket.yaml).
+    """Read the sections ``robot``, ``base_poses``, ``wiping_tool`` of a scene file (default: config/supermarket.yaml).
 
     Raises:
         SceneError: one is missing or holds a value of the wrong shape.
@@ -279,6 +280,7 @@ def _parse_site(data):
             name: BasePose(float(pose["x"]), float(pose["y"]), float(pose["yaw"]))
             for name, pose in data["base_poses"].items()
         },
+        wiping_tool=_parse_tool(data.get("wiping_tool")),
     )
 
 

@@ -10,10 +10,11 @@ A skill file is a numpy ``.npz`` archive (no pickles) with, for N samples:
   ``rotational_stiffness`` [Nm/rad], ``frame`` and free-form provenance.
 
 The skill's frame (``frame``) is ``target``: the frame of the target it was taught at (a shelf gap: origin where the
-placed product's centre belongs, x into the shelf, z up), with ``target`` = {``name``, ``pose_in_base`` (the target's
-pose in base_link when taught, x y z qx qy qz qw)}; the robot replays it relative to where it perceives a target
-now, and the stiffness turns with it. Or ``base_link``: replayed where it was recorded, relative to the robot's base
-(files written before skills had a target frame have no ``frame``: they are base_link skills).
+placed product's centre belongs, x into the shelf, z up; or a surface it wiped: origin at the face's centre, z out of
+it), with ``target`` = {``name``, ``pose_in_base`` (the target's pose in base_link when taught, x y z qx qy qz qw),
+``kind`` (``gap`` or ``surface``; files without it are gaps)}; the robot replays it relative to where it perceives
+such a target now, and the stiffness turns with it. Or ``base_link``: replayed where it was recorded, relative to the
+robot's base (files written before skills had a target frame have no ``frame``: they are base_link skills).
 
 :func:`load` validates everything, so a file that loads is safe to execute.
 """
@@ -33,6 +34,8 @@ KINDS = ("stiffness", "shared_control", "dmp")
 BASE_FRAME = "base_link"
 TARGET_FRAME = "target"
 FRAMES = (BASE_FRAME, TARGET_FRAME)
+GAP, SURFACE = "gap", "surface"
+TARGET_KINDS = (GAP, SURFACE)  # what a skill's target is: a shelf gap it places into, a surface it wipes
 
 
 class SkillFileError(ValueError):
@@ -41,10 +44,11 @@ class SkillFileError(ValueError):
 
 @dataclasses.dataclass(frozen=True)
 class Target:
-    """What a skill in the target frame was taught at: the target's name and its pose in base_link then."""
+    """What a skill in the target frame was taught at: the target's name, its pose in base_link then, its kind."""
 
     name: str
     pose_in_base: Tuple[float, ...]
+    kind: str = GAP
 
     @property
     def transform(self) -> Transform:
@@ -79,8 +83,8 @@ class Skill:
         """Length of the demonstration [s]."""
         return float(self.time[-1] - self.time[0])
 
-    def relative_to(self, target: str, target_in_base: Transform) -> "Skill":
-        """This base_link skill expressed in the frame of ``target``, whose pose in base_link is target_in_base."""
+    def relative_to(self, target: str, target_in_base: Transform, kind: str = GAP) -> "Skill":
+        """This base_link skill in the frame of ``target`` (a ``kind``), whose pose in base_link is target_in_base."""
         if self.frame != BASE_FRAME:
             raise SkillFileError(f"skill {self.name} is already relative to {self.target.name}")
         to_target = target_in_base.inverse()
@@ -90,7 +94,7 @@ class Skill:
             equilibrium_pose=to_target.apply_poses(self.equilibrium_pose),
             cartesian_pose=to_target.apply_poses(self.cartesian_pose),
             frame=TARGET_FRAME,
-            target=Target(target, tuple(float(value) for value in target_in_base.as_pose())),
+            target=Target(target, tuple(float(value) for value in target_in_base.as_pose()), kind),
         )
 
     def in_base(self, target_in_base: Transform) -> "Skill":
@@ -156,6 +160,8 @@ def validate(skill: Skill) -> None:
 def _validate_target(target: Target) -> None:
     if not isinstance(target.name, str) or not target.name:
         raise SkillFileError(f"target name {target.name!r} must be a non-empty string")
+    if target.kind not in TARGET_KINDS:
+        raise SkillFileError(f"unknown target kind {target.kind!r}; expected one of {', '.join(TARGET_KINDS)}")
     pose = np.asarray(target.pose_in_base, dtype=float)
     if pose.shape != (7,) or not np.all(np.isfinite(pose)):
         raise SkillFileError(f"target pose_in_base must be 7 finite numbers, got {list(target.pose_in_base)}")
@@ -190,6 +196,13 @@ def save(skill: Skill, path: Union[str, pathlib.Path]) -> pathlib.Path:
     return path
 
 
+def _target(meta: Optional[Dict[str, Any]]) -> Optional[Target]:
+    """The target a file's meta names (None for a base_link skill); files written before surfaces have gaps."""
+    if not meta:
+        return None
+    return Target(str(meta["name"]), tuple(float(v) for v in meta["pose_in_base"]), str(meta.get("kind", GAP)))
+
+
 def load(path: Union[str, pathlib.Path]) -> Skill:
     """Read and validate a skill file; raise :class:`SkillFileError` saying what is wrong."""
     path = pathlib.Path(path)
@@ -218,7 +231,7 @@ def load(path: Union[str, pathlib.Path]) -> Skill:
             rotational_stiffness=float(meta.get("rotational_stiffness", 30.0)),
             provenance=meta.get("provenance", {}),
             frame=meta.get("frame", BASE_FRAME),
-            target=Target(str(target["name"]), tuple(float(v) for v in target["pose_in_base"])) if target else None,
+            target=_target(target),
         )
     except KeyError as error:
         raise SkillFileError(f"skill file {path}: meta lacks {error}") from None

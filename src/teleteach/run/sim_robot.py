@@ -108,6 +108,10 @@ class SimRobot(Robot):
         state = self.sim.world.read_state()
         return state.position.copy(), state.quaternion.copy()
 
+    def contact_force(self) -> np.ndarray:
+        """The contact force on the hand and what it holds or carries, base_link [N] (what /force_torque_ext says)."""
+        return self.sim.world.external_wrench()[0]
+
     def active_controllers(self) -> Sequence[str]:
         """The running controller, if any."""
         running = self.sim.manager.running

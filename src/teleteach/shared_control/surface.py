@@ -49,11 +49,15 @@ class WipingConfig:
     retract_time: float
     input_loss_time: float
     coverage_resolution: float
+    min_contact: float
+    min_coverage: float
 
     def __post_init__(self):
         values = dataclasses.asdict(self)
         if not all(math.isfinite(value) and value > 0.0 for value in values.values()):
             raise WipingError(f"every wiping setting must be finite and > 0: {values}")
+        if self.min_contact > 1.0 or self.min_coverage > 1.0:
+            raise WipingError(f"min_contact and min_coverage are fractions in (0, 1]: {values}")
 
     @property
     def dt(self) -> float:
@@ -104,6 +108,14 @@ def surface_plane(surface_in_base: Transform, tool: WipingTool, depth: float) ->
     )
 
 
+def off_surface(surface_in_base: Transform, tool: WipingTool, settings: WipingConfig, point) -> np.ndarray:
+    """The TCP's position that holds the tool's face ``approach_height`` off the surface over ``point`` (u, v) [m].
+
+    Measured from the face, not from a pressing equilibrium: a compliant normal presses centimetres deep.
+    """
+    return surface_in_base.apply_point([point[0], point[1], tool.reach + settings.approach_height])
+
+
 def check_reach(plane: TaskPlane, box: Box, mount_height: float) -> None:
     """Raise SurfaceError when a corner of the boundary lies beyond the arm's reach from panda_link0."""
     shoulder = np.array([0.0, 0.0, mount_height])
@@ -137,7 +149,7 @@ class SurfaceWipe:
 
     def off_surface(self, surface_in_base: Transform, point: Sequence[float]) -> np.ndarray:
         """The TCP's position that holds the tool's face ``approach_height`` off the surface over ``point`` (u, v)."""
-        return surface_in_base.apply_point([point[0], point[1], self.tool.reach + self.settings.approach_height])
+        return off_surface(surface_in_base, self.tool, self.settings, point)
 
     def box(self) -> Box:
         """The boundary of the tool's centre on the surface."""

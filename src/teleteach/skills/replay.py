@@ -131,6 +131,18 @@ def parse_replay_parameters(parameters: str) -> ReplayRequest:
     return ReplayRequest(pathlib.Path(values["data_file"]).expanduser(), kind, target)
 
 
+def load_replay(parameters: str) -> Tuple[ReplayRequest, skill_file.Skill]:
+    """A ReplaySkill goal's request and the skill file it names, loaded and of the kind asked; SkillError if not."""
+    request = parse_replay_parameters(parameters)
+    try:
+        skill = skill_file.load(request.path)
+    except skill_file.SkillFileError as error:
+        raise SkillError(str(error)) from None
+    if request.kind is not None and request.kind != skill.kind:
+        raise SkillError(f"skill file {request.path} holds a '{skill.kind}' skill, the goal asked for '{request.kind}'")
+    return request, skill
+
+
 def replay_target(world: WorldView, skill: skill_file.Skill, requested: Optional[str]) -> Gap:
     """The perceived gap a target-frame skill is replayed at.
 
@@ -178,17 +190,10 @@ class StiffnessReplay:
     playback leaves the product outside the gap it fails without letting it go (it would fall).
     """
 
-    def run(self, world: WorldView, parameters: str) -> str:
-        """Replay the skill the goal names; returns the success message saying where the product ended."""
-        request = parse_replay_parameters(parameters)
-        try:
-            skill = skill_file.load(request.path)
-        except skill_file.SkillFileError as error:
-            raise SkillError(str(error)) from None
-        if request.kind is not None and request.kind != skill.kind:
-            raise SkillError(
-                f"skill file {request.path} holds a '{skill.kind}' skill, the goal asked for '{request.kind}'"
-            )
+    def run(self, world: WorldView, request: ReplayRequest, skill: skill_file.Skill) -> str:
+        """Replay ``skill`` (what ``request`` loaded); returns the success message saying where the product ended."""
+        if skill.target is not None and skill.target.kind != skill_file.GAP:
+            raise SkillError(f"{skill.name} was taught on a {skill.target.kind}, not at a gap: it places nothing")
         distance = 0.0
         if skill.frame == skill_file.TARGET_FRAME:
             gap = replay_target(world, skill, request.target)
@@ -338,7 +343,8 @@ class PlaceTaught:
                 continue
             try:
                 skill = skill_file.load(data_file)
-                target = replay_target(world, skill, None) if skill.frame == skill_file.TARGET_FRAME else None
+                at_gap = skill.frame == skill_file.TARGET_FRAME and skill.target.kind == skill_file.GAP
+                target = replay_target(world, skill, None) if at_gap else None
             except (skill_file.SkillFileError, SkillError):
                 continue
             if target is not None:
@@ -349,4 +355,5 @@ class PlaceTaught:
                 "the path; then LOW-LEVEL: its stiffness along that path)"
             )
         _, _, name, data_file, target = min(usable)
-        return f"with {name}: " + self.replay.run(world, yaml.safe_dump({"data_file": data_file, "target": target}))
+        request = ReplayRequest(pathlib.Path(data_file), None, target)
+        return f"with {name}: " + self.replay.run(world, request, skill_file.load(data_file))

@@ -88,6 +88,13 @@ class Robot(abc.ABC):
         """Measured TCP pose in base_link: position [m], quaternion (x, y, z, w)."""
 
     @abc.abstractmethod
+    def contact_force(self) -> np.ndarray:
+        """The newest contact force on the hand and what it holds or carries (a mounted tool), base_link [N].
+
+        Franka's estimated external force (/force_torque_ext), the force the environment applies.
+        """
+
+    @abc.abstractmethod
     def active_controllers(self) -> Sequence[str]:
         """Names of the running controllers."""
 

@@ -17,7 +17,7 @@ import numpy as np
 import rospy
 import tf2_ros
 from actionlib_msgs.msg import GoalStatus
-from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
+from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped, WrenchStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -99,8 +99,9 @@ class RosRobot(Robot):
 
     ROS Publishers (names relative, at the root as shown): /<position controller>/command, /eigenvalues,
     /eigenvectors, /equilibrium_pose, /skills/authority (teleteach/SkillAuthority, while a skill replays).
-    ROS Subscribers: /joint_states, /teleteach/scene, /cartesian_pose, /skills/correction
-    (geometry_msgs/Vector3Stamped in base_link [m]: the operator's correction of a replayed skill),
+    ROS Subscribers: /joint_states, /teleteach/scene, /cartesian_pose, /force_torque_ext (a wipe judges its contact
+    by it), /skills/correction (geometry_msgs/Vector3Stamped in base_link [m]: the operator's correction of a
+    replayed skill),
     /behaviour_tree/skill_library (what PlaceTaught may place with); TF world->base_link.
     ROS Services (called): /controller_manager/switch_controller, /controller_manager/list_controllers.
     ROS Action Clients: /franka_gripper/move, /franka_gripper/grasp (franka_gripper's actions), /move_base
@@ -119,6 +120,7 @@ class RosRobot(Robot):
         self._scene_stamp = -1.0
         self._rest_stamp = -1.0  # [s] robot time the base was last found at rest: older scenes are stale
         self._cartesian = None
+        self._force = None
         self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self._listeners = []
         self._skills = 0
@@ -151,6 +153,7 @@ class RosRobot(Robot):
                 rospy.Subscriber("joint_states", JointState, self._on_joint_states, queue_size=1),
                 rospy.Subscriber("teleteach/scene", MarkerArray, self._on_scene, queue_size=1),
                 rospy.Subscriber("cartesian_pose", PoseStamped, self._on_cartesian_pose, queue_size=1),
+                rospy.Subscriber("force_torque_ext", WrenchStamped, self._on_force, queue_size=1),
                 tf2_ros.TransformListener(self._tf_buffer),
             ]
 
@@ -172,7 +175,7 @@ class RosRobot(Robot):
             for listener in self._listeners:
                 listener.unregister()
             self._listeners = []
-            self._joints = self._fingers = self._cartesian = None
+            self._joints = self._fingers = self._cartesian = self._force = None
             self._scene_stamp = self._rest_stamp = -1.0
             self._tf_buffer.clear()
 
@@ -211,6 +214,16 @@ class RosRobot(Robot):
                     np.array([orientation.x, orientation.y, orientation.z, orientation.w]),
                 )
                 self._lock.notify_all()
+
+    def _on_force(self, msg):
+        if msg.header.frame_id.lstrip("/") != BASE_FRAME:
+            return
+        force = np.array([msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z])
+        if np.all(np.isfinite(force)):
+            with self._lock:
+                if self._listeners:
+                    self._force = force
+                    self._lock.notify_all()
 
     def _on_library(self, msg):
         with self._lock:
@@ -334,6 +347,14 @@ class RosRobot(Robot):
             if self._cartesian is None:
                 raise SkillError(f"no /cartesian_pose received in {STATE_WAIT:.0f} s: is robot_sim running?")
             return self._cartesian[0].copy(), self._cartesian[1].copy()
+
+    def contact_force(self) -> np.ndarray:
+        """Latest /force_torque_ext force (base_link) [N], the first one waited for (STATE_WAIT)."""
+        with self._lock:
+            self._lock.wait_for(lambda: self._force is not None or rospy.is_shutdown(), timeout=STATE_WAIT)
+            if self._force is None:
+                raise SkillError(f"no /force_torque_ext received in {STATE_WAIT:.0f} s: is robot_sim running?")
+            return self._force.copy()
 
     # ------------------------------------------------------------------------------------------ controllers
     def active_controllers(self) -> Sequence[str]:

@@ -2,16 +2,19 @@
 
 import threading
 from dataclasses import dataclass
-from typing import Dict
+from typing import Dict, Optional
 
 import yaml
 
+from teleteach.core import skill_file
 from teleteach.core.scene import Site
+from teleteach.shared_control.surface import WipingConfig, load_wiping_config
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import InverseKinematics, Motion
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS, WorldView, create_skills
-from teleteach.skills.replay import PlaceTaught, StiffnessReplay
+from teleteach.skills.replay import PlaceTaught, StiffnessReplay, load_replay
 from teleteach.skills.robot import Execution, PreemptedError, Robot, SkillError
+from teleteach.skills.wipe import SurfaceReplay
 
 REPLAY_SKILL = "ReplaySkill"
 PLACE_TAUGHT = "PlaceTaught"
@@ -48,11 +51,14 @@ class SkillRunner:
     Args:
         robot: the robot interface.
         config: the motion configuration.
-        site: the named base poses (teleteach.core.scene.Site; the whole Scene will do).
+        site: the named base poses and the mounted wiping tool (teleteach.core.scene.Site; the whole Scene will do).
         kinematics: Panda forward kinematics and Jacobian in base_link (teleteach.control.kinematics.PandaKinematics).
+        wiping: the wiping settings a surface skill is replayed with (default: config/wiping.yaml).
     """
 
-    def __init__(self, robot: Robot, config: MotionConfig, site: Site, kinematics):
+    def __init__(
+        self, robot: Robot, config: MotionConfig, site: Site, kinematics, wiping: Optional[WipingConfig] = None
+    ):
         self.robot = robot
         self.config = config
         self.site = site
@@ -60,6 +66,8 @@ class SkillRunner:
         self.skills = create_skills(config)
         self.replay = StiffnessReplay()
         self.place_taught = PlaceTaught(self.replay)
+        tool = site.wiping_tool
+        self.wipe = SurfaceReplay(wiping or load_wiping_config(), tool) if tool is not None else None
         self._lock = threading.Lock()
         self.running = None
 
@@ -74,7 +82,7 @@ class SkillRunner:
         motion = Motion(self.robot, self.config, self.ik, execution)
         try:
             if name == REPLAY_SKILL:
-                message = self.replay.run(WorldView(motion, self.site), parameters)
+                message = self._replay(WorldView(motion, self.site), parameters)
             elif name == PLACE_TAUGHT:
                 message = self.place_taught.run(WorldView(motion, self.site), self.robot.taught_skills())
             else:
@@ -99,6 +107,15 @@ class SkillRunner:
         finally:
             self.running = None
             self._lock.release()
+
+    def _replay(self, world: WorldView, parameters: str) -> str:
+        """ReplaySkill: a skill taught on a surface wipes the surface perceived now, any other places the product."""
+        request, skill = load_replay(parameters)
+        if skill.target is None or skill.target.kind != skill_file.SURFACE:
+            return self.replay.run(world, request, skill)
+        if self.wipe is None:
+            raise SkillError(f"{skill.name} wipes a surface, but the site has no wiping tool (scene file: wiping_tool)")
+        return self.wipe.run(world, skill, request.target)
 
     @staticmethod
     def _stop(motion: Motion) -> None:

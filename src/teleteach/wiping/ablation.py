@@ -14,9 +14,9 @@ from typing import Dict, List
 import numpy as np
 
 from teleteach.run.trials import bootstrap_median_interval, wilson_interval
+from teleteach.shared_control import wipe_measures
 from teleteach.shared_control.operators import commands_around_path
 from teleteach.shared_control.surface import WipingConfig, WipingError
-from teleteach.wiping import measures
 from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 
 HIGH, LOW = 3000.0, 300.0  # [N/m] the impedance controller's maximum, and a tenth of it
@@ -53,9 +53,11 @@ def operator_pattern(seed: int, dt: float):
 
 
 def coverage(record, config: WipingConfig, footprint, area) -> dict:
-    """The part of the marked ``area`` the wipe's contact patch swept while in contact (measures.covered_area)."""
-    in_contact = measures.contact_mask(record.normal_forces, config.contact_threshold)
-    return measures.covered_area(record.positions, record.yaws, in_contact, footprint, area, config.coverage_resolution)
+    """The part of the marked ``area`` the wipe's contact patch swept while in contact (wipe_measures.covered_area)."""
+    in_contact = wipe_measures.contact_mask(record.normal_forces, config.contact_threshold)
+    return wipe_measures.covered_area(
+        record.positions, record.yaws, in_contact, footprint, area, config.coverage_resolution
+    )
 
 
 def wipe_figures(
@@ -65,10 +67,10 @@ def wipe_figures(
 
     The fit leaves out the first ``skip`` cycles (the paper leaves out the shared controller's first window).
     """
-    in_contact = measures.contact_mask(record.normal_forces, config.contact_threshold)
-    figures = measures.force_figures(record.normal_forces, in_contact)
-    tracking = measures.tracking_error(record.targets, record.positions)
-    fits = measures.pattern_fits(skill, record.times[skip:], commands[skip:], record.positions[skip:])
+    in_contact = wipe_measures.contact_mask(record.normal_forces, config.contact_threshold)
+    figures = wipe_measures.force_figures(record.normal_forces, in_contact)
+    tracking = wipe_measures.tracking_error(record.targets, record.positions)
+    fits = wipe_measures.pattern_fits(skill, record.times[skip:], commands[skip:], record.positions[skip:])
     covered = coverage(record, config, footprint, area)
     return {
         **figures,

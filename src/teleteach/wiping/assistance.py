@@ -16,11 +16,11 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from teleteach.core.paths import config_file
+from teleteach.shared_control import wipe_measures
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.loop import MODE_NAMES, SharedControl, SharedControlConfig
 from teleteach.shared_control.operators import commands_around_path, reaching_path, retime
 from teleteach.shared_control.surface import WipingConfig, wiping_box
-from teleteach.wiping import measures
 from teleteach.wiping.ablation import wipe_figures
 from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 
@@ -163,17 +163,17 @@ class AssistedWipeJob:
                 self.stiffness,
             )
             figures = wipe_figures(record, commands, self.skill, self.wiping, tool.size[:2], surface.area, window)
-            violations = measures.boundary_violations(record.positions, box, BOUNDARY_TOLERANCE)
-            planned = measures.boundary_violations(targets, box)
+            violations = wipe_measures.boundary_violations(record.positions, box, BOUNDARY_TOLERANCE)
+            planned = wipe_measures.boundary_violations(targets, box)
             row[mode] = {
                 **figures,
-                "F_x_targets": measures.pattern_fits(self.skill, times[window:], commands[window:], targets[window:])[
-                    "F_x"
-                ],
+                "F_x_targets": wipe_measures.pattern_fits(
+                    self.skill, times[window:], commands[window:], targets[window:]
+                )["F_x"],
                 "boundary_violations": violations["count"],
                 "boundary_worst_m": violations["worst_m"],
                 "target_violations": planned["count"],
-                "obstacle_violations": measures.obstacle_violations(record.positions, edges, BOUNDARY_TOLERANCE)[
+                "obstacle_violations": wipe_measures.obstacle_violations(record.positions, edges, BOUNDARY_TOLERANCE)[
                     "count"
                 ],
             }

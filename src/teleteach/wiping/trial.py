@@ -22,12 +22,13 @@ from teleteach.control import panda
 from teleteach.control.stiffness import translational_stiffness
 from teleteach.core.frames import Transform
 from teleteach.core.scene import Scene, Surface
-from teleteach.core.skill_file import TARGET_FRAME, Skill, Target
+from teleteach.core.skill_file import SURFACE, TARGET_FRAME, Skill, Target
 from teleteach.shared_control.operators import minimum_jerk
 from teleteach.shared_control.surface import (
     TOOL_DOWN,
     WipingConfig,
     WipingError,
+    off_surface,
     pressing_depth,
 )
 from teleteach.sim.robot_sim import IMPEDANCE, RobotSim
@@ -119,7 +120,14 @@ class SurfaceWiper:
         times = self.config.dt * np.arange(len(targets))
         pose = tuple(float(value) for value in self.seen_in_base.as_pose())
         return Skill(
-            name, "stiffness", times, matrices, poses, poses, frame=TARGET_FRAME, target=Target(self.truth.name, pose)
+            name,
+            "stiffness",
+            times,
+            matrices,
+            poses,
+            poses,
+            frame=TARGET_FRAME,
+            target=Target(self.truth.name, pose, SURFACE),
         )
 
     def demonstrated_skill(self, record: WipeRecord, name: str) -> Skill:
@@ -131,7 +139,7 @@ class SurfaceWiper:
         demonstrated = Skill(
             name, "stiffness", record.times, record.stiffness, record.equilibrium_poses, record.tcp_poses
         )
-        return demonstrated.relative_to(self.truth.name, self.seen_in_base)
+        return demonstrated.relative_to(self.truth.name, self.seen_in_base, SURFACE)
 
     def _tcp_quaternion(self) -> np.ndarray:
         return (self.seen_in_base.rotation * TOOL_DOWN).as_quat()
@@ -145,9 +153,10 @@ class SurfaceWiper:
         self.sim.command_eigenvalues(list(eigenvalues), stamp=self.sim.time)
         self.sim.command_eigenvectors(list(eigenvectors), stamp=self.sim.time)
 
-    def _raised(self, position) -> np.ndarray:
-        """A TCP position moved off the perceived face by the approach height, along the perceived normal."""
-        return np.asarray(position) + self.seen_in_base.rotation.apply([0.0, 0.0, self.config.approach_height])
+    def _off(self, position) -> np.ndarray:
+        """Where the TCP holds the face off the perceived surface over a pose of the pattern (base_link)."""
+        point = self.seen_in_base.inverse().apply_point(position)
+        return off_surface(self.seen_in_base, self.sim.scene.wiping_tool, self.config, point)
 
     def _move(self, start, end, quaternion, duration: float) -> None:
         """The equilibrium from one position to another, minimum jerk, one step a cycle."""
@@ -165,7 +174,7 @@ class SurfaceWiper:
         from teleteach.control.kinematics import IKError
 
         sim = self.sim
-        above = self._raised(plan.positions[0])
+        above = self._off(plan.positions[0])
         try:
             joints = self._kinematics.inverse(above, plan.orientations[0])
         except IKError as error:
@@ -191,10 +200,10 @@ class SurfaceWiper:
         plan = self.plan(skill)
         self.start_over(plan)
         first, last = plan.positions[0], plan.positions[-1]
-        self._move(self._raised(first), first, plan.orientations[0], self.config.approach_time)
+        self._move(self._off(first), first, plan.orientations[0], self.config.approach_time)
         self.sim.run(self.config.settle_time)
         record = self._play(plan)
-        self._move(last, self._raised(last), plan.orientations[-1], self.config.retract_time)
+        self._move(last, self._off(last), plan.orientations[-1], self.config.retract_time)
         return record
 
     def _play(self, plan: ReplayPlan) -> WipeRecord:

@@ -1,9 +1,10 @@
-"""Measures of a wiping trial (issue 49): contact, force, the area swept, violations and the pattern's fit.
+"""Measures of a wipe (issue 49): contact, force, the area swept, violations and the pattern's fit.
 
 Everything is in the surface's own 2-D frame: u along the surface, v across it [m], a yaw about the surface's normal
-[rad], one sample per cycle of the shared controller. The measures are plain numpy on recorded arrays, so the trial,
-the bench and the tests compute them the same way. The boundary's and the obstacle's geometry is
-``shared_control.constraints``' and the fits of eqs 11-12 are ``shared_control.metrics``': neither is written again.
+[rad], one sample per cycle of the shared controller. The measures are plain numpy on recorded arrays, so the skill
+server judging a wipe, the in-process trials, the benches and the tests compute them the same way. The boundary's and
+the obstacle's geometry is ``shared_control.constraints``' and the fits of eqs 11-12 are ``shared_control.metrics``':
+neither is written again.
 """
 
 import math
