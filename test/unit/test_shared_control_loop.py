@@ -379,10 +379,11 @@ def test_ros_message_conversions_and_task_plane():
     pose.pose.orientation.w = pose.pose.orientation.z = 0.0
     with pytest.raises(InvalidMessageError):
         obstacle_from_pose(pose)
-    plane = TaskPlane(origin=(0.5, 0.0, 0.4), x_axis=(0.0, 2.0, 0.0), y_axis=(0.0, 1.0, 1.0))
+    down = (0.0, 0.7071067811865476, 0.0, 0.7071067811865476)
+    plane = TaskPlane(origin=(0.5, 0.0, 0.4), x_axis=(0.0, 2.0, 0.0), y_axis=(0.0, 1.0, 1.0), orientation=down)
     assert plane.to_base((0.1, 0.2)) == pytest.approx([0.5, 0.1, 0.6])
     with pytest.raises(ValueError):
-        TaskPlane(x_axis=(0.0, 1.0, 0.0), y_axis=(0.0, 2.0, 0.0))
+        TaskPlane(origin=(0.5, 0.0, 0.4), x_axis=(0.0, 1.0, 0.0), y_axis=(0.0, 2.0, 0.0), orientation=down)
 
 
 def test_two_clothoid_segments_run_and_keep_the_boundary():
@@ -532,3 +533,37 @@ def test_the_modes_are_the_state_message_s_constants():
     assert {mode.name: int(mode) for mode in Mode} == {
         name: getattr(SharedControlState, name) for name in ("DIRECT", "SHARED", "FALLBACK", "UNKNOWN")
     }
+
+
+@pytest.mark.parametrize("skill", ["wave", "cycloid"])
+def test_the_identified_pattern_predicts_the_operators_next_command_and_keeps_going_on_its_predictions(skill):
+    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), (0.0, 0.0))
+    assert controller.predicted_command() is None  # nothing identified: nothing to keep
+    commands = synthetic_commands(skill, (0.03, 20.0, 0.0), math.pi, 0.05, np.arange(0, 5.0, DT), 0.005)
+    errors = []
+    for k, command in enumerate(commands[:-1]):
+        controller.step(command)
+        predicted = controller.predicted_command()
+        if k >= 100:  # identified by then (the window is 1.5 s)
+            assert predicted is not None, k
+            errors.append(np.linalg.norm(predicted - commands[k + 1]) / np.linalg.norm(commands[k + 1]))
+    # Expect: within the noise (10 % of the speed) of the operator's next command.
+    assert float(np.median(errors)) < 0.1
+    # Fed back, the predictions keep the pattern: identified the same, at the operator's speed, across the plane.
+    states = []
+    for _ in range(100):
+        record = controller.step(controller.predicted_command())
+        states.append(record.state)
+    assert record.mode == SHARED and record.skill == skill
+    states = np.array(states)
+    assert 0.06 < states[0, 0] - states[-1, 0] < 0.14  # 2 s at 0.05 m/s along the heading (-x), a loop's phase aside
+    assert np.ptp(states[:, 1]) > 0.02  # and the pattern's sway across it
+
+
+def test_forgetting_the_identification_leaves_nothing_to_predict():
+    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), (0.0, 0.0))
+    for command in synthetic_commands("wave", (0.03, 20.0, 0.0), 0.0, 0.05, np.arange(0, 2.5, DT)):
+        controller.step(command)
+    assert controller.predicted_command() is not None
+    controller.reset((0.0, 0.0))
+    assert controller.predicted_command() is None

@@ -21,7 +21,7 @@ from teleteach.core.parameters import from_mapping
 from teleteach.core.paths import config_file
 from teleteach.shared_control import constraints
 from teleteach.shared_control.constraints import Box, StraightEdge
-from teleteach.shared_control.models import SKILLS, ClothoidPath, ParameterLayout, skill_names
+from teleteach.shared_control.models import SKILLS, ClothoidPath, ParameterLayout, control_function, skill_names
 from teleteach.shared_control.problems import SkillEstimation, SolveResult, TrajectoryOptimisation
 
 
@@ -318,6 +318,7 @@ class SharedControl:
                 cfg.constraint_penalty,
                 cfg.cache_dir,
             )
+        self._controls: Dict[str, object] = {}  # u(s, theta) per skill, built when first asked (predicted_command)
         self.box = UNBOUNDED
         self.obstacle: Optional[StraightEdge] = None
         if box is not None:
@@ -427,6 +428,23 @@ class SharedControl:
         self._advance({name: self._coasted(name) for name in self.skills}, self.theta_star)
         message = "; ".join([*notes, f"late cycle: following the previous plan ({self.skill})"])
         return self._record(SHARED, report, message, self.plan, velocity, 1.0)
+
+    def predicted_command(self) -> Optional[np.ndarray]:
+        """The operator's next command h^r [m/s] as the identified skill's estimate predicts it; None when none is.
+
+        The estimate is v0 u(s, theta) (eqs 2, 4) fitted to the window and moved on to this cycle's s_c, so its
+        value at s = 0 is what an operator keeping the pattern commands next: fed back, it keeps the pattern going
+        while the operator's hand does something else (a wipe's clutch: the device then shapes the stiffness).
+        """
+        estimate = self.estimates.get(self.skill) if self.skill is not None else None
+        if estimate is None:
+            return None
+        layout = self.estimation_layouts[self.skill]
+        if self.skill not in self._controls:
+            self._controls[self.skill] = control_function(layout)
+        control = np.asarray(self._controls[self.skill](0.0, estimate), dtype=float).ravel()
+        command = float(estimate[layout.i_v0]) * control
+        return command if np.all(np.isfinite(command)) else None
 
     def _coasted(self, name: str) -> SolveResult:
         """The estimate of ``name`` as it stands, as if estimated again (it is shifted to the next s_c by _advance)."""
