@@ -8,7 +8,7 @@ from PyQt5.QtCore import QRect
 
 from teleteach.core.active_tab import Tab
 from teleteach.gui.device import DeviceSample
-from teleteach.gui.shared_tab import AXIS_TITLES, SharedStatus
+from teleteach.gui.shared_control.view import AXIS_TITLES, SharedStatus
 
 pytestmark = pytest.mark.gui
 

@@ -57,7 +57,6 @@ class GuiConfig:
     trajectory: str
     skill_prefix: str
     initial_tab: int
-    shared_control_node: str
     shared_control_stiffness: Tuple[float, float, float]
     shared_skill_prefix: str
     shared_trail_length: int

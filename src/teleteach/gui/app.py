@@ -35,7 +35,8 @@ from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
 from teleteach.gui.recording import PathRecorder, StiffnessRecorder, unique_skill_name
 from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, TeachingSession
-from teleteach.gui.shared_tab import SharedControlTab
+from teleteach.gui.shared_control.ros import SharedControlRos
+from teleteach.gui.shared_control.view import SharedControlTab
 from teleteach.gui.study import Page, StudyScreen
 from teleteach.gui.study_page import StudyPage
 from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
@@ -126,14 +127,15 @@ class MainWindow(QMainWindow):
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, self.topics.equilibrium)
         self.services = ServiceCaller(config.service_timeout)
         self.services.finished.connect(self._on_service)
+        self.shared_ros = SharedControlRos(config, self.shared_recorder)
         self.worker = RosWorker(
             config,
             self.command,
             self.recorder,
-            self.shared_recorder,
             self.player.current,
             self.topics.equilibrium,
             self.path_recorder,
+            adapters=[self.shared_ros],
         )
         self._build_window()
         self._connect_tabs()
@@ -221,11 +223,11 @@ class MainWindow(QMainWindow):
         self.worker.library_received.connect(self._on_library, queued)
         self.worker.help_requested.connect(self._on_help, queued)
         self.worker.health.connect(self._on_health, queued)
-        self.worker.shared_state.connect(self.shared_control.on_state, queued)
-        self.worker.shared_plan.connect(self.shared_control.on_plan, queued)
-        self.worker.shared_boundary.connect(self.shared_control.on_boundary, queued)
-        self.worker.shared_obstacle.connect(self.shared_control.on_obstacle, queued)
-        self.worker.shared_arm.connect(self.shared_control.on_arm, queued)
+        self.shared_ros.state.connect(self.shared_control.on_state, queued)
+        self.shared_ros.plan.connect(self.shared_control.on_plan, queued)
+        self.shared_ros.boundary.connect(self.shared_control.on_boundary, queued)
+        self.shared_ros.obstacle.connect(self.shared_control.on_obstacle, queued)
+        self.shared_ros.arm.connect(self.shared_control.on_arm, queued)
         self.worker.study_state.connect(self._on_study_state, queued)
         self.worker.execution_changed.connect(self._on_execution, queued)
         self.worker.teleop_changed.connect(self.teleop.on_state, queued)

@@ -2,23 +2,22 @@
 
 rospy callbacks never touch a widget: they update thread-safe state or emit class-level signals, which Qt delivers
 queued in the GUI thread. The worker also publishes /eigenvalues and /eigenvectors from its own thread at
-``publish_rate`` while LOW-LEVEL (or SHARED CONTROL) is active, its timer stopped in the other tabs, independent of
-the repaint rate (the thesis tied stiffness to the GUI refresh and recorded it too sparsely, Appendix C.2), and
-samples the recording at the same instants; a device sample that changes the ellipsoid is sent at once from the
-subscriber's thread, so the latency does not include waiting for the next tick.
+``publish_rate`` while LOW-LEVEL (or a tab whose adapter hears the arm) is active, its timer stopped in the other tabs,
+independent of the repaint rate (the thesis tied stiffness to the GUI refresh and recorded it too sparsely, Appendix
+C.2), and samples the recording at the same instants; a device sample that changes the ellipsoid is sent at once from
+the subscriber's thread, so the latency does not include waiting for the next tick.
 """
 
 import functools
 import math
 import threading
 import time
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import rospy
 import tf2_ros
-from geometry_msgs.msg import PolygonStamped, PoseStamped, QuaternionStamped, Vector3Stamped
-from nav_msgs.msg import Path
+from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from PyQt5.QtCore import QObject, Qt, QTimer, pyqtSignal, pyqtSlot
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
@@ -33,17 +32,16 @@ from teleteach.core.study_phase import Phase, StudyView, known_phase
 from teleteach.core.teleoperation import ReplayCorrection, Teleoperation
 from teleteach.core.trajectories import Trajectory
 from teleteach.core.validation import InvalidCommandError
+from teleteach.gui.adapter import TabAdapter
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import PathRecorder, StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
-from teleteach.gui.shared_tab import SharedStatus
 from teleteach.gui.tabs import AuthorityView
 from teleteach.gui.teleop_tab import TeleopView
 from teleteach.msg import (
     BehaviourTree,
     HelpRequest,
-    SharedControlState,
     SkillAuthority,
     SkillLibrary,
     StudyState,
@@ -51,8 +49,6 @@ from teleteach.msg import (
 )
 from teleteach.runtime.node import publish, shutting_down
 from teleteach.shared_control.placement import Opening, assist
-from teleteach.shared_control.plane import TaskPlane
-from teleteach.shared_control.ros import obstacle_from_pose
 from teleteach.skills.config import load_motion_config
 
 
@@ -213,17 +209,17 @@ class ServiceCaller(QObject):
 
 
 class RosWorker(QObject):
-    """Owns the subscribers and the stiffness publishers; lives in its own QThread (thesis Fig. A.1, orange block).
+    """The device's and the tree's subscribers, the stiffness publishers, the tabs' adapters; in its own QThread.
+
+    Thesis Fig. A.1, orange block. The tabs' own topics are their adapters' (teleteach.gui.adapter).
 
     ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose and /joint_states (in
-    LOW-LEVEL and SHARED CONTROL), /behaviour_tree/log/tree, /behaviour_tree/skill_library,
-    /behaviour_tree/help_request, /behaviour_tree/execution, /shared_control/state, /shared_control/plan,
-    /shared_control/boundary, /shared_control/obstacle, /equilibrium_pose (recorded in SHARED CONTROL), study/state
-    (a user study's state); in LOW-LEVEL, teleteach/scene and TF world -> base_frame (the gap a target-frame
-    trajectory places at). The tree's execution and /joint_states tell whether the arm is free for the impedance
-    controller.
-    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL, SHARED CONTROL or TELEOP is active),
-    /equilibrium_pose (in TELEOP, while the session holds the arm: where the device puts it).
+    LOW-LEVEL, TELEOP and a tab whose adapter ``hears_arm``), /behaviour_tree/log/tree, /behaviour_tree/skill_library,
+    /behaviour_tree/help_request, /behaviour_tree/execution, study/state (a user study's state); in LOW-LEVEL,
+    teleteach/scene and TF world -> base_frame (the gap a target-frame trajectory places at). The tree's execution and
+    /joint_states tell whether the arm is free for the impedance controller.
+    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL, TELEOP or a tab whose adapter ``hears_arm`` is
+    active), /equilibrium_pose (in TELEOP, while the session holds the arm: where the device puts it).
     """
 
     device_changed = pyqtSignal(object)  # DeviceSample, at most device_ui_rate
@@ -233,11 +229,6 @@ class RosWorker(QObject):
     library_received = pyqtSignal(object)  # list of LibrarySkill
     help_requested = pyqtSignal(str, str, object)  # node, reason, the remembered repair (lines, may be empty)
     health = pyqtSignal(str)  # "" when all inputs are alive, else what is missing
-    shared_state = pyqtSignal(object)  # SharedStatus
-    shared_plan = pyqtSignal(object)  # n x 2 task-plane points [m]
-    shared_boundary = pyqtSignal(object)  # n x 2 task-plane points [m]
-    shared_obstacle = pyqtSignal(object)  # (x, y, yaw) in the task plane
-    shared_arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
     study_state = pyqtSignal(object)  # StudyView of a user study (study/state)
     _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
     execution_changed = pyqtSignal(int, str)  # the tree's TreeExecution state and its message
@@ -249,26 +240,25 @@ class RosWorker(QObject):
         config: GuiConfig,
         command: EllipsoidCommand,
         recorder: StiffnessRecorder,
-        shared_recorder: StiffnessRecorder,
         equilibrium: Callable[[], Optional[np.ndarray]],
         equilibrium_publisher: rospy.Publisher,
         path_recorder: PathRecorder,
+        adapters: Sequence[TabAdapter] = (),
     ):
         """The worker of the window.
 
         ``equilibrium``: the pose the player commands now (recorded with each stiffness sample), or None;
         ``equilibrium_publisher``: /equilibrium_pose, where TELEOP sends the pose the device gives the arm;
-        ``path_recorder``: where TELEOP's poses go while its path is recorded.
+        ``path_recorder``: where TELEOP's poses go while its path is recorded; ``adapters``: the tabs' ROS sides, run
+        in this worker's thread.
         """
         super().__init__()
         self.config = config
         self.command = command
         self.recorder = recorder
-        self.shared_recorder = shared_recorder
-        self._plane: Optional[TaskPlane] = None
-        self._plane_checked = -1e9
-        self._plane_lock = threading.Lock()
-        self._arm_stamp = -math.inf
+        self.adapters = list(adapters)
+        for adapter in self.adapters:
+            adapter.setParent(self)  # moves to the worker's thread with it
         self._active_tab = 0
         self._publish_timer: Optional[QTimer] = None
         self._tab_changed.connect(self._follow_tab, Qt.QueuedConnection)
@@ -324,11 +314,6 @@ class RosWorker(QObject):
             ("behaviour_tree/log/tree", BehaviourTree, self._on_tree),
             ("behaviour_tree/skill_library", SkillLibrary, self._on_library),
             ("behaviour_tree/help_request", HelpRequest, self._on_help),
-            ("shared_control/state", SharedControlState, self._on_shared_state),
-            ("shared_control/plan", Path, self._on_shared_plan),
-            ("shared_control/boundary", PolygonStamped, self._on_shared_boundary),
-            ("shared_control/obstacle", PoseStamped, self._on_shared_obstacle),
-            ("equilibrium_pose", PoseStamped, self._on_equilibrium),
             ("study/state", StudyState, lambda message: self.study_state.emit(study_view(message))),
             ("behaviour_tree/execution", TreeExecution, self._on_execution),
             ("skills/authority", SkillAuthority, self._on_authority),
@@ -352,7 +337,16 @@ class RosWorker(QObject):
         self._publish_timer = self._timers[0]
         for timer in self._timers[1:]:
             timer.start()
+        for adapter in self.adapters:
+            adapter.start(self)
         self._follow_tab()
+
+    def _adapter(self, hearing_arm: bool = False) -> Optional[TabAdapter]:
+        """The active tab's adapter (only one that hears the arm, if ``hearing_arm``), or None."""
+        for adapter in self.adapters:
+            if adapter.tab == self._active_tab and (adapter.hears_arm or not hearing_arm):
+                return adapter
+        return None
 
     @property
     def active_tab(self) -> int:
@@ -377,7 +371,9 @@ class RosWorker(QObject):
             ("cartesian_pose", PoseStamped, self._on_cartesian),
             ("joint_states", JointState, self._on_joint_states),
         )
-        if self._active_tab in (Tab.LOW_LEVEL, Tab.SHARED_CONTROL, Tab.TELEOP):
+        for adapter in self.adapters:
+            adapter.tab_changed(self._active_tab)
+        if self._active_tab in (Tab.LOW_LEVEL, Tab.TELEOP) or self._adapter(hearing_arm=True) is not None:
             if not self._publish_timer.isActive():
                 self._publish_timer.start()
             for topic, message_class, callback in arm_topics:
@@ -419,6 +415,8 @@ class RosWorker(QObject):
         for subscriber in self._subscribers.values():
             subscriber.unregister()
         self._subscribers.clear()
+        for adapter in self.adapters:
+            adapter.stop()
         for publisher in (self._eigenvalues, self._eigenvectors, self._correction_publisher):
             publisher.unregister()
 
@@ -474,19 +472,15 @@ class RosWorker(QObject):
         if self._gripper.update(message.data):
             self.gripper_opened.emit()
 
-    ARM_TRAIL_PERIOD = 0.02  # [s] the arm's trail keeps a point per 20 ms of /cartesian_pose (it comes at 200 Hz)
-
     def _on_cartesian(self, message: PoseStamped) -> None:
         pose = pose_to_array(message.pose)
         if not np.all(np.isfinite(pose)):
             return
         stamp = message.header.stamp.to_sec() or rospy.get_time()
         self._measured = (stamp, pose)
-        if self.active_tab == Tab.SHARED_CONTROL and abs(stamp - self._arm_stamp) >= self.ARM_TRAIL_PERIOD:
-            planar = self._to_plane([pose[:3]])
-            if planar is not None:
-                self._arm_stamp = stamp
-                self.shared_arm.emit(planar[0])
+        adapter = self._adapter(hearing_arm=True)
+        if adapter is not None:
+            adapter.on_arm(stamp, pose)
 
     def _on_tree(self, message: BehaviourTree) -> None:
         nodes = [
@@ -584,65 +578,6 @@ class RosWorker(QObject):
                 return False, f"the arm still moves ({speed:.2f} rad/s)"
         return True, ""
 
-    def plane(self) -> Optional[TaskPlane]:
-        """The shared_control node's task plane (its ``~plane`` param), looked up until found (at most 1/s)."""
-        with self._plane_lock:  # callbacks of several topics ask at once; the first one looks it up
-            now = time.monotonic()
-            if self._plane is None and now - self._plane_checked > 1.0:
-                self._plane_checked = now
-                try:
-                    params = rospy.get_param(self.config.shared_control_node.rstrip("/") + "/plane", None)
-                    self._plane = TaskPlane.from_params(params) if isinstance(params, dict) else None
-                except (ValueError, TypeError, OSError) as error:
-                    rospy.logwarn_throttle(5.0, f"teaching_gui: bad shared-control plane parameter: {error}")
-            return self._plane
-
-    def _to_plane(self, points) -> Optional[np.ndarray]:
-        plane = self.plane()
-        if plane is None:
-            return None
-        planar = np.array([plane.to_plane(point) for point in points]).reshape(-1, 2)
-        return planar if np.all(np.isfinite(planar)) else None
-
-    def _on_shared_state(self, message: SharedControlState) -> None:
-        status = SharedStatus(
-            mode=message.mode,
-            skill=message.skill,
-            skills=tuple(message.skills),
-            fitting_errors=tuple(message.fitting_errors),
-            estimation_time=message.estimation_time,
-            optimisation_time=message.optimisation_time,
-            state=(message.state.x, message.state.y),
-            message=message.message,
-        )
-        if all(math.isfinite(value) for value in status.state):
-            self.shared_state.emit(status)
-
-    def _on_shared_plan(self, message: Path) -> None:
-        planar = self._to_plane([(p.pose.position.x, p.pose.position.y, p.pose.position.z) for p in message.poses])
-        if planar is not None:
-            self.shared_plan.emit(planar)
-
-    def _on_shared_boundary(self, message: PolygonStamped) -> None:
-        planar = self._to_plane([(p.x, p.y, p.z) for p in message.polygon.points])
-        if planar is not None:
-            self.shared_boundary.emit(planar)
-
-    def _on_shared_obstacle(self, message: PoseStamped) -> None:
-        try:
-            edge = obstacle_from_pose(message)
-        except ValueError:  # InvalidMessageError or a non-finite edge
-            return
-        self.shared_obstacle.emit((edge.x, edge.y, edge.yaw))
-
-    def _on_equilibrium(self, message: PoseStamped) -> None:
-        """In SHARED CONTROL the MPC's equilibrium pose is recorded with the constant stiffness."""
-        if self.active_tab == Tab.SHARED_CONTROL and self.shared_recorder.active:
-            stiffness = np.diag(np.asarray(self.config.shared_control_stiffness, dtype=float))
-            self.shared_recorder.add(
-                message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self._measured_pose()
-            )
-
     def _on_scene(self, message: MarkerArray) -> None:
         scene, _ = observed_from_markers(message.markers)
         with self._lock:
@@ -739,12 +674,13 @@ class RosWorker(QObject):
         """
         if shutting_down():
             return  # Ctrl-C closed the publishers; the window closes within the watchdog's period
-        if self.active_tab == Tab.SHARED_CONTROL:
-            self._send_stiffness(self.config.shared_control_stiffness, (0.0, 0.0, 0.0, 1.0))
+        adapter = self._adapter(hearing_arm=True)
+        if adapter is not None:
+            adapter.tick()
             return
         if self.active_tab == Tab.TELEOP:
             values, quaternion = self.command.stiffness()
-            self._send_stiffness(values, quaternion)
+            self.send_stiffness(values, quaternion)
             self._teleoperate(tuple(float(value) for value in values))
             return
         if self.active_tab != Tab.LOW_LEVEL:
@@ -821,9 +757,10 @@ class RosWorker(QObject):
             if urgent and now - self._last_publish < 0.5 / self.config.publish_rate:
                 return
             self._last_publish = now
-        self._send_stiffness(*self.command.stiffness())
+        self.send_stiffness(*self.command.stiffness())
 
-    def _send_stiffness(self, values, quaternion) -> None:
+    def send_stiffness(self, values, quaternion) -> None:
+        """/eigenvalues and /eigenvectors now: principal stiffnesses [N/m], the axes' rotation (x y z w)."""
         stamp = rospy.Time.now()
         eigenvalues = Vector3Stamped()
         eigenvalues.header.stamp = stamp

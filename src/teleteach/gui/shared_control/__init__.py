@@ -1,0 +1,1 @@
+"""The SHARED CONTROL tab: its widgets (``view``) and its ROS side (``ros``, the MPC's topics in the task plane)."""
