@@ -536,34 +536,34 @@ def test_the_modes_are_the_state_message_s_constants():
 
 
 @pytest.mark.parametrize("skill", ["wave", "cycloid"])
-def test_the_identified_pattern_predicts_the_operators_next_command_and_keeps_going_on_its_predictions(skill):
+def test_a_clutch_keeps_the_recognised_pattern_along_the_operators_heading_until_the_operator_commands_again(skill):
     controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), (0.0, 0.0))
-    assert controller.predicted_command() is None  # nothing identified: nothing to keep
-    commands = synthetic_commands(skill, (0.03, 20.0, 0.0), math.pi, 0.05, np.arange(0, 5.0, DT), 0.005)
-    errors = []
-    for k, command in enumerate(commands[:-1]):
+    times = np.arange(0, 7.0, DT)
+    commands = synthetic_commands(skill, (0.03, 20.0, 0.0), math.pi, 0.05, times, 0.005, np.random.default_rng(4))
+    for command in commands[:150]:  # 3 s: identified well before (the window is 1.5 s)
         controller.step(command)
-        predicted = controller.predicted_command()
-        if k >= 100:  # identified by then (the window is 1.5 s)
-            assert predicted is not None, k
-            errors.append(np.linalg.norm(predicted - commands[k + 1]) / np.linalg.norm(commands[k + 1]))
-    # Expect: within the noise (10 % of the speed) of the operator's next command.
-    assert float(np.median(errors)) < 0.1
-    # Fed back, the predictions keep the pattern: identified the same, at the operator's speed, across the plane.
-    states = []
-    for _ in range(100):
-        record = controller.step(controller.predicted_command())
+    states, kept = [], []
+    for _ in range(100):  # 2 s clutched: the operator's hand is on the ellipsoid
+        record = controller.keep()
         states.append(record.state)
+        kept.append(record.command)
     assert record.mode == SHARED and record.skill == skill
+    assert record.message.startswith(f"clutch: keeping the {skill}")
+    # Expect: the pattern the operator was making, where they were heading, at their speed: what they would have
+    # commanded without their noise, within the estimate's error.
+    intended = synthetic_commands(skill, (0.03, 20.0, 0.0), math.pi, 0.05, times)
+    np.testing.assert_allclose(np.array(kept), intended[150:250], atol=0.02)
     states = np.array(states)
-    assert 0.06 < states[0, 0] - states[-1, 0] < 0.14  # 2 s at 0.05 m/s along the heading (-x), a loop's phase aside
+    assert 0.08 < states[0, 0] - states[-1, 0] < 0.12  # 2 s at 0.05 m/s along the heading (-x)
     assert np.ptp(states[:, 1]) > 0.02  # and the pattern's sway across it
+    record = controller.step(np.array([0.0, 0.05]))  # released: the operator's command again
+    assert not record.message.startswith("clutch") and record.command == (0.0, 0.05)
 
 
-def test_forgetting_the_identification_leaves_nothing_to_predict():
-    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), (0.0, 0.0))
-    for command in synthetic_commands("wave", (0.03, 20.0, 0.0), 0.0, 0.05, np.arange(0, 2.5, DT)):
-        controller.step(command)
-    assert controller.predicted_command() is not None
-    controller.reset((0.0, 0.0))
-    assert controller.predicted_command() is None
+def test_a_clutch_with_no_pattern_recognised_holds():
+    controller = SharedControl(SharedControlConfig.from_yaml(solver="fast"), (0.1, 0.0))
+    controller.step(np.array([0.05, 0.0]))
+    record = controller.keep()
+    assert record.mode == DIRECT and record.command == (0.0, 0.0)
+    assert record.message.startswith("clutch: no pattern recognised to keep")
+    np.testing.assert_allclose(controller.keep().state, record.state)

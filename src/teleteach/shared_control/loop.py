@@ -318,7 +318,7 @@ class SharedControl:
                 cfg.constraint_penalty,
                 cfg.cache_dir,
             )
-        self._controls: Dict[str, object] = {}  # u(s, theta) per skill, built when first asked (predicted_command)
+        self._controls: Dict[str, object] = {}  # u(s, theta) per skill, built when first asked (keep)
         self.box = UNBOUNDED
         self.obstacle: Optional[StraightEdge] = None
         if box is not None:
@@ -357,6 +357,7 @@ class SharedControl:
         self.plan_index = 0
         self._cpu = [0.0, 0.0]
         self._estimation_cycles = 0
+        self._kept: Optional[Tuple[str, np.ndarray]] = None  # the pattern keep() goes on with, while it is called
         self._forget_identification()
 
     def _forget_identification(self) -> None:
@@ -374,6 +375,7 @@ class SharedControl:
         """One cycle: take the operator command h^r [m/s], return the record of the executed state."""
         cfg = self.config
         self._cpu = [0.0, 0.0]
+        self._kept = None  # the operator commands again (keep sets it back after its own step)
         command, notes = self._sanitise(command)
         self.window.append(command)
         if len(self.window) < cfg.n_window:
@@ -429,22 +431,42 @@ class SharedControl:
         message = "; ".join([*notes, f"late cycle: following the previous plan ({self.skill})"])
         return self._record(SHARED, report, message, self.plan, velocity, 1.0)
 
-    def predicted_command(self) -> Optional[np.ndarray]:
-        """The operator's next command h^r [m/s] as the identified skill's estimate predicts it; None when none is.
+    def keep(self) -> SharedControlRecord:
+        """One cycle on the recognised pattern alone: the operator's hand is busy elsewhere (a wipe's clutch).
 
-        The estimate is v0 u(s, theta) (eqs 2, 4) fitted to the window and moved on to this cycle's s_c, so its
-        value at s = 0 is what an operator keeping the pattern commands next: fed back, it keeps the pattern going
-        while the operator's hand does something else (a wipe's clutch: the device then shapes the stiffness).
+        The first cycle takes the identified skill's estimate (its pattern, phase, heading and speed) and straightens
+        its underlying path; each cycle then commands what that estimate's operator would, v0 u(0, theta) (eqs 2,
+        4), and moves it on by a cycle. So the plan goes on with the operator's pattern along the heading they had,
+        constraints and all, without feeding its own predictions back into the estimation (extrapolating a bending
+        path's curvature turned the pattern around within a second). Nothing identified: the command is zero
+        (direct control holds). The next :meth:`step` gives the pattern back to the operator. The record says which.
         """
+        kept = self._kept if self._kept is not None else self._pattern_to_keep()
+        command = np.zeros(2)
+        if kept is not None:
+            skill, theta = kept
+            layout = self.estimation_layouts[skill]
+            if skill not in self._controls:
+                self._controls[skill] = control_function(layout)
+            speed = float(theta[layout.i_v0])
+            command = speed * np.asarray(self._controls[skill](0.0, theta), dtype=float).ravel()
+        record = self.step(command)
+        if kept is not None:
+            ds = speed * self.config.dt
+            self._kept = (skill, layout.shift(theta, ds, speed * self.config.horizon_time))
+            record.message = f"clutch: keeping the {skill}; {record.message}"
+        else:
+            record.message = f"clutch: no pattern recognised to keep; {record.message}"
+        return record
+
+    def _pattern_to_keep(self) -> Optional[Tuple[str, np.ndarray]]:
+        """The identified skill and its estimate on a straight underlying path (curvatures zero), or None."""
         estimate = self.estimates.get(self.skill) if self.skill is not None else None
-        if estimate is None:
+        if estimate is None or not np.all(np.isfinite(estimate)):
             return None
-        layout = self.estimation_layouts[self.skill]
-        if self.skill not in self._controls:
-            self._controls[self.skill] = control_function(layout)
-        control = np.asarray(self._controls[self.skill](0.0, estimate), dtype=float).ravel()
-        command = float(estimate[layout.i_v0]) * control
-        return command if np.all(np.isfinite(command)) else None
+        theta = np.array(estimate, dtype=float)
+        theta[: self.estimation_layouts[self.skill].i_alpha] = 0.0
+        return self.skill, theta
 
     def _coasted(self, name: str) -> SolveResult:
         """The estimate of ``name`` as it stands, as if estimated again (it is shifted to the next s_c by _advance)."""

@@ -12,7 +12,7 @@ tool's contact face in the true surface's frame.
 
 import dataclasses
 import math
-from typing import Optional, Tuple, Union
+from typing import Sequence, Tuple, Union
 
 import numpy as np
 import pybullet
@@ -106,17 +106,21 @@ class SurfaceWiper:
         error = self.truth.frame.inverse() * self.seen.frame
         return np.concatenate([error.position, error.rotation.as_rotvec()[:2]])
 
-    def pattern_skill(self, targets: np.ndarray, stiffness: SurfaceStiffness, name: str = "Pattern") -> Skill:
-        """In-plane targets (one per cycle) pressed with ``stiffness`` as a skill in the surface's frame.
+    def pattern_skill(
+        self, targets: np.ndarray, stiffness: Union[SurfaceStiffness, Sequence[SurfaceStiffness]], name: str = "Pattern"
+    ) -> Skill:
+        """In-plane targets (one per cycle) pressed with ``stiffness`` (one, or one per cycle): a surface-frame skill.
 
-        The TCP's equilibrium lies ``contact_force / K_n`` beyond the face along the normal, the tool square to it.
+        The TCP's equilibrium lies ``contact_force / K_n`` beyond the face along the normal, K_n each cycle's, the
+        tool square to it.
         """
         targets = np.asarray(targets, dtype=float)
-        height = self.reach - pressing_depth(self.config, np.diag(stiffness.eigenvalues()), (0, 0, 1))
-        poses = np.column_stack(
-            [targets, np.full(len(targets), height), np.tile(TOOL_DOWN.as_quat(), (len(targets), 1))]
-        )
-        matrices = np.tile(np.diag(stiffness.eigenvalues()), (len(targets), 1, 1))
+        stiffnesses = [stiffness] * len(targets) if isinstance(stiffness, SurfaceStiffness) else list(stiffness)
+        if len(stiffnesses) != len(targets):
+            raise WipingError(f"{len(stiffnesses)} stiffnesses for {len(targets)} targets: one each, or one for all")
+        matrices = np.array([np.diag(each.eigenvalues()) for each in stiffnesses])
+        heights = [self.reach - pressing_depth(self.config, matrix, (0, 0, 1)) for matrix in matrices]
+        poses = np.column_stack([targets, heights, np.tile(TOOL_DOWN.as_quat(), (len(targets), 1))])
         times = self.config.dt * np.arange(len(targets))
         pose = tuple(float(value) for value in self.seen_in_base.as_pose())
         return Skill(
@@ -268,11 +272,12 @@ def run_wipe(
     base_pose: str,
     seed: int,
     pattern: Union[np.ndarray, Skill],
-    stiffness: Optional[SurfaceStiffness] = None,
+    stiffness: Union[None, SurfaceStiffness, Sequence[SurfaceStiffness]] = None,
 ) -> Tuple[WipeRecord, SurfaceWiper]:
     """One wipe in a fresh world: the base where MoveBase stops for base_pose, perception with the seed's errors.
 
-    ``pattern`` is in-plane targets (one per cycle, pressed with ``stiffness``) or a wiping skill in a surface's frame.
+    ``pattern`` is in-plane targets (one per cycle, pressed with ``stiffness``: one, or one per cycle) or a wiping
+    skill in a surface's frame.
     Returns the record and the wiper (what it perceived; :meth:`SurfaceWiper.demonstrated_skill`).
 
     Raises:
