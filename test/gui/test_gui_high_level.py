@@ -358,8 +358,8 @@ def test_every_button_fits_the_visible_width_at_any_window_size(qapp, artifacts_
     from PyQt5.QtCore import QPoint
 
     from teleteach.core.gui_config import GuiConfig
+    from teleteach.gui.high_level.view import HighLevelTab
     from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
-    from teleteach.gui.tabs import HighLevelTab
 
     leaves = ["LookToShelf", "PickItem", "MoveBase", "DropItem", "MoveBaseToStart", "LookToShelfAgain", "Idle"]
     nodes = [

@@ -7,7 +7,7 @@ from conftest import pump, pump_until, start_bt, stop
 from std_msgs.msg import Bool
 
 from teleteach.core.active_tab import Tab
-from teleteach.gui.tabs import StartTab
+from teleteach.gui.start.view import StartTab
 from teleteach.msg import TreeExecution
 
 pytestmark = pytest.mark.gui

@@ -32,15 +32,17 @@ from teleteach.core.study_phase import StudyView
 from teleteach.core.trajectories import Trajectory, TrajectoryError, mean_trajectory
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
+from teleteach.gui.high_level.view import HighLevelTab
+from teleteach.gui.low_level.view import LowLevelTab
 from teleteach.gui.recording import PathRecorder, StiffnessRecorder, unique_skill_name
 from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, TeachingSession
 from teleteach.gui.shared_control.ros import SharedControlRos
 from teleteach.gui.shared_control.view import SharedControlTab
+from teleteach.gui.start.view import StartTab
 from teleteach.gui.study import Page, StudyScreen
 from teleteach.gui.study_page import StudyPage
-from teleteach.gui.tabs import HighLevelTab, LowLevelTab, StartTab
-from teleteach.gui.teleop_tab import TeleopTab
+from teleteach.gui.teleop.view import TeleopTab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.haptics.guidance import Guidance
 from teleteach.msg import HapticGuidance, Selection, TreeExecution

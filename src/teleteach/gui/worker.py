@@ -37,8 +37,8 @@ from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.recording import PathRecorder, StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
-from teleteach.gui.tabs import AuthorityView
-from teleteach.gui.teleop_tab import TeleopView
+from teleteach.gui.start.view import AuthorityView
+from teleteach.gui.teleop.view import TeleopView
 from teleteach.msg import (
     BehaviourTree,
     HelpRequest,

@@ -20,7 +20,7 @@ from PyQt5.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import ClickClassifier
-from teleteach.gui.tabs import restyle
+from teleteach.gui.widgets import restyle
 from teleteach.shared_control.loop import DIRECT, FALLBACK, MODE_NAMES, SHARED, UNKNOWN
 
 MODE_COLOURS = {DIRECT: "#1565c0", SHARED: "#2e7d32", FALLBACK: "#d22828", UNKNOWN: "#6a1b9a"}

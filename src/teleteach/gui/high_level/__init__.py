@@ -1,0 +1,1 @@
+"""The HIGH-LEVEL tab: its widgets (``view``)."""

@@ -1,0 +1,1 @@
+"""The LOW-LEVEL tab: its widgets (``view``)."""

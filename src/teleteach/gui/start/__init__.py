@@ -1,0 +1,1 @@
+"""The START tab: its widgets (``view``)."""

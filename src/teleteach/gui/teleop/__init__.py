@@ -1,0 +1,1 @@
+"""The TELEOP tab: its widgets (``view``)."""
