@@ -9,67 +9,18 @@ board's frame, and what the controller recognised.
 """
 
 import math
-import threading
 import unittest
 
-import actionlib
 import numpy as np
 import rospy
 import rostest
-import tf2_ros
-from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped, WrenchStamped
-from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
-from scipy.spatial.transform import Rotation
-from std_msgs.msg import Bool
-from visualization_msgs.msg import MarkerArray
+from geometry_msgs.msg import Vector3Stamped
 
-from teleteach.core.frames import Transform
-from teleteach.core.observed import observed_from_markers
 from teleteach.core.scene import load_scene
-from teleteach.msg import SharedControlState
-from teleteach.shared_control.models import synthetic_commands
 from teleteach.shared_control.surface import wiping_box
+from teleteach.wiping.ros import BOARD, CONTACT, ScriptedWipe, WorldRecord, board_in_base, drive_to
 
-BOARD = "counter_board"
-TAUGHT = (3000.0, 3000.0, 300.0)  # [N/m] along u, along v, along the normal
-RATE = 50.0  # [Hz] of the operator's commands
-WAVE = (0.03, 20.0, 0.0)  # amplitude [m], spatial frequency [1/m], phase [m]
-SPEED = 0.05  # [m/s]
-CONTACT = 1.0  # [N] a normal force below this is no contact
 BOUNDARY_TOLERANCE = 0.005  # [m] the tool's centre beyond the boundary (the arm tracks within a few mm)
-
-
-def transform_of(box) -> Transform:
-    return Transform(np.asarray(box.position), Rotation.from_quat(box.quaternion))
-
-
-class Record:
-    """The force on the tool, the TCP and the controller's states, by sim time."""
-
-    def __init__(self):
-        self.lock = threading.Lock()
-        self.forces, self.poses, self.states = [], [], []
-        rospy.Subscriber("/force_torque_ext", WrenchStamped, self._on_force, queue_size=1000)
-        rospy.Subscriber("/cartesian_pose", PoseStamped, self._on_pose, queue_size=1000)
-        rospy.Subscriber("/shared_control/state", SharedControlState, self._on_state, queue_size=1000)
-
-    def _on_force(self, message):
-        f = message.wrench.force
-        with self.lock:
-            self.forces.append((message.header.stamp.to_sec(), np.array([f.x, f.y, f.z])))
-
-    def _on_pose(self, message):
-        p = message.pose.position
-        with self.lock:
-            self.poses.append((message.header.stamp.to_sec(), np.array([p.x, p.y, p.z])))
-
-    def _on_state(self, message):
-        with self.lock:
-            self.states.append(message)
-
-    def between(self, store, start, end):
-        with self.lock:
-            return np.array([value for stamp, value in getattr(self, store) if start <= stamp <= end])
 
 
 class WipeUnderSharedControl(unittest.TestCase):
@@ -82,71 +33,28 @@ class WipeUnderSharedControl(unittest.TestCase):
             rospy.sleep(0.05)
         self.fail(f"timed out waiting for {what}")
 
-    def scene(self, topic):
-        message = rospy.wait_for_message(topic, MarkerArray, timeout=30.0)
-        return observed_from_markers(message.markers)[0].surfaces[BOARD]
-
     def test_the_taught_stiffness_keeps_the_tool_on_the_board_along_a_wave_inside_the_marked_area(self):
         scene = load_scene()
-        record = Record()
-        base = actionlib.SimpleActionClient("/move_base", MoveBaseAction)
-        self.assertTrue(base.wait_for_server(rospy.Duration(60.0)), "no move_base server")
-        pose = scene.base_poses["wipe_counter"]
-        goal = MoveBaseGoal()
-        goal.target_pose.header.frame_id = "world"
-        goal.target_pose.header.stamp = rospy.Time.now()
-        goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = pose.x, pose.y
-        goal.target_pose.pose.orientation.z, goal.target_pose.pose.orientation.w = (
-            math.sin(pose.yaw / 2),
-            math.cos(pose.yaw / 2),
-        )
-        base.send_goal(goal)
-        self.assertTrue(base.wait_for_result(rospy.Duration(90.0)), "the base did not arrive at the counter")
-        buffer = tf2_ros.Buffer()
-        tf2_ros.TransformListener(buffer)
-        rospy.sleep(1.0)  # perception reports the board from the new viewpoint
-        stamped = buffer.lookup_transform("base_link", "world", rospy.Time(0), rospy.Duration(10.0)).transform
-        world_in_base = Transform(
-            np.array([stamped.translation.x, stamped.translation.y, stamped.translation.z]),
-            Rotation.from_quat([stamped.rotation.x, stamped.rotation.y, stamped.rotation.z, stamped.rotation.w]),
-        )
-        seen_in_base = world_in_base * transform_of(self.scene("/teleteach/scene"))
-        true_in_base = world_in_base * transform_of(self.scene("/teleteach/true_scene"))
-
-        eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1, latch=True)
-        eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=1, latch=True)
-        values = Vector3Stamped()
-        values.header.stamp = rospy.Time.now()
-        values.vector.x, values.vector.y, values.vector.z = TAUGHT
-        axes = QuaternionStamped()
-        axes.header.stamp = values.header.stamp
-        axes.quaternion.x, axes.quaternion.y, axes.quaternion.z, axes.quaternion.w = seen_in_base.rotation.as_quat()
-        eigenvectors.publish(axes)
-        eigenvalues.publish(values)
-        enable = rospy.Publisher("/shared_control/enable", Bool, queue_size=1, latch=True)
-        command = rospy.Publisher("/shared_control/operator_command", Vector3Stamped, queue_size=10)
+        record = WorldRecord()
+        self.assertTrue(drive_to(), "the base did not arrive at the counter")
+        seen_in_base, true_in_base = board_in_base()
+        operator = ScriptedWipe()
+        operator.press_with(seen_in_base)
         rospy.sleep(0.5)
-        enable.publish(Bool(data=True))
+        operator.enable()
         self.wait_for(lambda: record.states, "the approach to the board (then /shared_control/state)", 90.0)
 
-        start = rospy.Time.now().to_sec()
-        rate = rospy.Rate(RATE)
-        times = np.arange(0.0, 9.0, 1.0 / RATE)
         bad = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1)  # a bad message mid-wipe changes nothing
-        for k, (x, y) in enumerate(
-            synthetic_commands("wave", WAVE, math.pi, SPEED, times, 0.005, np.random.default_rng(49))
-        ):
-            message = Vector3Stamped()
-            message.header.stamp = rospy.Time.now()
-            message.vector.x, message.vector.y = float(x), float(y)
-            command.publish(message)
-            if k == len(times) // 2:
+        half = int(9.0 * 50.0) // 2
+
+        def nan_midway(k, stamp):
+            if k == half:
                 nan = Vector3Stamped()
-                nan.header.stamp = message.header.stamp
+                nan.header.stamp = rospy.Time.from_sec(stamp)
                 nan.vector.x = nan.vector.y = nan.vector.z = float("nan")
                 bad.publish(nan)
-            rate.sleep()
-        end = rospy.Time.now().to_sec()
+
+        start, end = operator.wave(9.0, math.pi, np.random.default_rng(49), nan_midway)
         # The operator's input is lost (nothing more is sent): the tool must leave the board and the node stop.
         rospy.sleep(4.0)
         after = rospy.Time.now().to_sec()
@@ -180,11 +88,9 @@ class WipeUnderSharedControl(unittest.TestCase):
         lifted = record.between("forces", after - 0.5, after) @ normal
         last_face = true_in_base.inverse().apply_point(record.between("poses", after - 0.5, after)[-1])[2] - reach
         with record.lock:
-            shared = [
-                state.skill for state in record.states if state.header.stamp.to_sec() >= start + 2.0 and state.skill
-            ]
-            stopped = all(state.header.stamp.to_sec() < end + 2.5 for state in record.states)
-            cycles, late = record.states[-1].cycle, record.states[-1].late_cycles
+            shared = [state.skill for stamp, state, _ in record.states if stamp >= start + 2.0 and state.skill]
+            stopped = all(stamp < end + 2.5 for stamp, _, _ in record.states)
+            cycles, late = record.states[-1][1].cycle, record.states[-1][1].late_cycles
         print(
             f"input lost: force {np.max(lifted):.2f} N at most, the eraser's face {1000 * last_face:.0f} mm off the "
             f"board, shared control {'stopped' if stopped else 'still running'}",
