@@ -123,6 +123,40 @@ class Clutch(enum.Enum):
     ENGAGED = "engaged"  # the equilibrium follows the handle
 
 
+class GripperClutch:
+    """The gripper as a clutch: closed for ``clutch_hold`` engages it, opened releases it.
+
+    Closed is below ``clutch_below``, opened beyond ``clutch_release_above``; after a refusal it engages again only
+    once the gripper was opened. One gesture for every clutch of the device: TELEOP's (the arm follows the handle)
+    and a wipe's (the handle shapes the stiffness while the shared controller keeps the pattern).
+    """
+
+    def __init__(self, parameters: TeleopParameters):
+        self.parameters = parameters
+        self.state = Clutch.RELEASED
+        self._closed_since: Optional[float] = None
+        self.must_reopen = False  # released by a refusal: it engages again only after an opening
+
+    def update(self, now: float, gripper: Optional[float]) -> bool:
+        """Follow the gripper angle [rad] at ``now`` [s] (None or NaN: open); True when the clutch engaged now."""
+        parameters = self.parameters
+        if gripper is None or not math.isfinite(gripper) or gripper > parameters.clutch_release_above:
+            self.release(must_reopen=False)
+            return False
+        if self.must_reopen or (gripper >= parameters.clutch_below and self.state is Clutch.RELEASED):
+            return False
+        if self.state is Clutch.RELEASED:
+            self.state, self._closed_since = Clutch.CLOSING, now
+        if self.state is Clutch.CLOSING and now - self._closed_since >= parameters.clutch_hold:
+            self.state = Clutch.ENGAGED
+            return True
+        return False
+
+    def release(self, must_reopen: bool) -> None:
+        """Released now; with ``must_reopen`` it engages again only after the gripper was opened."""
+        self.state, self._closed_since, self.must_reopen = Clutch.RELEASED, None, must_reopen
+
+
 @dataclasses.dataclass(frozen=True)
 class TeleopCommand:
     """What to command now: ``pose`` (x y z qx qy qz qw, base frame; None before the arm's pose is known)."""
@@ -142,9 +176,7 @@ class Teleoperation:
         self._high = np.array(parameters.workspace_high, dtype=float)
         self._pose: Optional[np.ndarray] = None
         self._time: Optional[float] = None
-        self._clutch = Clutch.RELEASED
-        self._closed_since: Optional[float] = None
-        self._must_reopen = False  # a refused device pose released the clutch: it engages again only after a release
+        self._gripper = GripperClutch(parameters)
         self._anchor: Optional[Tuple[np.ndarray, Rotation, np.ndarray, Rotation]] = None
         self._box = (self._low, self._high)
         self._last_device: Optional[np.ndarray] = None
@@ -157,7 +189,7 @@ class Teleoperation:
     @property
     def clutch(self) -> Clutch:
         """The clutch's state now."""
-        return self._clutch
+        return self._gripper.state
 
     def start(self, arm_pose: Sequence[float], now: float) -> None:
         """Hold ``arm_pose`` (the arm's measured pose when TELEOP takes it); the clutch starts released."""
@@ -188,7 +220,7 @@ class Teleoperation:
         position the handle asks for, given the equilibrium's pose now, into the one allowed, and says what it did.
         """
         if self._pose is None:
-            return TeleopCommand(None, self._clutch, "not started: waiting for the arm's pose")
+            return TeleopCommand(None, self.clutch, "not started: waiting for the arm's pose")
         dt = max(0.0, now - self._time)
         self._time = now
         if device is None or device_age > device_timeout:
@@ -202,34 +234,27 @@ class Teleoperation:
             return self._hold(f"device pose refused ({error}): holding the pose")
         jump = math.inf if self._last_device is None else float(np.linalg.norm(position - self._last_device))
         self._last_device = position
-        if self._clutch is Clutch.ENGAGED and jump > self.parameters.max_device_jump:
+        if self.clutch is Clutch.ENGAGED and jump > self.parameters.max_device_jump:
             self._release(must_reopen=True)
             return self._hold(
                 f"device pose jumped {jump * 100:.1f} cm (limit {self.parameters.max_device_jump * 100:.1f} cm): "
                 "holding; open and close the gripper to go on"
             )
         self._follow_gripper(now, gripper, position, orientation)
-        if self._clutch is not Clutch.ENGAGED:
-            waiting = "open the gripper, then close it to move the arm" if self._must_reopen else ""
+        if self.clutch is not Clutch.ENGAGED:
+            waiting = "open the gripper, then close it to move the arm" if self._gripper.must_reopen else ""
             return self._hold(waiting)
         return self._follow(position, orientation, dt, constrain)
 
     def _follow_gripper(self, now: float, gripper: Optional[float], position, orientation: Rotation) -> None:
-        """The clutch's state machine: closed for ``clutch_hold`` engages, opened beyond the release releases."""
-        parameters = self.parameters
-        if gripper is None or not math.isfinite(gripper) or gripper > parameters.clutch_release_above:
-            self._release(must_reopen=False)
-            return
-        if self._must_reopen or (gripper >= parameters.clutch_below and self._clutch is Clutch.RELEASED):
-            return
-        if self._clutch is Clutch.RELEASED:
-            self._clutch, self._closed_since = Clutch.CLOSING, now
-        if self._clutch is Clutch.CLOSING and now - self._closed_since >= parameters.clutch_hold:
-            self._clutch = Clutch.ENGAGED
+        """The clutch follows the gripper; as it engages, the handle and the equilibrium are anchored together."""
+        if self._gripper.update(now, gripper):
             pose = self._pose
             self._anchor = (position, orientation, pose[:3].copy(), Rotation.from_quat(pose[3:]))
             # an arm already outside the workspace may move back in, never further out
             self._box = (np.minimum(self._low, pose[:3]), np.maximum(self._high, pose[:3]))
+        elif self.clutch is not Clutch.ENGAGED:
+            self._anchor = None
 
     def _follow(
         self, position: np.ndarray, orientation: Rotation, dt: float, constrain: Optional[Constrain]
@@ -259,14 +284,14 @@ class Teleoperation:
             limits.append(f"angular speed limit {parameters.max_angular_speed:g} rad/s")
         quaternion = (Rotation.from_rotvec(rotation_step) * current).as_quat()
         self._pose = np.concatenate([self._pose[:3] + step, quaternion * (1.0 if quaternion[3] >= 0.0 else -1.0)])
-        return TeleopCommand(self._pose.copy(), self._clutch, "; ".join(limits))
+        return TeleopCommand(self._pose.copy(), self.clutch, "; ".join(limits))
 
     def _hold(self, reason: str) -> TeleopCommand:
-        return TeleopCommand(self._pose.copy(), self._clutch, reason)
+        return TeleopCommand(self._pose.copy(), self.clutch, reason)
 
     def _release(self, must_reopen: bool) -> None:
-        self._clutch, self._closed_since, self._anchor = Clutch.RELEASED, None, None
-        self._must_reopen = must_reopen
+        self._gripper.release(must_reopen)
+        self._anchor = None
 
 
 ORIGIN = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)

@@ -13,7 +13,7 @@ handle meets the initial ellipsoid (``initial_stiffness`` is the centre of the r
 """
 
 import threading
-from typing import Optional, Tuple
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -28,11 +28,12 @@ MODES = ("ALL", "X", "Y", "Z")
 class EllipsoidCommand:
     """The commanded ellipsoid; thread-safe, because the worker writes and publishes it while the GUI draws it."""
 
-    def __init__(self, config: GuiConfig):
+    def __init__(self, config: GuiConfig, initial: Optional[Sequence[float]] = None):
+        """``initial``: the principal stiffnesses to start with [N/m] (default: ``initial_stiffness`` on each axis)."""
         self.config = config
         self._lock = threading.Lock()
-        initial = config.initial_stiffness / config.stiffness_per_pixel
-        self._lengths = [initial] * 3
+        initial = [config.initial_stiffness] * 3 if initial is None else [float(value) for value in initial]
+        self._lengths = [value / config.stiffness_per_pixel for value in initial]
         self._angles = [0.0, 0.0, 0.0]
         self._mode = 0
         self.version = 0

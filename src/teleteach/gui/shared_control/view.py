@@ -224,14 +224,19 @@ class SharedControlTab(QWidget):
         self.message_label = QLabel()
         self.message_label.setWordWrap(True)
         self.recording_label = QLabel()
+        self.teaching_label = QLabel()  # on a wipe: the clutch and the stiffness being taught
+        self.teaching_label.setWordWrap(True)
         for label in (self.skill_label, self.mode_label, self.errors_label, self.times_label):
             label.setStyleSheet("font-size: 14pt;")
             panel.addWidget(label)
         panel.addWidget(self.message_label)
+        panel.addWidget(self.teaching_label)
         panel.addWidget(self.recording_label)
         help_text = QLabel(
             "Move the device: the MPC recognises the motion pattern and keeps it inside the boundary.<br>"
             f"<b>double click</b> (within {config.double_click_window:.1f} s): start / stop recording a skill<br>"
+            "<b>wiping a surface: close the gripper</b> (hold it): the device shapes the stiffness (x, y, z: along the "
+            "surface, across it, into it) while the controller keeps the pattern; open it to lead the pattern again<br>"
             "<b>open the gripper fully</b>: back to START"
         )
         help_text.setWordWrap(True)
@@ -244,6 +249,11 @@ class SharedControlTab(QWidget):
         """A double click starts or stops the recording (single clicks do nothing here)."""
         if self.active and self.clicks.click(stamp) == ClickClassifier.DOUBLE:
             self.recording_toggled.emit()
+
+    def on_teaching(self, text: str) -> None:
+        """What the wipe's teaching is doing (empty: no wipe, the no-contact plane)."""
+        self.teaching_label.setText(text)
+        restyle(self.teaching_label, "font-size: 13pt; color: #6a1b9a;" if text.startswith("CLUTCH") else "")
 
     def on_state(self, status: SharedStatus) -> None:
         """A /shared_control/state message: text and the executed trail."""
