@@ -135,11 +135,11 @@ class Operator:
 
     def intended(self, now: Optional[float] = None) -> np.ndarray:
         """The intended pose (x, y, z, roll, pitch, yaw) at ``now`` [s, monotonic]."""
+        from teleteach.core.trajectories import minimum_jerk
+
         now = time.monotonic() if now is None else now
         with self._lock:
-            fraction = min(1.0, max(0.0, (now - self._start) / self._duration))
-            shape = fraction**3 * (10.0 - 15.0 * fraction + 6.0 * fraction**2)  # minimum jerk
-            return self._from + shape * (self._to - self._from)
+            return self._from + minimum_jerk((now - self._start) / self._duration) * (self._to - self._from)
 
     def reach(self, pose: Sequence[float], duration: float) -> None:
         """Start a reach from the intended pose now to ``pose`` over ``duration`` [s]."""

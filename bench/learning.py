@@ -33,8 +33,8 @@ import statistics
 import time
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from teleteach.core.rotations import yaw_rotation
 from teleteach.learning import spd
 from teleteach.learning.dmp import SPDDMP
 from teleteach.learning.plot import write_figure_c1
@@ -80,7 +80,7 @@ def stiffness_only(skill, truth_times, truth, parameters):
     times, reproduced = model.rollout(dt=1.0 / parameters.rate)
     error = reproduction_error(demo.sample_time, demo.samples, times, reproduced)
     # goal response: switch at 70 % of the duration to a goal 1.5x stiffer and rotated 20 degrees about Z
-    turn = Rotation.from_euler("z", 20.0, degrees=True).as_matrix()
+    turn = yaw_rotation(np.radians(20.0)).as_matrix()
     new_goal = 1.5 * turn @ model.goal @ turn.T
     _, switched = model.rollout(dt=1.0 / parameters.rate, switch=(0.7 * demo.duration, new_goal))
     goal_residual = spd.distance(switched[-1], new_goal) / spd.distance(model.goal, new_goal)

@@ -234,6 +234,19 @@ def test_the_entries_load_nothing_heavy_before_their_node_checks_the_pinned_libr
 EULER_SEQUENCE = re.compile(r"""(?:from|as)_euler\(\s*["'][xyzXYZ]{3}["']""")
 STIFFNESS_COMPOSITION = re.compile(r"@\s*np\.diag\((?:[^()]|\([^()]*\))*\)\s*@", re.DOTALL)
 """Roll-pitch-yaw (a three-axis Euler sequence) and K = V Sigma V^T, written out."""
+MINIMUM_JERK = re.compile(
+    r"(?<![\w.])10(?:\.0)?\s*-\s*15(?:\.0)?\s*\*"  # s = tau^3 (10 - 15 tau + 6 tau^2)
+    r"|(?<![\w.])10(?:\.0)?\s*\*\s*\w+\s*\*\*\s*3\s*-\s*15"  # s = 10 tau^3 - 15 tau^4 + 6 tau^5
+    r"|(?<![\w.])30(?:\.0)?\s*\*\s*\w+\s*\*\*\s*2\s*\*\s*\(\s*1(?:\.0)?\s*-"  # ds/dtau = 30 tau^2 (1 - tau)^2
+    r"|(?<![\d.])1\.875(?!\d)"  # its peak speed over its mean
+)
+YAW_ROTATION = re.compile(
+    r"""(?:from|as)_euler\(\s*["'][zZ]["']"""  # scipy's rotation about Z alone
+    r"|\[\[\s*(\w+)\s*,\s*-\s*(\w+)\s*,\s*0(?:\.0)?\s*\]\s*,\s*\[\s*\2\s*,\s*\1\b"  # [[c, -s, 0], [s, c, ...
+    r"|(?:sin|cos)\(\s*-?\s*\w+\s*/\s*2(?:\.0)?\s*\)"  # the half angle of its quaternion
+)
+STIFFNESS_ELLIPSE = re.compile(r"(?<![\w.])(?:patches\.)?Ellipse\(")
+"""The minimum-jerk profile, a rotation about the vertical and a stiffness ellipse drawn, written out."""
 
 
 def copies(pattern, home):
@@ -247,6 +260,12 @@ def test_roll_pitch_yaw_and_the_stiffness_composition_each_have_one_home():
     assert copies(STIFFNESS_COMPOSITION, PACKAGE / "control" / "stiffness.py") == []
 
 
+def test_minimum_jerk_the_yaw_rotation_and_the_stiffness_ellipse_each_have_one_home():
+    assert copies(MINIMUM_JERK, PACKAGE / "core" / "trajectories.py") == []
+    assert copies(YAW_ROTATION, PACKAGE / "core" / "rotations.py") == []
+    assert copies(STIFFNESS_ELLIPSE, PACKAGE / "core" / "plotting.py") == []
+
+
 def test_a_second_copy_of_either_is_recognised():
     assert EULER_SEQUENCE.search('Rotation.from_quat(q).as_euler("ZYX")[0]')
     assert EULER_SEQUENCE.search("Rotation.from_euler('xyz', rpy)")
@@ -254,6 +273,31 @@ def test_a_second_copy_of_either_is_recognised():
     assert STIFFNESS_COMPOSITION.search("v @ np.diag(sigma) @ v.T")
     assert STIFFNESS_COMPOSITION.search("R.as_matrix()\n    @ np.diag([300.0, f(a), 1.0])\n    @ R.as_matrix().T")
     assert not STIFFNESS_COMPOSITION.search("transform[:3, :3] = rotation @ np.diag(lengths)")
+
+
+def test_a_second_minimum_jerk_yaw_rotation_or_ellipse_is_recognised():
+    # Expect each form that once had a second home (issue 56) to be caught, and their neighbours left alone
+    for written in (
+        "s**3 * (10.0 - 15.0 * s + 6.0 * s * s)",
+        "t**3 * (10 - 15 * t + 6 * t**2)",
+        "10 * tau**3 - 15 * tau**4 + 6 * tau**5",
+        "rate = 30.0 * tau**2 * (1.0 - tau) ** 2 / self.duration",
+        "PEAK_TO_MEAN = 1.875",
+    ):
+        assert MINIMUM_JERK.search(written), written
+    assert not MINIMUM_JERK.search("timeout = 10.875; x = 110 - 15 * y")
+    for written in (
+        'Rotation.from_euler("z", -config.grasp.yaw)',
+        "Rotation.from_euler('Z', 20.0, degrees=True)",
+        "return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])",
+        "hs, hc = math.sin(-yaw / 2.0), math.cos(-yaw / 2.0)",
+    ):
+        assert YAW_ROTATION.search(written), written
+    assert not YAW_ROTATION.search('Rotation.from_euler("x", math.pi)')
+    assert not YAW_ROTATION.search("normal = np.array([math.cos(yaw), math.sin(yaw)])")
+    assert STIFFNESS_ELLIPSE.search("axes.add_patch(\n    Ellipse(\n        (time, 0.0),")
+    assert STIFFNESS_ELLIPSE.search("patches.Ellipse((0, 0), 1, 2)")
+    assert not STIFFNESS_ELLIPSE.search("painter.drawEllipse(centre, 6, 6)")
 
 
 ROSCORE_START = re.compile(r"""["']roscore["']\s*,\s*["']-p["']""")

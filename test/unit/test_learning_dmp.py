@@ -7,14 +7,16 @@ from scipy.spatial.transform import Rotation
 
 from teleteach.learning import spd
 from teleteach.learning.dmp import DMP, SPDDMP, Basis, DMPParameters, Regression, uniform_step
-from teleteach.learning.synthetic import minimum_jerk
+from teleteach.learning.synthetic import minimum_jerk_between
 
 DT = 0.02
 
 
 def smooth_curve(times):
     s = times / times[-1]
-    return np.column_stack([0.3 + 0.2 * minimum_jerk(times, 2.0, 6.0), 0.1 * np.sin(np.pi * s) ** 2, 0.5 - 0.1 * s])
+    return np.column_stack(
+        [0.3 + 0.2 * minimum_jerk_between(times, 2.0, 6.0), 0.1 * np.sin(np.pi * s) ** 2, 0.5 - 0.1 * s]
+    )
 
 
 def stiffness(kx, ky, kz, yaw):
@@ -23,8 +25,8 @@ def stiffness(kx, ky, kz, yaw):
 
 
 def smooth_spd_demo(times, size=3):
-    ky = 300 + 1200 * minimum_jerk(times, 3.0, 6.0)
-    yaw = np.radians(45.0) * minimum_jerk(times, 5.0, 9.0)
+    ky = 300 + 1200 * minimum_jerk_between(times, 3.0, 6.0)
+    yaw = np.radians(45.0) * minimum_jerk_between(times, 5.0, 9.0)
     matrices = np.array([stiffness(300 + 100 * np.sin(t / 3.0), k, 1000, a) for t, k, a in zip(times, ky, yaw)])
     return matrices[:, :size, :size]
 

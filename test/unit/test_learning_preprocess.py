@@ -13,7 +13,7 @@ from teleteach.learning.preprocess import (
     resample_geodesic,
     smooth_at_mean,
 )
-from teleteach.learning.synthetic import minimum_jerk
+from teleteach.learning.synthetic import minimum_jerk_between
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -31,10 +31,10 @@ def staircase(pose_times, publish_times, truth):
 
 def truth(times):
     principal = np.column_stack(
-        [np.full_like(times, 300.0), 300 + 1200 * minimum_jerk(times, 2.0, 5.0), np.full_like(times, 1000.0)]
+        [np.full_like(times, 300.0), 300 + 1200 * minimum_jerk_between(times, 2.0, 5.0), np.full_like(times, 1000.0)]
     )
     return translational_stiffnesses(
-        principal, Rotation.from_euler("z", np.radians(45.0) * minimum_jerk(times, 4.0, 8.0))
+        principal, Rotation.from_euler("z", np.radians(45.0) * minimum_jerk_between(times, 4.0, 8.0))
     )
 
 

@@ -5,6 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from teleteach.control.kinematics import PandaKinematics
+from teleteach.core.trajectories import MINIMUM_JERK_PEAK, minimum_jerk, minimum_jerk_rate
 from teleteach.skills import trajectory
 from teleteach.skills.config import DEFAULT_MOTION_FILE, MotionConfigError, load_motion_config
 from teleteach.skills.motion import TOP_DOWN, InverseKinematics, base_to_world, world_to_base
@@ -21,10 +22,14 @@ def kinematics():
 
 
 def test_min_jerk_starts_and_ends_at_rest():
-    phase, rate = trajectory.min_jerk(np.array([0.0, 0.5, 1.0]))
+    phase, rate = minimum_jerk(np.array([0.0, 0.5, 1.0])), minimum_jerk_rate(np.array([0.0, 0.5, 1.0]))
     np.testing.assert_allclose(phase, [0.0, 0.5, 1.0])
     np.testing.assert_allclose(rate[[0, 2]], [0.0, 0.0])
-    assert rate[1] == pytest.approx(trajectory.MIN_JERK_PEAK)
+    assert rate[1] == pytest.approx(MINIMUM_JERK_PEAK)
+    # Expect the rate to be the profile's derivative (a central difference), and the profile held outside [0, 1]
+    tau = np.linspace(0.05, 0.95, 19)
+    np.testing.assert_allclose(minimum_jerk_rate(tau), (minimum_jerk(tau + 1e-6) - minimum_jerk(tau - 1e-6)) / 2e-6)
+    assert (minimum_jerk(-0.5), minimum_jerk(1.5)) == (0.0, 1.0)
 
 
 def test_point_to_point_velocities_match_finite_differences_and_respect_the_peak_speed():

@@ -82,8 +82,10 @@ def test_an_operator_aiming_aside_pushes_a_neighbour_unless_the_assistance_guide
     assert assisted["success"], assisted
     assert "guided into gap_1's opening" in assisted["limits_met"]
     # Expect: from 2.5 cm aside (beyond the capture), the shelf front holds the product out of the gap (this operator
-    # lets go anyway, and the product falls in front of the shelf); alone, it is pushed in, shoving a neighbour
+    # lets go anyway, and the product falls in front of the shelf); alone, it is pushed in, shoving a neighbour. Where
+    # the falling product ends is chaotic: the same hand path differing in the last bit of the minimum-jerk profile
+    # ((6 s) s against 6 s^2) moved a neighbour 8.5 or 10.1 mm (it tips, it is not shoved: that is over 3 cm)
     held, shoved = trial(aside(0.025), True), trial(aside(0.025), False)
     assert "held at gap_1's front" in held["limits_met"]
-    assert not held["success"] and held["depth_m"] < -0.05 and held["neighbour_max_move_m"] < 0.01
+    assert not held["success"] and held["depth_m"] < -0.05 and held["neighbour_max_move_m"] < 0.015
     assert shoved["neighbour_max_move_m"] > 0.03

@@ -1,8 +1,10 @@
-"""Legends beside the plots they explain, where they cover no curve (the report's figures, learn_skill's Fig. C.1).
+"""What the report's figures and learn_skill's Fig. C.1 draw alike: legends beside the plots, stiffness ellipses.
 
 A legend inside the axes sits on whatever data passes there (the report's 'upper left' covered the device's first
 seconds); here the plots take the left part of the figure and each legend stands to their right, level with the top
-of its axes. :func:`covered_points` measures what a layout leaves under its legends.
+of its axes. :func:`covered_points` measures what a layout leaves under its legends. :func:`stiffness_ellipses` draws
+the X-Y block of a stiffness as the thesis does (section II-C, footnote 2): semi-axes equal to its eigenvalues, along
+its eigenvectors.
 """
 
 from typing import List, Sequence
@@ -10,6 +12,7 @@ from typing import List, Sequence
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.patches import Ellipse
 
 LEGEND_ROOM = 0.2  # fraction of the figure's width kept right of the plots for the legends
 
@@ -32,6 +35,18 @@ def legends_beside(figure: Figure, groups: Sequence[Sequence], fontsize: float =
                 fontsize=fontsize,
                 borderaxespad=0.0,
             )
+
+
+def stiffness_ellipses(axes, times: Sequence[float], stiffnesses, scale: float, **style) -> None:
+    """Draw the X-Y block of each stiffness (n, m, m) [N/m] as an ellipse centred at (time [s], 0) on ``axes``.
+
+    Its semi-axes are the block's eigenvalues times ``scale`` [s per N/m] along its eigenvectors; ``style`` holds the
+    patches' matplotlib properties (facecolor, edgecolor, linewidth, ...).
+    """
+    principal, vectors = np.linalg.eigh(np.asarray(stiffnesses, dtype=float)[:, :2, :2])
+    for time, lengths, axes_vectors in zip(times, principal, vectors):
+        angle = np.degrees(np.arctan2(axes_vectors[1, 1], axes_vectors[0, 1]))  # direction of the larger axis
+        axes.add_patch(Ellipse((time, 0.0), 2 * lengths[1] * scale, 2 * lengths[0] * scale, angle=angle, **style))
 
 
 def covered_points(figure: Figure) -> List[str]:

@@ -8,6 +8,9 @@ a target (a shelf gap: the trajectory then places at whichever gap the robot per
 may start where the hand is when the recording starts. A taught one is the mean of its demonstrations
 (:func:`mean_trajectory`), with their spread at each waypoint. Shared by the GUI, which plays and teaches it, and the
 synthetic demonstrations of teleteach.learning, so it lives below both.
+
+The minimum-jerk profile (Flash and Hogan 1985) that every smooth move of teleteach follows, the robot's and the
+modelled operator's, lives here too: :func:`minimum_jerk` and its rate.
 """
 
 import pathlib
@@ -21,6 +24,23 @@ from teleteach.core.datadir import atomic_write_text
 from teleteach.core.frames import Transform, continuous_quaternions
 from teleteach.core.paths import config_file
 from teleteach.core.skill_file import BASE_FRAME, TARGET_FRAME
+
+MINIMUM_JERK_PEAK = 1.875  # a minimum-jerk move's peak speed over its mean speed (15/8)
+
+
+def minimum_jerk(fraction):
+    """The minimum-jerk profile s = 10 tau^3 - 15 tau^4 + 6 tau^5 at tau = ``fraction`` of the move's time, in [0, 1].
+
+    ``fraction`` is a number or an array, clipped to [0, 1]: the profile is 0 before the move and 1 after it.
+    """
+    tau = np.clip(fraction, 0.0, 1.0)
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+
+
+def minimum_jerk_rate(fraction):
+    """ds/dtau = 30 tau^2 (1 - tau)^2 of :func:`minimum_jerk` (divide by the move's duration for a rate per second)."""
+    tau = np.clip(fraction, 0.0, 1.0)
+    return 30.0 * tau**2 * (1.0 - tau) ** 2
 
 
 class TrajectoryError(ValueError):

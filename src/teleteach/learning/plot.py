@@ -12,29 +12,10 @@ from typing import Union
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.patches import Ellipse
 
 from teleteach.core.datadir import atomic_write_bytes
-from teleteach.core.plotting import legends_beside
+from teleteach.core.plotting import legends_beside, stiffness_ellipses
 from teleteach.learning.preprocess import resample_geodesic
-
-
-def _ellipses(axes, times, matrices, scale, colour):
-    for time, matrix in zip(times, matrices):
-        eigenvalues, vectors = np.linalg.eigh(matrix[:2, :2])
-        angle = np.degrees(np.arctan2(vectors[1, 1], vectors[0, 1]))
-        axes.add_patch(
-            Ellipse(
-                (time, 0.0),
-                width=2 * eigenvalues[1] * scale,
-                height=2 * eigenvalues[0] * scale,
-                angle=angle,
-                facecolor=colour,
-                edgecolor="black",
-                linewidth=0.6,
-                alpha=0.7,
-            )
-        )
 
 
 def write_figure_c1(
@@ -87,7 +68,9 @@ def figure_c1(sample_times, samples, times, reproduction, title: str = "", count
     )
     for row, (label, matrices, colour) in enumerate(rows):
         axes = figure.add_subplot(grid[row])
-        _ellipses(axes, instants, matrices, scale, colour)
+        stiffness_ellipses(
+            axes, instants, matrices, scale, facecolor=colour, edgecolor="black", linewidth=0.6, alpha=0.7
+        )
         axes.set_xlim(-0.6 * spacing, end + 0.6 * spacing)
         axes.set_ylim(-0.55 * spacing, 0.55 * spacing)
         axes.set_aspect("equal")

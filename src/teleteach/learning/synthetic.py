@@ -16,8 +16,9 @@ from scipy.spatial.transform import Rotation
 
 from teleteach.control.stiffness import translational_stiffnesses
 from teleteach.core.frames import Transform
+from teleteach.core.rotations import yaw_rotation
 from teleteach.core.skill_file import TARGET_FRAME, Skill, Target
-from teleteach.core.trajectories import Trajectory
+from teleteach.core.trajectories import Trajectory, minimum_jerk
 
 LOW = 300.0  # [N/m] compliant approach stiffness in X and Y
 HIGH = 1500.0  # [N/m] alignment stiffness in Y
@@ -25,10 +26,9 @@ VERTICAL = 1200.0  # [N/m] constant Z stiffness
 DOWN = Rotation.from_euler("x", 180.0, degrees=True)  # gripper pointing down
 
 
-def minimum_jerk(times, start: float, end: float):
-    """0 before ``start``, 1 after ``end``, the minimum-jerk profile 10 s^3 - 15 s^4 + 6 s^5 between."""
-    s = np.clip((np.asarray(times, dtype=float) - start) / (end - start), 0.0, 1.0)
-    return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+def minimum_jerk_between(times, start: float, end: float):
+    """0 before ``start``, 1 after ``end``, the minimum-jerk profile between (``times`` in [s])."""
+    return minimum_jerk((np.asarray(times, dtype=float) - start) / (end - start))
 
 
 def _wobble(times, rng, amplitude: float, width: float):
@@ -46,7 +46,7 @@ def principal_stiffness(times, angle: float, rng) -> Tuple[np.ndarray, np.ndarra
     scale = times[-1] / 102.0
 
     def phase(start, end):
-        return minimum_jerk(times, start * scale, end * scale)
+        return minimum_jerk_between(times, start * scale, end * scale)
 
     ky = LOW + (HIGH - LOW) * phase(30, 34) - 300.0 * phase(52, 55)
     kx = np.full_like(times, LOW)
@@ -85,7 +85,7 @@ def placement_demo(
     rng = np.random.default_rng(seed)
     times = np.arange(0.0, duration + 0.5 / pose_rate, 1.0 / pose_rate)
     principal, yaw = principal_stiffness(times, angle, rng)
-    truth = translational_stiffnesses(principal, Rotation.from_euler("z", yaw))
+    truth = translational_stiffnesses(principal, yaw_rotation(yaw))
     if gui_rate and gui_rate > 0:
         publish_times = [0.0]
         while publish_times[-1] < duration:
@@ -102,7 +102,7 @@ def placement_demo(
     equilibrium = np.column_stack([np.interp(times, waypoints_t, waypoints[:, axis]) for axis in range(3)])
     measured = gaussian_filter1d(equilibrium, 0.3 * pose_rate, axis=0, mode="nearest")
     measured = measured + 2e-4 * gaussian_filter1d(rng.standard_normal(measured.shape), 3, axis=0)
-    hand = DOWN * Rotation.from_euler("z", np.radians(angle) * minimum_jerk(times, 0.3 * duration, 0.5 * duration))
+    hand = DOWN * yaw_rotation(np.radians(angle) * minimum_jerk_between(times, 0.3 * duration, 0.5 * duration))
     quaternions = hand.as_quat()
     skill = Skill(
         name=f"SyntheticPlace{int(round(angle))}",

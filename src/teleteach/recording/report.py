@@ -21,12 +21,11 @@ from typing import Dict, List, Optional, Tuple, Union
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.patches import Ellipse
 
 from teleteach.control.stiffness import translational_stiffnesses
 from teleteach.core.active_tab import Tab
 from teleteach.core.datadir import atomic_write_bytes, atomic_write_text
-from teleteach.core.plotting import legends_beside
+from teleteach.core.plotting import legends_beside, stiffness_ellipses
 from teleteach.recording.session import Series, Session, TreeSnapshot, read_session, yaw_of
 
 TAB_COLOURS = {
@@ -197,24 +196,11 @@ def _plot_ellipses(axes, times: np.ndarray, matrices: np.ndarray, duration: floa
     """X-Y sections of K drawn along the time axis, semi-axes = principal stiffnesses of the 2x2 block."""
     samples = np.unique(np.linspace(times[0], times[-1], ELLIPSES_OVER_TIME))  # while stiffness was commanded
     index = np.clip(np.searchsorted(times, samples, side="right") - 1, 0, len(times) - 1)
-    planar = matrices[index][:, :2, :2]
-    principal, axes_vectors = np.linalg.eigh(planar)
+    shown = matrices[index]
     spacing = (samples[-1] - samples[0]) / max(len(samples) - 1, 1) or 1.0
-    largest = float(np.max(principal)) or 1.0
+    largest = float(np.max(np.linalg.eigvalsh(shown[:, :2, :2]))) or 1.0
     scale = 0.45 * spacing / largest  # [s per N/m]: the largest semi-axis fills 45 % of the spacing
-    for centre, lengths, vectors in zip(samples, principal, axes_vectors):
-        angle = np.degrees(np.arctan2(vectors[1, 1], vectors[0, 1]))  # direction of the larger axis
-        axes.add_patch(
-            Ellipse(
-                (centre, 0.0),
-                2 * lengths[1] * scale,
-                2 * lengths[0] * scale,
-                angle=angle,
-                facecolor="#f4a6a6",
-                edgecolor="#b2182b",
-                lw=1.0,
-            )
-        )
+    stiffness_ellipses(axes, samples, shown, scale, facecolor="#f4a6a6", edgecolor="#b2182b", lw=1.0)
     axes.set_ylim(-spacing, spacing)
     axes.set_xlim(0.0, max(duration, samples[-1]) + spacing)
     axes.set_aspect("equal", adjustable="datalim")  # x is shared with the plots above: only y adapts

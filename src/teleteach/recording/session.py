@@ -17,7 +17,7 @@ from typing import Dict, Iterator, List, Optional, Tuple, Union
 import numpy as np
 
 from teleteach.core.observed import SCENE_TOPIC, TRUE_SCENE_TOPIC, observed_from_markers
-from teleteach.core.rotations import quaternion_to_rpy, yaw_rotation
+from teleteach.core.rotations import quaternion_to_rpy, wrap_angle, yaw_rotation
 from teleteach.core.validation import InvalidCommandError, validate_eigenvalues, validate_quaternion
 from teleteach.recording.bags import BagError, check_bag
 
@@ -99,7 +99,7 @@ class Session:
             return None
         seen, truth = self.perceived_gaps[gap].at(time), self.true_gaps[gap].at(time)
         offset = yaw_rotation(truth[3]).inv().apply(seen[:3] - truth[:3])
-        return np.array([*offset, np.arctan2(np.sin(seen[3] - truth[3]), np.cos(seen[3] - truth[3]))])
+        return np.array([*offset, wrap_angle(seen[3] - truth[3])])
 
     def base_error(self, time: float) -> Optional[np.ndarray]:
         """Where the last MoveBase before time [s] stopped in its goal's frame (x, y [m], yaw [rad]); None: none."""

@@ -23,6 +23,7 @@ from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig
 from teleteach.core.scene import Scene
 from teleteach.core.teleoperation import AssistanceParameters, Teleoperation, TeleopParameters
+from teleteach.core.trajectories import minimum_jerk
 from teleteach.run.sim_robot import SimRobot
 from teleteach.run.trials import (
     ContactRecordingSim,
@@ -72,12 +73,6 @@ class OperatorModel:
         ((0.0, 0.0, 0.1), 1.0),  # straight up: the back finger clears the product's top
         ((-0.15, 0.0, 0.1), 2.0),  # and back out
     )
-
-
-def minimum_jerk(fraction: float) -> float:
-    """The minimum-jerk profile from 0 to 1 (Flash and Hogan) at ``fraction`` of the movement's time."""
-    s = min(1.0, max(0.0, fraction))
-    return s**3 * (10.0 - 15.0 * s + 6.0 * s * s)
 
 
 class ScriptedOperator:

@@ -12,9 +12,8 @@ from typing import Sequence, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from teleteach.core.trajectories import MINIMUM_JERK_PEAK, minimum_jerk, minimum_jerk_rate
 from teleteach.shared_control.constraints import Box
-
-PEAK_TO_MEAN = 1.875  # peak / mean speed of a minimum-jerk move
 
 
 def start_in_plane(plane_point: Sequence[float], box: Box, margin: float) -> np.ndarray:
@@ -52,18 +51,18 @@ class Approach:
     def at_most(cls, start_position, start_orientation, goal_position, goal_orientation, speed, turn_rate):
         """The approach whose peak speed is ``speed`` [m/s] and peak turn rate ``turn_rate`` [rad/s].
 
-        A minimum-jerk move peaks at 1.875 times its mean speed; the approach takes at least a tenth of a second.
+        A minimum-jerk move peaks at MINIMUM_JERK_PEAK (15/8) times its mean speed; the approach takes at least a tenth
+        of a second.
         """
         distance = float(np.linalg.norm(np.subtract(goal_position, start_position)))
         angle = (Rotation.from_quat(start_orientation).inv() * Rotation.from_quat(goal_orientation)).magnitude()
-        duration = max(PEAK_TO_MEAN * distance / speed, PEAK_TO_MEAN * angle / turn_rate, 0.1)
+        duration = max(MINIMUM_JERK_PEAK * distance / speed, MINIMUM_JERK_PEAK * angle / turn_rate, 0.1)
         return cls(start_position, start_orientation, goal_position, goal_orientation, duration)
 
     def at(self, elapsed: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, orientation, linear velocity [m/s]) ``elapsed`` seconds after the start (held at the goal)."""
-        tau = min(max(elapsed / self.duration, 0.0), 1.0)
-        progress = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
-        rate = 30.0 * tau**2 * (1.0 - tau) ** 2 / self.duration
+        progress = minimum_jerk(elapsed / self.duration)
+        rate = minimum_jerk_rate(elapsed / self.duration) / self.duration
         offset = self.goal_position - self.start_position
         return self.start_position + progress * offset, self._slerp(progress).as_quat(), rate * offset
 

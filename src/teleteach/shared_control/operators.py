@@ -16,6 +16,8 @@ from typing import List, Sequence, Tuple
 
 import numpy as np
 
+from teleteach.core.trajectories import minimum_jerk
+
 # Time over which the hand blends from one pattern to the next [s].
 SWITCH_BLEND = 0.2
 
@@ -115,12 +117,6 @@ def retime(path: np.ndarray, path_dt: float, dt: float, mean_speed: float) -> np
     times = path_dt * np.arange(len(path)) * (length / mean_speed) / (path_dt * (len(path) - 1))
     grid = np.arange(0.0, times[-1], dt)
     return np.column_stack([np.interp(grid, times, path[:, k]) for k in range(2)])
-
-
-def minimum_jerk(t: np.ndarray) -> np.ndarray:
-    """Minimum-jerk position profile 10 t^3 - 15 t^4 + 6 t^5 of normalised time t (clipped to [0, 1])."""
-    t = np.clip(t, 0.0, 1.0)
-    return t**3 * (10 - 15 * t + 6 * t**2)
 
 
 def reaching_path(

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from teleteach.core.frames import Transform
 from teleteach.core.observed import ObservedBox, ObservedScene
 from teleteach.core.paths import config_file
-from teleteach.core.rotations import FIXED_AXES
+from teleteach.core.rotations import FIXED_AXES, yaw_quaternion, yaw_rotation
 from teleteach.core.scene import Gap, Surface
 
 DEFAULT_UNCERTAINTY_FILE = config_file("uncertainty.yaml")
@@ -285,7 +285,7 @@ class PoseError:
         """The pose (centre [m], (x, y, z, w) quaternion in world) with this error in its own frame."""
         rotation = Rotation.from_quat(quaternion)
         moved = np.asarray(position, dtype=float) + rotation.apply(self.position)
-        return moved, (rotation * Rotation.from_euler("z", self.yaw)).as_quat()
+        return moved, (rotation * yaw_rotation(self.yaw)).as_quat()
 
 
 class PerceptionNoise:
@@ -365,7 +365,7 @@ class PerceptionNoise:
         gaps = {}
         for name, gap in truth.gaps.items():
             error = self._error("gaps", name)
-            position, _ = error.apply(gap.position, Rotation.from_euler("z", gap.yaw).as_quat())
+            position, _ = error.apply(gap.position, yaw_quaternion(gap.yaw))
             gaps[name] = Gap(name, tuple(position.tolist()), gap.yaw + error.yaw, gap.width, gap.tolerance)
         surfaces = {}
         for name, box in truth.surfaces.items():

@@ -17,7 +17,7 @@ import pybullet_data
 
 from teleteach.control import panda
 from teleteach.control.impedance import JointCommand, RobotState
-from teleteach.core.rotations import yaw_quaternion
+from teleteach.core.rotations import unyawed_quaternion, wrap_angle, yaw_matrix, yaw_quaternion
 from teleteach.core.scene import BasePose, Scene, Surface, WipingTool
 
 BASE_LINK_COLOUR = (0.25, 0.25, 0.3, 1.0)
@@ -237,9 +237,7 @@ class SupermarketWorld:
         return [x, y, self.scene.robot.mount_height], yaw_quaternion(yaw)
 
     def _rotation_base(self):
-        yaw = self.base_pose[2]
-        c, s = math.cos(yaw), math.sin(yaw)
-        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return yaw_matrix(self.base_pose[2])
 
     # ---------------------------------------------------------------------------------------------------- state
     def _joint_lists(self):
@@ -253,21 +251,18 @@ class SupermarketWorld:
         q9 = [state[0] for state in states]
         dq9 = [state[1] for state in states]
         link = pybullet.getLinkState(self.robot, panda.TCP_LINK, computeForwardKinematics=True, **call)
-        world_position, (qx, qy, qz, qw) = link[4], link[5]
+        world_position, world_orientation = link[4], link[5]
         self._tcp_world = world_position
         x, y, yaw = self.base_pose
-        c, s = math.cos(yaw), math.sin(yaw)
-        dx, dy = world_position[0] - x, world_position[1] - y
-        # conj(yaw) * q: the orientation in base_link
-        hs, hc = math.sin(-yaw / 2.0), math.cos(-yaw / 2.0)
+        offset = (world_position[0] - x, world_position[1] - y, world_position[2])
         # pybullet expresses the Jacobian of a fixed-base body in its base frame: panda_link0, parallel to base_link
         linear, angular = pybullet.calculateJacobian(self.robot, panda.TCP_LINK, _ORIGIN, q9, dq9, _ZEROS9, **call)
         return RobotState(
             time=self.time,
             q=np.array(q9[:7]),
             dq=np.array(dq9[:7]),
-            position=np.array((c * dx + s * dy, -s * dx + c * dy, world_position[2])),
-            quaternion=np.array((hc * qx - hs * qy, hc * qy + hs * qx, hc * qz + hs * qw, hc * qw - hs * qz)),
+            position=yaw_matrix(yaw).T @ offset,
+            quaternion=unyawed_quaternion(world_orientation, yaw),
             jacobian=np.array(linear + angular)[:, :7],
             model_torque=np.array(pybullet.calculateInverseDynamics(self.robot, q9, dq9, _ZEROS9, **call)[:7]),
             mass_matrix=lambda: np.array(pybullet.calculateMassMatrix(self.robot, q9, **call))[:7, :7],
@@ -344,7 +339,7 @@ class SupermarketWorld:
 
     def set_base_goal(self, x, y, yaw):
         """Drive the base to (x [m], y [m], yaw [rad]) in world."""
-        self.base_goal = np.array([x, y, math.atan2(math.sin(yaw), math.cos(yaw))])
+        self.base_goal = np.array([x, y, wrap_angle(yaw)])
         self._driving = True
 
     def stop_base(self):
@@ -416,7 +411,7 @@ class SupermarketWorld:
         if not self._driving:
             return
         delta = self.base_goal - self.base_pose
-        delta[2] = math.atan2(math.sin(delta[2]), math.cos(delta[2]))
+        delta[2] = wrap_angle(delta[2])
         distance = math.hypot(delta[0], delta[1])
         max_step = self.base_speed * self.time_step
         if distance > max_step:

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from teleteach.control import panda
 from teleteach.core.frames import Transform
-from teleteach.core.rotations import yaw_rotation
+from teleteach.core.rotations import wrap_angle, yaw_rotation
 from teleteach.skills import trajectory
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.robot import Execution, PreemptedError, Robot, SkillError
@@ -29,11 +29,6 @@ def base_to_world(base_pose, position):
 def world_to_base(base_pose, position):
     """A point [m] given in world, in base_link (base_pose: x [m], y [m], yaw [rad] of base_link)."""
     return Transform.from_planar(*base_pose).inverse().apply_point(position)
-
-
-def angle_difference(a, b):
-    """The angle a - b wrapped to [-pi, pi] [rad]."""
-    return math.atan2(math.sin(a - b), math.cos(a - b))
 
 
 class InverseKinematics:
@@ -234,7 +229,7 @@ class Motion:
         """Drive the base to (x [m], y [m], yaw [rad]) in world (move_base); done when TF says it stands there."""
         settings = self.config.base
         start_pose = self.robot.base_pose()
-        initial = math.hypot(x - start_pose[0], y - start_pose[1]) + abs(angle_difference(yaw, start_pose[2]))
+        initial = math.hypot(x - start_pose[0], y - start_pose[1]) + abs(wrap_angle(yaw - start_pose[2]))
         limit = initial / settings.expected_speed + settings.timeout
         goal = self.robot.move_base(x, y, yaw)
         start = self.robot.now()
@@ -246,7 +241,7 @@ class Motion:
                 raise
             pose = self.robot.base_pose()
             distance = math.hypot(x - pose[0], y - pose[1])
-            turn = abs(angle_difference(yaw, pose[2]))
+            turn = abs(wrap_angle(yaw - pose[2]))
             self.execution.report(1.0 - (distance + turn) / initial if initial > 0 else 1.0)
             if goal.done():
                 succeeded, said = goal.outcome()
@@ -254,7 +249,7 @@ class Motion:
                     raise SkillError(f"move_base did not reach ({x:.2f}, {y:.2f}, {yaw:.2f}): {said or 'it failed'}")
                 pose = self.robot.base_at_rest()
                 distance = math.hypot(x - pose[0], y - pose[1])
-                turn = abs(angle_difference(yaw, pose[2]))
+                turn = abs(wrap_angle(yaw - pose[2]))
                 if distance < settings.position_tolerance and turn < settings.yaw_tolerance:
                     return
             if self.robot.now() - start > limit:

@@ -5,21 +5,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Peak speed of the minimum-jerk profile relative to the mean speed (15/8).
-MIN_JERK_PEAK = 1.875
-
-
-def min_jerk(fraction):
-    """Minimum-jerk phase s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 and its derivative ds/dtau, tau clipped to [0, 1]."""
-    tau = np.clip(np.asarray(fraction, dtype=float), 0.0, 1.0)
-    phase = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
-    rate = 30.0 * tau**2 * (1.0 - tau) ** 2
-    return phase, rate
+from teleteach.core.trajectories import MINIMUM_JERK_PEAK, minimum_jerk, minimum_jerk_rate
 
 
 def move_duration(distance, peak_speed, min_duration):
     """Duration [s] of a minimum-jerk move over distance whose peak speed stays at or below peak_speed."""
-    return max(float(min_duration), MIN_JERK_PEAK * float(distance) / float(peak_speed))
+    return max(float(min_duration), MINIMUM_JERK_PEAK * float(distance) / float(peak_speed))
 
 
 @dataclass
@@ -50,7 +41,7 @@ def point_to_point(start, goal, duration, sample_period):
     """Straight joint-space move from start to goal [rad] with a minimum-jerk profile."""
     start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
     times = _sample_times(duration, sample_period)
-    phase, rate = min_jerk(times / duration)
+    phase, rate = minimum_jerk(times / duration), minimum_jerk_rate(times / duration)
     positions = start + np.outer(phase, goal - start)
     velocities = np.outer(rate / duration, goal - start)
     return JointTrajectory(times, positions, velocities)
@@ -67,7 +58,7 @@ def along_path(waypoints, duration, sample_period):
     if segments < 1:
         raise ValueError("a path needs at least 2 waypoints")
     times = _sample_times(duration, sample_period)
-    phase, rate = min_jerk(times / duration)
+    phase, rate = minimum_jerk(times / duration), minimum_jerk_rate(times / duration)
     position_on_path = phase * segments
     index = np.minimum(position_on_path.astype(int), segments - 1)
     within = (position_on_path - index)[:, None]
