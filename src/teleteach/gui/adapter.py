@@ -1,4 +1,7 @@
-"""What a tab's ROS side (its ``ros.py``) offers the worker that hosts it: the one interface, without rospy.
+"""What a tab is to the window (``TabParts``) and what its ROS side offers the worker (``TabAdapter``); no rospy.
+
+Each tab is a package of ``teleteach.gui``: ``view.py`` its widgets, ``ros.py`` its adapter and ``build(window)``, which
+wires the two into the window and says what the tab does for the teaching session's actions.
 
 A tab's adapter owns the subscribers and publishers only that tab needs; it lives in the worker's thread (the
 worker adopts it) and speaks to its widgets only through its own signals, queued into the GUI thread. The worker
@@ -7,10 +10,12 @@ calls these hooks from its thread: ``start`` and ``stop`` once, ``tab_changed`` 
 /cartesian_pose while its tab is active and ``hears_arm``.
 """
 
-from typing import Optional
+import dataclasses
+from typing import Callable, Mapping, Optional
 
 import numpy as np
 from PyQt5.QtCore import QObject
+from PyQt5.QtWidgets import QWidget
 
 
 class TabAdapter(QObject):
@@ -20,9 +25,11 @@ class TabAdapter(QObject):
         tab: the index of its tab (teleteach.core.active_tab.Tab).
         hears_arm: while its tab is active the worker hears the arm (/cartesian_pose, /joint_states) and runs the
             stiffness stream (``tick``).
+        hears_scene: while its tab is active the worker hears the perceived scene and TF (``worker.nearest_gap``).
     """
 
     hears_arm = False
+    hears_scene = False
 
     def __init__(self, tab: int):
         super().__init__()
@@ -53,3 +60,22 @@ class TabAdapter(QObject):
     def measured_pose(self) -> Optional[np.ndarray]:
         """The arm's latest /cartesian_pose as the worker heard it, or None."""
         return None if self.worker is None else self.worker.hand_pose()
+
+
+@dataclasses.dataclass
+class TabParts:
+    """What a tab brings to the window: its package's ``build(window)`` returns it (teleteach.gui.app.TABS).
+
+    Attributes:
+        title: the tab's title.
+        widget: its widgets, with an ``active`` attribute, an ``on_click(stamp)`` slot and, if it uses the device's
+            position, ``on_device(sample)``; only the active tab receives them. ``show_device_lost(lost)`` if it says
+            so.
+        adapter: its ROS side, or None.
+        actions: what it does for the teaching session's actions (teleteach.gui.session.Action).
+    """
+
+    title: str
+    widget: QWidget
+    adapter: Optional[TabAdapter] = None
+    actions: Mapping[object, Callable[[], None]] = dataclasses.field(default_factory=dict)

@@ -21,7 +21,6 @@ from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, Q
 from std_msgs.msg import Bool, Int8
 from std_srvs.srv import Trigger, TriggerRequest
 
-from teleteach.bt.editor import EditRequest
 from teleteach.core import skill_file
 from teleteach.core.active_tab import Tab
 from teleteach.core.datadir import data_dir
@@ -32,17 +31,16 @@ from teleteach.core.study_phase import StudyView
 from teleteach.core.trajectories import Trajectory, TrajectoryError, mean_trajectory
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
-from teleteach.gui.high_level.view import HighLevelTab
-from teleteach.gui.low_level.view import LowLevelTab
+from teleteach.gui.high_level import ros as high_level_tab
+from teleteach.gui.low_level import ros as low_level_tab
 from teleteach.gui.recording import PathRecorder, StiffnessRecorder, unique_skill_name
 from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, TeachingSession
-from teleteach.gui.shared_control.ros import SharedControlRos
-from teleteach.gui.shared_control.view import SharedControlTab
-from teleteach.gui.start.view import StartTab
+from teleteach.gui.shared_control import ros as shared_control_tab
+from teleteach.gui.start import ros as start_tab
 from teleteach.gui.study import Page, StudyScreen
 from teleteach.gui.study_page import StudyPage
-from teleteach.gui.teleop.view import TeleopTab
+from teleteach.gui.teleop import ros as teleop_tab
 from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
 from teleteach.haptics.guidance import Guidance
 from teleteach.msg import HapticGuidance, Selection, TreeExecution
@@ -50,8 +48,6 @@ from teleteach.runtime.node import publish
 from teleteach.srv import (
     AddSkill,
     AddSkillRequest,
-    ChangeTree,
-    ChangeTreeRequest,
     StudyInput,
     StudyInputRequest,
     SwitchController,
@@ -59,6 +55,8 @@ from teleteach.srv import (
 )
 
 SWITCH_SERVICE = "controller_manager/switch_controller"
+# The window's tabs in their order (teleteach.core.active_tab.Tab): each one package's build(window) (gui/adapter.py)
+TABS = (start_tab.build, high_level_tab.build, low_level_tab.build, shared_control_tab.build, teleop_tab.build)
 LEARNING_GRACE_MS = 60000  # a DMP being learned as the window closes gets this long to join the library
 
 
@@ -129,7 +127,11 @@ class MainWindow(QMainWindow):
         self.player = TrajectoryPlayer(self.trajectory, config.player_rate, self.topics.equilibrium)
         self.services = ServiceCaller(config.service_timeout)
         self.services.finished.connect(self._on_service)
-        self.shared_ros = SharedControlRos(config, self.shared_recorder)
+        self.tabs = QTabWidget()
+        self.parts = [build(self) for build in TABS]
+        self.start_tab, self.high_level, self.low_level, self.shared_control, self.teleop = (
+            part.widget for part in self.parts[: len(Tab)]
+        )  # the tabs the window itself still talks to
         self.worker = RosWorker(
             config,
             self.command,
@@ -137,10 +139,9 @@ class MainWindow(QMainWindow):
             self.player.current,
             self.topics.equilibrium,
             self.path_recorder,
-            adapters=[self.shared_ros],
+            adapters=[part.adapter for part in self.parts if part.adapter is not None],
         )
         self._build_window()
-        self._connect_tabs()
         self._actions = self._session_actions()
         self._start_worker()
         self.tabs.setCurrentIndex(config.initial_tab)
@@ -164,27 +165,10 @@ class MainWindow(QMainWindow):
         )
         column.addWidget(self.study_banner)
         column.addWidget(self.help_banner)
-        self.tabs = QTabWidget()
-        self.start_tab = StartTab(config)
-        self.high_level = HighLevelTab(config)
-        self.low_level = LowLevelTab(
-            config,
-            self.command,
-            recorded_samples=lambda: len(self.recorder),
-            last_click=lambda: self.worker.last_click,
-            device_time=lambda: self.worker.device_time,
-        )
-        self.shared_control = SharedControlTab(config, recorded_samples=lambda: len(self.shared_recorder))
-        self.teleop = TeleopTab(config)
         self._tab_widgets: List[QWidget] = []
-        for tab, index in (
-            (self.start_tab, Tab.START),
-            (self.high_level, Tab.HIGH_LEVEL),
-            (self.low_level, Tab.LOW_LEVEL),
-            (self.shared_control, Tab.SHARED_CONTROL),
-            (self.teleop, Tab.TELEOP),
-        ):
-            self.add_tab(tab, index.title)
+        for part in self.parts:
+            self.add_tab(part.widget, part.title)
+        self.tabs.currentChanged.connect(self._on_tab_changed)
         self.tabs.setStyleSheet("QTabBar::tab { min-width: 170px; min-height: 28px; font-weight: bold; }")
         self.study_page = StudyPage(config.study_start_radius, config.device_range)
         self.pages = QStackedWidget()
@@ -196,20 +180,6 @@ class MainWindow(QMainWindow):
         self.statusBar().addPermanentWidget(self.health_label)
         self.tree_label = QLabel("tree: -")
         self.statusBar().addPermanentWidget(self.tree_label)
-
-    def _connect_tabs(self) -> None:
-        """What the operator does in a tab reaches the window."""
-        self.start_tab.start_requested.connect(lambda: self._carry_out(self.session.start_requested()))
-        self.start_tab.mode_chosen.connect(self.tabs.setCurrentIndex)
-        self.start_tab.mode_chosen.connect(lambda tab: self._publish_selection(Tab.START, "mode", Tab(tab).name))
-        self.high_level.request_ready.connect(self._send_change)
-        self.high_level.selection_confirmed.connect(
-            lambda step, choice: self._publish_selection(Tab.HIGH_LEVEL, step, choice)
-        )
-        self.low_level.recording_toggled.connect(self._toggle_recording)
-        self.shared_control.recording_toggled.connect(self._toggle_shared_recording)
-        self.teleop.recording_toggled.connect(lambda: self._carry_out(self.session.toggle_path_recording()))
-        self.tabs.currentChanged.connect(self._on_tab_changed)
 
     def _start_worker(self) -> None:
         """The ROS worker in its own thread; its signals reach the window and the tabs in the GUI thread."""
@@ -225,11 +195,6 @@ class MainWindow(QMainWindow):
         self.worker.library_received.connect(self._on_library, queued)
         self.worker.help_requested.connect(self._on_help, queued)
         self.worker.health.connect(self._on_health, queued)
-        self.shared_ros.state.connect(self.shared_control.on_state, queued)
-        self.shared_ros.plan.connect(self.shared_control.on_plan, queued)
-        self.shared_ros.boundary.connect(self.shared_control.on_boundary, queued)
-        self.shared_ros.obstacle.connect(self.shared_control.on_obstacle, queued)
-        self.shared_ros.arm.connect(self.shared_control.on_arm, queued)
         self.worker.study_state.connect(self._on_study_state, queued)
         self.worker.execution_changed.connect(self._on_execution, queued)
         self.worker.teleop_changed.connect(self.teleop.on_state, queued)
@@ -239,10 +204,7 @@ class MainWindow(QMainWindow):
     def _session_actions(self):
         """What each of the teaching session's actions (teleteach.gui.session) does here."""
         controllers = self.config.controller_names
-        return {
-            Action.ENTER_LOW_LEVEL: lambda: self.low_level.on_enter(self.worker.latest_sample()),
-            Action.LEAVE_LOW_LEVEL: self.low_level.on_leave,
-            Action.RESET_HIGH_LEVEL: self.high_level.reset,
+        actions = {
             Action.PAUSE_TREE: lambda: self._pause_tree(True),
             Action.RESUME_TREE: lambda: self._pause_tree(False),
             Action.START_TREE: self._start_tree,
@@ -256,17 +218,13 @@ class MainWindow(QMainWindow):
             Action.START_STIFFNESS_RECORDING: self._start_recording,
             Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
             Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,
-            Action.SHARED_CONTROL_ON: lambda: publish(self.topics.shared_control, Bool(True)),
-            Action.SHARED_CONTROL_OFF: lambda: publish(self.topics.shared_control, Bool(False)),
-            Action.START_SHARED_RECORDING: self._start_shared_recording,
-            Action.STOP_SHARED_RECORDING: self._stop_shared_recording,
-            Action.SAVE_SHARED_SKILL: self._save_shared_skill,
-            Action.TELEOP_ON: lambda: self.worker.drive_arm(True),
-            Action.TELEOP_OFF: lambda: self.worker.drive_arm(False),
             Action.START_PATH_RECORDING: self._start_path_recording,
             Action.STOP_PATH_RECORDING: self._stop_path_recording,
             Action.SAVE_PATH: self._save_path,
         }
+        for part in self.parts:
+            actions.update(part.actions)
+        return actions
 
     def add_tab(self, tab: QWidget, title: str) -> int:
         """Append a tab; returns its index.
@@ -320,7 +278,7 @@ class MainWindow(QMainWindow):
         self.high_level.on_library(library)
 
     def _on_help(self, node_name: str, reason: str, suggestion: Sequence[str] = ()) -> None:
-        self._carry_out(self.session.help_requested(node_name))
+        self.carry_out(self.session.help_requested(node_name))
         self.high_level.set_repair(node_name, suggestion)
         if not node_name:  # the tree clears its request with an empty node name once answered
             self.help_banner.hide()
@@ -347,7 +305,7 @@ class MainWindow(QMainWindow):
     def _on_execution(self, state: int, message: str) -> None:
         """The tree's execution (teleteach/TreeExecution): START and the status bar show it."""
         waiting = state == TreeExecution.WAITING
-        self._carry_out(self.session.tree_waiting_changed(waiting))
+        self.carry_out(self.session.tree_waiting_changed(waiting))
         self.start_tab.show_tree(waiting, message)
         self.tree_label.setText(f"tree: {message}")
         self.tree_label.setStyleSheet("color: #bf360c; font-weight: bold;" if waiting else "")
@@ -355,10 +313,10 @@ class MainWindow(QMainWindow):
     def _start_tree(self) -> None:
         """The operator's start gesture: a tree that started paused runs (behaviour_tree/start, an event)."""
         self.services.call("start_tree", "behaviour_tree/start", Trigger, TriggerRequest())
-        self._publish_selection(Tab.START, "start", "tree")
+        self.publish_selection(Tab.START, "start", "tree")
         self.statusBar().showMessage("starting the tree...", 10000)
 
-    def _publish_selection(self, tab: Tab, step: str, choice: str) -> None:
+    def publish_selection(self, tab: Tab, step: str, choice: str) -> None:
         """A confirmed choice, for studies and bags (teleteach/Selection)."""
         message = Selection(tab=tab.name, step=step, choice=choice)
         message.header.stamp = rospy.Time.now()
@@ -367,8 +325,9 @@ class MainWindow(QMainWindow):
     def _on_health(self, problems: str) -> None:
         self.health_label.setText(problems)
         self.health_label.setStyleSheet("color: #d22828;" if problems else "")
-        self.low_level.show_device_lost(DEVICE_LOST in problems)
-        self.teleop.show_device_lost(DEVICE_LOST in problems)
+        for part in self.parts:
+            if hasattr(part.widget, "show_device_lost"):
+                part.widget.show_device_lost(DEVICE_LOST in problems)
 
     # haptic guidance ----------------------------------------------------------------------------------
     def current_guidance(self) -> Guidance:
@@ -404,24 +363,19 @@ class MainWindow(QMainWindow):
         for position, tab in enumerate(self._tab_widgets):
             tab.active = position == index
         publish(self.topics.active_tab, Int8(index))
-        self._carry_out(self.session.tab_changed(index))
+        self.carry_out(self.session.tab_changed(index))
         # The worker hears the new tab last: a pose arriving while LOW-LEVEL opens must find the ellipsoid already
         # held, or it would set it to wherever the handle is (the soft takeover bypassed)
         self.worker.active_tab = index
 
-    def _carry_out(self, actions) -> None:
+    def set_recording(self, recording: bool) -> None:
+        """Say on teleteach/recording whether a tab records (latched)."""
+        publish(self.topics.recording, Bool(recording))
+
+    def carry_out(self, actions) -> None:
         """Do what the teaching session says (teleteach.gui.session), in its order."""
         for action in actions:
             self._actions[action]()
-
-    # HIGH-LEVEL -----------------------------------------------------------------------------------
-    def _send_change(self, request: EditRequest) -> None:
-        self.services.call(
-            "change_tree",
-            "change_tree",
-            ChangeTree,
-            ChangeTreeRequest(**request._asdict()),
-        )
 
     # LOW-LEVEL ------------------------------------------------------------------------------------
     def _wait_for_arm(self) -> None:
@@ -441,10 +395,10 @@ class MainWindow(QMainWindow):
         free, why = self.worker.arm_free()
         if free:
             self._arm_timer.stop()
-            self._carry_out(self.session.arm_freed())
+            self.carry_out(self.session.arm_freed())
         elif time.monotonic() > self._arm_deadline:
             self._arm_timer.stop()
-            self._carry_out(self.session.arm_not_freed())
+            self.carry_out(self.session.arm_not_freed())
             text = (
                 f"the arm was not free within {self.config.arm_free_timeout:g} s ({why}): the impedance controller was"
                 " not started; go back to START and enter again"
@@ -473,9 +427,6 @@ class MainWindow(QMainWindow):
     def _pause_tree(self, paused: bool) -> None:
         publish(self.topics.pause, Bool(paused))
 
-    def _toggle_recording(self) -> None:
-        self._carry_out(self.session.toggle_stiffness_recording())
-
     def _start_recording(self) -> None:
         """Play the trajectory (placed relative to the perceived target, from where the hand is) and record."""
         self._teaching_target = None
@@ -483,7 +434,7 @@ class MainWindow(QMainWindow):
         if trajectory.frame == TARGET_FRAME:
             target, why = self.worker.target_in_base(trajectory.target)
             if target is None:
-                self._carry_out(self.session.recording_refused())
+                self.carry_out(self.session.recording_refused())
                 self.statusBar().showMessage(
                     f"recording not started: trajectory {trajectory.name} places relative to {trajectory.target}: "
                     f"{why}",
@@ -493,7 +444,7 @@ class MainWindow(QMainWindow):
             self._teaching_target = (trajectory.target, target)
         hand = self.worker.hand_pose()
         if trajectory.starts_at_hand and hand is None:
-            self._carry_out(self.session.recording_refused())
+            self.carry_out(self.session.recording_refused())
             self.statusBar().showMessage("recording not started: no /cartesian_pose of the arm yet", 15000)
             return
         self.recorder.start()
@@ -521,7 +472,7 @@ class MainWindow(QMainWindow):
             provenance["path_demonstrations"] = trajectory.demonstrations
             provenance["path_spread"] = [float(value) for value in trajectory.spread]
             provenance["path_spread_time"] = [float(value) for value in trajectory.times]  # [s] from the start
-        saved = self._save_recording(
+        saved = self.save_recording(
             self.recorder,
             "stiffness",
             self.config.skill_prefix,
@@ -534,7 +485,7 @@ class MainWindow(QMainWindow):
             self._path_series = []
             self.trajectory = Trajectory.load(self.config.trajectory)
 
-    def _save_recording(
+    def save_recording(
         self,
         recorder: StiffnessRecorder,
         kind: str,
@@ -569,30 +520,6 @@ class MainWindow(QMainWindow):
                 f"add_skill:{name}", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
             )
         return path
-
-    # SHARED CONTROL -------------------------------------------------------------------------------
-    def _toggle_shared_recording(self) -> None:
-        """Double click in SHARED CONTROL: record the MPC's /equilibrium_pose and /cartesian_pose, or stop."""
-        self._carry_out(self.session.toggle_shared_recording())
-
-    def _start_shared_recording(self) -> None:
-        self.shared_recorder.start()
-        publish(self.topics.recording, Bool(True))
-        self.shared_control.recording_since = time.monotonic()
-        self.statusBar().showMessage("recording the shared-control trajectory", 5000)
-
-    def _stop_shared_recording(self) -> None:
-        self.shared_recorder.stop()
-        publish(self.topics.recording, Bool(False))
-        self.shared_control.recording_since = None
-        self.shared_control.show_status(self.shared_control.status)
-
-    def _save_shared_skill(self) -> None:
-        """The shared-control recording becomes a ``shared_control`` skill."""
-        stiffness = [float(value) for value in self.config.shared_control_stiffness]
-        self._save_recording(
-            self.shared_recorder, "shared_control", self.config.shared_skill_prefix, {"stiffness": stiffness}
-        )
 
     # TELEOP -----------------------------------------------------------------------------------------
     def _start_path_recording(self) -> None:
@@ -738,7 +665,7 @@ class MainWindow(QMainWindow):
         if self.thread.isRunning():
             self._guidance_timer.stop()
             publish(self.topics.guidance, HapticGuidance(**guidance_fields(self._guidance.free())))
-            self._carry_out(self.session.shutdown())
+            self.carry_out(self.session.shutdown())
             self.player.stop()
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)
             self.thread.quit()

@@ -1,4 +1,4 @@
-"""The SHARED CONTROL tab's ROS side: what the MPC says and plans, in the task plane, and its recording.
+"""The SHARED CONTROL tab's ROS side (what the MPC says and plans, in the task plane) and its place in the window.
 
 The task plane is the ``plane`` section of config/shared_control.yaml, the shared_control node's own (the one place
 it is written); everything the tab draws comes as task-plane points through this adapter's signals.
@@ -10,6 +10,7 @@ ROS Publishers: none of its own; while the tab is active the worker sends ``shar
 """
 
 import math
+import time
 from typing import Dict, Optional
 
 import numpy as np
@@ -17,16 +18,19 @@ import rospy
 import yaml
 from geometry_msgs.msg import PolygonStamped, PoseStamped
 from nav_msgs.msg import Path
-from PyQt5.QtCore import pyqtSignal
+from PyQt5.QtCore import Qt, pyqtSignal
+from std_msgs.msg import Bool
 
 from teleteach.core.active_tab import Tab
 from teleteach.core.gui_config import GuiConfig
 from teleteach.core.paths import config_file
-from teleteach.gui.adapter import TabAdapter
+from teleteach.gui.adapter import TabAdapter, TabParts
 from teleteach.gui.recording import StiffnessRecorder
-from teleteach.gui.shared_control.view import SharedStatus
+from teleteach.gui.session import Action
+from teleteach.gui.shared_control.view import SharedControlTab, SharedStatus
 from teleteach.gui.worker import pose_to_array
 from teleteach.msg import SharedControlState
+from teleteach.runtime.node import publish
 from teleteach.shared_control.plane import TaskPlane
 from teleteach.shared_control.ros import obstacle_from_pose
 
@@ -138,3 +142,48 @@ class SharedControlRos(TabAdapter):
             self.recorder.add(
                 message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self.measured_pose()
             )
+
+
+def build(window) -> TabParts:
+    """SHARED CONTROL in ``window``: the MPC's topics drawn; a double click records its output as a skill."""
+    config, recorder = window.config, window.shared_recorder
+    view = SharedControlTab(config, recorded_samples=lambda: len(recorder))
+    adapter = SharedControlRos(config, recorder)
+    for signal, slot in (
+        (adapter.state, view.on_state),
+        (adapter.plan, view.on_plan),
+        (adapter.boundary, view.on_boundary),
+        (adapter.obstacle, view.on_obstacle),
+        (adapter.arm, view.on_arm),
+    ):
+        signal.connect(slot, Qt.QueuedConnection)
+    view.recording_toggled.connect(lambda: window.carry_out(window.session.toggle_shared_recording()))
+    actions = {
+        Action.SHARED_CONTROL_ON: lambda: publish(window.topics.shared_control, Bool(True)),
+        Action.SHARED_CONTROL_OFF: lambda: publish(window.topics.shared_control, Bool(False)),
+        Action.START_SHARED_RECORDING: lambda: _start_recording(window, view, recorder),
+        Action.STOP_SHARED_RECORDING: lambda: _stop_recording(window, view, recorder),
+        Action.SAVE_SHARED_SKILL: lambda: _save_skill(window, recorder),
+    }
+    return TabParts(Tab.SHARED_CONTROL.title, view, adapter, actions)
+
+
+def _start_recording(window, view: SharedControlTab, recorder: StiffnessRecorder) -> None:
+    """Record the MPC's /equilibrium_pose and /cartesian_pose."""
+    recorder.start()
+    window.set_recording(True)
+    view.recording_since = time.monotonic()
+    window.statusBar().showMessage("recording the shared-control trajectory", 5000)
+
+
+def _stop_recording(window, view: SharedControlTab, recorder: StiffnessRecorder) -> None:
+    recorder.stop()
+    window.set_recording(False)
+    view.recording_since = None
+    view.show_status(view.status)
+
+
+def _save_skill(window, recorder: StiffnessRecorder) -> None:
+    """The shared-control recording becomes a ``shared_control`` skill."""
+    stiffness = [float(value) for value in window.config.shared_control_stiffness]
+    window.save_recording(recorder, "shared_control", window.config.shared_skill_prefix, {"stiffness": stiffness})
