@@ -100,7 +100,7 @@ def stiffness_only(skill, truth_times, truth, parameters):
 def sweep(cases):
     rows = []
     for smoothing, density in itertools.product(SMOOTHING, DENSITY):
-        parameters = LearningParameters(smoothing=smoothing, basis_per_second=density)
+        parameters = LearningParameters.from_yaml(smoothing=smoothing, basis_per_second=density)
         rows.append(
             {
                 "smoothing": smoothing,
@@ -185,14 +185,14 @@ def full_learning(name, case, parameters, runs=5):
 def main():
     RESULTS.mkdir(parents=True, exist_ok=True)
     cases = demos()
-    defaults = LearningParameters()
+    defaults = LearningParameters.from_yaml()
     print("sweep (mean/max relative error per demo: a GUI-rate 45 deg, b smooth, c fast operator)")
     rows = sweep(cases)
     chosen = choose(rows, cases)
     print(f"sweep choice: smoothing {chosen['smoothing']} s, {chosen['basis_per_second']} basis functions per second")
     gain_rows = []
     for alpha_z in ALPHA_Z:
-        parameters = LearningParameters(
+        parameters = LearningParameters.from_yaml(
             smoothing=chosen["smoothing"], basis_per_second=chosen["basis_per_second"], alpha_z=alpha_z
         )
         gain_rows.append(
@@ -224,7 +224,9 @@ def main():
         row = gui_rates[rate] = stiffness_only(*case, defaults)
         print(f"  GUI {rate:4.1f} Hz: {100 * row['mean_relative']:5.2f}/{100 * row['max_relative']:6.2f}%")
 
-    thesis = LearningParameters(smoothing=0.0, basis_per_second=40 / 102, alpha_z=48 / 3, recover_gui_samples=False)
+    thesis = LearningParameters.from_yaml(
+        smoothing=0.0, basis_per_second=40 / 102, alpha_z=48 / 3, recover_gui_samples=False
+    )
     results = {}
     for name in ("a_gui_rate_45deg", "b_smooth_perpendicular"):
         learned, reproduction, summary = full_learning(name, cases[name], defaults)

@@ -22,11 +22,11 @@ from session_bags import eigenvalues_message, eigenvectors_message, pose_message
 
 from teleteach.recording.report import make_report  # noqa: E402
 from teleteach.recording.session import read_session  # noqa: E402
-from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder  # noqa: E402
+from teleteach.viz.ellipsoid import EllipsoidMarkerConfig  # noqa: E402
 
 
 def marker_cost(repetitions):
-    builder = EllipsoidMarkerBuilder()
+    builder = EllipsoidMarkerConfig.from_yaml().builder()
     values, vectors, pose = eigenvalues_message(800.0, 1200.0, 2000.0), eigenvectors_message(0.4), pose_message()
     start = time.perf_counter()
     for _ in range(repetitions):

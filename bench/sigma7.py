@@ -24,7 +24,7 @@ import numpy as np
 import roslib.packages
 import yaml
 
-from teleteach.haptics.click import ClickDetector
+from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.loop import DeviceLoop, WallRate
 from teleteach.haptics.scenario import ScenarioBackend, load_scenario
 from teleteach.haptics.twist import TwistEstimator
@@ -36,7 +36,9 @@ SCENARIO = ROOT / "config" / "scenarios" / "example.yaml"
 
 def make_loop(sink):
     backend = ScenarioBackend(load_scenario(SCENARIO), start_time=time.monotonic())
-    return DeviceLoop(backend, sink, time.monotonic, ClickDetector(), TwistEstimator(20.0), print)
+    return DeviceLoop(
+        backend, sink, time.monotonic, ClickDetector(ClickParameters.from_yaml()), TwistEstimator(20.0), print
+    )
 
 
 def cycle_cost(cycles=5000):

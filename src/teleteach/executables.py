@@ -79,10 +79,10 @@ def sigma7_node(description: str) -> ExitStatus:
     import rospy
 
     from teleteach.haptics.device import DeviceUnavailableError
-    from teleteach.haptics.ros import Sigma7Config, Sigma7Node
+    from teleteach.haptics.ros import Sigma7Node
 
     try:
-        node = Sigma7Node(Sigma7Config.from_params(rospy.get_param))
+        node = Sigma7Node.from_params()
     except (ValueError, DeviceUnavailableError) as error:
         rospy.logfatal(f"sigma7_node cannot start: {error}")
         return 1
@@ -141,9 +141,13 @@ def stiffness_bridge(description: str) -> ExitStatus:
     start("stiffness_bridge", description, "stiffness_bridge.yaml")
     import rospy
 
+    from teleteach.control.franka_stiffness import StiffnessBridgeConfig
     from teleteach.control.ros import StiffnessBridgeNode
 
-    exit_on_bad_parameter("stiffness_bridge", lambda: StiffnessBridgeNode(**node_parameters("stiffness_bridge.yaml")))
+    def build():  # control stands below runtime: its node's parameters are read here
+        return StiffnessBridgeNode(StiffnessBridgeConfig.from_mapping(node_parameters("stiffness_bridge.yaml")))
+
+    exit_on_bad_parameter("stiffness_bridge", build)
     rospy.spin()
     return 0
 

@@ -1,15 +1,18 @@
 """The ellipsoid marker mapping: size from the principal stiffnesses, orientation from the eigenvectors."""
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
+import yaml
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from scipy.spatial.transform import Rotation
 from visualization_msgs.msg import Marker
 
+from teleteach.core.paths import config_file
 from teleteach.core.validation import InvalidCommandError
-from teleteach.viz.ellipsoid import DRAWN_RESOLUTION, EllipsoidMarkerBuilder, EllipsoidScale, drawn_as
+from teleteach.viz.ellipsoid import DRAWN_RESOLUTION, EllipsoidMarkerConfig, EllipsoidScale, drawn_as
 
 
 def eigenvalues(x, y, z, frame="base_link"):
@@ -35,8 +38,8 @@ def pose(x, y, z, frame="base_link"):
     return message
 
 
-def ready_builder(**kwargs):
-    builder = EllipsoidMarkerBuilder(**kwargs)
+def ready_builder():
+    builder = EllipsoidMarkerConfig.from_yaml().builder()
     builder.set_eigenvalues(eigenvalues(500.0, 1500.0, 3000.0))
     yaw45 = Rotation.from_euler("z", 45, degrees=True).as_quat()
     builder.set_eigenvectors(eigenvectors(*yaw45))
@@ -45,7 +48,7 @@ def ready_builder(**kwargs):
 
 
 def test_no_marker_until_every_input_arrived():
-    builder = EllipsoidMarkerBuilder()
+    builder = EllipsoidMarkerConfig.from_yaml().builder()
     assert builder.marker() is None
     builder.set_eigenvalues(eigenvalues(100.0, 100.0, 100.0))
     builder.set_pose(pose(0.0, 0.0, 0.0))
@@ -96,6 +99,9 @@ def test_diameters_are_clamped():
     np.testing.assert_allclose(scale.diameters([0.0, 200.0, 10000.0]), [0.05, 0.2, 0.5])
 
 
+SCALE = {"metres_per_stiffness": 1e-4, "min_diameter": 0.02, "max_diameter": 0.4}
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [
@@ -108,7 +114,23 @@ def test_diameters_are_clamped():
 )
 def test_bad_scale_parameters_are_refused(kwargs):
     with pytest.raises(ValueError):
-        EllipsoidScale(**kwargs)
+        EllipsoidScale(**dict(SCALE, **kwargs))
+
+
+def test_the_node_s_parameters_are_its_yaml_and_a_bad_one_is_named():
+    values = yaml.safe_load(config_file("ellipsoid_marker.yaml").read_text())
+    config = EllipsoidMarkerConfig.from_mapping(values)
+    assert dataclasses.asdict(config) == values
+    assert config.scale == EllipsoidScale(
+        values["metres_per_stiffness"], values["min_diameter"], values["max_diameter"]
+    )
+    with pytest.raises(ValueError, match=r"^rate must be a finite number > 0 Hz, got 0.0$"):
+        EllipsoidMarkerConfig.from_mapping(dict(values, rate=0.0))
+    with pytest.raises(ValueError, match=r"^min_diameter 0.5 m exceeds max_diameter 0.4 m$"):
+        EllipsoidMarkerConfig.from_mapping(dict(values, min_diameter=0.5))
+    del values["rate"]
+    with pytest.raises(ValueError, match=r"\(config/ellipsoid_marker.yaml\): missing rate$"):
+        EllipsoidMarkerConfig.from_mapping(values)
 
 
 @pytest.mark.parametrize(
@@ -135,7 +157,7 @@ def test_invalid_input_is_rejected_and_the_last_good_marker_stays(setter, messag
 
 
 def test_eigen_topics_may_leave_the_frame_empty_like_the_controller_accepts():
-    builder = EllipsoidMarkerBuilder()
+    builder = EllipsoidMarkerConfig.from_yaml().builder()
     builder.set_eigenvalues(eigenvalues(100.0, 100.0, 100.0, frame=""))
     builder.set_eigenvectors(eigenvectors(0.0, 0.0, 0.0, 1.0, frame="/base_link"))
     builder.set_pose(pose(1.0, 2.0, 3.0))

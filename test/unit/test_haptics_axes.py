@@ -83,7 +83,7 @@ def test_the_loop_publishes_the_operator_frame_and_renders_in_the_devices():
         device,
         published.append,
         clock=lambda: 0.0,
-        click_detector=ClickDetector(ClickParameters()),
+        click_detector=ClickDetector(ClickParameters.from_yaml()),
         twist_estimator=TwistEstimator(20.0),
         log_error=print,
         guidance=PushLeft(),

@@ -141,11 +141,11 @@ def test_two_flicks_are_two_clicks():
 )
 def test_bad_parameters_are_refused_saying_why(arguments, said):
     with pytest.raises(ValueError, match=said):
-        ClickParameters(**arguments)
+        ClickParameters.from_yaml(**arguments)
 
 
 def test_a_fully_closed_threshold_is_allowed():
-    assert ClickParameters(close_threshold=0.0).close_threshold == 0.0
+    assert ClickParameters.from_yaml(close_threshold=0.0).close_threshold == 0.0
 
 
 # Exact binary times and angles: each threshold and duration hit exactly

@@ -97,7 +97,7 @@ def test_guidance_forces_reach_the_sdk_bounded_and_end_at_zero(fake_dhd, monkeyp
     monkeypatch.setenv("FAKE_DHD_DEVICES", "1")
     backend = DhdBackend(fake_dhd)
     assert received(fake_dhd)[1] is True  # dhdEnableForce(DHD_ON) when opened
-    renderer = GuidanceRenderer(GuidanceLimits())
+    renderer = GuidanceRenderer(GuidanceLimits.from_yaml())
     hold = AxisGuidance("hold", centre=0.0, stiffness=1e4)
     renderer.set(Guidance(axes=(hold, hold, hold, AxisGuidance(), AxisGuidance(), AxisGuidance()), max_force=50.0), 0.0)
     sample = backend.read(0.0)  # the stand-in sits at (0.01, 0.02, 0.03) m: the springs ask for far more than 4 N

@@ -19,7 +19,7 @@ from teleteach.haptics.guidance import (
     render,
 )
 
-LIMITS = GuidanceLimits()
+LIMITS = GuidanceLimits.from_yaml()
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 STILL = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
@@ -141,7 +141,7 @@ def test_bad_caps_and_gripper_are_refused():
     with pytest.raises(GuidanceError, match="guidance needs 6 axes"):
         Guidance(axes=(AxisGuidance(),))
     with pytest.raises(GuidanceError, match="guidance max_force must be a positive number"):
-        GuidanceLimits(max_force=0.0)
+        GuidanceLimits.from_yaml(max_force=0.0)
 
 
 @pytest.mark.parametrize(
@@ -149,13 +149,13 @@ def test_bad_caps_and_gripper_are_refused():
 )
 def test_the_node_s_caps_never_exceed_the_sigma7_s_own_limits(field, value, limit):
     with pytest.raises(GuidanceError, match=f"guidance {field} {value} is above the Sigma.7's own limit of {limit}"):
-        GuidanceLimits(**{field: value})
-    assert getattr(GuidanceLimits(**{field: limit}), field) == limit
+        GuidanceLimits.from_yaml(**{field: value})
+    assert getattr(GuidanceLimits.from_yaml(**{field: limit}), field) == limit
 
 
 def test_while_the_gripper_is_closed_for_a_click_a_detent_holds_the_device_at_its_well_s_centre():
     wells = AxisGuidance("detents", detents=(0.0, 0.01, 0.02), stiffness=400.0, width=0.01, click_stiffness=1500.0)
-    patient = GuidanceLimits(stale_after=100.0)
+    patient = GuidanceLimits.from_yaml(stale_after=100.0)
     renderer = GuidanceRenderer(patient, click_below=0.2)
     renderer.set(guidance(x=wells), now=0.0)
 

@@ -27,20 +27,20 @@ def settle(model, intended, renderer=None, seconds=2.0, start=0.0):
 
 
 def renderer_of(**axes):
-    renderer = GuidanceRenderer(GuidanceLimits(max_force=20.0, stale_after=100.0))
+    renderer = GuidanceRenderer(GuidanceLimits.from_yaml(max_force=20.0, stale_after=100.0))
     renderer.set(Guidance(axes=tuple(axes.get(name, AxisGuidance()) for name in AXES), max_force=20.0), now=0.0)
     return renderer
 
 
 def test_without_guidance_the_device_goes_where_the_hand_means():
-    model = HandModel(HandParameters())
+    model = HandModel(HandParameters.from_yaml())
     model.step(0.0, STILL, Wrench.zero())
     intended = np.array([0.03, -0.02, 0.01, 0.2, 0.0, -0.1])
     np.testing.assert_allclose(settle(model, intended, start=0.001), intended, atol=1e-4)
 
 
 def test_a_hold_spring_and_the_hand_balance_as_springs_in_series():
-    parameters = HandParameters(stiffness=300.0)
+    parameters = HandParameters.from_yaml(stiffness=300.0)
     pose = settle(
         HandModel(parameters), np.array([0.02, 0, 0, 0, 0, 0]), renderer_of(x=AxisGuidance("hold", stiffness=100.0))
     )
@@ -52,12 +52,12 @@ def test_a_hand_slightly_off_a_detent_settles_nearer_to_it():
     width = 0.2 / 23
     detents = AxisGuidance("detents", detents=(0.0, width, 2 * width), stiffness=400.0, width=width, damping=2.0)
     intended = np.array([width + 0.3 * width, 0, 0, 0, 0, 0])  # 30 % of a button off its centre
-    pose = settle(HandModel(HandParameters()), intended, renderer_of(x=detents))
+    pose = settle(HandModel(HandParameters.from_yaml()), intended, renderer_of(x=detents))
     assert abs(pose[0] - width) < 0.3 * width * 0.6
 
 
 def test_tremor_has_the_configured_rms_in_its_band_and_is_seeded():
-    tremor = Tremor(HandParameters(tremor_rms=0.002, seed=3))
+    tremor = Tremor(HandParameters.from_yaml(tremor_rms=0.002, seed=3))
     times = np.arange(0.0, 20.0, 0.001)
     offsets = np.array([tremor.at(time) for time in times])
     rms = np.sqrt(np.mean(offsets**2, axis=0))
@@ -66,14 +66,14 @@ def test_tremor_has_the_configured_rms_in_its_band_and_is_seeded():
     frequencies = np.fft.rfftfreq(len(times), 0.001)
     peak = frequencies[np.argmax(spectrum)]
     assert 8.0 <= peak <= 12.0
-    again = Tremor(HandParameters(tremor_rms=0.002, seed=3))
+    again = Tremor(HandParameters.from_yaml(tremor_rms=0.002, seed=3))
     assert np.array_equal(again.at(1.234), tremor.at(1.234))
-    assert not np.array_equal(Tremor(HandParameters(tremor_rms=0.002, seed=4)).at(1.234), tremor.at(1.234))
-    assert np.array_equal(Tremor(HandParameters()).at(5.0), np.zeros(3))
+    assert not np.array_equal(Tremor(HandParameters.from_yaml(tremor_rms=0.002, seed=4)).at(1.234), tremor.at(1.234))
+    assert np.array_equal(Tremor(HandParameters.from_yaml()).at(5.0), np.zeros(3))
 
 
 def test_a_stalled_loop_keeps_the_last_force_and_only_a_paused_one_restarts_the_model_at_the_intention():
-    model = HandModel(HandParameters(stiffness=300.0))
+    model = HandModel(HandParameters.from_yaml(stiffness=300.0))
     intended = np.array([0.02, 0, 0, 0, 0, 0])
     push_back = Wrench(np.array([-1.5, 0.0, 0.0]), np.zeros(3))
     model.step(0.0, intended, push_back)
@@ -87,7 +87,7 @@ def test_a_stalled_loop_keeps_the_last_force_and_only_a_paused_one_restarts_the_
 
 def test_a_stall_while_the_device_moves_is_integrated_as_if_the_loop_had_read_every_millisecond():
     # The device frozen across a gap (or teleported to the intention) would differ from the model read at 1 kHz
-    stalled, steady = HandModel(HandParameters()), HandModel(HandParameters())
+    stalled, steady = HandModel(HandParameters.from_yaml()), HandModel(HandParameters.from_yaml())
     push_back = Wrench(np.array([-1.5, 0.0, 0.0]), np.zeros(3))
     for model in (stalled, steady):
         settle(model, STILL)
@@ -103,7 +103,7 @@ def test_a_stall_while_the_device_moves_is_integrated_as_if_the_loop_had_read_ev
 def test_a_slow_loop_reads_the_same_trembling_device_as_a_1_khz_one():
     # The tremor held over each gap (evaluated at the read only) shakes a device read at a few hundred Hz harder:
     # the study's resting jitter then left the hand model's own band on a starved machine
-    parameters = HandParameters(tremor_rms=0.001, seed=1)
+    parameters = HandParameters.from_yaml(tremor_rms=0.001, seed=1)
     slow, steady = HandModel(parameters), HandModel(parameters)
     gaps = np.random.default_rng(5).choice([0.004, 0.004, 0.012, 0.05, 0.2], size=300)
     reads = np.round(np.cumsum(gaps), 3)
@@ -133,7 +133,7 @@ class Intention(DeviceBackend):
 
 def test_the_backend_wrapper_moves_the_pose_and_passes_the_rest_through():
     inner = Intention()
-    backend = HandModelBackend(inner, HandParameters())
+    backend = HandModelBackend(inner, HandParameters.from_yaml())
     backend.read(0.0)
     inner.x = 0.02
     backend.render(Wrench(np.array([-3.0, 0.0, 0.0]), np.zeros(3)))
@@ -152,6 +152,6 @@ def test_the_backend_wrapper_moves_the_pose_and_passes_the_rest_through():
 
 def test_bad_hand_parameters_are_named():
     with pytest.raises(ValueError, match="hand mass must be a positive number, got 0.0"):
-        HandParameters(mass=0.0)
+        HandParameters.from_yaml(mass=0.0)
     with pytest.raises(ValueError, match=r"hand tremor_rms must be a number >= 0 \[m\], got -0.001"):
-        HandParameters(tremor_rms=-0.001)
+        HandParameters.from_yaml(tremor_rms=-0.001)

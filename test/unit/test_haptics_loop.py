@@ -40,7 +40,7 @@ def make_loop(backend, clock, wall_clock):
         backend,
         published.append,
         clock,
-        ClickDetector(ClickParameters()),
+        ClickDetector(ClickParameters.from_yaml()),
         TwistEstimator(20.0),
         errors.append,
         infos.append,
@@ -221,13 +221,13 @@ class ForceRecordingDevice(FlakyDevice):
 def test_the_loop_renders_guidance_and_zero_once_the_device_is_lost():
     clock = Clock(0.0)
     device = ForceRecordingDevice()
-    renderer = GuidanceRenderer(GuidanceLimits())
+    renderer = GuidanceRenderer(GuidanceLimits.from_yaml())
     published_wrenches = []
     loop = DeviceLoop(
         device,
         lambda state: None,
         clock,
-        ClickDetector(ClickParameters()),
+        ClickDetector(ClickParameters.from_yaml()),
         TwistEstimator(20.0),
         lambda message: None,
         wall_clock=clock,

@@ -112,7 +112,7 @@ def random_message(rng):
 
 def test_any_guidance_message_is_refused_with_a_reason_or_rendered_finite_and_within_the_caps():
     rng = np.random.default_rng(11)
-    limits = GuidanceLimits()
+    limits = GuidanceLimits.from_yaml()
     rendered = refused = 0
     for _ in range(3000):
         message = random_message(rng)

@@ -128,7 +128,7 @@ def test_click_flicks_the_gripper_and_is_detected_once():
     assert min(angles[1000:1200]) == pytest.approx(0.0, abs=1e-5)  # closed in the middle of the flick
     after = 1.0 + scenario.click_duration + 0.001
     assert trajectory.gripper(after) == pytest.approx(0.25 + 0.125 * (after - 1.0))  # back on the keyframe line
-    detector = ClickDetector(ClickParameters())
+    detector = ClickDetector(ClickParameters.from_yaml())
     for time, angle in zip(times, angles):
         detector.update(time, angle)
     assert detector.clicks == 1
@@ -252,8 +252,8 @@ def test_click_with_a_nearly_closed_gripper_is_refused_by_check_clicks():
         source="low.yaml",
     )
     with pytest.raises(ScenarioError, match=r"^low.yaml:3: keyframes\[1\].click: this flick would not be detected"):
-        check_clicks(scenario, ClickParameters())
-    check_clicks(scenario, ClickParameters(close_threshold=0.05, release_threshold=0.1))
+        check_clicks(scenario, ClickParameters.from_yaml())
+    check_clicks(scenario, ClickParameters.from_yaml(close_threshold=0.05, release_threshold=0.1))
 
 
 def test_missing_file_is_a_scenario_error(tmp_path):
@@ -264,14 +264,14 @@ def test_missing_file_is_a_scenario_error(tmp_path):
 @pytest.mark.parametrize("name", ["example", "click_demo"])
 def test_shipped_scenarios_are_valid(name):
     scenario = load_scenario(ROOT / "config" / "scenarios" / f"{name}.yaml")
-    check_clicks(scenario, ClickParameters())
+    check_clicks(scenario, ClickParameters.from_yaml())
     assert scenario.click_times()
 
 
 def test_click_demo_gives_three_clicks_and_no_click_for_the_slow_grip():
     scenario = load_scenario(ROOT / "config" / "scenarios" / "click_demo.yaml")
     trajectory = ScenarioTrajectory(scenario)
-    detector = ClickDetector(ClickParameters())
+    detector = ClickDetector(ClickParameters.from_yaml())
     for time in np.arange(0.0, scenario.duration + 0.5, 0.001):
         detector.update(time, trajectory.gripper(time))
     assert detector.clicks == 3

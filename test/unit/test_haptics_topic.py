@@ -73,7 +73,7 @@ def test_with_the_hand_model_the_input_is_the_intention():
     clock = Clock()
     device = TopicInput(timeout=10.0, gripper=0.25, clock=clock)
     device.pose((0.04, 0.0, 0.0), IDENTITY)
-    hand = HandModelBackend(device, HandParameters())
+    hand = HandModelBackend(device, HandParameters.from_yaml())
     hand.read(0.0)
     device.pose((0.0, 0.0, 0.0), IDENTITY)  # the operator means to move back to the origin
     hand.render(Wrench.zero())

@@ -84,7 +84,7 @@ def test_mouse_drag_moves_x_and_y(window):
 
 
 def test_space_is_one_click_for_the_click_detector(window):
-    detector = ClickDetector(ClickParameters())
+    detector = ClickDetector(ClickParameters.from_yaml())
     clock = window.clock
 
     def run_for(seconds):
@@ -128,7 +128,7 @@ def test_enter_is_a_double_click_for_the_gui(window):
     from teleteach.core.gui_config import GuiConfig
     from teleteach.gui.device import ClickClassifier, EdgeDetector
 
-    detector, button = ClickDetector(ClickParameters()), EdgeDetector(0.5, 0.5)
+    detector, button = ClickDetector(ClickParameters.from_yaml()), EdgeDetector(0.5, 0.5)
     classifier = ClickClassifier(GuiConfig.load().double_click_window)
     clock, kinds = window.clock, []
     QTest.keyClick(window, QtCore.Qt.Key_Return)

@@ -10,6 +10,7 @@ from teleteach.learning.dmp import DMP, SPDDMP, Basis, DMPParameters, Regression
 from teleteach.learning.synthetic import minimum_jerk_between
 
 DT = 0.02
+TEN = DMPParameters.from_yaml(basis_count=10)  # a small basis, where the fit itself does not matter
 
 
 def smooth_curve(times):
@@ -41,7 +42,7 @@ def assert_all_spd(matrices):
 def test_dmp_reproduces_a_smooth_demonstration_and_keeps_its_shape_with_a_new_duration():
     times = np.arange(0.0, 12.0 + DT / 2, DT)
     demo = smooth_curve(times)
-    model = DMP.learn(times, demo, DMPParameters(basis_count=30))
+    model = DMP.learn(times, demo, DMPParameters.from_yaml(basis_count=30))
     reproduced_times, reproduced = model.rollout(dt=DT)
     np.testing.assert_allclose(reproduced_times, times, atol=1e-9)
     assert np.abs(reproduced - demo).max() < 2e-3 * np.abs(demo).max()
@@ -53,7 +54,7 @@ def test_dmp_reproduces_a_smooth_demonstration_and_keeps_its_shape_with_a_new_du
 
 def test_dmp_goal_switching_converges_to_the_new_goal():
     times = np.arange(0.0, 10.0 + DT / 2, DT)
-    model = DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=25))
+    model = DMP.learn(times, smooth_curve(times), DMPParameters.from_yaml(basis_count=25))
     new_goal = np.array([0.2, -0.1, 0.7])
     _, trajectory = model.rollout(duration=30.0, dt=DT, switch=(4.0, new_goal))
     np.testing.assert_allclose(trajectory[-1], new_goal, atol=1e-3)
@@ -65,7 +66,7 @@ def test_dmp_goal_switching_converges_to_the_new_goal():
 def test_spd_dmp_reproduces_a_smooth_demonstration(size):
     times = np.arange(0.0, 12.0 + DT / 2, DT)
     demo = smooth_spd_demo(times, size)
-    model = SPDDMP.learn(times, demo, DMPParameters(basis_count=40))
+    model = SPDDMP.learn(times, demo, DMPParameters.from_yaml(basis_count=40))
     reproduced_times, reproduced = model.rollout(dt=DT)
     assert reproduced.shape == demo.shape
     errors = spd.distance(demo, reproduced)
@@ -78,7 +79,7 @@ def test_spd_dmp_reproduces_a_smooth_demonstration(size):
 def test_spd_dmp_with_a_new_duration_and_goal():
     times = np.arange(0.0, 12.0 + DT / 2, DT)
     demo = smooth_spd_demo(times)
-    model = SPDDMP.learn(times, demo, DMPParameters(basis_count=40))
+    model = SPDDMP.learn(times, demo, DMPParameters.from_yaml(basis_count=40))
     slow_times, slow = model.rollout(duration=18.0, dt=DT)
     index = np.round(slow_times / 1.5 / DT).astype(int)
     assert spd.distance(slow, demo[index]).max() < 0.05
@@ -91,7 +92,7 @@ def test_spd_dmp_with_a_new_duration_and_goal():
 @pytest.mark.parametrize("size", [2, 3])
 def test_spd_dmp_goal_switching_converges_to_the_new_goal(size):
     times = np.arange(0.0, 10.0 + DT / 2, DT)
-    model = SPDDMP.learn(times, smooth_spd_demo(times, size), DMPParameters(basis_count=30))
+    model = SPDDMP.learn(times, smooth_spd_demo(times, size), DMPParameters.from_yaml(basis_count=30))
     new_goal = stiffness(2000, 400, 800, np.radians(-30.0))[:size, :size]
     switched_times, switched = model.rollout(duration=30.0, dt=DT, switch=(5.0, new_goal))
     assert spd.distance(switched[-1], new_goal) < 1e-2
@@ -125,7 +126,7 @@ def test_spd_dmp_stays_spd_on_adversarial_data(condition):
     demo = adversarial_demo(times, rng, condition)
     assert np.linalg.cond(demo).max() > 0.5 * condition
     for basis_count in (5, 40):
-        model = SPDDMP.learn(times, demo, DMPParameters(basis_count=basis_count, alpha_z=100.0))
+        model = SPDDMP.learn(times, demo, DMPParameters.from_yaml(basis_count=basis_count, alpha_z=100.0))
         for rollout in (
             model.rollout(dt=DT),
             model.rollout(duration=2.0, dt=DT),
@@ -139,39 +140,39 @@ def test_spd_dmp_stays_spd_on_abrupt_steps_2x2():
     times = np.arange(0.0, 6.0 + DT / 2, DT)
     levels = np.where((times // 0.5) % 2 == 0, 1.0, 1e-8)
     demo = np.array([np.diag([level, 1.0]) for level in levels]) * 500.0
-    model = SPDDMP.learn(times, demo, DMPParameters(basis_count=12))
+    model = SPDDMP.learn(times, demo, DMPParameters.from_yaml(basis_count=12))
     assert_all_spd(model.rollout(dt=DT)[1])
 
 
 def test_models_round_trip_through_their_description():
     times = np.arange(0.0, 5.0 + DT / 2, DT)
-    model = SPDDMP.learn(times, smooth_spd_demo(times, 2), DMPParameters(basis_count=10))
+    model = SPDDMP.learn(times, smooth_spd_demo(times, 2), DMPParameters.from_yaml(basis_count=10))
     copy = SPDDMP.from_dict(model.to_dict())
     np.testing.assert_allclose(copy.rollout(dt=DT)[1], model.rollout(dt=DT)[1], rtol=1e-12)
-    euclidean = DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=10))
+    euclidean = DMP.learn(times, smooth_curve(times), DMPParameters.from_yaml(basis_count=10))
     np.testing.assert_allclose(DMP.from_dict(euclidean.to_dict()).rollout(dt=DT)[1], euclidean.rollout(dt=DT)[1])
 
 
 def test_bad_parameters_and_grids_are_rejected():
     with pytest.raises(ValueError, match="basis_count"):
-        DMPParameters(basis_count=1)
-    assert DMPParameters(basis_count=2).basis_count == 2
+        DMPParameters.from_yaml(basis_count=1)
+    assert DMPParameters.from_yaml(basis_count=2).basis_count == 2
     with pytest.raises(ValueError, match="alpha_z"):
-        DMPParameters(alpha_z=-1.0)
+        DMPParameters.from_yaml(basis_count=10, alpha_z=-1.0)
     for name in ("alpha_z", "alpha_x", "width", "alpha_goal"):
         with pytest.raises(ValueError, match=f"^{name} must be finite and > 0, got 0.0$"):
-            DMPParameters(**{name: 0.0})
+            DMPParameters.from_yaml(basis_count=10, **{name: 0.0})
     for ridge in (0.0, -1.0, np.inf):
         with pytest.raises(ValueError, match=f"^ridge must be finite and > 0, got {ridge}$"):
-            DMPParameters(ridge=ridge)
+            DMPParameters.from_yaml(basis_count=10, ridge=ridge)
     times = np.array([0.0, 0.1, 0.3, 0.4])
     with pytest.raises(ValueError, match="uniform"):
-        DMP.learn(times, np.zeros((4, 1)))
+        DMP.learn(times, np.zeros((4, 1)), TEN)
     with pytest.raises(ValueError, match="at least 3"):
-        DMP.learn(np.array([0.0, 1.0]), np.zeros((2, 1)))
+        DMP.learn(np.array([0.0, 1.0]), np.zeros((2, 1)), TEN)
     grid = np.arange(5) * 0.1
     with pytest.raises(spd.SPDError, match="sample 2 is not positive definite"):
-        SPDDMP.learn(grid, np.array([np.eye(2), np.eye(2), np.diag([1.0, -1.0]), np.eye(2), np.eye(2)]))
+        SPDDMP.learn(grid, np.array([np.eye(2), np.eye(2), np.diag([1.0, -1.0]), np.eye(2), np.eye(2)]), TEN)
 
 
 def dense_features(phase, parameters):
@@ -187,7 +188,7 @@ def dense_features(phase, parameters):
 
 @pytest.mark.parametrize("basis_count, width", [(30, 0.75), (150, 0.75), (40, 0.4), (20, 2.0)])
 def test_sparse_features_are_eq_c4_with_all_basis_functions(basis_count, width):
-    parameters = DMPParameters(basis_count=basis_count, width=width)
+    parameters = DMPParameters.from_yaml(basis_count=basis_count, width=width)
     basis = Basis(parameters)
     # from the start of a demonstration to twice its duration (a rollout may run past tau)
     phase = basis.phase(np.linspace(0.0, 2.0, 801), 1.0)
@@ -224,7 +225,7 @@ def test_uniform_step_takes_three_samples_and_refuses_a_still_or_jittered_grid()
 
 def test_a_demonstration_learns_the_same_whenever_it_was_recorded():
     times = np.arange(0.0, 6.0 + DT / 2, DT)
-    parameters = DMPParameters(basis_count=20)
+    parameters = DMPParameters.from_yaml(basis_count=20)
     # recordings carry ROS time stamps: learning from t = 100 s must give the model learned from t = 0
     for kind, demo in ((DMP, smooth_curve(times)), (SPDDMP, smooth_spd_demo(times, 2))):
         at_zero, later = kind.learn(times, demo, parameters), kind.learn(times + 100.0, demo, parameters)
@@ -236,13 +237,13 @@ def test_a_demonstration_learns_the_same_whenever_it_was_recorded():
 def test_a_dmp_starts_where_its_demonstration_starts_and_heads_for_where_it_ends():
     times = np.arange(0.0, 6.0 + DT / 2, DT)
     demo = smooth_curve(times) + np.array([0.0, 0.05, 0.0]) * times[:, None]  # moving at the start
-    model = DMP.learn(times, demo, DMPParameters(basis_count=20))
+    model = DMP.learn(times, demo, DMPParameters.from_yaml(basis_count=20))
     np.testing.assert_array_equal(model.start, demo[0])
     np.testing.assert_array_equal(model.goal, demo[-1])
     # z(0) = tau y'(0), the demonstration's first velocity (one-sided difference)
     np.testing.assert_allclose(model.start_velocity, 6.0 * (demo[1] - demo[0]) / DT, rtol=1e-9)
     matrices = smooth_spd_demo(times, 2)
-    spd_model = SPDDMP.learn(times, matrices, DMPParameters(basis_count=20))
+    spd_model = SPDDMP.learn(times, matrices, DMPParameters.from_yaml(basis_count=20))
     np.testing.assert_array_equal(spd_model.start, matrices[0])
     np.testing.assert_array_equal(spd_model.goal, matrices[-1])
     first_velocity = spd.mandel(spd.Frame(matrices[0]).log(matrices[1])) / DT
@@ -251,7 +252,7 @@ def test_a_dmp_starts_where_its_demonstration_starts_and_heads_for_where_it_ends
 
 def test_a_dmp_rolls_out_to_a_new_goal_and_samples_where_asked():
     times = np.arange(0.0, 10.0 + DT / 2, DT)
-    model = DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=25))
+    model = DMP.learn(times, smooth_curve(times), DMPParameters.from_yaml(basis_count=25))
     new_goal = [0.45, 0.05, 0.3]
     _, moved = model.rollout(goal=new_goal, dt=DT)
     np.testing.assert_allclose(moved[-1], new_goal, atol=2e-3)
@@ -265,7 +266,9 @@ def test_a_dmp_rolls_out_to_a_new_goal_and_samples_where_asked():
         np.testing.assert_allclose(sample, fine[np.argmin(np.abs(fine_times - time))], atol=2e-3)
     short_times, short = model.rollout(duration=0.01, dt=DT)  # shorter than one step: its start and its end
     assert short_times.tolist() == [0.0, 0.01] and len(short) == 2
-    assert np.diff(SPDDMP.learn(times, smooth_spd_demo(times, 2)).rollout()[0]) == pytest.approx(0.02)
+    assert np.diff(
+        SPDDMP.learn(times, smooth_spd_demo(times, 2), DMPParameters.from_yaml(basis_count=150)).rollout()[0]
+    ) == pytest.approx(0.02)
 
 
 @pytest.mark.parametrize(
@@ -279,7 +282,7 @@ def test_a_dmp_rolls_out_to_a_new_goal_and_samples_where_asked():
 )
 def test_a_rollout_refuses_a_bad_duration_or_step(duration, dt, refusal):
     times = np.arange(0.0, 2.0 + DT / 2, DT)
-    model = DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=10))
+    model = DMP.learn(times, smooth_curve(times), DMPParameters.from_yaml(basis_count=10))
     with pytest.raises(ValueError, match=f"^{refusal}$"):
         model.rollout(duration=duration, dt=dt)
     assert model.rollout(duration=0.5, dt=DT)[0][-1] == pytest.approx(0.5)  # half a second is a duration
@@ -288,8 +291,8 @@ def test_a_rollout_refuses_a_bad_duration_or_step(duration, dt, refusal):
 def test_models_name_their_type_and_what_was_wrong():
     times = np.arange(0.0, 2.0 + DT / 2, DT)
     matrices = smooth_spd_demo(times, 2)
-    assert DMP.learn(times, smooth_curve(times), DMPParameters(basis_count=10)).to_dict()["type"] == "dmp"
-    model = SPDDMP.learn(times, matrices, DMPParameters(basis_count=10))
+    assert DMP.learn(times, smooth_curve(times), DMPParameters.from_yaml(basis_count=10)).to_dict()["type"] == "dmp"
+    model = SPDDMP.learn(times, matrices, DMPParameters.from_yaml(basis_count=10))
     description = model.to_dict()
     assert description["type"] == "spd_dmp"
     not_spd = np.diag([1.0, -1.0])
@@ -297,9 +300,9 @@ def test_models_name_their_type_and_what_was_wrong():
         with pytest.raises(spd.SPDError, match=f"^{name} sample 0 is not positive definite"):
             SPDDMP.from_dict(dict(description, **{key: not_spd.tolist()}))
     with pytest.raises(spd.SPDError, match="^stiffness sample 1 is not symmetric"):
-        SPDDMP.learn(times[:3], np.array([np.eye(2), [[1.0, 0.5], [0.0, 1.0]], np.eye(2)]))
+        SPDDMP.learn(times[:3], np.array([np.eye(2), [[1.0, 0.5], [0.0, 1.0]], np.eye(2)]), TEN)
     with pytest.raises(ValueError, match=r"^need one matrix per time sample, got \(100, 2, 2\) for 101 times$"):
-        SPDDMP.learn(times, matrices[:-1])
+        SPDDMP.learn(times, matrices[:-1], TEN)
     with pytest.raises(spd.SPDError, match="^goal stiffness sample 0 is not positive definite"):
         model.rollout(goal=not_spd)
     with pytest.raises(ValueError, match=r"^goal must be 2x2, got \(3, 3\)$"):
@@ -315,10 +318,10 @@ def test_a_coarse_demonstration_is_reproduced_on_its_own_grid():
     times = np.arange(0.0, 4.0 + step / 2, step)
     s = times / times[-1]
     curve = np.column_stack([np.sin(2.0 * s), s**2])
-    model = DMP.learn(times, curve, DMPParameters(basis_count=10))
+    model = DMP.learn(times, curve, DMPParameters.from_yaml(basis_count=10))
     assert np.abs(model.rollout(dt=step)[1] - curve).max() < 1e-2  # about 5e-3; tau one step short: 4e-2
     start = np.diag([400.0, 900.0])
     direction = np.array([[0.5, 0.3], [0.3, -0.4]])
     geodesic = np.array([spd.Frame(start).exp(fraction * direction) for fraction in s])
-    spd_model = SPDDMP.learn(times, geodesic, DMPParameters(basis_count=10))
+    spd_model = SPDDMP.learn(times, geodesic, DMPParameters.from_yaml(basis_count=10))
     assert spd.distance(spd_model.rollout(dt=step)[1], geodesic).max() < 1e-5  # about 3e-6; a still last sample: 4e-5

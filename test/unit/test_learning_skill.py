@@ -49,7 +49,7 @@ def test_a_gui_rate_demonstration_is_reproduced_within_the_targets(learned, gui_
 def test_learning_without_recovering_gui_samples_and_smoothing_is_worse(gui_rate_demo):
     """The thesis' situation: the staircase fitted as it is with its default gains (N = 40 for the whole demo)."""
     skill, _, _ = gui_rate_demo
-    thesis = LearningParameters(smoothing=0.0, basis_per_second=40 / 30.0, alpha_z=16.0)
+    thesis = LearningParameters.from_yaml(smoothing=0.0, basis_per_second=40 / 30.0, alpha_z=16.0)
     ours = learn_skill(skill, "A").error()
     theirs = learn_skill(skill, "B", thesis).error()
     assert theirs["max_relative"] > ours["max_relative"]

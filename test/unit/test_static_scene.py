@@ -1,12 +1,16 @@
 """static_scene's belief (teleteach.perception.static): the scene file's objects, the grasped product following the
 hand until the fingers open, nothing attached without a product at the TCP."""
 
+import dataclasses
+
 import numpy as np
 import pytest
+import yaml
 from scipy.spatial.transform import Rotation
 
+from teleteach.core.paths import config_file
 from teleteach.core.scene import load_objects
-from teleteach.perception.static import StaticScene
+from teleteach.perception.static import StaticScene, StaticSceneConfig
 
 DOWN = Rotation.from_euler("x", np.pi)  # TCP z pointing down
 HOLD = np.array([0.0, 0.0, 0.035])  # [m] the TCP above a held product's centre
@@ -52,3 +56,14 @@ def test_nothing_is_attached_without_a_product_at_the_tcp_or_while_one_is_held(s
     other = np.array(load_objects().products[0].position)
     assert scene.grasped(other + HOLD, DOWN.as_quat(), 0.05) is None
     assert scene.held.name == "product_pick_2"
+
+
+def test_the_node_s_parameters_are_its_yaml_and_a_bad_one_is_named():
+    values = yaml.safe_load(config_file("static_scene.yaml").read_text())
+    config = StaticSceneConfig.from_mapping(values)
+    assert dataclasses.asdict(config) == dict(values, finger_joints=tuple(values["finger_joints"]))
+    with pytest.raises(ValueError, match=r"^~rate must be a positive number of Hz, got 0.0$"):
+        StaticSceneConfig.from_mapping(dict(values, rate=0.0))
+    del values["release_margin"]
+    with pytest.raises(ValueError, match=r"\(config/static_scene.yaml\): missing release_margin; unknown x$"):
+        StaticSceneConfig.from_mapping(dict(values, x=1))

@@ -13,16 +13,43 @@ commit 44069fd06e5b2d315084b3551c2d40a82c8b483d; 2443322 of 2024-05-14 removed i
 A diagonal cannot hold a turned ellipsoid. The bridge sends the diagonal of the thesis' K = V Sigma V^T (eq 1) and
 K_R = V K_R V^T (eq 4), i.e. the stiffness along each base axis, and reports the largest off-diagonal term it left out:
 exact for ellipsoids aligned with the base axes (in any order), an approximation otherwise.
+
+The bridge's parameters are :class:`StiffnessBridgeConfig`, every value from config/stiffness_bridge.yaml.
 """
 
-from typing import Tuple
+from dataclasses import dataclass
+from typing import Any, Mapping, Tuple
 
 import numpy as np
 
 from teleteach.control.stiffness import TRANSLATIONAL, stiffness_matrix
 from teleteach.core import validation
+from teleteach.core.parameters import from_mapping
 
 STIFFNESS_VALUES = 7  # Kx, Ky, Kz [N/m], Krx, Kry, Krz [Nm/rad], nullspace [Nm/rad]
+
+
+@dataclass(frozen=True)
+class StiffnessBridgeConfig:
+    """stiffness_bridge's parameters: config/stiffness_bridge.yaml's keys (the one place of values and meanings).
+
+    Args:
+        frame: the frame the eigen topics may name (empty is accepted too); the controller's base frame must be
+            parallel to it.
+        max_stiffness: largest principal stiffness sent [N/m].
+        rotational_stiffness: K_R on each rotational axis [Nm/rad].
+        nullspace_stiffness: the controller's nullspace stiffness [Nm/rad].
+    """
+
+    frame: str
+    max_stiffness: float
+    rotational_stiffness: float
+    nullspace_stiffness: float
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> "StiffnessBridgeConfig":
+        """From the yaml's keys, each perhaps overridden; a missing or unknown key is named."""
+        return from_mapping(cls, values, "stiffness_bridge's parameters (config/stiffness_bridge.yaml)")
 
 
 def franka_stiffness(

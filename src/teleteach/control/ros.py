@@ -7,7 +7,7 @@ import rospy
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from std_msgs.msg import Float32MultiArray, MultiArrayDimension
 
-from teleteach.control.franka_stiffness import STIFFNESS_VALUES, franka_stiffness
+from teleteach.control.franka_stiffness import STIFFNESS_VALUES, StiffnessBridgeConfig, franka_stiffness
 from teleteach.core.validation import (
     InvalidCommandError,
     check_frame,
@@ -27,21 +27,17 @@ class StiffnessBridgeNode:
     stiffness.
 
     Args:
-        frame: the frame the eigen topics may name (empty is accepted too); the controller's base frame must be
-            parallel to it.
-        max_stiffness: largest principal stiffness sent [N/m].
-        rotational_stiffness: K_R on each rotational axis [Nm/rad].
-        nullspace_stiffness: the controller's nullspace stiffness [Nm/rad].
+        config: the frame, the largest principal stiffness, K_R, the nullspace stiffness (StiffnessBridgeConfig).
 
     ROS Subscribers: eigenvalues (geometry_msgs/Vector3Stamped), eigenvectors (geometry_msgs/QuaternionStamped).
     ROS Publishers: stiffness (std_msgs/Float32MultiArray, seven values).
     """
 
-    def __init__(self, frame: str, max_stiffness: float, rotational_stiffness: float, nullspace_stiffness: float):
-        self.frame = frame
-        self.max_stiffness = float(max_stiffness)
-        self.rotational_stiffness = float(rotational_stiffness)
-        self.nullspace_stiffness = float(nullspace_stiffness)
+    def __init__(self, config: StiffnessBridgeConfig):
+        self.frame = config.frame
+        self.max_stiffness = config.max_stiffness
+        self.rotational_stiffness = config.rotational_stiffness
+        self.nullspace_stiffness = config.nullspace_stiffness
         self.eigenvalues = None
         self.eigenvectors = None
         self.publisher = rospy.Publisher("stiffness", Float32MultiArray, queue_size=10)

@@ -6,6 +6,7 @@ In a source checkout (what a catkin devel space runs) they lie beside ``src/``; 
 
 import functools
 import pathlib
+import typing
 
 
 class PackageFilesError(RuntimeError):
@@ -32,3 +33,13 @@ def share_dir() -> pathlib.Path:
 def config_file(*parts: str) -> pathlib.Path:
     """A file of the package's config/ (e.g. ``config_file("scenarios", "thesis_full.yaml")``)."""
     return share_dir().joinpath("config", *parts)
+
+
+def config_values(name: str, *section: str) -> typing.Dict[str, typing.Any]:
+    """The values of config/<name> (the one place of a node's values), or of its nested ``section``."""
+    import yaml
+
+    values = yaml.safe_load(config_file(name).read_text()) or {}
+    for key in section:
+        values = values[key]
+    return dict(values)

@@ -8,7 +8,7 @@ virtual backends to script a click), so the two always agree.
 import dataclasses
 import enum
 import math
-from typing import Iterable, Optional, Tuple
+from typing import Iterable, Tuple
 
 
 @dataclasses.dataclass(frozen=True)
@@ -22,10 +22,10 @@ class ClickParameters:
         pulse_duration: [s] how long the button state stays True after a click.
     """
 
-    close_threshold: float = 0.1
-    release_threshold: float = 0.2
-    max_duration: float = 0.5
-    pulse_duration: float = 0.1
+    close_threshold: float
+    release_threshold: float
+    max_duration: float
+    pulse_duration: float
 
     def __post_init__(self):
         values = dataclasses.astuple(self)
@@ -41,6 +41,14 @@ class ClickParameters:
                 f"click durations must be positive, got max_duration {self.max_duration} s, "
                 f"pulse_duration {self.pulse_duration} s"
             )
+
+    @classmethod
+    def from_yaml(cls, **changes: float) -> "ClickParameters":
+        """config/device.yaml's ``click`` section, the one place of its values, with ``changes``."""
+        from teleteach.core.paths import config_values
+
+        values = config_values("device.yaml", "click")
+        return cls(**{**values, **changes})
 
 
 class _Phase(enum.Enum):
@@ -58,8 +66,8 @@ class ClickDetector:
     either threshold neither starts nor ends a gesture twice.
     """
 
-    def __init__(self, parameters: Optional[ClickParameters] = None):
-        self.parameters = parameters or ClickParameters()
+    def __init__(self, parameters: ClickParameters):
+        self.parameters = parameters
         self.clicks = 0
         self.reset()
 

@@ -137,11 +137,11 @@ class Wrench:
 class GuidanceLimits:
     """The node's own bounds (``config/device.yaml`` ``guidance``), never above the Sigma.7's."""
 
-    max_force: float = 4.0  # [N]
-    max_torque: float = 0.1  # [Nm]
-    max_gripper_force: float = 1.0  # [N]
-    ramp_time: float = 0.2  # [s]
-    stale_after: float = 0.5  # [s]
+    max_force: float  # [N]
+    max_torque: float  # [Nm]
+    max_gripper_force: float  # [N]
+    ramp_time: float  # [s]
+    stale_after: float  # [s]
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
@@ -158,6 +158,14 @@ class GuidanceLimits:
                 raise GuidanceError(
                     f"guidance {field} {getattr(self, field)} is above the Sigma.7's own limit of {limit}"
                 )
+
+    @classmethod
+    def from_yaml(cls, **changes: float) -> "GuidanceLimits":
+        """config/device.yaml's ``guidance`` section, the one place of its values, with ``changes``."""
+        from teleteach.core.paths import config_values
+
+        values = config_values("device.yaml", "guidance")
+        return cls(**{**values, **changes})
 
 
 def _nearest(detents: Sequence[float], position: float) -> float:

@@ -37,15 +37,15 @@ MAX_GAP = 0.5
 class HandParameters:
     """The hand's grip and the device's moving mass (``config/device.yaml`` ``hand``); tremor as RMS per axis."""
 
-    stiffness: float = 300.0  # [N/m]
-    damping: float = 12.0  # [N s/m]
-    mass: float = 0.3  # [kg]
-    angular_stiffness: float = 1.0  # [Nm/rad]
-    angular_damping: float = 0.04  # [Nm s/rad]
-    inertia: float = 0.001  # [kg m^2]
-    tremor_rms: float = 0.0  # [m]
-    drift_rms: float = 0.0  # [m]
-    seed: int = 0
+    stiffness: float  # [N/m]
+    damping: float  # [N s/m]
+    mass: float  # [kg]
+    angular_stiffness: float  # [Nm/rad]
+    angular_damping: float  # [Nm s/rad]
+    inertia: float  # [kg m^2]
+    tremor_rms: float  # [m]
+    drift_rms: float  # [m]
+    seed: int
 
     def __post_init__(self):
         for field in ("stiffness", "damping", "mass", "angular_stiffness", "angular_damping", "inertia"):
@@ -56,6 +56,15 @@ class HandParameters:
             value = getattr(self, field)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"hand {field} must be a number >= 0 [m], got {value}")
+
+    @classmethod
+    def from_yaml(cls, **changes) -> "HandParameters":
+        """config/device.yaml's ``hand`` section, the one place of its values, with ``changes``."""
+        from teleteach.core.paths import config_values
+
+        values = config_values("device.yaml", "hand")
+        del values["enabled"]  # whether the node models a hand, not the hand
+        return cls(**{**values, **changes})
 
 
 class Tremor:

@@ -164,8 +164,11 @@ class Sigma7Config:
         return from_mapping(cls, values, "sigma7_node's parameters (config/device.yaml)")
 
     @classmethod
-    def from_params(cls, get_param: Callable[[str, Any], Any]) -> "Sigma7Config":
-        """The yaml's keys, each overridden by its private parameter (``get_param(name, default)``: rospy's)."""
+    def from_params(cls, get_param: Optional[Callable[[str, Any], Any]] = None) -> "Sigma7Config":
+        """The yaml's keys, each overridden by its private parameter.
+
+        ``get_param(name, default)`` is rospy's, unless a test gives another parameter server.
+        """
         return cls.from_mapping(node_parameters("device.yaml", get_param))
 
 
@@ -295,6 +298,11 @@ class Sigma7Node:
         self._guidance_subscriber = rospy.Subscriber(
             "sigma7/guidance", HapticGuidance, self._on_guidance, queue_size=10
         )
+
+    @classmethod
+    def from_params(cls) -> "Sigma7Node":
+        """Build from the private parameters (config/device.yaml, :class:`Sigma7Config`)."""
+        return cls(Sigma7Config.from_params())
 
     def _on_guidance(self, message: HapticGuidance) -> None:
         """Render the new guidance, or refuse it (and render nothing) saying why."""

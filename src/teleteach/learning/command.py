@@ -31,7 +31,7 @@ ADD_SKILL_SERVICE = "behaviour_tree/add_skill"
 
 def parser() -> argparse.ArgumentParser:
     """The command line of ``learn_skill``."""
-    defaults = LearningParameters()
+    defaults = LearningParameters.from_yaml()
     result = argparse.ArgumentParser(
         prog="learn_skill",
         description="Learn a geometry-aware DMP stiffness skill from a taught skill (.npz) or from each demonstration "
@@ -218,7 +218,7 @@ def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
     if not name.isidentifier():
         raise LearningError(f"skill name {name!r} must be an identifier (letters, digits, _)")
     try:
-        parameters = LearningParameters(
+        parameters = LearningParameters.from_yaml(
             rate=arguments.rate,
             smoothing=arguments.smoothing,
             basis_per_second=arguments.basis_per_second,

@@ -29,11 +29,9 @@ from teleteach.learning import spd
 
 @dataclasses.dataclass
 class DMPParameters:
-    """Gains and basis of a DMP.
+    """Gains and basis of a DMP (the gains, width and ridge: config/learning.yaml, the one place of their values).
 
-    For skills, :class:`teleteach.learning.skill.LearningParameters` sets N from the demonstration's duration and
-    alpha_z from the sweep in ``bench/learning.py``; alpha_x, the width and the ridge are conventional values that the
-    sweep did not need to move (errors were far below the targets with them).
+    For skills, :class:`teleteach.learning.skill.LearningParameters` sets N from the demonstration's duration.
 
     Attributes:
         basis_count: N, number of Gaussian basis functions (eq C.4).
@@ -44,12 +42,12 @@ class DMPParameters:
         alpha_goal: gain of the goal filter used for goal switching.
     """
 
-    basis_count: int = 150
-    alpha_z: float = 48.0
-    alpha_x: float = 2.0
-    width: float = 0.75
-    ridge: float = 1e-6
-    alpha_goal: float = 20.0
+    basis_count: int
+    alpha_z: float
+    alpha_x: float
+    width: float
+    ridge: float
+    alpha_goal: float
 
     def __post_init__(self):
         if int(self.basis_count) < 2:
@@ -61,6 +59,15 @@ class DMPParameters:
         if not (np.isfinite(self.ridge) and self.ridge > 0):
             raise ValueError(f"ridge must be finite and > 0, got {self.ridge}")
         self.basis_count = int(self.basis_count)
+
+    @classmethod
+    def from_yaml(cls, basis_count: int, **changes: float) -> "DMPParameters":
+        """``basis_count`` functions, config/learning.yaml's gains, width and ridge, and ``changes``."""
+        from teleteach.core.paths import config_values
+
+        values = config_values("learning.yaml")
+        names = ("alpha_z", "alpha_x", "width", "ridge", "alpha_goal")
+        return cls(basis_count=basis_count, **{**{name: values[name] for name in names}, **changes})
 
     @property
     def beta_z(self) -> float:
@@ -211,16 +218,15 @@ class DMP(_Primitive):
         self.duration = float(duration)
 
     @classmethod
-    def learn(cls, times, trajectory, parameters: Optional[DMPParameters] = None, regression=None) -> "DMP":
+    def learn(cls, times, trajectory, parameters: DMPParameters, regression=None) -> "DMP":
         """Fit the forcing term to a demonstration sampled on a uniform grid.
 
         Args:
             times: (n,) uniform, increasing [s].
             trajectory: (n, dofs) or (n,).
-            parameters: gains and basis (defaults if None).
+            parameters: gains and basis.
             regression: :func:`demonstration_regression` of ``times`` (made if None; pass it to share it).
         """
-        parameters = parameters or DMPParameters()
         times = np.asarray(times, dtype=float)
         trajectory = np.asarray(trajectory, dtype=float).reshape(times.shape[0], -1)
         dt = uniform_step(times)
@@ -286,14 +292,13 @@ class SPDDMP(_Primitive):
         self.duration = float(duration)
 
     @classmethod
-    def learn(cls, times, matrices, parameters: Optional[DMPParameters] = None, regression=None) -> "SPDDMP":
+    def learn(cls, times, matrices, parameters: DMPParameters, regression=None) -> "SPDDMP":
         """Fit F(x) of eq C.6 to a demonstration of SPD matrices on a uniform grid.
 
         Velocities are central differences on the manifold, (Log_Xk(X_k+1) - Log_Xk(X_k-1)) / 2 dt, transported to
         the start X_1 and vectorised; accelerations are finite differences there (one common tangent space).
         ``regression`` as in :meth:`DMP.learn`.
         """
-        parameters = parameters or DMPParameters()
         times = np.asarray(times, dtype=float)
         matrices = spd.check_spd(matrices, "stiffness")
         if matrices.ndim != 3 or matrices.shape[0] != times.shape[0]:

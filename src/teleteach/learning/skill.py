@@ -17,6 +17,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from teleteach.core import skill_file
+from teleteach.core.parameters import from_mapping
+from teleteach.core.paths import config_values
 from teleteach.learning import spd
 from teleteach.learning.dmp import DMP, SPDDMP, DMPParameters, demonstration_regression
 from teleteach.learning.preprocess import Demonstration, LearningError, prepare, resample_geodesic
@@ -26,7 +28,9 @@ POSE_STREAMS = ("equilibrium_pose", "cartesian_pose")
 
 @dataclasses.dataclass
 class LearningParameters:
-    """Preprocessing and DMP settings; the defaults come from the sweep in ``bench/learning.py``.
+    """Preprocessing and DMP settings: config/learning.yaml's keys, the one place of their values.
+
+    The values come from the sweep in ``bench/learning.py``.
 
     Attributes:
         rate: uniform grid and reproduction rate [Hz].
@@ -37,24 +41,41 @@ class LearningParameters:
         alpha_z: spring gain (eq C.1, C.6); beta_z = alpha_z / 4.
         alpha_x: canonical system decay (eq C.3).
         alpha_goal: goal switching filter gain.
+        width: standard deviation of each Gaussian as a fraction of the spacing of the centres.
+        ridge: Tikhonov regularisation of the weight fit, relative to the mean diagonal of the normal matrix.
         recover_gui_samples: recover the GUI's samples from a zero-order-hold staircase (False: fit the staircase
             as recorded, the thesis' way, kept for comparison).
     """
 
-    rate: float = 50.0
-    smoothing: float = 0.05
-    basis_per_second: float = 6.0
-    min_basis: int = 10
-    max_basis: int = 1000
-    alpha_z: float = 48.0
-    alpha_x: float = 2.0
-    alpha_goal: float = 20.0
-    recover_gui_samples: bool = True
+    rate: float
+    smoothing: float
+    basis_per_second: float
+    min_basis: int
+    max_basis: int
+    alpha_z: float
+    alpha_x: float
+    alpha_goal: float
+    width: float
+    ridge: float
+    recover_gui_samples: bool
+
+    @classmethod
+    def from_yaml(cls, **changes: Any) -> "LearningParameters":
+        """config/learning.yaml's values, with ``changes``; a missing or unknown key is named."""
+        values = {**config_values("learning.yaml"), **changes}
+        return from_mapping(cls, values, "learn_skill's parameters (config/learning.yaml)")
 
     def dmp_parameters(self, duration: float) -> DMPParameters:
         """DMP gains and basis for a demonstration of ``duration`` [s]."""
         count = int(np.clip(round(duration * self.basis_per_second), self.min_basis, self.max_basis))
-        return DMPParameters(basis_count=count, alpha_z=self.alpha_z, alpha_x=self.alpha_x, alpha_goal=self.alpha_goal)
+        return DMPParameters(
+            basis_count=count,
+            alpha_z=self.alpha_z,
+            alpha_x=self.alpha_x,
+            width=self.width,
+            ridge=self.ridge,
+            alpha_goal=self.alpha_goal,
+        )
 
 
 class PoseDMP:
@@ -202,7 +223,7 @@ def learn(
     Raises:
         LearningError: naming the stream and the problem (too few samples, non-SPD, non-monotonic times, ...).
     """
-    parameters = parameters or LearningParameters()
+    parameters = parameters or LearningParameters.from_yaml()
     started, started_cpu = clock.perf_counter(), clock.process_time()
     demonstration = prepare(
         stiffness_times,

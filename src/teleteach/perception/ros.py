@@ -13,7 +13,7 @@ from visualization_msgs.msg import MarkerArray
 
 from teleteach.core.observed import WORLD_FRAME, scene_markers
 from teleteach.msg import GraspActionResult
-from teleteach.perception.static import StaticScene
+from teleteach.perception.static import StaticScene, StaticSceneConfig
 
 
 class StaticSceneNode:
@@ -47,15 +47,18 @@ class StaticSceneNode:
 
     @classmethod
     def from_params(cls) -> "StaticSceneNode":
-        """From the private parameters (defaults: config/static_scene.yaml); a bad scene file raises SceneError."""
+        """From the private parameters (config/static_scene.yaml, :class:`StaticSceneConfig`).
+
+        A bad parameter raises ValueError, a bad scene file SceneError (a ValueError), each naming it.
+        """
         from teleteach.core.scene import load_objects
         from teleteach.runtime.node import node_parameters
 
-        params = node_parameters("static_scene.yaml")
-        objects = load_objects(params["scene_file"] or None)
-        scene = StaticScene(objects, params["attach_distance"], params["release_margin"])
-        node = cls(scene, float(params["rate"]), params["tcp_frame"], params["finger_joints"])
-        source = params["scene_file"] or "config/supermarket.yaml"
+        config = StaticSceneConfig.from_mapping(node_parameters("static_scene.yaml"))
+        objects = load_objects(config.scene_file or None)
+        scene = StaticScene(objects, config.attach_distance, config.release_margin)
+        node = cls(scene, config.rate, config.tcp_frame, config.finger_joints)
+        source = config.scene_file or "config/supermarket.yaml"
         rospy.loginfo(f"static_scene: {len(objects.products)} products, {len(objects.gaps)} gaps from {source}")
         return node
 

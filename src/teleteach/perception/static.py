@@ -5,17 +5,40 @@ product's centre within ``attach_distance`` of the TCP attaches it (like MoveIt'
 the TCP, and it stays where it was when the fingers open more than ``release_margin`` beyond the width they held it at.
 This is a belief, not a measurement: a product that slips, falls or is moved by hand is not seen. The skills judge their
 success from it all the same, so on a real robot it must be right: the products and gaps of the file where they are.
+The node's parameters are :class:`StaticSceneConfig`, every value from config/static_scene.yaml.
 """
 
 from dataclasses import dataclass
-from typing import Dict, Optional, Tuple
+from typing import Any, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from teleteach.core.observed import ObservedScene, observed_from_scene
+from teleteach.core.parameters import from_mapping
 from teleteach.core.rotations import yaw_quaternion
 from teleteach.core.scene import SceneObjects
+
+
+@dataclass(frozen=True)
+class StaticSceneConfig:
+    """static_scene's parameters: config/static_scene.yaml's keys (the one place of values and meanings)."""
+
+    scene_file: str
+    rate: float
+    tcp_frame: str
+    finger_joints: Tuple[str, ...]
+    attach_distance: float
+    release_margin: float
+
+    def __post_init__(self):
+        if not self.rate > 0.0:
+            raise ValueError(f"~rate must be a positive number of Hz, got {self.rate}")
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> "StaticSceneConfig":
+        """From the yaml's keys, each perhaps overridden; a missing or unknown key is named."""
+        return from_mapping(cls, values, "static_scene's parameters (config/static_scene.yaml)")
 
 
 @dataclass(frozen=True)

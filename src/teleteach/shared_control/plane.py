@@ -22,10 +22,10 @@ class TaskPlane:
         orientation: end-effector orientation quaternion (x, y, z, w) in base_link.
     """
 
-    origin: Sequence[float] = (0.5, 0.0, 0.4)
-    x_axis: Sequence[float] = (0.0, 1.0, 0.0)
-    y_axis: Sequence[float] = (0.0, 0.0, 1.0)
-    orientation: Sequence[float] = (0.0, 0.7071067811865476, 0.0, 0.7071067811865476)
+    origin: Sequence[float]
+    x_axis: Sequence[float]
+    y_axis: Sequence[float]
+    orientation: Sequence[float]
 
     def __post_init__(self):
         origin = np.asarray(self.origin, dtype=float)
@@ -62,5 +62,5 @@ class TaskPlane:
 
     @classmethod
     def from_params(cls, params: dict) -> "TaskPlane":
-        """From the node's ``plane`` parameter (missing keys take the defaults)."""
+        """From the node's ``plane`` parameter: its four keys (config/shared_control.yaml; a missing one: TypeError)."""
         return cls(**{key: params[key] for key in ("origin", "x_axis", "y_axis", "orientation") if key in params})

@@ -8,17 +8,20 @@ robot:
     diameter_i = clip(metres_per_stiffness * eigenvalue_i, min_diameter, max_diameter)
 
 With config/ellipsoid_marker.yaml's values (1e-4 m per N/m, 0.02 m .. 0.4 m) the GUI's maximum of 3000 N/m is a
-0.3 m diameter.
+0.3 m diameter. The node's parameters are :class:`EllipsoidMarkerConfig`, every value from that yaml.
 """
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Sequence, Tuple
+from typing import Any, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
+import yaml
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from visualization_msgs.msg import Marker
 
+from teleteach.core.parameters import from_mapping
+from teleteach.core.paths import config_file
 from teleteach.core.validation import (
     InvalidCommandError,
     check_frame,
@@ -61,9 +64,9 @@ class EllipsoidScale:
         max_diameter: largest drawn diameter [m].
     """
 
-    metres_per_stiffness: float = 1e-4
-    min_diameter: float = 0.02
-    max_diameter: float = 0.4
+    metres_per_stiffness: float
+    min_diameter: float
+    max_diameter: float
 
     def __post_init__(self):
         numbers = (self.metres_per_stiffness, self.min_diameter, self.max_diameter)
@@ -79,6 +82,41 @@ class EllipsoidScale:
         )
 
 
+@dataclass(frozen=True)
+class EllipsoidMarkerConfig:
+    """ellipsoid_marker's parameters: config/ellipsoid_marker.yaml's keys (the one place of values and meanings)."""
+
+    metres_per_stiffness: float
+    min_diameter: float
+    max_diameter: float
+    rate: float
+    frame_id: str
+
+    def __post_init__(self):
+        if not (math.isfinite(self.rate) and self.rate > 0.0):
+            raise ValueError(f"rate must be a finite number > 0 Hz, got {self.rate}")
+        self.scale  # noqa: B018 - a bad scale is refused here, with its reason
+
+    @property
+    def scale(self) -> EllipsoidScale:
+        """The stiffness-to-diameter map."""
+        return EllipsoidScale(self.metres_per_stiffness, self.min_diameter, self.max_diameter)
+
+    def builder(self) -> "EllipsoidMarkerBuilder":
+        """A builder of the marker with this scale, in this frame."""
+        return EllipsoidMarkerBuilder(self.scale, self.frame_id)
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> "EllipsoidMarkerConfig":
+        """From the yaml's keys, each perhaps overridden; a missing or unknown key is named."""
+        return from_mapping(cls, values, "ellipsoid_marker's parameters (config/ellipsoid_marker.yaml)")
+
+    @classmethod
+    def from_yaml(cls) -> "EllipsoidMarkerConfig":
+        """The yaml's values, as a node started without parameters has them."""
+        return cls.from_mapping(yaml.safe_load(config_file("ellipsoid_marker.yaml").read_text()))
+
+
 class EllipsoidMarkerBuilder:
     """Keeps the last good eigenvalues, eigenvectors and end-effector position, and builds the Marker from them.
 
@@ -88,7 +126,7 @@ class EllipsoidMarkerBuilder:
     must be in the base frame.
 
     Args:
-        scale: stiffness-to-diameter map (default :class:`EllipsoidScale`).
+        scale: stiffness-to-diameter map.
         frame_id: frame of the stiffness and of the end-effector pose (the robot base frame).
         rgba: marker colour; the thesis shows the commanded ellipsoid in red.
         namespace: marker namespace in RViz.
@@ -96,12 +134,12 @@ class EllipsoidMarkerBuilder:
 
     def __init__(
         self,
-        scale: Optional[EllipsoidScale] = None,
-        frame_id: str = "base_link",
+        scale: EllipsoidScale,
+        frame_id: str,
         rgba: Tuple[float, float, float, float] = (0.9, 0.1, 0.1, 0.6),
         namespace: str = "stiffness_ellipsoid",
     ):
-        self.scale = scale or EllipsoidScale()
+        self.scale = scale
         self.frame_id = frame_id
         self.rgba = rgba
         self.namespace = namespace

@@ -1,6 +1,5 @@
 """The ellipsoid marker's ROS layer: the commanded stiffness in, the RViz marker of ``viz.ellipsoid`` out."""
 
-import math
 import threading
 import time
 
@@ -11,7 +10,7 @@ from visualization_msgs.msg import Marker
 
 from teleteach.core.validation import InvalidCommandError
 from teleteach.runtime.node import node_parameters
-from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder, EllipsoidScale, drawn_as
+from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder, EllipsoidMarkerConfig, drawn_as
 
 
 class EllipsoidMarkerPublisher:
@@ -48,18 +47,11 @@ class EllipsoidMarkerPublisher:
 
     @classmethod
     def from_params(cls) -> "EllipsoidMarkerPublisher":
-        """Build from the private parameters (defaults: config/ellipsoid_marker.yaml)."""
-        params = node_parameters("ellipsoid_marker.yaml")
-        scale = EllipsoidScale(
-            metres_per_stiffness=float(params["metres_per_stiffness"]),
-            min_diameter=float(params["min_diameter"]),
-            max_diameter=float(params["max_diameter"]),
-        )
-        return cls(EllipsoidMarkerBuilder(scale, frame_id=params["frame_id"]), rate=float(params["rate"]))
+        """Build from the private parameters (config/ellipsoid_marker.yaml, :class:`EllipsoidMarkerConfig`)."""
+        config = EllipsoidMarkerConfig.from_mapping(node_parameters("ellipsoid_marker.yaml"))
+        return cls(config.builder(), config.rate)
 
     def __init__(self, builder: EllipsoidMarkerBuilder, rate: float):
-        if not (math.isfinite(rate) and rate > 0.0):
-            raise ValueError(f"rate must be a finite number > 0 Hz, got {rate}")
         self.builder = builder
         self.publisher = rospy.Publisher("visualization_marker", Marker, queue_size=1, latch=True)
         self._shown = None
