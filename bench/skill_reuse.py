@@ -31,7 +31,7 @@ from matplotlib.figure import Figure
 
 from teleteach.core import skill_file
 from teleteach.core.scene import load_scene
-from teleteach.run.trials import TrialJob, TrialSetup, run_trials, summarise
+from teleteach.run.trials import TrialJob, TrialSetup, add_engine_arguments, run_trials, summarise, trial_store
 
 BENCH = pathlib.Path(__file__).resolve().parent
 SKILL_FILE = BENCH / "data" / "DemonstratedPlace_1.npz"
@@ -68,10 +68,14 @@ def plot(results: dict, path: pathlib.Path) -> None:
     figure.savefig(path, dpi=110)
 
 
+def print_now(line: str) -> None:
+    print(line, flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=int, default=30, help="trials per gap (30)")
-    parser.add_argument("--processes", type=int, default=os.cpu_count() or 1, help="parallel simulations")
+    add_engine_arguments(parser, os.cpu_count() or 1)
     parser.add_argument("--skill", type=pathlib.Path, default=SKILL_FILE, help="the taught skill (in gap_1's frame)")
     options = parser.parse_args()
     started = time.perf_counter()
@@ -87,7 +91,8 @@ def main():
         for gap, base_pose in places
     ]
     print(f"{len(places)} gaps x {options.trials} trials on {options.processes} processes", flush=True)
-    trials = run_trials(jobs, options.processes, lambda line: print(line, flush=True))
+    store = trial_store(RESULTS, options)
+    trials = run_trials(jobs, options.processes, print_now, cluster=options.cluster, store=store)
     wall = time.perf_counter() - started
     sim_total = sum(trial["sim_s"] for group in trials.values() for trial in group)
     results = {

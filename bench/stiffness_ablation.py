@@ -35,7 +35,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import argparse
 import json
 import pathlib
-import tempfile
+import shutil
 import time
 from typing import Dict, List
 
@@ -57,7 +57,7 @@ from teleteach.run.ablation import (
     sweep_name,
     vertical_name,
 )
-from teleteach.run.trials import TrialJob, TrialSetup, run_trials, summarise
+from teleteach.run.trials import TrialJob, TrialSetup, add_engine_arguments, run_trials, summarise, trial_store
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 
 BENCH = pathlib.Path(__file__).resolve().parent
@@ -72,17 +72,29 @@ DEFAULT_TRIALS = 30
 
 
 def run_cells(
-    skills: Dict[str, skill_file.Skill], seeds: List[int], processes: int, uncertainty_file: pathlib.Path
+    skills: Dict[str, skill_file.Skill], seeds: List[int], options, results: pathlib.Path
 ) -> Dict[str, List[dict]]:
-    """Every cell's trials (one per seed), spread over processes; prints progress."""
-    with tempfile.TemporaryDirectory() as folder:
-        paths = {name: skill_file.save(skill, pathlib.Path(folder) / skill.name) for name, skill in skills.items()}
-        jobs = [
-            TrialJob(name, TrialSetup(PRODUCT, GAP, BASE_POSE, seed), str(paths[name]), GAP)
-            for seed in seeds
-            for name in skills
-        ]
-        return run_trials(jobs, processes, lambda line: print(line, flush=True), str(uncertainty_file))
+    """Every cell's trials (one per seed), on the pool or the cluster of ``options``; prints progress.
+
+    The cells' skill files are written next to ``results`` (hidden, the same paths every run): a run that continues
+    an interrupted one names the same files, so its stored trials are found (teleteach.run.engine).
+    """
+    folder = results.with_name(f".{results.stem}_skills")
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {name: skill_file.save(skill, folder / skill.name) for name, skill in skills.items()}
+    jobs = [
+        TrialJob(name, TrialSetup(PRODUCT, GAP, BASE_POSE, seed), str(paths[name]), GAP)
+        for seed in seeds
+        for name in skills
+    ]
+    store = trial_store(results, options)
+    trials = run_trials(jobs, options.processes, print_now, str(options.uncertainty), options.cluster, store)
+    shutil.rmtree(folder)
+    return trials
+
+
+def print_now(line: str) -> None:
+    print(line, flush=True)
 
 
 def plot(results: dict, path: pathlib.Path) -> None:
@@ -206,7 +218,7 @@ def main():
     parser.add_argument(
         "--trials", type=int, default=DEFAULT_TRIALS, help=f"trials per cell (default {DEFAULT_TRIALS})"
     )
-    parser.add_argument("--processes", type=int, default=os.cpu_count() or 1, help="parallel simulations")
+    add_engine_arguments(parser, os.cpu_count() or 1)
     parser.add_argument(
         "--tuning", action="store_true", help="run on the tuning seeds 0.. instead of the held-out ones"
     )
@@ -248,7 +260,8 @@ def main():
     first = 0 if options.tuning else REPORTED_SEEDS
     seeds = list(range(first, first + options.trials))
     print(f"{len(skills)} cells x {options.trials} trials on {options.processes} processes", flush=True)
-    trials = run_cells(skills, seeds, options.processes, options.uncertainty)
+    path = options.output or (RESULTS if not options.tuning else RESULTS.with_name("stiffness_ablation_tuning.json"))
+    trials = run_cells(skills, seeds, options, path)
     gap = scene.gap(GAP)
     sim_total = sum(trial["sim_s"] for cell in trials.values() for trial in cell)
     wall = time.perf_counter() - started
@@ -289,8 +302,6 @@ def main():
     print(f"\nreal-time factor per process: {results['real_time_factor']:.1f} ({wall / 60:.1f} min wall)")
     for line in results["goals"]:
         print(line)
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    path = options.output or (RESULTS if not options.tuning else RESULTS.with_name("stiffness_ablation_tuning.json"))
     path.write_text(json.dumps(results, indent=2))
     plot(results, path.with_suffix(".png"))
     print(f"wrote {path} and {path.with_suffix('.png')}")

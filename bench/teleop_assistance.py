@@ -34,7 +34,7 @@ from matplotlib.figure import Figure
 from teleteach.core.gui_config import GuiConfig
 from teleteach.core.scene import load_scene
 from teleteach.run.teleop_trials import OperatorModel, TeleopJob, summarise_forces
-from teleteach.run.trials import TrialSetup, run_trials
+from teleteach.run.trials import TrialSetup, add_engine_arguments, run_trials, trial_store
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "teleop_assistance.json"
 PRODUCT = "product_pick_1"
@@ -78,10 +78,14 @@ def plot(results: dict, path: pathlib.Path) -> None:
     figure.savefig(path, dpi=110)
 
 
+def print_now(line: str) -> None:
+    print(line, flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=int, default=20, help="trials per gap and condition (20)")
-    parser.add_argument("--processes", type=int, default=os.cpu_count() or 1, help="parallel simulations")
+    add_engine_arguments(parser, os.cpu_count() or 1)
     parser.add_argument("--gaps", nargs="+", default=["gap_1", "gap_3", "gap_4", "gap_5"], choices=sorted(BASE_POSES))
     parser.add_argument(
         "--uncertainty",
@@ -109,7 +113,8 @@ def main():
     ]
     print(f"{len(options.gaps)} gaps x 2 conditions x {options.trials} trials on {options.processes} processes")
     uncertainty = None if options.uncertainty is None else str(options.uncertainty)
-    trials = run_trials(jobs, options.processes, lambda line: print(line, flush=True), uncertainty)
+    store = trial_store(options.output, options)
+    trials = run_trials(jobs, options.processes, print_now, uncertainty, options.cluster, store)
     wall = time.perf_counter() - started
     results = {"gaps": {}, "settings": {}, "trials": trials}
     print(f"\nseeds {seeds[0]}-{seeds[-1]}; peak force on the neighbours per trial, mean and median [95 % interval]")

@@ -20,6 +20,7 @@ Developed on, held out: seeds 0-99 (--development) are the ones the task, the de
 and looked at with; the reported figures come from the held-out seeds 4900 and up, run once at the end.
 
     source build/env.sh && python bench/wiping_ablation.py [--trials 30] [--processes 2] [--development]
+        [--cluster ray://HOST:PORT | auto] [--fresh]
 """
 
 import os
@@ -36,7 +37,7 @@ from matplotlib.figure import Figure
 from teleteach.control.kinematics import PandaKinematics
 from teleteach.core.scene import DEFAULT_SCENE_FILE, load_scene
 from teleteach.run.provenance import provenance
-from teleteach.run.trials import add_trial_arguments, run_trials, trial_seeds
+from teleteach.run.trials import add_trial_arguments, run_trials, trial_seeds, trial_store
 from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
 from teleteach.wiping.ablation import BASE_POSE, CELLS, SURFACE, goals, jobs, operator_pattern, summarise_cell
@@ -46,6 +47,10 @@ BENCH = pathlib.Path(__file__).resolve().parent
 RESULTS = BENCH / "results" / "wiping_ablation.json"
 HELD_OUT_SEEDS = 4900  # trial k uses seed HELD_OUT_SEEDS + k; --development: seed k
 CONTACT_GOAL = 0.95  # [-] of the wipe's cycles in contact
+
+
+def print_now(line: str) -> None:
+    print(line, flush=True)
 
 
 def plot_forces(seed: int, path: pathlib.Path) -> None:
@@ -77,7 +82,10 @@ def main() -> int:
     seeds = trial_seeds(parser, arguments, HELD_OUT_SEEDS)
     config = load_wiping_config()
     start, origin = time.perf_counter(), provenance([DEFAULT_SCENE_FILE, DEFAULT_UNCERTAINTY_FILE, DEFAULT_WIPING_FILE])
-    trials = run_trials(jobs(seeds, config), arguments.processes, lambda line: print(line, flush=True))
+    path = RESULTS if not arguments.development else RESULTS.with_name("wiping_ablation_development.json")
+    store = trial_store(path, arguments)
+    work = jobs(seeds, config)
+    trials = run_trials(work, arguments.processes, print_now, cluster=arguments.cluster, store=store)
     cells = {name: summarise_cell(trials[name], CONTACT_GOAL) for name in CELLS}
     checks = goals(cells, CONTACT_GOAL)
     print(f"\n{arguments.trials} wipes per cell, seeds {seeds[0]}-{seeds[-1]}")
@@ -105,7 +113,6 @@ def main() -> int:
         "trials": trials,
         "provenance": {**origin, "wall_s": round(time.perf_counter() - start, 1)},
     }
-    path = RESULTS if not arguments.development else RESULTS.with_name("wiping_ablation_development.json")
     path.write_text(json.dumps(results, indent=1))
     plot_forces(seeds[0], path.with_suffix(".png"))
     print(f"wrote {path} and {path.with_suffix('.png')}")

@@ -34,7 +34,13 @@ import time
 import numpy as np
 
 from teleteach.run.provenance import provenance
-from teleteach.run.trials import add_trial_arguments, bootstrap_median_interval, run_trials, trial_seeds
+from teleteach.run.trials import (
+    add_trial_arguments,
+    bootstrap_median_interval,
+    run_trials,
+    trial_seeds,
+    trial_store,
+)
 from teleteach.shared_control.surface import load_wiping_config
 from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT
 from teleteach.wiping.assistance import CONFIG_FILES, AssistedWipeJob
@@ -135,6 +141,10 @@ def goals(summary: dict) -> list:
     ]
 
 
+def print_now(line: str) -> None:
+    print(line, flush=True)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_trial_arguments(parser, 20, least=2)
@@ -151,7 +161,9 @@ def main() -> int:
 
     jobs = [job("wipes", seed, False) for seed in seeds] + [job("edge", seed, True) for seed in edge_seeds]
     start, origin = time.perf_counter(), provenance(CONFIG_FILES)
-    trials = run_trials(jobs, arguments.processes, lambda line: print(line, flush=True))
+    path = RESULTS if not arguments.development else RESULTS.with_name("wiping_shared_control_development.json")
+    store = trial_store(path, arguments)
+    trials = run_trials(jobs, arguments.processes, print_now, cluster=arguments.cluster, store=store)
     rows, edge_rows = trials["wipes"], trials.get("edge", [])
     summary = summarise(rows)
     checks = goals(summary)
@@ -178,7 +190,6 @@ def main() -> int:
     for check in checks:
         print(f"  {'met' if check['met'] else 'NOT met'}: {check['goal']}: {check['measured']}")
     RESULTS.parent.mkdir(exist_ok=True)
-    path = RESULTS if not arguments.development else RESULTS.with_name("wiping_shared_control_development.json")
     results = {
         "settings": {
             "trials": arguments.trials,

@@ -43,6 +43,7 @@ from teleteach.run.trials import (
     bootstrap_median_interval,
     run_trials,
     trial_seeds,
+    trial_store,
     wilson_interval,
 )
 from teleteach.shared_control.loop import SharedControlConfig
@@ -138,6 +139,14 @@ def summarise_clutch(rows):
     }
 
 
+def print_now(line: str) -> None:
+    print(line, flush=True)
+
+
+def results_path(arguments) -> pathlib.Path:
+    return RESULTS if not arguments.development else RESULTS.with_name("wiping_skill_development.json")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_trial_arguments(parser, 10)
@@ -162,7 +171,9 @@ def main() -> int:
             for seed in seeds
             for skill in SKILLS
         ]
-        trials = run_trials(jobs, arguments.processes, lambda line: print(line, flush=True))
+        # the replays' skill file is learned anew in a temporary folder each run: only the clutch wipes resume
+        store = trial_store(results_path(arguments), arguments)
+        trials = run_trials(jobs, arguments.processes, print_now, cluster=arguments.cluster, store=store)
     clutch = {name: summarise_clutch(trials.pop(name)) for name in [f"clutch_{skill}" for skill in SKILLS]}
     cells = {name: summarise(rows) for name, rows in trials.items()}
     held_out = [cells[name] for name in boards if name != "taught"]
@@ -202,7 +213,7 @@ def main() -> int:
         "trials": trials,
         "provenance": {**origin, "wall_s": round(time.perf_counter() - start, 1)},
     }
-    path = RESULTS if not arguments.development else RESULTS.with_name("wiping_skill_development.json")
+    path = results_path(arguments)
     path.write_text(json.dumps(results, indent=1))
     print(f"wrote {path}")
     return 0

@@ -84,7 +84,7 @@ def test_bad_replay_parameters_are_refused(parameters, message):
 
 
 def test_replay_parameters_name_the_file_the_kind_and_the_target():
-    request = parse_replay_parameters("{data_file: ~/skills/Place.npz, kind: stiffness, target: gap_3}")
+    request = parse_replay_parameters("{data_file: ~/skills/Place.npz, kind: stiffness, target: gap_2}")
     assert request.path.name == "Place.npz" and not str(request.path).startswith("~")
-    assert (request.kind, request.target) == ("stiffness", "gap_3")
+    assert (request.kind, request.target) == ("stiffness", "gap_2")
     assert parse_replay_parameters("{data_file: Place.npz}").target is None

@@ -21,10 +21,10 @@ def straight(start, end, duration, name="demo", frame="base_link", target=None, 
 
 
 def test_a_saved_path_loads_back_with_its_spread(tmp_path):
-    path = straight([0.0, 0.0, 0.0], [0.1, 0.0, 0.0], 2.0, frame="target", target="gap_3")
+    path = straight([0.0, 0.0, 0.0], [0.1, 0.0, 0.0], 2.0, frame="target", target="gap_1")
     mean = mean_trajectory([path, path], "TaughtPath_1", points=11)
     loaded = Trajectory.load(mean.save(tmp_path / "TaughtPath_1.yaml"))
-    assert (loaded.name, loaded.frame, loaded.target, loaded.demonstrations) == ("TaughtPath_1", "target", "gap_3", 2)
+    assert (loaded.name, loaded.frame, loaded.target, loaded.demonstrations) == ("TaughtPath_1", "target", "gap_1", 2)
     np.testing.assert_allclose(loaded.positions, mean.positions, atol=1e-5)
     np.testing.assert_allclose(loaded.spread, np.zeros(11), atol=1e-9)
     np.testing.assert_allclose(loaded.sample(1.0), mean.sample(1.0), atol=1e-5)
@@ -71,8 +71,8 @@ def test_demonstrations_at_other_targets_are_not_averaged():
 def test_a_path_in_base_link_moves_into_the_gaps_frame():
     path = straight([0.5, 0.2, 0.8], [0.6, 0.2, 0.8], 1.0)
     gap = Transform.from_pose([0.6, 0.2, 0.8, *Rotation.from_euler("z", np.pi / 2).as_quat()])
-    relative = path.relative_to("gap_4", gap)
-    assert (relative.frame, relative.target) == ("target", "gap_4")
+    relative = path.relative_to("gap_2", gap)
+    assert (relative.frame, relative.target) == ("target", "gap_2")
     # Expect: the end at the gap's origin; the start 10 cm behind it along base x, which is the gap's -y
     np.testing.assert_allclose(relative.positions[-1], [0.0, 0.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(relative.positions[0], [0.0, 0.1, 0.0], atol=1e-12)

@@ -34,6 +34,11 @@ def _version(package: str) -> str:
         return "not installed"
 
 
+def commit() -> str:
+    """The commit this checkout is at (``unknown`` outside a git checkout)."""
+    return _git("rev-parse", "HEAD") or "unknown"
+
+
 def provenance(config_files: Iterable[pathlib.Path]) -> dict:
     """The provenance of a result whose run starts now (call it first: the code may change while a bench runs).
 
@@ -41,7 +46,7 @@ def provenance(config_files: Iterable[pathlib.Path]) -> dict:
     file read, the machine (cores, Python, key packages), the date; the bench adds its wall time [s] as ``wall_s``.
     """
     return {
-        "commit": _git("rev-parse", "HEAD") or "unknown",
+        "commit": commit(),
         "dirty": bool(_git("status", "--porcelain", "--untracked-files=no")),
         "command": [pathlib.Path(sys.argv[0]).name, *sys.argv[1:]],
         "config_sha256": {

@@ -15,7 +15,6 @@ its perceived scene).
 import collections
 import dataclasses
 import math
-import multiprocessing
 import pathlib
 import time
 from typing import Callable, Dict, List, Optional, Sequence
@@ -25,13 +24,13 @@ import pybullet
 from scipy.spatial.transform import Rotation
 
 from teleteach.control import panda
-from teleteach.control.kinematics import PandaKinematics
 from teleteach.core import placement
-from teleteach.core.scene import Scene, load_scene
+from teleteach.core.scene import Scene
+from teleteach.run.engine import run_jobs
 from teleteach.run.sim_robot import SimRobot
 from teleteach.sim.robot_sim import TRAJECTORY, RobotSim
-from teleteach.sim.uncertainty import UncertaintySettings, load_uncertainty
-from teleteach.skills.config import MotionConfig, load_motion_config
+from teleteach.sim.uncertainty import UncertaintySettings
+from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import TOP_DOWN
 from teleteach.skills.runner import REPLAY_SKILL, SkillRunner
 
@@ -294,56 +293,58 @@ class TrialJob:
         )
 
 
-_process: dict = {}
-
-
-def _start_process(uncertainty_file: Optional[str]) -> None:
-    scene = load_scene()
-    _process.update(
-        scene=scene,
-        config=load_motion_config(),
-        uncertainty=load_uncertainty(uncertainty_file),
-        kinematics=PandaKinematics(scene.robot.mount_height),
-    )
-
-
-def _run_job(job):
-    return job.group, job.run(_process)
-
-
 def run_trials(
     jobs: Sequence,
     processes: int,
     progress: Callable[[str], None] = print,
     uncertainty_file: Optional[str] = None,
+    cluster: Optional[str] = None,
+    store: Optional[pathlib.Path] = None,
 ) -> Dict[str, list]:
-    """Run every job on ``processes`` parallel simulations; returns each group's results, ordered by seed.
+    """Run every job; returns each group's results, ordered by seed.
 
-    A job has a ``group``, a ``setup`` and a ``run(process)`` (a TrialJob, or another kind of trial's job). Each process
+    A job has a ``group``, a ``setup`` and a ``run(process)`` (a TrialJob, or another kind of trial's job). Each worker
     loads the default scene, motion configuration and Panda kinematics once, and the uncertainty of
-    ``uncertainty_file`` (default: config/uncertainty.yaml).
+    ``uncertainty_file`` (default: config/uncertainty.yaml). The workers are ``processes`` local processes, or with
+    ``cluster`` (``ray://HOST:PORT`` or ``auto``) one per CPU of a Ray cluster; with ``store`` (a JSON-lines file) a
+    run continues with the trials an interrupted run stored there (teleteach.run.engine).
     """
-    load_uncertainty(uncertainty_file)  # a bad file is named here, once, not in every process
     results: Dict[str, List[dict]] = {job.group: [] for job in jobs}
-    step = max(1, len(jobs) // 20)
-    with multiprocessing.get_context("spawn").Pool(
-        processes, initializer=_start_process, initargs=(uncertainty_file,)
-    ) as pool:
-        for done, (group, result) in enumerate(pool.imap_unordered(_run_job, jobs), start=1):
-            results[group].append(result)
-            if done % step == 0 or done == len(jobs):
-                progress(f"  {done}/{len(jobs)} trials")
+    for job, result in run_jobs(jobs, processes, progress, uncertainty_file, cluster, store):
+        results[job.group].append(result)
     for group in results.values():
         group.sort(key=lambda trial: trial["seed"])
     return results
 
 
 def add_trial_arguments(parser, trials: int, least: int = 1) -> None:
-    """A bench's --trials (default ``trials``, at least ``least``), --processes and --development options."""
+    """A bench's --trials (default ``trials``, at least ``least``), --development and the engine's options."""
     parser.add_argument("--trials", type=int, default=trials, help=f"trials per cell (at least {least})")
-    parser.add_argument("--processes", type=int, default=2, help="parallel simulations")
     parser.add_argument("--development", action="store_true", help="seeds 0.. instead of the held-out ones")
     parser.set_defaults(least_trials=least)
+    add_engine_arguments(parser)
+
+
+def add_engine_arguments(parser, processes: int = 2) -> None:
+    """Where a bench's trials run: --processes (the local pool's size), --cluster (Ray), --fresh (no resuming)."""
+    parser.add_argument("--processes", type=int, default=processes, help="parallel simulations of the local pool")
+    parser.add_argument(
+        "--cluster",
+        metavar="ADDRESS",
+        help="run the trials on a Ray cluster: ray://HOST:PORT, or auto (the cluster this machine is a node of); "
+        "needs `scripts/setup --cluster` (docs/cluster.md)",
+    )
+    parser.add_argument(
+        "--fresh", action="store_true", help="run every trial, not continuing with those an interrupted run stored"
+    )
+
+
+def trial_store(results: pathlib.Path, arguments) -> pathlib.Path:
+    """The JSON-lines file where a bench writing ``results`` keeps its finished trials (emptied by --fresh)."""
+    path = results.with_name(f".{results.stem}.trials.jsonl")
+    if arguments.fresh:
+        path.unlink(missing_ok=True)
+    return path
 
 
 def trial_seeds(parser, arguments, held_out_first: int) -> List[int]:
