@@ -137,8 +137,6 @@ class MainWindow(QMainWindow):
             self.command,
             self.recorder,
             self.player.current,
-            self.topics.equilibrium,
-            self.path_recorder,
             adapters=[part.adapter for part in self.parts if part.adapter is not None],
         )
         self._build_window()
@@ -197,8 +195,6 @@ class MainWindow(QMainWindow):
         self.worker.health.connect(self._on_health, queued)
         self.worker.study_state.connect(self._on_study_state, queued)
         self.worker.execution_changed.connect(self._on_execution, queued)
-        self.worker.teleop_changed.connect(self.teleop.on_state, queued)
-        self.worker.authority_changed.connect(self.start_tab.show_authority, queued)
         self.thread.start()
 
     def _session_actions(self):

@@ -8,7 +8,6 @@ C.2), and samples the recording at the same instants; a device sample that chang
 the subscriber's thread, so the latency does not include waiting for the next tick.
 """
 
-import functools
 import math
 import threading
 import time
@@ -29,27 +28,20 @@ from teleteach.core.gui_config import GuiConfig
 from teleteach.core.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.core.questionnaire import Item
 from teleteach.core.study_phase import Phase, StudyView, known_phase
-from teleteach.core.teleoperation import ReplayCorrection, Teleoperation
 from teleteach.core.trajectories import Trajectory
-from teleteach.core.validation import InvalidCommandError
 from teleteach.gui.adapter import TabAdapter
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
-from teleteach.gui.recording import PathRecorder, StiffnessRecorder
+from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
-from teleteach.gui.start.view import AuthorityView
-from teleteach.gui.teleop.view import TeleopView
 from teleteach.msg import (
     BehaviourTree,
     HelpRequest,
-    SkillAuthority,
     SkillLibrary,
     StudyState,
     TreeExecution,
 )
 from teleteach.runtime.node import publish, shutting_down
-from teleteach.shared_control.placement import Opening, assist
-from teleteach.skills.config import load_motion_config
 
 
 def pose_to_array(pose) -> np.ndarray:
@@ -214,12 +206,12 @@ class RosWorker(QObject):
     Thesis Fig. A.1, orange block. The tabs' own topics are their adapters' (teleteach.gui.adapter).
 
     ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose and /joint_states (in
-    LOW-LEVEL, TELEOP and a tab whose adapter ``hears_arm``), /behaviour_tree/log/tree, /behaviour_tree/skill_library,
-    /behaviour_tree/help_request, /behaviour_tree/execution, study/state (a user study's state); in LOW-LEVEL,
-    teleteach/scene and TF world -> base_frame (the gap a target-frame trajectory places at). The tree's execution and
-    /joint_states tell whether the arm is free for the impedance controller.
-    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL, TELEOP or a tab whose adapter ``hears_arm`` is
-    active), /equilibrium_pose (in TELEOP, while the session holds the arm: where the device puts it).
+    LOW-LEVEL and a tab whose adapter ``hears_arm``), /behaviour_tree/log/tree, /behaviour_tree/skill_library,
+    /behaviour_tree/help_request, /behaviour_tree/execution, study/state (a user study's state); in LOW-LEVEL and a tab
+    whose adapter ``hears_scene``, teleteach/scene and TF world -> base_frame (the gap a target-frame trajectory places
+    at). The tree's execution and /joint_states tell whether the arm is free for the impedance controller.
+    ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL is active, or as a ``hears_arm`` adapter's ``tick``
+    sends them).
     """
 
     device_changed = pyqtSignal(object)  # DeviceSample, at most device_ui_rate
@@ -232,8 +224,6 @@ class RosWorker(QObject):
     study_state = pyqtSignal(object)  # StudyView of a user study (study/state)
     _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
     execution_changed = pyqtSignal(int, str)  # the tree's TreeExecution state and its message
-    teleop_changed = pyqtSignal(object)  # TeleopView: when the clutch or the reason changes, else at TELEOP_VIEW_RATE
-    authority_changed = pyqtSignal(object)  # AuthorityView: who leads the skill the robot replays (skills/authority)
 
     def __init__(
         self,
@@ -241,15 +231,12 @@ class RosWorker(QObject):
         command: EllipsoidCommand,
         recorder: StiffnessRecorder,
         equilibrium: Callable[[], Optional[np.ndarray]],
-        equilibrium_publisher: rospy.Publisher,
-        path_recorder: PathRecorder,
         adapters: Sequence[TabAdapter] = (),
     ):
         """The worker of the window.
 
         ``equilibrium``: the pose the player commands now (recorded with each stiffness sample), or None;
-        ``equilibrium_publisher``: /equilibrium_pose, where TELEOP sends the pose the device gives the arm;
-        ``path_recorder``: where TELEOP's poses go while its path is recorded; ``adapters``: the tabs' ROS sides, run
+        ``adapters``: the tabs' ROS sides, run
         in this worker's thread.
         """
         super().__init__()
@@ -287,26 +274,14 @@ class RosWorker(QObject):
         self._tf_listener: Optional[tf2_ros.TransformListener] = None
         self._execution: Optional[TreeExecution] = None
         self._arm_motion: Tuple[float, float] = (-math.inf, math.inf)  # (when, fastest joint speed [rad/s])
-        self._equilibrium_publisher = equilibrium_publisher
-        self.path_recorder = path_recorder
-        self.teleop = Teleoperation(config.teleop)
-        self._teleop_lock = threading.Lock()
-        self._teleop_driving = False  # TELEOP_ON: the session holds the arm and the device drives it
-        self._teleop_started = False  # the teleoperation holds a pose (the arm's, once /cartesian_pose came)
-        self._teleop_shown: Tuple[object, str, float] = (None, "", -math.inf)  # clutch, reason, when (monotonic)
         self._device_pose: Optional[tuple] = None  # the newest /sigma7/pose: (position, quaternion, when it came)
         self._gripper_angle: Optional[float] = None
-        self._opening: Tuple[Optional[Callable], str] = (None, "")  # the assistance's constraint, what it is
-        self._opening_checked = -math.inf
-        self._held_below = load_motion_config().grasp.height_above_center  # the skills' grasp: the product in the hand
-        self.correction = ReplayCorrection(config.teleop)
 
     @pyqtSlot()
     def start(self) -> None:
         """Create subscribers, publishers and timers (runs in the worker thread)."""
         self._eigenvalues = rospy.Publisher("eigenvalues", Vector3Stamped, queue_size=10)
         self._eigenvectors = rospy.Publisher("eigenvectors", QuaternionStamped, queue_size=10)
-        self._correction_publisher = rospy.Publisher("skills/correction", Vector3Stamped, queue_size=5)
         subscriptions: List[Tuple[str, type, Callable]] = [
             ("sigma7/pose", PoseStamped, self._on_pose),
             ("sigma7/button", Bool, self._on_button),
@@ -316,7 +291,6 @@ class RosWorker(QObject):
             ("behaviour_tree/help_request", HelpRequest, self._on_help),
             ("study/state", StudyState, lambda message: self.study_state.emit(study_view(message))),
             ("behaviour_tree/execution", TreeExecution, self._on_execution),
-            ("skills/authority", SkillAuthority, self._on_authority),
         ]
         for topic, message_class, callback in subscriptions:
             # every button and gripper message counts (a dropped one can be a whole click); of poses, the newest
@@ -373,7 +347,7 @@ class RosWorker(QObject):
         )
         for adapter in self.adapters:
             adapter.tab_changed(self._active_tab)
-        if self._active_tab in (Tab.LOW_LEVEL, Tab.TELEOP) or self._adapter(hearing_arm=True) is not None:
+        if self._active_tab == Tab.LOW_LEVEL or self._adapter(hearing_arm=True) is not None:
             if not self._publish_timer.isActive():
                 self._publish_timer.start()
             for topic, message_class, callback in arm_topics:
@@ -389,10 +363,11 @@ class RosWorker(QObject):
                     subscriber.unregister()
             self._measured = None  # a recording must not start from where the arm was in another tab
             self._arm_motion = (-math.inf, math.inf)  # nor an arm count as resting on what it did back then
-        self._follow_target(self._active_tab in (Tab.LOW_LEVEL, Tab.TELEOP))
+        adapter = self._adapter()
+        self._follow_target(self._active_tab == Tab.LOW_LEVEL or (adapter is not None and adapter.hears_scene))
 
     def _follow_target(self, teaching: bool) -> None:
-        """Hear the perceived scene and TF only in LOW-LEVEL and TELEOP, where a recording may need its gap."""
+        """Hear the perceived scene and TF only in LOW-LEVEL and a tab that ``hears_scene`` (TELEOP)."""
         if teaching and "teleteach/scene" not in self._subscribers:
             self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
             self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
@@ -417,7 +392,7 @@ class RosWorker(QObject):
         self._subscribers.clear()
         for adapter in self.adapters:
             adapter.stop()
-        for publisher in (self._eigenvalues, self._eigenvectors, self._correction_publisher):
+        for publisher in (self._eigenvalues, self._eigenvectors):
             publisher.unregister()
 
     def latest_sample(self):
@@ -503,43 +478,6 @@ class RosWorker(QObject):
         self._execution = message
         self.execution_changed.emit(message.state, message.message)
 
-    def _on_authority(self, message: SkillAuthority) -> None:
-        """A skill replays: in START the clutch and handle correct it (skills/correction), and START shows who leads.
-
-        Driven by the reports (20 Hz while a skill replays): no timer runs while nothing replays.
-        """
-        if self.active_tab != Tab.START:
-            return  # a teaching tab pauses the tree: its replay is ending, and the handle is the tab's
-        device = self._device_pose
-        age = math.inf if device is None else time.monotonic() - device[2]
-        now = rospy.get_time()
-        command = self.correction.update(
-            now,
-            message.skill,
-            message.max_correction,
-            self._gripper_angle,
-            device and device[:2],
-            age,
-            self.config.device_timeout,
-        )
-        if command is None:
-            return
-        correction = Vector3Stamped()
-        correction.header.stamp, correction.header.frame_id = rospy.Time.from_sec(now), self.config.base_frame
-        correction.vector.x, correction.vector.y, correction.vector.z = (float(value) for value in command.pose[:3])
-        publish(self._correction_publisher, correction)
-        applied = message.correction
-        self.authority_changed.emit(
-            AuthorityView(
-                message.skill,
-                message.confidence,
-                message.operator_weight,
-                float(np.linalg.norm([applied.x, applied.y, applied.z])),
-                command.clutch,
-                command.reason,
-            )
-        )
-
     def _on_joint_states(self, message: JointState) -> None:
         speeds = [abs(value) for value in message.velocity if math.isfinite(value)]
         self._arm_motion = (time.monotonic(), max(speeds, default=0.0))
@@ -583,6 +521,20 @@ class RosWorker(QObject):
         with self._lock:
             self._scene = scene
 
+    def scene(self) -> Optional[ObservedScene]:
+        """What perception reports (teleteach/scene), heard in LOW-LEVEL and TELEOP; None before it or elsewhere."""
+        with self._lock:
+            return self._scene
+
+    def device_pose(self) -> Optional[tuple]:
+        """The newest /sigma7/pose: (position, quaternion, when it came on time.monotonic()), or None."""
+        return self._device_pose
+
+    @property
+    def gripper_angle(self) -> Optional[float]:
+        """The newest /sigma7/gripper_angle [rad], or None."""
+        return self._gripper_angle
+
     def hand_pose(self) -> Optional[np.ndarray]:
         """The arm's latest /cartesian_pose (x y z qx qy qz qw, base_link), or None before the first."""
         pose = self._measured_pose()
@@ -600,12 +552,12 @@ class RosWorker(QObject):
             return None, "no perception yet (teleteach/scene)"
         if gap not in scene.gaps:
             return None, f"perception reports no {gap} (it reports {', '.join(sorted(scene.gaps)) or 'no gaps'})"
-        base, why = self._base_in_world()
+        base, why = self.base_in_world()
         if base is None:
             return None, why
         return base.inverse() * scene.gaps[gap].frame, ""
 
-    def _base_in_world(self) -> Tuple[Optional[Transform], str]:
+    def base_in_world(self) -> Tuple[Optional[Transform], str]:
         """The base frame in world (TF world -> base_frame, heard in LOW-LEVEL and TELEOP), or (None, why not)."""
         buffer = self._tf_buffer
         if buffer is None:
@@ -616,38 +568,6 @@ class RosWorker(QObject):
             return None, f"no transform {WORLD_FRAME} -> {self.config.base_frame}: {error}"
         t, r = stamped.transform.translation, stamped.transform.rotation
         return Transform.from_pose([t.x, t.y, t.z, r.x, r.y, r.z, r.w]), ""
-
-    ASSISTANCE_PERIOD = 0.2  # [s] the opening TELEOP's assistance keeps out of is looked up again this often
-
-    def _assistance(self, hand: np.ndarray):
-        """TELEOP's shared control in the placement: the opening's constraint near the hand (or None), and its words.
-
-        Looked up from perception and TF every ASSISTANCE_PERIOD.
-        """
-        parameters = self.config.teleop.assistance
-        if not parameters.enabled:
-            return None, "assistance off"
-        now = time.monotonic()
-        if now - self._opening_checked < self.ASSISTANCE_PERIOD:
-            return self._opening
-        self._opening_checked = now
-        gap, target, why = self.nearest_gap(hand[:3])
-        base, base_why = self._base_in_world()
-        if gap is None or base is None:
-            self._opening = (None, f"assistance: {why or base_why}")
-        elif np.linalg.norm(target.position - hand[:3]) > parameters.reach:
-            self._opening = (None, f"assistance: no gap within {100 * parameters.reach:.0f} cm")
-        else:
-            with self._lock:
-                scene = self._scene
-            opening, why = Opening.perceived(scene, gap, base, hand, self._held_below)
-            if opening is None:
-                self._opening = (None, f"assistance at {gap}: {why}")
-            else:
-                constrain = functools.partial(assist, opening, parameters=parameters)
-                said = f"assistance at {gap}: its opening, {1000 * opening.width:.0f} mm wide"
-                self._opening = (constrain, said)
-        return self._opening
 
     def nearest_gap(self, point) -> Tuple[Optional[str], Optional[Transform], str]:
         """The perceived gap whose origin is nearest ``point`` (base_link), its pose in base_link, or why none."""
@@ -678,11 +598,6 @@ class RosWorker(QObject):
         if adapter is not None:
             adapter.tick()
             return
-        if self.active_tab == Tab.TELEOP:
-            values, quaternion = self.command.stiffness()
-            self.send_stiffness(values, quaternion)
-            self._teleoperate(tuple(float(value) for value in values))
-            return
         if self.active_tab != Tab.LOW_LEVEL:
             return
         self._publish(urgent=False)
@@ -690,65 +605,6 @@ class RosWorker(QObject):
         if self.recorder.active and measured is not None:
             stamp = rospy.get_time() if rospy.rostime.is_wallclock() else measured[0]
             self.recorder.add(stamp, self.command.stiffness_matrix(), self.equilibrium(), measured[1])
-
-    TELEOP_VIEW_RATE = 10.0  # [Hz] the TELEOP tab's poses are refreshed this often (the clutch at once)
-
-    def drive_arm(self, driving: bool) -> None:
-        """TELEOP_ON / TELEOP_OFF (from the GUI thread): the device drives the equilibrium from where the arm is."""
-        with self._teleop_lock:
-            self._teleop_driving, self._teleop_started = driving, False
-            if not driving:
-                self.teleop.stop()
-
-    def _teleoperate(self, stiffness: Tuple[float, float, float]) -> None:
-        """TELEOP's tick: the equilibrium where the device puts it, the tab told (worker thread, publish_rate)."""
-        with self._teleop_lock:
-            if not self._teleop_driving:
-                self._show_teleop(TeleopView(False, self.teleop.clutch, "", None, self._measured_pose(), stiffness, ""))
-                return
-            now = rospy.get_time()
-            if not self._teleop_started:
-                arm = self._measured_pose()
-                if arm is None:
-                    waiting = TeleopView(
-                        True, self.teleop.clutch, "waiting for /cartesian_pose", None, None, stiffness, ""
-                    )
-                    self._show_teleop(waiting)
-                    return
-                try:
-                    self.teleop.start(arm, now)
-                except InvalidCommandError as error:
-                    self._show_teleop(
-                        TeleopView(True, self.teleop.clutch, f"arm pose refused: {error}", None, arm, stiffness, "")
-                    )
-                    return
-                self._teleop_started = True
-            device = self._device_pose
-            age = math.inf if device is None else time.monotonic() - device[2]
-            constrain, assistance = self._assistance(self.teleop.pose)
-            command = self.teleop.update(
-                now, self._gripper_angle, device and device[:2], age, self.config.device_timeout, constrain
-            )
-        if command.pose is not None:
-            message = PoseStamped()
-            message.header.stamp = rospy.Time.from_sec(now)
-            message.header.frame_id = self.config.base_frame
-            p, q = message.pose.position, message.pose.orientation
-            p.x, p.y, p.z, q.x, q.y, q.z, q.w = (float(value) for value in command.pose)
-            publish(self._equilibrium_publisher, message)
-            self.path_recorder.add(now, command.pose)
-        measured = self._measured_pose()
-        view = TeleopView(True, command.clutch, command.reason, command.pose, measured, stiffness, assistance)
-        self._show_teleop(view)
-
-    def _show_teleop(self, view: TeleopView) -> None:
-        """Tell the tab when the clutch or the reason changed, and otherwise at TELEOP_VIEW_RATE."""
-        clutch, reason, shown = self._teleop_shown
-        now = time.monotonic()
-        if (view.clutch, view.reason) == (clutch, reason) and now - shown < 1.0 / self.TELEOP_VIEW_RATE:
-            return
-        self._teleop_shown = (view.clutch, view.reason, now)
-        self.teleop_changed.emit(view)
 
     def _publish(self, urgent: bool) -> None:
         """Send the ellipsoid; an urgent send (the device changed it) is skipped when one just went out."""
