@@ -89,18 +89,18 @@ def test_a_trial_places_relative_to_the_perceived_gap_and_is_judged_from_the_wor
         load_motion_config(),
         kinematics,
         load_uncertainty(),
-        TrialSetup("product_pick_1", "gap_3", "place_gap_3", seed=5),
+        TrialSetup("product_pick_1", "gap_2", "place_perpendicular_2", seed=5),
         path,
     )
-    # Expect: the base stopped off its goal and perception was off, yet the skill found gap_3 (not named) and the
+    # Expect: the base stopped off its goal and perception was off, yet the skill found gap_2 (not named) and the
     # true world has the product there, released, upright, its neighbours in place
     assert np.linalg.norm(result["base_error"][:2]) > 0.001
     assert np.linalg.norm(result["gap_perception_error"][:3]) > 0.0005
     assert result["held_at_start"]
-    assert "relative to gap_3 (taught at gap_1)" in result["message"], result["message"]
+    assert "relative to gap_2 (taught at gap_1)" in result["message"], result["message"]
     assert result["success"] and result["skill_success"], result["message"]
     assert np.hypot(result["lateral_m"], result["depth_m"]) == pytest.approx(result["distance_m"], abs=1e-6)
-    assert result["distance_m"] < scene.gap("gap_3").tolerance
+    assert result["distance_m"] < scene.gap("gap_2").tolerance
     assert result["neighbour_max_move_m"] < 0.01
     assert 0.0 < result["peak_force_n"] < 60.0
     assert result["sim_s"] > 11.0
@@ -137,7 +137,7 @@ def test_the_trials_processes_meet_the_uncertainty_file_they_are_given(tmp_path)
     exact.write_text(text.replace("  enabled: true ", "  enabled: false"))
     assert exact.read_text().count("enabled: false") == 2  # MoveBase and perception
     skill = skill_file.save(placement_on_trajectory("perpendicular"), tmp_path / "Place")
-    job = TrialJob("place", TrialSetup("product_pick_1", "gap_3", "place_gap_3", seed=5), str(skill))
+    job = TrialJob("place", TrialSetup("product_pick_1", "gap_2", "place_perpendicular_2", seed=5), str(skill))
     results = run_trials([job], 1, progress=lambda line: None, uncertainty_file=str(exact))
     (result,) = results["place"]
     # Expect: the base stopped on its goal and perception saw the gap where it is: nothing left of the default errors
