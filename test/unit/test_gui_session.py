@@ -120,6 +120,16 @@ def test_leaving_before_the_arm_is_free_stops_waiting_and_switches_nothing(sessi
     assert session.arm_freed() == []
 
 
+def test_a_tab_beyond_the_contract_is_one_no_rule_concerns(session):
+    # Expect: a tab added after TELEOP (an ABOUT tab) ends a teaching session as START does, and asks for nothing
+    extra = len(Tab)
+    assert session.tab_changed(extra) == []
+    session.tab_changed(Tab.LOW_LEVEL)
+    session.arm_freed()
+    assert session.tab_changed(extra) == [A.LEAVE_LOW_LEVEL, A.POSITION_CONTROL, A.RESUME_TREE]
+    assert session.tab_changed(Tab.START) == []
+
+
 def test_a_tree_waiting_for_its_start_is_started_only_by_the_start_gesture(session):
     session.tree_waiting_changed(True)
     session.tab_changed(Tab.LOW_LEVEL)

@@ -106,8 +106,8 @@ class TeachingSession:
         self._resume_on_end = True
 
     def tab_changed(self, index: int) -> List[Action]:
-        """The operator opened the tab ``index``."""
-        tab = Tab(index)
+        """The operator opened the tab ``index``; a tab beyond ``Tab`` (an ABOUT tab, say) is one no rule concerns."""
+        tab = Tab(index) if index in iter(Tab) else index
         if tab == self.tab:
             return []
         previous, self.tab = self.tab, tab
