@@ -38,6 +38,7 @@ from teleteach.skills.config import load_motion_config
 THREADS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}  # one BLAS thread per trial, as Ray's 1-CPU actors
 PROGRESS_STEPS = 20  # progress lines per run (and one per trial when fewer)
 CONNECT_ATTEMPTS = 3  # connections to a cluster before giving up
+PACE_AFTER = 4  # trials finished before the pace is counted from the first one (until then: from the start)
 
 
 class EngineError(RuntimeError):
@@ -168,8 +169,9 @@ class Progress:
         elapsed, ran = now - self.start, self.done - self.stored
         if ran == 1:
             self.first = now
-        # the pace from the first finished trial on: the workers' start (seconds on a cluster) is not a trial's cost
-        pace = (now - self.first) / (ran - 1) if ran > 1 and now > self.first else elapsed / ran
+        # the pace from the first finished trial on, once a few more have finished (workers finish together): the
+        # workers' start (seconds on a cluster) is not a trial's cost
+        pace = (now - self.first) / (ran - 1) if ran > PACE_AFTER and now > self.first else elapsed / ran
         left = pace * (self.total - self.done)
         rate = 60.0 / pace if pace > 0 else 0.0
         self.say(
