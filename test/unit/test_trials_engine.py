@@ -4,6 +4,7 @@ import dataclasses
 import json
 import pathlib
 
+import numpy as np
 import pytest
 
 from teleteach.run.engine import Progress, TrialStore, job_key, run_jobs
@@ -55,9 +56,10 @@ def test_an_interrupted_run_continues_from_the_trials_it_stored(tmp_path):
 def test_the_store_ignores_a_torn_line_and_sets_another_commits_trials_aside(tmp_path):
     store = TrialStore(tmp_path / "store.jsonl")
     store.append({"key": "a", "commit": "1" * 40, "group": "g", "result": {"seed": 0}})
-    store.append({"key": "b", "commit": "2" * 40, "group": "g", "result": {"seed": 1}})
+    store.append({"key": "b", "commit": "2" * 40, "group": "g", "result": {"seed": 1, "error": np.array([0.5, 1.0])}})
     with open(store.path, "a") as file:
         file.write('{"key": "c", "commit": "11')  # killed while writing
+    assert json.loads(store.path.read_text().splitlines()[1])["result"]["error"] == [0.5, 1.0]  # numpy as lists
     lines = []
     loaded = store.load("1" * 40, lines.append)
     # Expect: only a's row; b's commit named and dropped from the file

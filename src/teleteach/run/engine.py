@@ -128,7 +128,7 @@ class TrialStore:
     def append(self, entry: dict) -> None:
         """One finished trial: one line in one write, flushed to the disk before the next trial is counted."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        line = (json.dumps(entry) + "\n").encode()
+        line = (json.dumps(entry, default=_plain) + "\n").encode()
         descriptor = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
         try:
             os.write(descriptor, line)
@@ -139,6 +139,11 @@ class TrialStore:
     def remove(self) -> None:
         """Every job is done: the next run measures afresh."""
         self.path.unlink(missing_ok=True)
+
+
+def _plain(value):
+    """A row's numpy arrays and numbers, and other sequences, as JSON has them (lists, numbers)."""
+    return value.tolist() if hasattr(value, "tolist") else list(value)
 
 
 # --- progress ------------------------------------------------------------------------------------
