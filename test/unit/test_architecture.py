@@ -6,6 +6,7 @@ import ast
 import pathlib
 import re
 
+import pytest
 from conftest import ROOT
 
 PACKAGE = ROOT / "src" / "teleteach"
@@ -246,7 +247,12 @@ YAW_ROTATION = re.compile(
     r"|(?:sin|cos)\(\s*-?\s*\w+\s*/\s*2(?:\.0)?\s*\)"  # the half angle of its quaternion
 )
 STIFFNESS_ELLIPSE = re.compile(r"(?<![\w.])(?:patches\.)?Ellipse\(")
-"""The minimum-jerk profile, a rotation about the vertical and a stiffness ellipse drawn, written out."""
+ANGLE_WRAP = re.compile(
+    r"a(?:rc)?tan2\(\s*(?:np\.|math\.)?sin\("  # atan2(sin a, cos a)
+    r"|%\s*\(?\s*2(?:\.0)?\s*\*\s*(?:np\.|math\.)?pi|%\s*(?:np\.|math\.)?tau"  # (a + pi) % (2 pi) - pi
+    r"|remainder\([^()]*,\s*(?:2(?:\.0)?\s*\*\s*)?(?:np\.|math\.)?(?:pi|tau)\s*\)"  # math.remainder(a, tau)
+)
+"""The minimum-jerk profile, a rotation about the vertical, a stiffness ellipse, an angle wrapped, written out."""
 
 
 def copies(pattern, home):
@@ -260,10 +266,11 @@ def test_roll_pitch_yaw_and_the_stiffness_composition_each_have_one_home():
     assert copies(STIFFNESS_COMPOSITION, PACKAGE / "control" / "stiffness.py") == []
 
 
-def test_minimum_jerk_the_yaw_rotation_and_the_stiffness_ellipse_each_have_one_home():
+def test_minimum_jerk_yaw_rotation_angle_wrapping_and_the_stiffness_ellipse_each_have_one_home():
     assert copies(MINIMUM_JERK, PACKAGE / "core" / "trajectories.py") == []
     assert copies(YAW_ROTATION, PACKAGE / "core" / "rotations.py") == []
     assert copies(STIFFNESS_ELLIPSE, PACKAGE / "core" / "plotting.py") == []
+    assert copies(ANGLE_WRAP, PACKAGE / "core" / "rotations.py") == []
 
 
 def test_a_second_copy_of_either_is_recognised():
@@ -275,29 +282,52 @@ def test_a_second_copy_of_either_is_recognised():
     assert not STIFFNESS_COMPOSITION.search("transform[:3, :3] = rotation @ np.diag(lengths)")
 
 
-def test_a_second_minimum_jerk_yaw_rotation_or_ellipse_is_recognised():
-    # Expect each form that once had a second home (issue 56) to be caught, and their neighbours left alone
-    for written in (
-        "s**3 * (10.0 - 15.0 * s + 6.0 * s * s)",
-        "t**3 * (10 - 15 * t + 6 * t**2)",
-        "10 * tau**3 - 15 * tau**4 + 6 * tau**5",
-        "rate = 30.0 * tau**2 * (1.0 - tau) ** 2 / self.duration",
-        "PEAK_TO_MEAN = 1.875",
-    ):
-        assert MINIMUM_JERK.search(written), written
-    assert not MINIMUM_JERK.search("timeout = 10.875; x = 110 - 15 * y")
-    for written in (
-        'Rotation.from_euler("z", -config.grasp.yaw)',
-        "Rotation.from_euler('Z', 20.0, degrees=True)",
-        "return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])",
-        "hs, hc = math.sin(-yaw / 2.0), math.cos(-yaw / 2.0)",
-    ):
-        assert YAW_ROTATION.search(written), written
-    assert not YAW_ROTATION.search('Rotation.from_euler("x", math.pi)')
-    assert not YAW_ROTATION.search("normal = np.array([math.cos(yaw), math.sin(yaw)])")
-    assert STIFFNESS_ELLIPSE.search("axes.add_patch(\n    Ellipse(\n        (time, 0.0),")
-    assert STIFFNESS_ELLIPSE.search("patches.Ellipse((0, 0), 1, 2)")
-    assert not STIFFNESS_ELLIPSE.search("painter.drawEllipse(centre, 6, 6)")
+SECOND_COPIES = {
+    "minimum jerk": (
+        MINIMUM_JERK,
+        [
+            "s**3 * (10.0 - 15.0 * s + 6.0 * s * s)",
+            "t**3 * (10 - 15 * t + 6 * t**2)",
+            "10 * tau**3 - 15 * tau**4 + 6 * tau**5",
+            "rate = 30.0 * tau**2 * (1.0 - tau) ** 2 / self.duration",
+            "PEAK_TO_MEAN = 1.875",
+        ],
+        ["timeout = 10.875; x = 110 - 15 * y"],
+    ),
+    "yaw rotation": (
+        YAW_ROTATION,
+        [
+            'Rotation.from_euler("z", -config.grasp.yaw)',
+            "Rotation.from_euler('Z', 20.0, degrees=True)",
+            "return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])",
+            "hs, hc = math.sin(-yaw / 2.0), math.cos(-yaw / 2.0)",
+        ],
+        ['Rotation.from_euler("x", math.pi)', "normal = np.array([math.cos(yaw), math.sin(yaw)])"],
+    ),
+    "stiffness ellipse": (
+        STIFFNESS_ELLIPSE,
+        ["axes.add_patch(\n    Ellipse(\n        (time, 0.0),", "patches.Ellipse((0, 0), 1, 2)"],
+        ["painter.drawEllipse(centre, 6, 6)"],
+    ),
+    "angle wrap": (
+        ANGLE_WRAP,
+        [
+            "math.atan2(math.sin(a - b), math.cos(a - b))",
+            "np.arctan2(np.sin(yaw), np.cos(yaw))",
+            "(angles + math.pi) % (2 * math.pi) - math.pi",
+            "abs(math.remainder(later - earlier, math.tau))",
+        ],
+        ["yaw = 2.0 * np.arctan2(rotation.z, rotation.w)", "index = step % 2"],
+    ),
+}
+"""Each form that once had a second home (issue 56), and neighbours of it that are something else."""
+
+
+@pytest.mark.parametrize("name", SECOND_COPIES)
+def test_a_second_minimum_jerk_yaw_rotation_ellipse_or_angle_wrap_is_recognised(name):
+    pattern, written_out, something_else = SECOND_COPIES[name]
+    assert [text for text in written_out if not pattern.search(text)] == []
+    assert [text for text in something_else if pattern.search(text)] == []
 
 
 GET_PARAM = re.compile(r"rospy\.get_param\(")

@@ -12,6 +12,7 @@ from typing import Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from teleteach.core.rotations import wrap_angle
 from teleteach.shared_control.constraints import Box, StraightEdge, violations
 from teleteach.shared_control.metrics import command_fit, position_fit
 from teleteach.shared_control.models import SKILLS
@@ -125,11 +126,6 @@ def force_figures(normal_forces: Sequence[float], in_contact: Sequence[bool]) ->
     }
 
 
-def _wrap(angles: np.ndarray) -> np.ndarray:
-    """Angles [rad] wrapped to [-pi, pi): the shorter way round."""
-    return (angles + math.pi) % (2 * math.pi) - math.pi
-
-
 def _placements(
     positions: np.ndarray, yaws: np.ndarray, in_contact: np.ndarray, step: float, reach: float
 ) -> Tuple[np.ndarray, np.ndarray]:
@@ -141,7 +137,7 @@ def _placements(
     """
     starts = np.flatnonzero(in_contact[:-1] & in_contact[1:])
     delta = positions[starts + 1] - positions[starts]
-    turn = _wrap(yaws[starts + 1] - yaws[starts])
+    turn = wrap_angle(yaws[starts + 1] - yaws[starts])
     travel = np.hypot(delta[:, 0], delta[:, 1]) + np.abs(turn) * reach  # farthest any point of the patch moves
     pieces = np.maximum(np.ceil(travel / step), 1).astype(int)
     extra = pieces - 1  # placements strictly between the two samples

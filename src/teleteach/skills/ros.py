@@ -25,7 +25,7 @@ from visualization_msgs.msg import MarkerArray
 
 from teleteach.control import panda
 from teleteach.core.observed import ObservedScene, observed_from_markers
-from teleteach.core.rotations import yaw_rotation
+from teleteach.core.rotations import wrap_angle, yaw_rotation
 from teleteach.core.validation import InvalidCommandError, check_frame, finite_vector
 from teleteach.msg import (
     ExecuteSkillAction,
@@ -292,7 +292,7 @@ class RosRobot(Robot):
             raise SkillError(f"no transform {WORLD_FRAME} -> {BASE_FRAME}: shutting down")
         translation, rotation = transform.transform.translation, transform.transform.rotation
         yaw = 2.0 * np.arctan2(rotation.z, rotation.w)
-        pose = (float(translation.x), float(translation.y), float(np.arctan2(np.sin(yaw), np.cos(yaw))))
+        pose = (float(translation.x), float(translation.y), float(wrap_angle(yaw)))
         return transform.header.stamp.to_sec(), pose
 
     def base_pose(self) -> Tuple[float, float, float]:
@@ -319,7 +319,7 @@ class RosRobot(Robot):
             if later_stamp < stamp + REST_INTERVAL:
                 break  # TF stopped coming: _base_transform already waited TF_WAIT for it
             moved = math.hypot(later_pose[0] - pose[0], later_pose[1] - pose[1])
-            turned = abs(math.remainder(later_pose[2] - pose[2], math.tau))
+            turned = abs(wrap_angle(later_pose[2] - pose[2]))
             stamp, pose = later_stamp, later_pose
             if moved < REST_DISTANCE and turned < REST_ANGLE:
                 with self._lock:
