@@ -25,6 +25,7 @@ from scipy.spatial.transform import Rotation
 
 from teleteach.control import panda
 from teleteach.core import placement
+from teleteach.core.rotations import yaw_rotation
 from teleteach.core.scene import Scene
 from teleteach.run.engine import run_jobs
 from teleteach.run.sim_robot import SimRobot
@@ -121,8 +122,8 @@ def hold_product(sim: RobotSim, config: MotionConfig, product: str, base_pose: s
     )
     hand = Rotation.from_quat(tcp[5])
     # the product's frame in the hand: below the TCP by the grasp height, turned back by the grasp yaw
-    in_hand = TOP_DOWN.inv() * Rotation.from_euler("z", -config.grasp.yaw)
-    orientation = hand * in_hand * Rotation.from_euler("z", offset[3])
+    in_hand = TOP_DOWN.inv() * yaw_rotation(-config.grasp.yaw)
+    orientation = hand * in_hand * yaw_rotation(offset[3])
     centre = np.array(tcp[4]) + hand.apply([0.0, 0.0, config.grasp.height_above_center])
     centre -= orientation.apply(offset[:3])
     pybullet.resetBasePositionAndOrientation(
