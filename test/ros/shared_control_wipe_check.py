@@ -3,9 +3,10 @@
 
 The base drives to the counter (move_base), the check sends the taught stiffness (3000 N/m along the board, 300 N/m
 along its normal, axes those of the board as perceived) and enables shared control, which locates the board through
-perception and TF; then a scripted operator wipes with a wave from right to left and on into the boundary. Every
-check is on what the world did: the force the board puts on the tool along its true normal, the TCP in the true
-board's frame, and what the controller recognised.
+perception and TF; then a scripted operator wipes with a wave from right to left and on into the boundary, and early
+on holds the clutch for a while, stiffening the normal as the GUI's wipe teaching would, while the controller keeps
+the wave. Every check is on what the world did: the force the board puts on the tool along its true normal, the TCP in
+the true board's frame, and what the controller recognised.
 """
 
 import math
@@ -18,9 +19,10 @@ from geometry_msgs.msg import Vector3Stamped
 
 from teleteach.core.scene import load_scene
 from teleteach.shared_control.surface import wiping_box
-from teleteach.wiping.ros import BOARD, CONTACT, ScriptedWipe, WorldRecord, board_in_base, drive_to
+from teleteach.wiping.ros import BOARD, CONTACT, TAUGHT, ScriptedWipe, WorldRecord, board_in_base, drive_to
 
 BOUNDARY_TOLERANCE = 0.005  # [m] the tool's centre beyond the boundary (the arm tracks within a few mm)
+STIFFENED = (3000.0, 3000.0, 1000.0)  # [N/m] what the operator shapes while clutched: a stiffer normal
 
 
 class WipeUnderSharedControl(unittest.TestCase):
@@ -45,7 +47,7 @@ class WipeUnderSharedControl(unittest.TestCase):
         self.wait_for(lambda: record.states, "the approach to the board (then /shared_control/state)", 90.0)
 
         bad = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1)  # a bad message mid-wipe changes nothing
-        half = int(9.0 * 50.0) // 2
+        half = int(2.0 * 50.0) // 2
 
         def nan_midway(k, stamp):
             if k == half:
@@ -54,7 +56,11 @@ class WipeUnderSharedControl(unittest.TestCase):
                 nan.vector.x = nan.vector.y = nan.vector.z = float("nan")
                 bad.publish(nan)
 
-        start, end = operator.wave(9.0, math.pi, np.random.default_rng(49), nan_midway)
+        start, _ = operator.wave(2.5, math.pi, np.random.default_rng(49), nan_midway)
+        # The clutch, once the wave is recognised: the hand leaves the pattern for the ellipsoid, the controller keeps
+        # the wave (on into the boundary, if the tool gets there)
+        clutch_start, clutch_end = operator.teach(2.0, seen_in_base, TAUGHT, STIFFENED)
+        _, end = operator.wave(4.5, math.pi, np.random.default_rng(50))
         # The operator's input is lost (nothing more is sent): the tool must leave the board and the node stop.
         rospy.sleep(4.0)
         after = rospy.Time.now().to_sec()
@@ -80,7 +86,16 @@ class WipeUnderSharedControl(unittest.TestCase):
         # perception's in-plane bias (a few mm), which the controller cannot see.
         outside = beyond(np.array([seen_in_base.inverse().apply_point(point) for point in tcp]))
         outside_true = beyond(face)
-        self.assertLessEqual(float(outside.max()), BOUNDARY_TOLERANCE, "the tool left the boundary")
+        stamps = [stamp for stamp, *_ in record.stamped_between("poses", start, end)]
+        worst = int(np.argmax(outside))
+        seen_worst = seen_in_base.inverse().apply_point(tcp[worst])
+        self.assertLessEqual(
+            float(outside.max()),
+            BOUNDARY_TOLERANCE,
+            f"the tool left the boundary at {seen_worst[:2].round(4).tolist()} (perceived board), "
+            f"{stamps[worst] - start:.2f} s into the wipe "
+            f"(clutched {clutch_start - start:.2f}-{clutch_end - start:.2f} s)",
+        )
         self.assertLess(float(face[:, 0].min()), box.x_min + 0.03, "the wipe did not reach the area's left edge")
         self.assertGreater(float(np.ptp(face[:, 1])), 0.03, "no wave across the board")
         self.assertTrue(np.all(np.abs(face[:, 2] - reach) < 0.03), "the TCP was not at the tool's reach over the board")
@@ -99,7 +114,8 @@ class WipeUnderSharedControl(unittest.TestCase):
         print(
             f"wipe: in contact {in_contact:.0%}, median force {np.median(pressing):.1f} N, tool outside the boundary "
             f"by at most {1000 * max(float(outside.max()), 0.0):.1f} mm as perceived, "
-            f"{1000 * max(float(outside_true.max()), 0.0):.1f} mm in the world, u down to {face[:, 0].min():.3f} m, "
+            f"{1000 * max(float(outside_true.max()), 0.0):.1f} mm in the world, "
+            f"u from {face[:, 0].min():.3f} to {face[:, 0].max():.3f} m, "
             f"v spans {np.ptp(face[:, 1]):.3f} m, recognised wave in {shared.count('wave')} of {len(shared)} cycles, "
             f"{late} of {cycles} cycles late",
             flush=True,
@@ -109,6 +125,33 @@ class WipeUnderSharedControl(unittest.TestCase):
         self.assertLess(float(np.max(lifted)), CONTACT, "the tool still pressed after the input was lost")
         self.assertGreater(last_face, 0.015, "the tool did not retract off the board")
         self.assertTrue(stopped, "shared control went on without input")
+        self.check_the_clutch_kept_the_wave(record, true_in_base, clutch_start, clutch_end)
+
+    def check_the_clutch_kept_the_wave(self, record, true_in_base, start, end):
+        """While clutched: the wave kept by the controller (right to left at 5 cm/s, swaying), the tool on the board
+        and moving, the force held while the normal stiffened."""
+        normal = true_in_base.rotation.apply([0.0, 0.0, 1.0])
+        pressing = record.between("forces", start + 0.2, end) @ normal
+        in_contact = float(np.mean(pressing >= CONTACT))
+        face = np.array([true_in_base.inverse().apply_point(point) for point in record.between("poses", start, end)])
+        moved = float(np.sum(np.linalg.norm(np.diff(face[:, :2], axis=0), axis=1)))
+        with record.lock:
+            clutched = [state for stamp, state, _ in record.states if start + 0.2 <= stamp <= end]
+        kept = sum(state.message.startswith("clutch: keeping the wave") for state in clutched)
+        commands = np.array([(state.command.x, state.command.y) for state in clutched])
+        print(
+            f"clutch: {kept} of {len(clutched)} cycles keeping the wave, its commands {commands[:, 0].mean():.3f} m/s "
+            f"along u, {np.ptp(commands[:, 1]):.2f} m/s sway; in contact {in_contact:.0%}, median force "
+            f"{np.median(pressing):.1f} N, the eraser moved {moved:.3f} m on the board",
+            flush=True,
+        )
+        self.assertGreater(len(clutched), 50, "no controller state while clutched")
+        self.assertGreaterEqual(kept / len(clutched), 0.9, f"the clutch did not keep the wave: {clutched[-1].message}")
+        self.assertTrue(-0.07 <= commands[:, 0].mean() <= -0.03, "the kept wave does not go right to left at 5 cm/s")
+        self.assertGreater(np.ptp(commands[:, 1]), 0.2, "the kept wave does not sway")  # the operator's: +-0.19 m/s
+        self.assertGreaterEqual(in_contact, 0.9, f"in contact {in_contact:.0%} while the stiffness was shaped")
+        self.assertTrue(4.0 <= float(np.median(pressing)) <= 16.0, f"median force {np.median(pressing):.1f} N")
+        self.assertGreater(moved, 0.04, "the tool did not move on the board while clutched")
 
 
 if __name__ == "__main__":

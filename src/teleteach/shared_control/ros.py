@@ -19,6 +19,7 @@ from teleteach.core.observed import SCENE_TOPIC, WORLD_FRAME, observed_from_mark
 from teleteach.core.rotations import quaternion_to_rpy
 from teleteach.shared_control import cache
 from teleteach.shared_control.approach import Approach, start_in_plane
+from teleteach.shared_control.config import SharedControlNodeConfig
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.cycles import CycleSchedule, CycleStatistics
 from teleteach.shared_control.loop import (
@@ -32,7 +33,6 @@ from teleteach.shared_control.plane import TaskPlane
 from teleteach.shared_control.surface import SurfaceError, SurfaceWipe, load_wiping_config
 from teleteach.shared_control.timeline import CommandTimeline
 
-INPUTS = ("operator_command", "twist", "joy")
 # Lag behind the 50 Hz grid after which the cycles in between are skipped (counted late) rather than caught up [s].
 MAX_LAG = 1.0
 # Cycles in a row that catch up by following the plan before one solves again, however late [-].
@@ -93,6 +93,12 @@ def _arm_pose(message) -> Optional[Tuple[np.ndarray, np.ndarray]]:
     if np.all(np.isfinite(position)) and np.all(np.isfinite(orientation)) and np.linalg.norm(orientation) > 0.5:
         return position, orientation
     return None
+
+
+def _set_pose(pose, position: Sequence[float], quaternion: Sequence[float]) -> None:
+    """Fill a geometry_msgs/Pose from a position [m] and a quaternion (x, y, z, w)."""
+    pose.position.x, pose.position.y, pose.position.z = (float(value) for value in position)
+    pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (float(v) for v in quaternion)
 
 
 def obstacle_from_pose(message) -> StraightEdge:
@@ -209,7 +215,7 @@ class PerceivedSurface:
 
 
 class SharedControlNode:
-    """50 Hz shared control over ROS. Every argument is required: their values live in config/shared_control.yaml.
+    """50 Hz shared control over ROS, built from :class:`SharedControlNodeConfig` (config/shared_control.yaml).
 
     A thread keeps the cycles on a fixed grid (``cycles.CycleSchedule``): every cycle publishes a state and an
     equilibrium, a cycle ready after its period is counted in ``late_cycles``, and a loop that has fallen behind
@@ -218,28 +224,8 @@ class SharedControlNode:
     gets one line with the rate, late cycles, modes and solve times.
 
     Args:
-        config: MPC parameters (``solver="compiled"`` compiles the solvers before the node starts if
-            scripts/setup has not cached them).
-        plane: task plane in base_link.
-        box: boundary in the task plane (None: none).
-        initial_state: start in the task plane [m].
-        source: one of ``INPUTS``.
-        twist_projection: 2 x 3 matrix from device linear velocity to the task plane (``twist``).
-        twist_scale: task-plane speed per device speed [-] (``twist``).
-        twist_deadband: projected device speeds below this are zero [m/s] (``twist``).
-        joy_axes: indices of the joystick axes for x and y (``joy``).
-        joy_scale: task-plane speed at full deflection per axis [m/s] (``joy``).
-        command_timeout: a command older than this counts as zero [s].
-        command_delay: each cycle reads the operator's commands this much before its own time, placed by their
-            header stamps (messages up to this late, bunched or out of order give the same window) [s].
-        obstacle_timeout: the obstacle is dropped when not refreshed for this long [s] (0: never).
-        frame_id: frame of /equilibrium_pose.
-        enabled: drive the arm from the start; False waits for /shared_control/enable (the GUI's SHARED CONTROL tab).
-        approach_speed: when enabled, the reference goes from the arm's pose to the task plane at most this fast
-            [m/s] (then the MPC starts there, inside the boundary); commands wait until it has arrived.
-        approach_turn_rate: ... and turns at most this fast [rad/s].
-        state_from_arm: each cycle starts the MPC from the arm's measured pose projected on the plane (the paper's
-            x is the robot's) when /cartesian_pose is fresher than command_timeout; False integrates its own state.
+        config: the node's parameters.
+        surface: the surface to wipe, from ``config.surface`` (None: none).
 
     ROS Subscribers:
         /shared_control/operator_command (geometry_msgs/Vector3Stamped), or /sigma7/twist
@@ -247,7 +233,10 @@ class SharedControlNode:
         (geometry_msgs/PoseStamped); /shared_control/enable (std_msgs/Bool: while false nothing is published; each
         enable takes the reference smoothly from the arm's pose to its projection on the plane, inside the boundary,
         and starts the MPC there afresh, in direct control for a window; ``initial_state`` when nobody publishes
-        /cartesian_pose), /cartesian_pose (geometry_msgs/PoseStamped, base_link: where the arm is; while enabled)
+        /cartesian_pose), /cartesian_pose (geometry_msgs/PoseStamped, base_link: where the arm is; while enabled),
+        /shared_control/clutch (std_msgs/Bool: each true holds the clutch for ``command_timeout``: the controller
+        keeps the recognised pattern alone, ``SharedControl.keep``, while the operator's hand shapes the stiffness;
+        false releases it)
 
     ROS Publishers:
         /equilibrium_pose (geometry_msgs/PoseStamped), /equilibrium_twist (geometry_msgs/TwistStamped: the plan's
@@ -255,119 +244,68 @@ class SharedControlNode:
         /shared_control/state (teleteach/SharedControlState),
         /shared_control/plan (nav_msgs/Path: the planned horizon, in ``frame_id``, each cycle while someone
         listens; empty in direct control), /shared_control/boundary (geometry_msgs/PolygonStamped, latched: the box
-        in ``frame_id``)
+        in ``frame_id``), /shared_control/task (teleteach/SharedControlTask, latched, again on each wipe's enable: the
+        task plane's frame and the wiped surface as located)
     """
 
     WARN_PERIOD = 5.0
 
     @classmethod
     def from_params(cls) -> "SharedControlNode":
-        """From the private parameters (defaults: config/shared_control.yaml, see launch/shared_control.launch)."""
+        """From the private parameters (config/shared_control.yaml, see launch/shared_control.launch)."""
         from teleteach.runtime.node import node_parameters
 
-        parameters = node_parameters("shared_control.yaml")
-        boundary = parameters["boundary"]
+        config = SharedControlNodeConfig.from_parameters(node_parameters("shared_control.yaml"))
         surface = None
-        if parameters["surface"]:
+        if config.surface:
             from teleteach.core.scene import load_scene
 
             scene = load_scene()
             surface = SurfaceWipe(
-                scene.surface(str(parameters["surface"])),
-                scene.wiping_tool,
-                load_wiping_config(),
-                scene.robot.mount_height,
+                scene.surface(config.surface), scene.wiping_tool, load_wiping_config(), scene.robot.mount_height
             )
-        return cls(
-            SharedControlConfig.from_parameters(parameters),
-            TaskPlane(**parameters["plane"]),
-            Box(*(float(v) for v in boundary)) if boundary else None,
-            tuple(float(v) for v in parameters["initial_state"]),
-            source=str(parameters["input"]),
-            twist_projection=parameters["twist_projection"],
-            twist_scale=float(parameters["twist_scale"]),
-            joy_axes=[int(v) for v in parameters["joy_axes"]],
-            joy_scale=[float(v) for v in parameters["joy_scale"]],
-            command_timeout=float(parameters["command_timeout"]),
-            command_delay=float(parameters["command_delay"]),
-            obstacle_timeout=float(parameters["obstacle_timeout"]),
-            frame_id=str(parameters["frame_id"]),
-            twist_deadband=float(parameters["twist_deadband"]),
-            enabled=bool(parameters["enabled"]),
-            approach_speed=float(parameters["approach_speed"]),
-            approach_turn_rate=float(parameters["approach_turn_rate"]),
-            state_from_arm=bool(parameters["state_from_arm"]),
-            surface=surface,
-        )
+        return cls(config, surface)
 
-    def __init__(
-        self,
-        config: SharedControlConfig,
-        plane: TaskPlane,
-        box: Optional[Box],
-        initial_state: Sequence[float],
-        *,
-        source: str,
-        twist_projection: Sequence[Sequence[float]],
-        twist_scale: float,
-        joy_axes: Sequence[int],
-        joy_scale: Sequence[float],
-        command_timeout: float,
-        command_delay: float,
-        obstacle_timeout: float,
-        frame_id: str,
-        twist_deadband: float,
-        enabled: bool,
-        approach_speed: float,
-        approach_turn_rate: float,
-        state_from_arm: bool,
-        surface: Optional[SurfaceWipe] = None,
-    ):
+    def __init__(self, config: SharedControlNodeConfig, surface: Optional[SurfaceWipe] = None):
         import rospy
-        from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped, Vector3Stamped
+        from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped
         from nav_msgs.msg import Path
-        from sensor_msgs.msg import Joy
         from std_msgs.msg import Bool
 
-        from teleteach.msg import SharedControlState
+        from teleteach.msg import SharedControlState, SharedControlTask
 
-        if source not in INPUTS:
-            raise ValueError(f"input must be one of {INPUTS}, got {source!r}")
-        projection = np.asarray(twist_projection, dtype=float)
-        if projection.shape != (2, 3) or not np.all(np.isfinite(projection)):
-            raise ValueError(f"twist_projection must be a finite 2 x 3 matrix, got {twist_projection}")
-        if config.dt <= 0 or command_timeout <= 0 or not 0 <= command_delay < command_timeout:
-            raise ValueError("dt and command_timeout must be > 0, command_delay in [0, command_timeout)")
         self._rospy = rospy
+        self._task_type = SharedControlTask
         self._state_type = SharedControlState
         self._pose_type = PoseStamped
         self._path_type = Path
         self._twist_type = TwistStamped
-        self.plane = plane
-        self.frame_id = frame_id
-        self.command_timeout = command_timeout
-        self.command_delay = command_delay
-        self.obstacle_timeout = obstacle_timeout
+        self.plane = config.plane
+        self.frame_id = config.frame_id
+        self.command_timeout = config.command_timeout
+        self.command_delay = config.command_delay
+        self.obstacle_timeout = config.obstacle_timeout
         self._lock = threading.Lock()
-        self._commands = CommandTimeline(command_timeout)
+        self._commands = CommandTimeline(config.command_timeout)
         self._obstacle: Optional[StraightEdge] = None
         self._obstacle_stamp = -math.inf
-        self.initial_state = tuple(initial_state)
-        self.box = box
-        self.margin = config.margin
-        self.dt = config.dt
-        self.enabled = enabled
-        self.approach_limits = (approach_speed, approach_turn_rate)
+        self.initial_state = tuple(config.initial_state)
+        self.box = config.box
+        self.margin = config.mpc.margin
+        self.dt = config.mpc.dt
+        self.enabled = config.enabled
+        self.approach_limits = (config.approach_speed, config.approach_turn_rate)
         self._arm: Optional[Tuple[np.ndarray, np.ndarray]] = None  # the arm's position and orientation, base_link
         self._arm_time = -math.inf  # when the last /cartesian_pose came [s]
-        self.state_from_arm = state_from_arm
+        self.state_from_arm = config.state_from_arm
         self._rejected = ""  # why the newest bad message since the last cycle was rejected
         self._coasts = 0  # cycles coasted in a row
         self._approach: Optional[Tuple[Approach, float]] = None  # (the move, its time so far [s]) while it runs
         self._last_input = -math.inf  # when the newest operator command arrived [s, ROS time]
         self._retracting = False  # the wipe ended: the tool goes off the surface, then the node disables itself
         self._disable = False  # the retract has arrived: the loop disables the node after this cycle
-        self.controller = self._build(config, box, initial_state)
+        self._clutch_until = -math.inf  # [s, ROS time] the clutch holds until then (renewed by each true message)
+        self.controller = self._build(config.mpc, self.box, self.initial_state)
         self.pose_publisher = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=1)
         self.twist_publisher = rospy.Publisher("equilibrium_twist", TwistStamped, queue_size=1)
         self.state_publisher = rospy.Publisher("shared_control/state", SharedControlState, queue_size=10)
@@ -376,27 +314,14 @@ class SharedControlNode:
         self._polygon_types = (PolygonStamped, Point32)
         self._publish_boundary()
         self._surface = PerceivedSurface(rospy, surface) if surface is not None else None
-        if source == "operator_command":
-            topic, message_type = "shared_control/operator_command", Vector3Stamped
-            convert = command_from_vector
-        elif source == "twist":
-            topic, message_type = "sigma7/twist", TwistStamped
-
-            def convert(message):
-                return command_from_twist(message, projection, twist_scale, twist_deadband)
-
-        else:
-            topic, message_type = "joy", Joy
-
-            def convert(message):
-                return command_from_joy(message, joy_axes, joy_scale)
-
-        self._input = (topic, message_type, self._guarded(self._set_command, convert, stamped=True))
+        self.task_publisher = rospy.Publisher("shared_control/task", SharedControlTask, queue_size=1, latch=True)
+        self._publish_task()
+        self._input = self._operator_input(config)
         self._enabled_subscribers = []
         self._enabled = threading.Event()
         self._schedule: Optional[CycleSchedule] = None  # the cycle grid, from the first cycle after an enable
         self._statistics = CycleStatistics(REPORT_PERIOD, MODE_NAMES)
-        if enabled:
+        if config.enabled:
             self._subscribe_while_enabled()
             self._enabled.set()
         self._subscribers = [
@@ -404,10 +329,33 @@ class SharedControlNode:
                 "shared_control/obstacle", PoseStamped, self._guarded(self._set_obstacle, obstacle_from_pose)
             ),
             rospy.Subscriber("shared_control/enable", Bool, lambda message: self.set_enabled(message.data)),
+            rospy.Subscriber("shared_control/clutch", Bool, self._on_clutch, queue_size=1),
         ]
         self._stopping = False
         self._thread = threading.Thread(target=self._run, name="shared_control_cycles", daemon=True)
         self._thread.start()
+
+    def _operator_input(self, config: SharedControlNodeConfig):
+        """(topic, message type, callback) of the operator's command, as ``config.input`` says."""
+        from geometry_msgs.msg import TwistStamped, Vector3Stamped
+        from sensor_msgs.msg import Joy
+
+        if config.input == "operator_command":
+            topic, message_type, convert = "shared_control/operator_command", Vector3Stamped, command_from_vector
+        elif config.input == "twist":
+            topic, message_type = "sigma7/twist", TwistStamped
+            projection = np.asarray(config.twist_projection, dtype=float)
+
+            def convert(message):
+                return command_from_twist(message, projection, config.twist_scale, config.twist_deadband)
+
+        else:
+            topic, message_type = "joy", Joy
+
+            def convert(message):
+                return command_from_joy(message, config.joy_axes, config.joy_scale)
+
+        return topic, message_type, self._guarded(self._set_command, convert, stamped=True)
 
     def _publish_boundary(self) -> None:
         """The boundary on the plane, in ``frame_id`` (latched; empty without one)."""
@@ -432,7 +380,35 @@ class SharedControlNode:
             self.plane, self.box = plane, box
             self.controller.set_boundary(box)
         self._publish_boundary()
+        self._publish_task()
         return True
+
+    def _publish_task(self) -> None:
+        """Where the controller plans (latched): the task plane's frame and, on a wipe, the surface as located."""
+        task = self._task_type()
+        task.header.stamp = self._rospy.Time.now()
+        task.header.frame_id = self.frame_id
+        plane = self.plane
+        x_axis, y_axis = np.asarray(plane.x_axis, dtype=float), np.asarray(plane.y_axis, dtype=float)
+        axes = Rotation.from_matrix(np.column_stack([x_axis, y_axis, np.cross(x_axis, y_axis)]))
+        _set_pose(task.plane, plane.to_base((0.0, 0.0)), axes.as_quat())
+        _set_pose(task.surface_pose, np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]))
+        if self._surface is not None and self._surface.in_base is not None:
+            task.surface = self._surface.wipe.surface.name
+            _set_pose(task.surface_pose, self._surface.in_base.position, self._surface.in_base.rotation.as_quat())
+        self.task_publisher.publish(task)
+
+    def _on_clutch(self, message) -> None:
+        """The GUI's clutch on a wipe: true renews it for ``command_timeout`` (a GUI gone releases it), false ends it.
+
+        A held clutch counts as the operator's input: the hand is on the device, shaping the stiffness.
+        """
+        now = self._rospy.get_time()
+        with self._lock:
+            if message.data:
+                self._clutch_until, self._last_input = now + self.command_timeout, now
+            else:
+                self._clutch_until = -math.inf
 
     def _build(self, config: SharedControlConfig, box, initial_state) -> SharedControl:
         """The controller; with ``compiled`` solvers not cached yet (scripts/setup builds them), compile them first.
@@ -634,7 +610,11 @@ class SharedControlNode:
             self.controller.measure(self.plane.to_plane(self._arm[0]))
         # Catch up by coasting on the plan, but solve at least every MAX_COASTS + 1 cycles and whenever there is no
         # plan to follow: a machine that never lets the loop catch up must not freeze the identification.
-        if schedule.behind(now) and self.controller.skill is not None and self._coasts < MAX_COASTS:
+        if now <= self._clutch_until:
+            # The operator's hand shapes the stiffness (the GUI's wipe teaching): the controller keeps the pattern.
+            record = self.controller.keep()
+            self._coasts = 0
+        elif schedule.behind(now) and self.controller.skill is not None and self._coasts < MAX_COASTS:
             record = self.controller.coast(command)
             self._coasts += 1
         else:

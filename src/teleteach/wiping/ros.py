@@ -92,6 +92,7 @@ class ScriptedWipe:
         self.eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=1, latch=True)
         self.enabler = rospy.Publisher("/shared_control/enable", Bool, queue_size=1, latch=True)
         self.command = rospy.Publisher("/shared_control/operator_command", Vector3Stamped, queue_size=10)
+        self.clutch = rospy.Publisher("/shared_control/clutch", Bool, queue_size=1)
 
     def press_with(self, seen_in_base: Transform, stiffness=TAUGHT) -> None:
         """Send the stiffness (along u, v and the normal of the board as perceived) on /eigenvalues, /eigenvectors."""
@@ -134,6 +135,28 @@ class ScriptedWipe:
                 each(k, message.header.stamp.to_sec())
             rate.sleep()
         return start, rospy.Time.now().to_sec()
+
+    def teach(self, duration: float, seen_in_base: Transform, before=TAUGHT, after=TAUGHT) -> Tuple[float, float]:
+        """Hold the clutch for ``duration`` [s] of ROS time, shaping the stiffness from ``before`` into ``after``.
+
+        As the GUI does on a wipe: /shared_control/clutch true at RATE (no pattern commands meanwhile: the hand is on
+        the ellipsoid) and the stiffness, each principal value along a minimum-jerk ramp; then the clutch released.
+        Returns the ROS times [s] of the first and last clutch message.
+        """
+        from teleteach.core.trajectories import minimum_jerk
+
+        rospy, clutch = self._rospy, self._types[2]
+        start = rospy.Time.now().to_sec()
+        rate = rospy.Rate(RATE)
+        while rospy.Time.now().to_sec() - start < duration and not rospy.is_shutdown():
+            phase = float(minimum_jerk((rospy.Time.now().to_sec() - start) / duration))
+            self.press_with(seen_in_base, np.asarray(before) + phase * (np.asarray(after) - np.asarray(before)))
+            self.clutch.publish(clutch(data=True))
+            rate.sleep()
+        end = rospy.Time.now().to_sec()
+        self.press_with(seen_in_base, after)
+        self.clutch.publish(clutch(data=False))
+        return start, end
 
 
 class WorldRecord:
