@@ -132,13 +132,8 @@ class MainWindow(QMainWindow):
         self.start_tab, self.high_level, self.low_level, self.shared_control, self.teleop = (
             part.widget for part in self.parts[: len(Tab)]
         )  # the tabs the window itself still talks to
-        self.worker = RosWorker(
-            config,
-            self.command,
-            self.recorder,
-            self.player.current,
-            adapters=[part.adapter for part in self.parts if part.adapter is not None],
-        )
+        adapters = [part.adapter for part in self.parts if part.adapter is not None]
+        self.worker = RosWorker(config, self.command, self.recorder, self.player.current, adapters=adapters)
         self._build_window()
         self._actions = self._session_actions()
         self._start_worker()

@@ -236,8 +236,7 @@ class RosWorker(QObject):
         """The worker of the window.
 
         ``equilibrium``: the pose the player commands now (recorded with each stiffness sample), or None;
-        ``adapters``: the tabs' ROS sides, run
-        in this worker's thread.
+        ``adapters``: the tabs' ROS sides, run in this worker's thread.
         """
         super().__init__()
         self.config = config

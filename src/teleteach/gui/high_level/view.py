@@ -1,7 +1,4 @@
-"""The HIGH-LEVEL tab (thesis II-B, Fig. 5): buttons for the tree's nodes and the library's skills, and three steps.
-
-It only displays and collects the operator's choices; it acts on device signals only while it is the active tab.
-"""
+"""The HIGH-LEVEL tab's widgets (thesis II-B, Fig. 5): they show the flow and collect choices; no ROS here."""
 
 from typing import List, Optional, Sequence, Tuple
 
@@ -83,8 +80,33 @@ class HighLevelTab(QWidget):
         splitter = QSplitter(Qt.Horizontal)
         left = QWidget()
         column = QVBoxLayout(left)
-        self.step1 = QGroupBox("Step 1: select a node  (device X, click to confirm)")
-        step1 = QVBoxLayout(self.step1)
+        self.step1 = self._node_step()
+        self.selected_label = big(QLabel("waiting for the behaviour tree..."), 13)
+        self.selected_label.setStyleSheet("color: #1b5e20;")
+        column.addWidget(self.selected_label)
+        column.addWidget(self.step1, 1)  # the buttons get the room; the steps below keep their size
+        self.step2, self.step3 = self._operation_step(), self._index_step()
+        for box in (self.step2, self.step3):
+            box.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Maximum)
+        self.answer_label = big(QLabel(""), 12)
+        self.answer_label.setWordWrap(True)
+        column.addWidget(self.answer_label)
+        gesture = QLabel(
+            "Open the gripper fully to return to START.  Click with the handle pushed down: undo the last edit;"
+            " pulled up: redo."
+        )
+        gesture.setWordWrap(True)
+        column.addWidget(gesture)
+        splitter.addWidget(left)
+        splitter.addWidget(self._tree_column())
+        splitter.setSizes([620, 380])
+        QVBoxLayout(self).addWidget(splitter)
+        self.refresh()
+
+    def _node_step(self) -> QGroupBox:
+        """Step 1: the buttons (scrolled, wrapped to the width) and the node slider."""
+        box = QGroupBox("Step 1: select a node  (device X, click to confirm)")
+        step1 = QVBoxLayout(box)
         buttons = QWidget()
         self.button_area = QVBoxLayout(buttons)
         self.button_area.setContentsMargins(0, 0, 0, 0)
@@ -100,13 +122,12 @@ class HighLevelTab(QWidget):
         self.node_slider.setTickInterval(1)
         self.node_slider.setEnabled(False)
         step1.addWidget(self.node_slider)
-        self.selected_label = big(QLabel("waiting for the behaviour tree..."), 13)
-        self.selected_label.setStyleSheet("color: #1b5e20;")
-        column.addWidget(self.selected_label)
-        column.addWidget(self.step1, 1)  # the buttons get the room; the steps below keep their size
+        return box
 
-        self.step2 = QGroupBox("Step 2: operation  (device Y, click; roll: page 2)")
-        step2 = QHBoxLayout(self.step2)
+    def _operation_step(self) -> QGroupBox:
+        """Step 2: the operation slider and the page's operations, its last one on top."""
+        box = QGroupBox("Step 2: operation  (device Y, click; roll: page 2)")
+        step2 = QHBoxLayout(box)
         self.operation_slider = QSlider(Qt.Vertical)
         self.operation_slider.setTickPosition(QSlider.TicksRight)  # one tick per operation: the device's detents
         self.operation_slider.setTickInterval(1)
@@ -119,8 +140,12 @@ class HighLevelTab(QWidget):
         for label in self.operation_labels:  # top to bottom: the page's last operation first
             labels.addWidget(label)
         step2.addLayout(labels)
-        self.step3 = QGroupBox("Step 3: insert index / wrap value  (roll, click)")
-        step3 = QHBoxLayout(self.step3)
+        return box
+
+    def _index_step(self) -> QGroupBox:
+        """Step 3: the dial (an index, or a decorator's value) and what it says."""
+        box = QGroupBox("Step 3: insert index / wrap value  (roll, click)")
+        step3 = QHBoxLayout(box)
         self.dial = QDial()
         self.dial.setNotchesVisible(True)  # a notch per position: the device's detents in roll
         self.dial.setPageStep(1)
@@ -130,20 +155,10 @@ class HighLevelTab(QWidget):
         self.index_label = big(QLabel("index 0"), 12)
         self.index_label.setWordWrap(True)
         step3.addWidget(self.index_label, 1)
-        for box in (self.step2, self.step3):
-            box.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Maximum)
+        return box
 
-        self.answer_label = big(QLabel(""), 12)
-        self.answer_label.setWordWrap(True)
-        column.addWidget(self.answer_label)
-        gesture = QLabel(
-            "Open the gripper fully to return to START.  Click with the handle pushed down: undo the last edit;"
-            " pulled up: redo."
-        )
-        gesture.setWordWrap(True)
-        column.addWidget(gesture)
-        splitter.addWidget(left)
-
+    def _tree_column(self) -> QWidget:
+        """The live tree, its legend, and steps 2 and 3 below it."""
         right = QWidget()
         tree_column = QVBoxLayout(right)
         tree_column.addWidget(big(QLabel("Behaviour tree (live)"), 11))
@@ -158,10 +173,7 @@ class HighLevelTab(QWidget):
         # thesis' tree, its library and the skills taught show in whole rows at the default window size
         tree_column.addWidget(self.step2)
         tree_column.addWidget(self.step3)
-        splitter.addWidget(right)
-        splitter.setSizes([620, 380])
-        QVBoxLayout(self).addWidget(splitter)
-        self.refresh()
+        return right
 
     # data ---------------------------------------------------------------------------------------
     def choices(self) -> Tuple[List[Tuple[str, List[str]]], List[str]]:
@@ -239,18 +251,21 @@ class HighLevelTab(QWidget):
         self.button_area.addStretch(1)  # the groups keep their height; the room left stays below them
         self._columns = 0
         self._wrap()
-        sizes = {}
-        if self.tree is not None:
-            root = self.tree.root
-            sizes = {
-                node.name: len(node.child_ids)
-                for node in self.tree.nodes
-                if node.type in COMPOSITE_TYPES and node is not root and node.name != DEFAULT_PARENT
-            }
-        self.flow.set_choices(names, self.tree.child_count(DEFAULT_PARENT) + 1 if self.tree else 1, sizes)
+        self.flow.set_choices(names, self.tree.child_count(DEFAULT_PARENT) + 1 if self.tree else 1, self._sizes())
         self.node_slider.setRange(0, max(0, len(names) - 1))
         self.dial.setRange(0, self.flow.insert_slots - 1)
         self.refresh()
+
+    def _sizes(self) -> dict:
+        """{composite: its number of children}, for inserting into it (the root and BehaviorExecution aside)."""
+        if self.tree is None:
+            return {}
+        root = self.tree.root
+        return {
+            node.name: len(node.child_ids)
+            for node in self.tree.nodes
+            if node.type in COMPOSITE_TYPES and node is not root and node.name != DEFAULT_PARENT
+        }
 
     def _wrap(self) -> None:
         """Lay each group's buttons in as many columns (at most six) as fit the visible width: none is cut off."""
@@ -328,6 +343,17 @@ class HighLevelTab(QWidget):
                 style = REPAIR_STYLE
             restyle(button, SELECTED_STYLE if index == flow.node_index else style)
         self.node_slider.setValue(flow.node_index)
+        self._show_operations()
+        self._show_dial()
+        self.selected_label.setText(self._step_text() if flow.choices else "waiting for the behaviour tree...")
+        if flow.answer and flow.step is not Step.WAITING:
+            colour = "#1e9632" if flow.answer.startswith("done") else "#d22828"
+            restyle(self.answer_label, f"color: {colour};")
+            self.answer_label.setText(flow.answer)
+
+    def _show_operations(self) -> None:
+        """Step 2: the page's operations on the slider, the one chosen in bold."""
+        flow = self.flow
         operations = flow.operations
         self.operation_slider.setRange(0, len(operations) - 1)
         self.operation_slider.setValue(flow.operation_index)
@@ -339,6 +365,10 @@ class HighLevelTab(QWidget):
                 label.setText(shown[position])
                 chosen = shown[position] == flow.selected_operation
                 restyle(label, "font-weight: bold; color: #e65100;" if chosen else "color: #555;")
+
+    def _show_dial(self) -> None:
+        """Step 3: the dial on the index to insert at, or on the decorator's value."""
+        flow = self.flow
         if flow.step is Step.PARAMETER:
             values = flow.parameter_values
             self.dial.setRange(0, len(values) - 1)
@@ -348,6 +378,10 @@ class HighLevelTab(QWidget):
             self.dial.setRange(0, self.flow.insert_slots - 1)
             self.dial.setValue(flow.index)
             self.index_label.setText(f"insert at index {flow.index} of {flow.target or DEFAULT_PARENT}")
+
+    def _step_text(self) -> str:
+        """What the operator is doing now, in one line."""
+        flow = self.flow
         node = flow.selected_node or "-"
         step_text = {
             Step.NODE: f"selected: {node}",
@@ -362,8 +396,4 @@ class HighLevelTab(QWidget):
             step_text = (
                 f"click to {flow.edit_gesture} the last edit (handle {'down' if flow.edit_gesture == 'undo' else 'up'})"
             )
-        self.selected_label.setText(step_text if flow.choices else "waiting for the behaviour tree...")
-        if flow.answer and flow.step is not Step.WAITING:
-            colour = "#1e9632" if flow.answer.startswith("done") else "#d22828"
-            restyle(self.answer_label, f"color: {colour};")
-            self.answer_label.setText(flow.answer)
+        return step_text

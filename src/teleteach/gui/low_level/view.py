@@ -54,6 +54,15 @@ class LowLevelTab(QWidget):
         layout = QHBoxLayout(self)
         self.view = EllipsoidView(command)
         layout.addWidget(self.view, 3)  # no alignment flag: a QOpenGLWidget with one gets size 0x0 and never paints
+        layout.addWidget(self._panel(config), 1)
+
+        self._repaint = QTimer(self)  # runs while the tab is active: the other tabs' time costs nothing here
+        self._repaint.timeout.connect(self._tick)
+        self._repaint.setInterval(max(1, int(round(1000.0 / config.repaint_rate))))
+        self._refresh_labels()
+
+    def _panel(self, config: GuiConfig) -> QWidget:
+        """The mode, the values per axis, the device's and the recording's state, the controller, the gestures."""
         panel = QVBoxLayout()
         self.mode_label = big(QLabel(), 14)
         self.mode_label.setTextFormat(Qt.RichText)
@@ -90,12 +99,7 @@ class LowLevelTab(QWidget):
         panel_widget.setLayout(panel)
         panel_widget.setMinimumWidth(270)
         panel_widget.setMaximumWidth(330)
-        layout.addWidget(panel_widget, 1)
-
-        self._repaint = QTimer(self)  # runs while the tab is active: the other tabs' time costs nothing here
-        self._repaint.timeout.connect(self._tick)
-        self._repaint.setInterval(max(1, int(round(1000.0 / config.repaint_rate))))
-        self._refresh_labels()
+        return panel_widget
 
     @property
     def active(self) -> bool:

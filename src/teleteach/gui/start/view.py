@@ -21,6 +21,13 @@ from teleteach.core.teleoperation import Clutch
 from teleteach.gui.device import DeviceSample
 from teleteach.gui.widgets import big
 
+MODE_BUTTONS = (  # text, colour, height [px] of START's buttons, in the order of their tabs
+    ("HIGH-LEVEL teaching\nchange the behaviour tree", "#c8e6c9", 240),
+    ("LOW-LEVEL teaching\ndemonstrate stiffness", "#ffcdd2", 240),
+    ("SHARED CONTROL\nthe MPC keeps your motion pattern; record it as a skill", "#bbdefb", 110),
+    ("TELEOP\nmove the arm with the device (hold the gripper closed)", "#fff3c4", 110),
+)
+
 
 @dataclasses.dataclass(frozen=True)
 class AuthorityView:
@@ -92,20 +99,7 @@ class StartTab(QWidget):
         self._authority_timer.timeout.connect(self.authority.hide)
         layout.addWidget(self.authority)
         row = QHBoxLayout()
-        self.buttons: List[QPushButton] = []
-        for index, (text, colour, height) in enumerate(
-            (
-                ("HIGH-LEVEL teaching\nchange the behaviour tree", "#c8e6c9", 240),
-                ("LOW-LEVEL teaching\ndemonstrate stiffness", "#ffcdd2", 240),
-                ("SHARED CONTROL\nthe MPC keeps your motion pattern; record it as a skill", "#bbdefb", 110),
-                ("TELEOP\nmove the arm with the device (hold the gripper closed)", "#fff3c4", 110),
-            )
-        ):
-            button = QPushButton(text)
-            button.setMinimumHeight(height)
-            button.setProperty("colour", colour)
-            button.clicked.connect(lambda _checked, tab=index + 1: self.mode_chosen.emit(tab))
-            self.buttons.append(button)
+        self.buttons: List[QPushButton] = self._mode_buttons()
         self.centre = QLabel()
         self.centre.setAlignment(Qt.AlignCenter)
         self.centre.setWordWrap(True)
@@ -122,6 +116,17 @@ class StartTab(QWidget):
         layout.addWidget(gesture)
         layout.addStretch(2)
         self._show()
+
+    def _mode_buttons(self) -> List[QPushButton]:
+        """HIGH-LEVEL, LOW-LEVEL, SHARED CONTROL, TELEOP: a click on one opens its tab."""
+        buttons = []
+        for index, (text, colour, height) in enumerate(MODE_BUTTONS):
+            button = QPushButton(text)
+            button.setMinimumHeight(height)
+            button.setProperty("colour", colour)
+            button.clicked.connect(lambda _checked, tab=index + 1: self.mode_chosen.emit(tab))
+            buttons.append(button)
+        return buttons
 
     def show_authority(self, view: AuthorityView) -> None:
         """A skill replays: who leads it and what the operator's correction does (hidden once the reports stop)."""

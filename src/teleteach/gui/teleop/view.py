@@ -11,13 +11,13 @@ from typing import Optional, Tuple
 
 import numpy as np
 from PyQt5.QtCore import Qt, pyqtSignal
-from PyQt5.QtGui import QFont
 from PyQt5.QtWidgets import QGridLayout, QGroupBox, QLabel, QVBoxLayout, QWidget
 
 from teleteach.core.gui_config import GuiConfig
 from teleteach.core.rotations import quaternion_to_rpy
 from teleteach.core.teleoperation import Clutch
 from teleteach.gui.device import ClickClassifier
+from teleteach.gui.widgets import big
 
 CLUTCH_STYLES = {
     Clutch.RELEASED: ("clutch released: the arm holds its pose", "background: #eceff1; color: #37474f;"),
@@ -49,6 +49,18 @@ def _pose_values(pose: Optional[np.ndarray]):
     return [f"{value:+.3f}" for value in pose[:3]] + [f"{value:+.1f}" for value in angles]
 
 
+def _limits(teleop) -> QLabel:
+    """The teleoperation's limits in one line."""
+    low, high = teleop.workspace_low, teleop.workspace_high
+    limits = QLabel(
+        f"limits: {teleop.max_speed:g} m/s, {teleop.max_angular_speed:g} rad/s; workspace x [{low[0]:g}, "
+        f"{high[0]:g}] m, y [{low[1]:g}, {high[1]:g}] m, z [{low[2]:g}, {high[2]:g}] m; a handle that jumps more "
+        f"than {teleop.max_device_jump * 100:g} cm releases the clutch"
+    )
+    limits.setWordWrap(True)
+    return limits
+
+
 class TeleopTab(QWidget):
     """Hold the gripper closed to move the arm, open it to let go; a double click records the path.
 
@@ -63,12 +75,7 @@ class TeleopTab(QWidget):
         self.clicks = ClickClassifier(config.double_click_window)
         teleop = config.teleop
         layout = QVBoxLayout(self)
-        title = QLabel("TELEOP: move the arm with the device")
-        font = QFont(title.font())
-        font.setPointSize(18)
-        font.setBold(True)
-        title.setFont(font)
-        layout.addWidget(title)
+        layout.addWidget(big(QLabel("TELEOP: move the arm with the device"), 18))
         hint = QLabel(
             f"Close the gripper and keep it closed ({teleop.clutch_hold:g} s, longer than a click) to move the arm: it "
             f"follows the handle (x{teleop.scale:g}), at the stiffness set in LOW-LEVEL. Open the gripper to let go, "
@@ -77,40 +84,16 @@ class TeleopTab(QWidget):
         )
         hint.setWordWrap(True)
         layout.addWidget(hint)
-        self.clutch_label = QLabel()
+        self.clutch_label = big(QLabel(), 20)
         self.clutch_label.setAlignment(Qt.AlignCenter)
         self.clutch_label.setMinimumHeight(90)
-        clutch_font = QFont(self.clutch_label.font())
-        clutch_font.setPointSize(20)
-        clutch_font.setBold(True)
-        self.clutch_label.setFont(clutch_font)
         layout.addWidget(self.clutch_label)
         self.reason_label = QLabel()
         self.reason_label.setWordWrap(True)
         self.reason_label.setStyleSheet("color: #bf360c; font-size: 13pt;")
         layout.addWidget(self.reason_label)
-        poses = QGroupBox(f"the hand in {config.base_frame}")
-        grid = QGridLayout(poses)
-        self.cells = {}
-        for column, axis in enumerate(AXES):
-            grid.addWidget(QLabel(axis), 0, column + 1, alignment=Qt.AlignRight)
-        for row, name in enumerate(("equilibrium (commanded)", "arm (measured)"), start=1):
-            grid.addWidget(QLabel(name), row, 0)
-            for column in range(len(AXES)):
-                cell = QLabel("-")
-                cell.setAlignment(Qt.AlignRight)
-                cell.setStyleSheet("font-family: monospace; font-size: 12pt;")
-                grid.addWidget(cell, row, column + 1)
-                self.cells[row, column] = cell
-        layout.addWidget(poses)
-        low, high = teleop.workspace_low, teleop.workspace_high
-        limits = QLabel(
-            f"limits: {teleop.max_speed:g} m/s, {teleop.max_angular_speed:g} rad/s; workspace x [{low[0]:g}, "
-            f"{high[0]:g}] m, y [{low[1]:g}, {high[1]:g}] m, z [{low[2]:g}, {high[2]:g}] m; a handle that jumps more "
-            f"than {teleop.max_device_jump * 100:g} cm releases the clutch"
-        )
-        limits.setWordWrap(True)
-        layout.addWidget(limits)
+        layout.addWidget(self._poses(config.base_frame))
+        layout.addWidget(_limits(teleop))
         self.path_label = QLabel("path: double click to record the path the arm takes")
         self.path_label.setWordWrap(True)
         self.path_label.setStyleSheet("font-size: 13pt; padding: 4px;")
@@ -128,6 +111,23 @@ class TeleopTab(QWidget):
         layout.addStretch(1)
         self.view: Optional[TeleopView] = None
         self.on_state(TeleopView(False, Clutch.RELEASED, "waiting for the arm to be free", None, None, (0.0,) * 3, ""))
+
+    def _poses(self, frame: str) -> QGroupBox:
+        """The equilibrium commanded and the arm measured, x y z roll pitch yaw: a cell each in ``self.cells``."""
+        poses = QGroupBox(f"the hand in {frame}")
+        grid = QGridLayout(poses)
+        self.cells = {}
+        for column, axis in enumerate(AXES):
+            grid.addWidget(QLabel(axis), 0, column + 1, alignment=Qt.AlignRight)
+        for row, name in enumerate(("equilibrium (commanded)", "arm (measured)"), start=1):
+            grid.addWidget(QLabel(name), row, 0)
+            for column in range(len(AXES)):
+                cell = QLabel("-")
+                cell.setAlignment(Qt.AlignRight)
+                cell.setStyleSheet("font-family: monospace; font-size: 12pt;")
+                grid.addWidget(cell, row, column + 1)
+                self.cells[row, column] = cell
+        return poses
 
     def on_click(self, stamp: float) -> None:
         """A double click starts or stops the path's recording; a single click does nothing.
