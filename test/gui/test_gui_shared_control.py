@@ -9,11 +9,13 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT, pump, pump_until, start, stop
-from geometry_msgs.msg import PolygonStamped, PoseStamped, Vector3Stamped
+from geometry_msgs.msg import PolygonStamped, PoseStamped, QuaternionStamped, Vector3Stamped
+from std_msgs.msg import Bool
 from test_gui_recording import robot_sim  # noqa: F401 - the fixture
 
 from teleteach.core import skill_file
-from teleteach.msg import SharedControlState, SkillLibrary
+from teleteach.core.scene import load_scene
+from teleteach.msg import SharedControlState, SharedControlTask, SkillLibrary
 from teleteach.shared_control.models import synthetic_commands
 from teleteach.shared_control.plane import TaskPlane
 
@@ -152,3 +154,104 @@ def test_shared_control_tab_shows_the_plan_and_records_a_skill(
     # gripper fully open: back to START
     device.set_gripper(0.5)
     pump_until(qapp, lambda: window.tabs.currentIndex() == 0, 5, "START")
+
+
+@pytest.fixture
+def wiping_system(ros_master, data_root):
+    """robot_sim with the eraser mounted, its base driven to the counter's board, and shared_control on the board."""
+    import rospy
+
+    from teleteach.wiping.ros import drive_to
+
+    simulation = start(
+        ["roslaunch", "teleteach", "sim.launch", "skills:=false", "wiping_tool:=true"], data_root.parent / "sim.log"
+    )
+    rospy.wait_for_message("/cartesian_pose", PoseStamped, timeout=90)
+    assert drive_to(), "the base did not arrive at the counter"
+    controller = start(
+        ["roslaunch", "teleteach", "shared_control.launch", "solver:=fast", "surface:=counter_board", "enabled:=false"],
+        data_root.parent / "shared_control.log",
+    )
+    rospy.wait_for_message("/shared_control/task", SharedControlTask, timeout=60)
+    yield
+    stop(controller)
+    stop(simulation, timeout=20)
+    rospy.delete_param("/use_sim_time")  # sim.launch set it on the shared master; later nodes run on wall time
+
+
+def test_wiping_in_shared_control_the_gripper_clutch_teaches_the_stiffness_while_the_wave_goes_on(
+    qapp, bt_node, wiping_system, device, make_window, topic_log, data_root, artifacts_dir
+):
+    from teleteach.core.gui_config import GuiConfig
+    from teleteach.shared_control.surface import load_wiping_config, wiping_box
+
+    config = GuiConfig.load()
+    tasks = topic_log("/shared_control/task", SharedControlTask)
+    clutch = topic_log("/shared_control/clutch", Bool)
+    eigenvalues = topic_log("/eigenvalues", Vector3Stamped)
+    eigenvectors = topic_log("/eigenvectors", QuaternionStamped)
+    window = make_window()
+    tab = window.shared_control
+    operator = Operator()
+    try:
+        device.move(y=0.08)
+        pump_until(qapp, lambda: window.start_tab.selected == 2, 5, "START to select SHARED CONTROL")
+        device.click()
+        pump_until(qapp, lambda: window.tabs.currentIndex() == 3, 5, "SHARED CONTROL")
+        # Expect: the node locates the board and says so; the tab draws the board's marked area (its own frame)
+        pump_until(
+            qapp, lambda: tab.teaching_label.text().startswith("wiping counter_board"), 30, "the wipe in the tab"
+        )
+        assert tasks.last().surface == "counter_board"
+        area = wiping_box(load_scene().surface("counter_board"), load_scene().wiping_tool.size[:2])
+        pump_until(qapp, lambda: len(tab.view.boundary) == 4, 10, "the board's boundary")
+        corners = sorted(map(tuple, np.round(tab.view.boundary, 6)))
+        expected = sorted((x, y) for x in (area.x_min, area.x_max) for y in (area.y_min, area.y_max))
+        np.testing.assert_allclose(corners, expected, atol=1e-6)
+        pump_until(qapp, lambda: tab.status is not None and tab.status.skill == "wave", 30, "the wave identified")
+
+        # the gripper closed past clutch_hold: the clutch, the wave kept by the controller
+        device.set_gripper(0.0)
+        pump_until(qapp, lambda: tab.teaching_label.text().startswith("CLUTCH"), 5, "the clutch in the tab")
+        pump_until(qapp, lambda: clutch.last() is not None and clutch.last().data, 2, "/shared_control/clutch true")
+        pump_until(qapp, lambda: tab.status.message.startswith("clutch: keeping the wave"), 5, "the wave kept")
+        # the handle sweeps low (every axis meets it), then shapes: stiff along the board, soft into it
+        device.move(x=-0.1, y=-0.1, z=-0.1)
+        pump(qapp, 0.3)
+        device.move(x=0.09, y=0.09, z=-0.08)
+        pump(qapp, 0.5)
+        window.screenshot().save(str(artifacts_dir / "gui_shared_control_wipe_clutch.png"))
+        taught = np.array([eigenvalues.last().vector.x, eigenvalues.last().vector.y, eigenvalues.last().vector.z])
+        assert taught[0] > 3 * taught[2] and taught[1] > 3 * taught[2], taught  # shaped along the board's axes
+        q = eigenvectors.last().quaternion
+        board = tasks.last().surface_pose.orientation
+        assert abs(abs(np.dot([q.x, q.y, q.z, q.w], [board.x, board.y, board.z, board.w])) - 1.0) < 1e-6
+
+        # opened halfway: the pattern is the operator's again, the stiffness stays as taught
+        device.set_gripper(0.3)
+        pump_until(qapp, lambda: tab.teaching_label.text().startswith("wiping"), 5, "the clutch released")
+        pump_until(qapp, lambda: not tab.status.message.startswith("clutch"), 5, "the node's clutch released")
+        pump(qapp, 0.3)
+        assert window.tabs.currentIndex() == 3  # halfway open is no way back to START
+        kept = np.array([eigenvalues.last().vector.x, eigenvalues.last().vector.y, eigenvalues.last().vector.z])
+        np.testing.assert_allclose(kept, taught, rtol=1e-6)
+
+        # a recording of the wipe is a skill relative to the board, with the stiffness taught
+        device.click()
+        device.click()
+        pump_until(qapp, lambda: window.shared_recorder.active, 5, "recording after a double click")
+        pump_until(qapp, lambda: len(window.shared_recorder) > 60, 20, "samples recorded")
+        device.click()
+        device.click()
+        pump_until(qapp, lambda: not window.shared_recorder.active, 5, "the recording to stop")
+    finally:
+        operator.close()
+    skills = data_root / "skills"
+    pump_until(qapp, lambda: list(skills.glob("*.npz")), 5, "a skill file in the data directory")
+    (path,) = skills.glob("*.npz")
+    skill = skill_file.load(path)
+    assert skill.target.kind == skill_file.SURFACE and skill.target.name == "counter_board"
+    np.testing.assert_allclose(np.diag(skill.stiffness[-1]), taught, rtol=1e-3)  # in the board's own axes
+    reach, depth = load_scene().wiping_tool.reach, load_wiping_config().contact_force / taught[2]
+    np.testing.assert_allclose(skill.equilibrium_pose[-1, 2], reach - depth, atol=0.002)  # pressing into the board
+    assert config.shared_control_stiffness[2] != taught[2]

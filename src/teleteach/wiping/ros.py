@@ -39,11 +39,21 @@ def transform_of(box) -> Transform:
 def drive_to(pose_name: str = BASE_POSE, timeout: float = 90.0) -> bool:
     """Drive the base to a base pose of the scene with move_base; whether it arrived within ``timeout`` [s]."""
     import actionlib
-    import rospy
-    from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+    from move_base_msgs.msg import MoveBaseAction
 
     pose = load_scene().base_poses[pose_name]
     base = actionlib.SimpleActionClient("/move_base", MoveBaseAction)
+    try:
+        return _drive(base, pose, timeout)
+    finally:
+        base.action_client.stop()  # the caller's process keeps no move_base topics
+
+
+def _drive(base, pose, timeout: float) -> bool:
+    """Send the goal on ``base`` (an actionlib client of move_base) and wait for it."""
+    import rospy
+    from move_base_msgs.msg import MoveBaseGoal
+
     if not base.wait_for_server(rospy.Duration(60.0)):
         raise RuntimeError("no move_base server")
     goal = MoveBaseGoal()

@@ -1,35 +1,44 @@
 """The SHARED CONTROL tab's ROS side (what the MPC says and plans, in the task plane) and its place in the window.
 
-The task plane is the ``plane`` section of config/shared_control.yaml, the shared_control node's own (the one place
-it is written); everything the tab draws comes as task-plane points through this adapter's signals.
+The task plane is the one the shared_control node says it plans on (/shared_control/task, latched: the ``plane`` of
+config/shared_control.yaml, or on a wipe the surface as located on that wipe's enable); everything the tab draws comes
+as task-plane points through this adapter's signals. On a wipe the tab teaches the stiffness too
+(teleteach.gui.shared_control.teaching): the gripper clutch moves the handle to the ellipsoid, in the surface's axes,
+while the node keeps the pattern, and a recording is saved relative to the surface, for the tree to wipe with.
 
-ROS Subscribers: /shared_control/state, /shared_control/plan, /shared_control/boundary, /shared_control/obstacle,
-/equilibrium_pose (recorded with the constant stiffness while SHARED CONTROL records).
-ROS Publishers: none of its own; while the tab is active the worker sends ``shared_control_stiffness`` on
-/eigenvalues and /eigenvectors.
+ROS Subscribers: /shared_control/task, /shared_control/state, /shared_control/plan, /shared_control/boundary,
+/shared_control/obstacle, /sigma7/gripper_angle (on a wipe), /equilibrium_pose (recorded with the stiffness while
+SHARED CONTROL records).
+ROS Publishers: /shared_control/clutch (std_msgs/Bool, while the tab is active on a wipe: each tick, true while the
+gripper clutch is held); while the tab is active the worker sends the stiffness on /eigenvalues and /eigenvectors
+(``shared_control_stiffness``, or on a wipe the one being taught).
 """
 
 import math
+import threading
 import time
-from typing import Dict, Optional
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 import rospy
-import yaml
 from geometry_msgs.msg import PolygonStamped, PoseStamped
 from nav_msgs.msg import Path
 from PyQt5.QtCore import Qt, pyqtSignal
-from std_msgs.msg import Bool
+from scipy.spatial.transform import Rotation
+from std_msgs.msg import Bool, Float64
 
+from teleteach.control.stiffness import translational_stiffness
+from teleteach.core import skill_file
 from teleteach.core.active_tab import Tab
+from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig
-from teleteach.core.paths import config_file
 from teleteach.gui.adapter import TabAdapter, TabParts
 from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.session import Action
+from teleteach.gui.shared_control.teaching import WipeTeaching
 from teleteach.gui.shared_control.view import SharedControlTab, SharedStatus
 from teleteach.gui.worker import pose_to_array
-from teleteach.msg import SharedControlState
+from teleteach.msg import SharedControlState, SharedControlTask
 from teleteach.runtime.node import publish
 from teleteach.shared_control.plane import TaskPlane
 from teleteach.shared_control.ros import obstacle_from_pose
@@ -37,14 +46,25 @@ from teleteach.shared_control.ros import obstacle_from_pose
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 
 
-def shared_plane(path=None) -> Optional[TaskPlane]:
-    """The shared_control node's task plane (config/shared_control.yaml's ``plane``), or None when it is bad."""
-    try:
-        section = yaml.safe_load((path or config_file("shared_control.yaml")).read_text()).get("plane")
-        return TaskPlane.from_params(section) if isinstance(section, dict) else None
-    except (ValueError, TypeError, OSError, AttributeError) as error:
-        rospy.logwarn(f"teaching_gui: bad shared-control plane (config/shared_control.yaml): {error}")
-        return None
+def task_of(message: SharedControlTask) -> Tuple[TaskPlane, Optional[Tuple[str, Transform]]]:
+    """The task plane of a /shared_control/task message, and the wiped surface (name, pose in base_link) or None.
+
+    Raises:
+        ValueError: a pose that is not finite or not a rotation.
+    """
+
+    def transform(pose) -> Transform:
+        p, q = pose.position, pose.orientation
+        position, quaternion = np.array([p.x, p.y, p.z]), np.array([q.x, q.y, q.z, q.w])
+        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quaternion)) and np.linalg.norm(quaternion) > 0.5):
+            raise ValueError(f"not a pose: {position.tolist()} {quaternion.tolist()}")
+        return Transform(position, Rotation.from_quat(quaternion))
+
+    plane = transform(message.plane)
+    axes = plane.rotation.as_matrix()
+    task_plane = TaskPlane(plane.position, axes[:, 0], axes[:, 1], plane.rotation.as_quat())
+    surface = (message.surface, transform(message.surface_pose)) if message.surface else None
+    return task_plane, surface
 
 
 class SharedControlRos(TabAdapter):
@@ -56,6 +76,7 @@ class SharedControlRos(TabAdapter):
     boundary = pyqtSignal(object)  # n x 2 task-plane points [m]
     obstacle = pyqtSignal(object)  # (x, y, yaw) in the task plane
     arm = pyqtSignal(object)  # the arm (/cartesian_pose) on the task plane (x, y) [m], while SHARED CONTROL
+    teaching = pyqtSignal(str)  # on a wipe: the clutch and the stiffness being taught, in a line ("" on the plane)
     ARM_TRAIL_PERIOD = 0.02  # [s] the arm's trail keeps a point per 20 ms of /cartesian_pose (it comes at 200 Hz)
 
     def __init__(self, config: GuiConfig, recorder: StiffnessRecorder):
@@ -63,14 +84,23 @@ class SharedControlRos(TabAdapter):
         self.config = config
         self.recorder = recorder
         self.plane: Optional[TaskPlane] = None
+        self.surface: Optional[Tuple[str, Transform]] = None  # the wiped surface and its pose in base_link
+        self.wipe: Optional[WipeTeaching] = None  # the stiffness taught on this wipe
+        self._lock = threading.Lock()
+        self._gripper: Optional[float] = None
+        self._said = None
+        self._boundary = []  # the boundary's corners in base_link, as the node last sent them
         self._arm_stamp = -math.inf
         self._subscribers: Dict[str, rospy.Subscriber] = {}
+        self._clutch = None
 
     def start(self, worker) -> None:
-        """The plane, then the subscribers."""
+        """The subscribers and the clutch's publisher."""
         super().start(worker)
-        self.plane = shared_plane()
+        self._clutch = rospy.Publisher("shared_control/clutch", Bool, queue_size=1)
         for topic, message_class, callback in (
+            ("shared_control/task", SharedControlTask, self._on_task),
+            ("sigma7/gripper_angle", Float64, self._on_gripper),
             ("shared_control/state", SharedControlState, self._on_state),
             ("shared_control/plan", Path, self._on_plan),
             ("shared_control/boundary", PolygonStamped, self._on_boundary),
@@ -80,14 +110,47 @@ class SharedControlRos(TabAdapter):
             self._subscribers[topic] = rospy.Subscriber(topic, message_class, callback, queue_size=5, tcp_nodelay=True)
 
     def stop(self) -> None:
-        """No more subscribers."""
+        """No more subscribers, nor the clutch."""
         for subscriber in self._subscribers.values():
             subscriber.unregister()
         self._subscribers.clear()
+        if self._clutch is not None:
+            self._clutch.unregister()
 
     def tick(self) -> None:
-        """The constant stiffness of config/gui.yaml's ``shared_control_stiffness``, axes unturned."""
-        self.worker.send_stiffness(self.config.shared_control_stiffness, IDENTITY)
+        """The stiffness: config/gui.yaml's ``shared_control_stiffness``, or on a wipe the one taught, and the clutch.
+
+        The clutch is sent every tick on a wipe: the node takes a clutch it stops hearing as released.
+        """
+        with self._lock:
+            wipe, gripper = self.wipe, self._gripper
+        if wipe is None:
+            self.worker.send_stiffness(self.config.shared_control_stiffness, IDENTITY)
+            self._say("")
+            return
+        clutched = wipe.update(rospy.get_time(), gripper, self.worker.latest_sample())
+        publish(self._clutch, Bool(clutched))
+        values, quaternion = wipe.stiffness()
+        self.worker.send_stiffness(values, quaternion)
+        along = ", ".join(f"{value:.0f}" for value in values)
+        if clutched:
+            self._say(f"CLUTCH: the handle shapes the stiffness (u, v, normal: {along} N/m); the pattern goes on")
+        else:
+            self._say(f"wiping {self.surface[0]}: stiffness (u, v, normal) {along} N/m; close the gripper to teach it")
+
+    def _say(self, line: str) -> None:
+        if line != self._said:
+            self._said = line
+            self.teaching.emit(line)
+
+    def taught_stiffness(self) -> np.ndarray:
+        """The translational stiffness commanded now (base_link) [N/m]: the one recorded with the equilibrium."""
+        with self._lock:
+            wipe = self.wipe
+        if wipe is None:
+            return np.diag(np.asarray(self.config.shared_control_stiffness, dtype=float))
+        values, quaternion = wipe.stiffness()
+        return translational_stiffness(values, quaternion)
 
     def on_arm(self, stamp: float, pose: np.ndarray) -> None:
         """The arm's trail on the plane: a point per ARM_TRAIL_PERIOD."""
@@ -103,6 +166,22 @@ class SharedControlRos(TabAdapter):
             return None
         planar = np.array([plane.to_plane(point) for point in points]).reshape(-1, 2)
         return planar if np.all(np.isfinite(planar)) else None
+
+    def _on_task(self, message: SharedControlTask) -> None:
+        """The node's plane, and on a wipe the surface: a new wipe starts teaching from SHARED CONTROL's stiffness."""
+        try:
+            plane, surface = task_of(message)
+        except ValueError as error:
+            rospy.logwarn(f"teaching_gui: ignored /shared_control/task: {error}")
+            return
+        with self._lock:
+            self.plane, self.surface = plane, surface
+            self.wipe = None if surface is None else WipeTeaching(self.config, surface[1].rotation)
+        self._draw_boundary()
+
+    def _on_gripper(self, message: Float64) -> None:
+        with self._lock:
+            self._gripper = float(message.data)
 
     def _on_state(self, message: SharedControlState) -> None:
         status = SharedStatus(
@@ -124,7 +203,15 @@ class SharedControlRos(TabAdapter):
             self.plan.emit(planar)
 
     def _on_boundary(self, message: PolygonStamped) -> None:
-        planar = self._to_plane([(p.x, p.y, p.z) for p in message.polygon.points])
+        """Kept in base_link and drawn on the plane, again when the plane comes (the two topics race)."""
+        with self._lock:
+            self._boundary = [(p.x, p.y, p.z) for p in message.polygon.points]
+        self._draw_boundary()
+
+    def _draw_boundary(self) -> None:
+        with self._lock:
+            points = self._boundary
+        planar = self._to_plane(points) if points else None
         if planar is not None:
             self.boundary.emit(planar)
 
@@ -136,11 +223,13 @@ class SharedControlRos(TabAdapter):
         self.obstacle.emit((edge.x, edge.y, edge.yaw))
 
     def _on_equilibrium(self, message: PoseStamped) -> None:
-        """While SHARED CONTROL records, the MPC's equilibrium pose is recorded with the constant stiffness."""
+        """While SHARED CONTROL records, the MPC's equilibrium pose is recorded with the stiffness commanded."""
         if self.active and self.recorder.active:
-            stiffness = np.diag(np.asarray(self.config.shared_control_stiffness, dtype=float))
             self.recorder.add(
-                message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self.measured_pose()
+                message.header.stamp.to_sec(),
+                self.taught_stiffness(),
+                pose_to_array(message.pose),
+                self.measured_pose(),
             )
 
 
@@ -155,6 +244,7 @@ def build(window) -> TabParts:
         (adapter.boundary, view.on_boundary),
         (adapter.obstacle, view.on_obstacle),
         (adapter.arm, view.on_arm),
+        (adapter.teaching, view.on_teaching),
     ):
         signal.connect(slot, Qt.QueuedConnection)
     view.recording_toggled.connect(lambda: window.carry_out(window.session.toggle_shared_recording()))
@@ -163,7 +253,7 @@ def build(window) -> TabParts:
         Action.SHARED_CONTROL_OFF: lambda: publish(window.topics.shared_control, Bool(False)),
         Action.START_SHARED_RECORDING: lambda: _start_recording(window, view, recorder),
         Action.STOP_SHARED_RECORDING: lambda: _stop_recording(window, view, recorder),
-        Action.SAVE_SHARED_SKILL: lambda: _save_skill(window, recorder),
+        Action.SAVE_SHARED_SKILL: lambda: _save_skill(window, recorder, adapter),
     }
     return TabParts(Tab.SHARED_CONTROL.title, view, adapter, actions)
 
@@ -183,7 +273,14 @@ def _stop_recording(window, view: SharedControlTab, recorder: StiffnessRecorder)
     view.show_status(view.status)
 
 
-def _save_skill(window, recorder: StiffnessRecorder) -> None:
-    """The shared-control recording becomes a ``shared_control`` skill."""
-    stiffness = [float(value) for value in window.config.shared_control_stiffness]
-    window.save_recording(recorder, "shared_control", window.config.shared_skill_prefix, {"stiffness": stiffness})
+def _save_skill(window, recorder: StiffnessRecorder, adapter: SharedControlRos) -> None:
+    """The shared-control recording becomes a ``shared_control`` skill; a wipe's, relative to the wiped surface."""
+    prefix = window.config.shared_skill_prefix
+    surface = adapter.surface
+    if surface is None:
+        stiffness = [float(value) for value in window.config.shared_control_stiffness]
+        window.save_recording(recorder, "shared_control", prefix, {"stiffness": stiffness})
+        return
+    name, pose = surface
+    target = (name, pose, skill_file.SURFACE)
+    window.save_recording(recorder, "shared_control", prefix, {"wiped": name}, target=target)

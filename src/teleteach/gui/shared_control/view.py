@@ -236,7 +236,8 @@ class SharedControlTab(QWidget):
             "Move the device: the MPC recognises the motion pattern and keeps it inside the boundary.<br>"
             f"<b>double click</b> (within {config.double_click_window:.1f} s): start / stop recording a skill<br>"
             "<b>wiping a surface: close the gripper</b> (hold it): the device shapes the stiffness (x, y, z: along the "
-            "surface, across it, into it) while the controller keeps the pattern; open it to lead the pattern again<br>"
+            "surface, across it, into it) while the controller keeps the pattern; open it halfway to lead the pattern "
+            "again<br>"
             "<b>open the gripper fully</b>: back to START"
         )
         help_text.setWordWrap(True)
