@@ -36,9 +36,9 @@ from matplotlib.figure import Figure
 
 from teleteach.control.kinematics import PandaKinematics
 from teleteach.core.scene import DEFAULT_SCENE_FILE, load_scene
+from teleteach.core.wiping import DEFAULT_WIPING_FILE, load_wiping_config
 from teleteach.run.provenance import provenance
 from teleteach.run.trials import add_trial_arguments, run_trials, trial_seeds, trial_store
-from teleteach.shared_control.surface import DEFAULT_WIPING_FILE, load_wiping_config
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
 from teleteach.wiping.ablation import BASE_POSE, CELLS, SURFACE, goals, jobs, operator_pattern, summarise_cell
 from teleteach.wiping.trial import run_wipe

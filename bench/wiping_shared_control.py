@@ -33,6 +33,7 @@ import time
 
 import numpy as np
 
+from teleteach.core.wiping import load_wiping_config
 from teleteach.run.provenance import provenance
 from teleteach.run.trials import (
     add_trial_arguments,
@@ -41,7 +42,6 @@ from teleteach.run.trials import (
     trial_seeds,
     trial_store,
 )
-from teleteach.shared_control.surface import load_wiping_config
 from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT
 from teleteach.wiping.assistance import CONFIG_FILES, AssistedWipeJob
 

@@ -37,6 +37,7 @@ import numpy as np
 from teleteach.control.kinematics import PandaKinematics
 from teleteach.core import skill_file
 from teleteach.core.scene import load_scene
+from teleteach.core.wiping import load_wiping_config
 from teleteach.run.provenance import provenance
 from teleteach.run.trials import (
     add_trial_arguments,
@@ -47,7 +48,7 @@ from teleteach.run.trials import (
     wilson_interval,
 )
 from teleteach.shared_control.loop import SharedControlConfig
-from teleteach.shared_control.surface import load_wiping_config, wiping_box
+from teleteach.shared_control.surface import wiping_box
 from teleteach.sim.uncertainty import load_uncertainty
 from teleteach.wiping.ablation import BASE_POSE, SURFACE, TAUGHT, coverage
 from teleteach.wiping.assistance import CONFIG_FILES, human_wipe

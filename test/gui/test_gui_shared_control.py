@@ -183,7 +183,8 @@ def test_wiping_in_shared_control_the_gripper_clutch_teaches_the_stiffness_while
     qapp, bt_node, wiping_system, device, make_window, topic_log, data_root, artifacts_dir
 ):
     from teleteach.core.gui_config import GuiConfig
-    from teleteach.shared_control.surface import load_wiping_config, wiping_box
+    from teleteach.core.wiping import load_wiping_config
+    from teleteach.shared_control.surface import wiping_box
 
     config = GuiConfig.load()
     tasks = topic_log("/shared_control/task", SharedControlTask)

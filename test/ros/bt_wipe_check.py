@@ -24,7 +24,7 @@ from teleteach.core import skill_file
 from teleteach.core.frames import Transform
 from teleteach.core.observed import observed_from_markers
 from teleteach.core.scene import load_scene
-from teleteach.shared_control.surface import load_wiping_config
+from teleteach.core.wiping import load_wiping_config
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings
 from teleteach.wiping.ablation import TAUGHT

@@ -9,15 +9,8 @@ from scipy.spatial.transform import Rotation
 from teleteach.control.stiffness import translational_stiffness
 from teleteach.core.frames import Transform
 from teleteach.core.scene import load_scene
-from teleteach.shared_control.surface import (
-    SurfaceError,
-    SurfaceWipe,
-    WipingError,
-    load_wiping_config,
-    pressing_depth,
-    surface_plane,
-    wiping_box,
-)
+from teleteach.core.wiping import WipingError, load_wiping_config
+from teleteach.shared_control.surface import SurfaceError, SurfaceWipe, pressing_depth, surface_plane, wiping_box
 
 SCENE = load_scene()
 BOARD = SCENE.surface("counter_board")

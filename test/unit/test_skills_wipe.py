@@ -12,8 +12,8 @@ import yaml
 from teleteach.core import skill_file
 from teleteach.core.rotations import yaw_rotation
 from teleteach.core.scene import load_scene
+from teleteach.core.wiping import load_wiping_config
 from teleteach.run.sim_robot import SimRobot
-from teleteach.shared_control.surface import load_wiping_config
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings
 from teleteach.skills.config import load_motion_config

@@ -16,8 +16,8 @@ import time
 
 import pytest
 
+from teleteach.core.wiping import load_wiping_config
 from teleteach.run.trials import run_trials
-from teleteach.shared_control.surface import load_wiping_config
 from teleteach.wiping.ablation import CELLS, jobs
 
 pytestmark = [pytest.mark.system, pytest.mark.slow]

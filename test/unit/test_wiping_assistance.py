@@ -9,9 +9,9 @@ import pytest
 from bench_scripts import bench_module
 
 from teleteach.core.scene import load_scene
+from teleteach.shared_control import wipe_measures
 from teleteach.shared_control.loop import SharedControlConfig
 from teleteach.shared_control.surface import wiping_box
-from teleteach.shared_control import wipe_measures
 from teleteach.wiping.assistance import direct_targets, human_wipe, shared_targets, solve_times
 
 SCENE = load_scene()

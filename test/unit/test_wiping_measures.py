@@ -6,15 +6,12 @@ import time
 import numpy as np
 import pytest
 
+from teleteach.core.wiping import contact_mask, coverage_of, covered_area, force_figures
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.models import synthetic_commands
 from teleteach.shared_control.operators import pattern_offset
 from teleteach.shared_control.wipe_measures import (
     boundary_violations,
-    contact_mask,
-    coverage_of,
-    covered_area,
-    force_figures,
     obstacle_violations,
     pattern_fits,
     tracking_error,

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from teleteach.core.scene import load_scene
+from teleteach.core.wiping import WipingError, load_wiping_config
 from teleteach.shared_control.loop import SHARED, SharedControlConfig
-from teleteach.shared_control.surface import WipingError, load_wiping_config, pressing_depth, wiping_box
+from teleteach.shared_control.surface import pressing_depth, wiping_box
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings
 from teleteach.wiping.ablation import TAUGHT

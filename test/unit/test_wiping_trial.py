@@ -9,10 +9,9 @@ import pytest
 
 from teleteach.core.scene import SceneError, load_scene
 from teleteach.core.skill_file import TARGET_FRAME
-from teleteach.shared_control.surface import WipingError, load_wiping_config
+from teleteach.core.wiping import WipingError, coverage_of, load_wiping_config
 from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import PerceptionNoise, UncertaintySettings, load_uncertainty
-from teleteach.shared_control import wipe_measures
 from teleteach.wiping.ablation import CELLS, END_U, START_U, TAUGHT, coverage, goals, operator_pattern
 from teleteach.wiping.skill import learned_wiping_skill
 from teleteach.wiping.trial import SurfaceStiffness, run_wipe
@@ -192,7 +191,7 @@ def test_a_demonstrated_wipe_learned_with_dmps_wipes_a_board_turned_and_moved_wh
     footprint = SCENE.wiping_tool.size[:2]
     reference = coverage(record, CONFIG, footprint, BOARD.area)["grid"]
     assert np.mean(replay.normal_forces >= CONFIG.contact_threshold) >= 0.95
-    assert wipe_measures.coverage_of(coverage(replay, CONFIG, footprint, elsewhere.area)["grid"], reference) >= 0.9
+    assert coverage_of(coverage(replay, CONFIG, footprint, elsewhere.area)["grid"], reference) >= 0.9
     np.testing.assert_allclose(replay.positions[::10], replay.targets[::10], atol=0.006)  # where the skill said
 
 

@@ -17,6 +17,7 @@ from teleteach.control.stiffness import translational_stiffness
 from teleteach.core.frames import Transform
 from teleteach.core.observed import SCENE_TOPIC, WORLD_FRAME, observed_from_markers
 from teleteach.core.rotations import quaternion_to_rpy
+from teleteach.core.wiping import load_wiping_config
 from teleteach.shared_control import cache
 from teleteach.shared_control.approach import Approach, start_in_plane
 from teleteach.shared_control.config import SharedControlNodeConfig
@@ -30,7 +31,7 @@ from teleteach.shared_control.loop import (
     SharedControlRecord,
 )
 from teleteach.shared_control.plane import TaskPlane
-from teleteach.shared_control.surface import SurfaceError, SurfaceWipe, load_wiping_config
+from teleteach.shared_control.surface import SurfaceError, SurfaceWipe
 from teleteach.shared_control.timeline import CommandTimeline
 
 # Lag behind the 50 Hz grid after which the cycles in between are skipped (counted late) rather than caught up [s].

@@ -8,67 +8,19 @@ marked area shrunk by half the tool's contact patch.
 
 import dataclasses
 import math
-import pathlib
-from typing import Optional, Sequence, Tuple
+from typing import Sequence, Tuple
 
 import numpy as np
-import yaml
-from scipy.spatial.transform import Rotation
 
 from teleteach.core.frames import Transform
-from teleteach.core.parameters import from_mapping
-from teleteach.core.paths import config_file
 from teleteach.core.scene import Surface, WipingTool
+from teleteach.core.wiping import ARM_REACH, TOOL_DOWN, WipingConfig, off_surface
 from teleteach.shared_control.constraints import Box
 from teleteach.shared_control.plane import TaskPlane
-
-DEFAULT_WIPING_FILE = config_file("wiping.yaml")
-TOOL_DOWN = Rotation.from_euler("x", math.pi)  # the TCP's z into the surface, its x along u
-ARM_REACH = 0.8  # [m] from panda_link0, a little inside the Panda's 0.855 m: farther the arm cannot press
 
 
 class SurfaceError(ValueError):
     """The surface cannot be wiped as asked; the message says why (nothing is driven then)."""
-
-
-class WipingError(ValueError):
-    """A wipe cannot be done as asked (bad settings, a surface the arm cannot reach); nothing was wiped."""
-
-
-@dataclasses.dataclass(frozen=True)
-class WipingConfig:
-    """The wiping task's settings (config/wiping.yaml: units and reasons there)."""
-
-    rate: float
-    contact_force: float
-    max_depth: float
-    contact_threshold: float
-    approach_height: float
-    approach_time: float
-    settle_time: float
-    retract_time: float
-    input_loss_time: float
-    coverage_resolution: float
-    min_contact: float
-    min_coverage: float
-
-    def __post_init__(self):
-        values = dataclasses.asdict(self)
-        if not all(math.isfinite(value) and value > 0.0 for value in values.values()):
-            raise WipingError(f"every wiping setting must be finite and > 0: {values}")
-        if self.min_contact > 1.0 or self.min_coverage > 1.0:
-            raise WipingError(f"min_contact and min_coverage are fractions in (0, 1]: {values}")
-
-    @property
-    def dt(self) -> float:
-        """The pattern's cycle [s]."""
-        return 1.0 / self.rate
-
-
-def load_wiping_config(path: Optional[str] = None) -> WipingConfig:
-    """The wiping settings (default: config/wiping.yaml)."""
-    path = pathlib.Path(path or DEFAULT_WIPING_FILE)
-    return from_mapping(WipingConfig, yaml.safe_load(path.read_text()), str(path), WipingError)
 
 
 def pressing_depth(settings: WipingConfig, stiffness: np.ndarray, normal: Sequence[float]) -> float:
@@ -106,14 +58,6 @@ def surface_plane(surface_in_base: Transform, tool: WipingTool, depth: float) ->
         y_axis=rotation.apply([0.0, 1.0, 0.0]),
         orientation=(rotation * TOOL_DOWN).as_quat(),
     )
-
-
-def off_surface(surface_in_base: Transform, tool: WipingTool, settings: WipingConfig, point) -> np.ndarray:
-    """The TCP's position that holds the tool's face ``approach_height`` off the surface over ``point`` (u, v) [m].
-
-    Measured from the face, not from a pressing equilibrium: a compliant normal presses centimetres deep.
-    """
-    return surface_in_base.apply_point([point[0], point[1], tool.reach + settings.approach_height])
 
 
 def check_reach(plane: TaskPlane, box: Box, mount_height: float) -> None:

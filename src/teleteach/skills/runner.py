@@ -8,7 +8,7 @@ import yaml
 
 from teleteach.core import skill_file
 from teleteach.core.scene import Site
-from teleteach.shared_control.surface import WipingConfig, load_wiping_config
+from teleteach.core.wiping import WipingConfig, load_wiping_config
 from teleteach.skills.config import MotionConfig
 from teleteach.skills.motion import InverseKinematics, Motion
 from teleteach.skills.predefined import CONDITIONS, PREDEFINED_SKILLS, WorldView, create_skills

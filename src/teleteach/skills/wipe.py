@@ -19,8 +19,15 @@ from teleteach.core import skill_file
 from teleteach.core.frames import Transform
 from teleteach.core.scene import WipingTool
 from teleteach.core.trajectories import minimum_jerk
-from teleteach.shared_control import wipe_measures
-from teleteach.shared_control.surface import ARM_REACH, WipingConfig, off_surface
+from teleteach.core.wiping import (
+    ARM_REACH,
+    WipingConfig,
+    contact_mask,
+    coverage_of,
+    covered_area,
+    force_figures,
+    off_surface,
+)
 from teleteach.skills.motion import Motion
 from teleteach.skills.predefined import WorldView
 from teleteach.skills.replay import ReplayPlan, plan_replay
@@ -136,11 +143,11 @@ class SurfaceReplay:
         low, high = planned.min(axis=0) - margin, planned.max(axis=0) + margin
         area, resolution = (low[0], low[1], high[0], high[1]), settings.coverage_resolution
         everywhere = np.ones(len(planned), dtype=bool)
-        meant = wipe_measures.covered_area(planned, planned_yaws, everywhere, footprint, area, resolution)["grid"]
-        in_contact = wipe_measures.contact_mask(forces, settings.contact_threshold)
-        swept = wipe_measures.covered_area(wiped, wiped_yaws, in_contact, footprint, area, resolution)["grid"]
-        coverage = wipe_measures.coverage_of(swept, meant)
-        figures = wipe_measures.force_figures(forces, in_contact)
+        meant = covered_area(planned, planned_yaws, everywhere, footprint, area, resolution)["grid"]
+        in_contact = contact_mask(forces, settings.contact_threshold)
+        swept = covered_area(wiped, wiped_yaws, in_contact, footprint, area, resolution)["grid"]
+        coverage = coverage_of(swept, meant)
+        figures = force_figures(forces, in_contact)
         said = (
             f"wiped {name} with {skill.name} ({skill.kind}, taught on {skill.target.name}): {len(plan.times)} cycles "
             f"over {plan.duration:.1f} s, in contact {figures['contact_fraction']:.0%} of them, force "

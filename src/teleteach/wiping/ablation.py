@@ -13,10 +13,10 @@ from typing import Dict, List
 
 import numpy as np
 
+from teleteach.core.wiping import WipingConfig, WipingError, contact_mask, covered_area, force_figures
 from teleteach.run.trials import bootstrap_median_interval, wilson_interval
 from teleteach.shared_control import wipe_measures
 from teleteach.shared_control.operators import commands_around_path
-from teleteach.shared_control.surface import WipingConfig, WipingError
 from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 
 HIGH, LOW = 3000.0, 300.0  # [N/m] the impedance controller's maximum, and a tenth of it
@@ -53,11 +53,9 @@ def operator_pattern(seed: int, dt: float):
 
 
 def coverage(record, config: WipingConfig, footprint, area) -> dict:
-    """The part of the marked ``area`` the wipe's contact patch swept while in contact (wipe_measures.covered_area)."""
-    in_contact = wipe_measures.contact_mask(record.normal_forces, config.contact_threshold)
-    return wipe_measures.covered_area(
-        record.positions, record.yaws, in_contact, footprint, area, config.coverage_resolution
-    )
+    """The part of the marked ``area`` the wipe's contact patch swept while in contact (core.wiping.covered_area)."""
+    in_contact = contact_mask(record.normal_forces, config.contact_threshold)
+    return covered_area(record.positions, record.yaws, in_contact, footprint, area, config.coverage_resolution)
 
 
 def wipe_figures(
@@ -67,8 +65,8 @@ def wipe_figures(
 
     The fit leaves out the first ``skip`` cycles (the paper leaves out the shared controller's first window).
     """
-    in_contact = wipe_measures.contact_mask(record.normal_forces, config.contact_threshold)
-    figures = wipe_measures.force_figures(record.normal_forces, in_contact)
+    in_contact = contact_mask(record.normal_forces, config.contact_threshold)
+    figures = force_figures(record.normal_forces, in_contact)
     tracking = wipe_measures.tracking_error(record.targets, record.positions)
     fits = wipe_measures.pattern_fits(skill, record.times[skip:], commands[skip:], record.positions[skip:])
     covered = coverage(record, config, footprint, area)

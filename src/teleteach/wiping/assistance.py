@@ -16,11 +16,12 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from teleteach.core.paths import config_file
+from teleteach.core.wiping import WipingConfig
 from teleteach.shared_control import wipe_measures
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.loop import MODE_NAMES, SharedControl, SharedControlConfig
 from teleteach.shared_control.operators import commands_around_path, reaching_path, retime
-from teleteach.shared_control.surface import WipingConfig, wiping_box
+from teleteach.shared_control.surface import wiping_box
 from teleteach.wiping.ablation import wipe_figures
 from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 

@@ -16,9 +16,8 @@ import numpy as np
 
 from teleteach.core import skill_file
 from teleteach.core.scene import Surface
+from teleteach.core.wiping import WipingConfig, contact_mask, coverage_of, force_figures
 from teleteach.learning.skill import learn_skill
-from teleteach.shared_control import wipe_measures
-from teleteach.shared_control.surface import WipingConfig
 from teleteach.wiping.ablation import coverage
 from teleteach.wiping.trial import run_wipe
 
@@ -58,11 +57,11 @@ class ReplayJob:
         footprint = scene.wiping_tool.size[:2]
         grid = coverage(record, self.config, footprint, self.surface.area)["grid"]
         reference = np.load(pathlib.Path(self.reference_path))
-        in_contact = wipe_measures.contact_mask(record.normal_forces, self.config.contact_threshold)
+        in_contact = contact_mask(record.normal_forces, self.config.contact_threshold)
         return {
             "seed": self.seed,
-            **wipe_measures.force_figures(record.normal_forces, in_contact),
-            "coverage_of_demonstration": wipe_measures.coverage_of(grid, reference),
+            **force_figures(record.normal_forces, in_contact),
+            "coverage_of_demonstration": coverage_of(grid, reference),
             "covered_fraction": float(grid.mean()),
             "surface_error": record.seen_error.tolist(),
         }

@@ -17,10 +17,10 @@ from typing import List, Sequence, Tuple
 import numpy as np
 
 from teleteach.core.trajectories import minimum_jerk
-from teleteach.shared_control import wipe_measures
+from teleteach.core.wiping import WipingConfig, contact_mask, force_figures
 from teleteach.shared_control.constraints import Box
 from teleteach.shared_control.loop import SharedControl, SharedControlConfig, SharedControlRecord
-from teleteach.shared_control.surface import WipingConfig, wiping_box
+from teleteach.shared_control.surface import wiping_box
 from teleteach.wiping.assistance import human_wipe, shared_targets
 from teleteach.wiping.trial import SurfaceStiffness, run_wipe
 
@@ -131,6 +131,6 @@ class TeachingJob:
             "own_travel_m": float(np.linalg.norm(own[last] - own[first])),
         }
         for part, mask in (("before", times < teaching.start), ("clutch", clutched), ("after", times >= teaching.end)):
-            in_contact = wipe_measures.contact_mask(record.normal_forces[mask], self.wiping.contact_threshold)
-            row[part] = wipe_measures.force_figures(record.normal_forces[mask], in_contact)
+            in_contact = contact_mask(record.normal_forces[mask], self.wiping.contact_threshold)
+            row[part] = force_figures(record.normal_forces[mask], in_contact)
         return row

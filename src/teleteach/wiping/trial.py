@@ -23,14 +23,9 @@ from teleteach.control.stiffness import translational_stiffness
 from teleteach.core.frames import Transform
 from teleteach.core.scene import Scene, Surface
 from teleteach.core.skill_file import SURFACE, TARGET_FRAME, Skill, Target
+from teleteach.core.wiping import TOOL_DOWN, WipingConfig, WipingError, off_surface
 from teleteach.shared_control.operators import minimum_jerk
-from teleteach.shared_control.surface import (
-    TOOL_DOWN,
-    WipingConfig,
-    WipingError,
-    off_surface,
-    pressing_depth,
-)
+from teleteach.shared_control.surface import pressing_depth
 from teleteach.sim.robot_sim import IMPEDANCE, RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings
 from teleteach.skills.replay import ReplayPlan, plan_replay
