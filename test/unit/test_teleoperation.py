@@ -12,6 +12,7 @@ from teleteach.core.gui_config import GuiConfig
 from teleteach.core.teleoperation import (
     AssistanceParameters,
     Clutch,
+    GripperClutch,
     ReplayCorrection,
     Teleoperation,
     TeleopParameters,
@@ -470,3 +471,30 @@ def test_a_constraint_turns_the_target_the_handle_asks_for_and_says_so():
     )
     assert fast.reason == "speed limit 0.1 m/s"
     np.testing.assert_allclose(asked[-1][0][:3], command.pose[:3], atol=1e-9)
+
+
+def test_the_gripper_clutch_engages_exactly_after_clutch_hold_closed_and_says_so_once():
+    clutch = GripperClutch(PARAMETERS)
+    # Expect: a fresh clutch needs no opening first; closed at 1.0 s, engaged at exactly 1.6 s, reported once
+    assert clutch.update(1.0, CLOSED) is False and clutch.state is Clutch.CLOSING
+    assert clutch.update(1.0 + 0.5 * PARAMETERS.clutch_hold, CLOSED) is False
+    assert clutch.update(0.0 + PARAMETERS.clutch_hold + 1.0, CLOSED) is True and clutch.state is Clutch.ENGAGED
+    assert clutch.update(2.0, CLOSED) is False and clutch.state is Clutch.ENGAGED
+    # between the closing and the opening angles it holds; opened beyond clutch_release_above it releases
+    assert clutch.update(2.1, 0.15) is False and clutch.state is Clutch.ENGAGED
+    assert clutch.update(2.2, OPEN) is False and clutch.state is Clutch.RELEASED
+    assert clutch.update(2.3, 0.15) is False and clutch.state is Clutch.RELEASED  # half-closed: no clutch
+    fresh = GripperClutch(PARAMETERS)
+    fresh.update(0.0, CLOSED)
+    assert fresh.update(PARAMETERS.clutch_hold, CLOSED) is True  # a hold of exactly clutch_hold engages
+
+
+def test_after_a_refusal_the_gripper_clutch_engages_only_once_the_gripper_was_opened():
+    clutch = GripperClutch(PARAMETERS)
+    clutch.release(must_reopen=True)
+    for time in (0.0, 1.0, 2.0):  # held closed: never
+        assert clutch.update(time, CLOSED) is False and clutch.state is Clutch.RELEASED
+    assert clutch.update(2.1, OPEN) is False and not clutch.must_reopen
+    clutch.update(2.2, CLOSED)
+    assert clutch.update(2.2 + PARAMETERS.clutch_hold, CLOSED) is True
+    assert clutch.update(3.5, float("nan")) is False and clutch.state is Clutch.RELEASED  # a lost reading opens it
