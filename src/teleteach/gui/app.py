@@ -28,7 +28,7 @@ from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig, GuiConfigError
 from teleteach.core.skill_file import TARGET_FRAME
 from teleteach.core.study_phase import StudyView
-from teleteach.core.trajectories import Trajectory, TrajectoryError, mean_trajectory
+from teleteach.core.trajectories import Trajectory
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
 from teleteach.gui.high_level import ros as high_level_tab
@@ -41,7 +41,7 @@ from teleteach.gui.start import ros as start_tab
 from teleteach.gui.study import Page, StudyScreen
 from teleteach.gui.study_page import StudyPage
 from teleteach.gui.teleop import ros as teleop_tab
-from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller, TrajectoryPlayer
+from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller
 from teleteach.haptics.guidance import Guidance
 from teleteach.msg import HapticGuidance, Selection, TreeExecution
 from teleteach.runtime.node import publish
@@ -103,7 +103,7 @@ class MainWindow(QMainWindow):
         self.skills_dir = self.data_root / "skills"
         self.trajectory = Trajectory.load(config.trajectory)  # LOW-LEVEL's; a path taught in TELEOP replaces it
         self.path_recorder = PathRecorder()
-        self._path_series: List[Trajectory] = []  # demonstrations of the path being taught, in its gap's frame
+        self.path_series: List[Trajectory] = []  # demonstrations of the path being taught, in its gap's frame
         self._learning: Optional[QProcess] = None  # learn_skill turning a taught path's stiffness into a DMP skill
         self.command = EllipsoidCommand(config)
         self.recorder = StiffnessRecorder()
@@ -124,7 +124,7 @@ class MainWindow(QMainWindow):
         self._arm_timer.timeout.connect(self._check_arm)
 
         self.topics = WindowTopics()
-        self.player = TrajectoryPlayer(self.trajectory, config.player_rate, self.topics.equilibrium)
+        self.player = low_level_tab.TrajectoryPlayer(self.trajectory, config.player_rate, self.topics.equilibrium)
         self.services = ServiceCaller(config.service_timeout)
         self.services.finished.connect(self._on_service)
         self.tabs = QTabWidget()
@@ -209,9 +209,6 @@ class MainWindow(QMainWindow):
             Action.START_STIFFNESS_RECORDING: self._start_recording,
             Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
             Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,
-            Action.START_PATH_RECORDING: self._start_path_recording,
-            Action.STOP_PATH_RECORDING: self._stop_path_recording,
-            Action.SAVE_PATH: self._save_path,
         }
         for part in self.parts:
             actions.update(part.actions)
@@ -473,7 +470,7 @@ class MainWindow(QMainWindow):
         )
         if trajectory.demonstrations and saved is not None:
             self._learn_dmp(saved)
-            self._path_series = []
+            self.path_series = []
             self.trajectory = Trajectory.load(self.config.trajectory)
 
     def save_recording(
@@ -511,68 +508,6 @@ class MainWindow(QMainWindow):
                 f"add_skill:{name}", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
             )
         return path
-
-    # TELEOP -----------------------------------------------------------------------------------------
-    def _start_path_recording(self) -> None:
-        self.path_recorder.start()
-        publish(self.topics.recording, Bool(True))
-        self.teleop.show_path("RECORDING the path: move the arm with the clutch; double click to stop", True)
-
-    def _stop_path_recording(self) -> None:
-        self.path_recorder.stop()
-        publish(self.topics.recording, Bool(False))
-
-    def _save_path(self) -> None:
-        """The recorded path joins the demonstrations at its gap; LOW-LEVEL teaches stiffness along their mean.
-
-        The gap is the perceived one nearest where the path ended. A path at another gap than the demonstrations
-        before it starts a new taught path. Each demonstration and the mean are kept in the data directory's
-        trajectories/ (yaml, as config/trajectories/).
-        """
-        directory = self.data_root / "trajectories"
-        series = self._path_series
-        name = series[0].name if series else self._new_path_name(directory)
-        try:
-            path = self.path_recorder.to_trajectory(name)
-            gap, target, why = self.worker.nearest_gap(path.positions[-1])
-            if gap is None:
-                raise TrajectoryError(f"path {name!r}: no gap to keep it relative to: {why}")
-            if series and series[0].target != gap:
-                series, name = [], self._new_path_name(directory)
-            demonstration = path.relative_to(gap, target)
-            demonstration.name = name
-            series = [*series, demonstration]
-            mean = mean_trajectory(series, name)
-            taught = Trajectory(
-                mean.times + self.config.taught_path_approach,
-                mean.positions,
-                mean.quaternions,
-                mean.frame,
-                name,
-                mean.target,
-                starts_at_hand=True,
-                spread=mean.spread,
-                demonstrations=mean.demonstrations,
-            )
-            demonstration.save(directory / name / f"demonstration_{len(series)}.yaml")
-            saved = taught.save(directory / f"{name}.yaml")
-        except (TrajectoryError, OSError) as error:
-            self.teleop.show_path(f"path not kept: {error}", False)
-            self.statusBar().showMessage(f"path not kept: {error}", 15000)
-            return
-        self._path_series, self.trajectory = series, taught
-        text = (
-            f"{name}: {len(series)} demonstration(s) at {gap}, {mean.duration - mean.times[0]:.1f} s long, spread up "
-            f"to {1000 * float(taught.spread.max()):.0f} mm. LOW-LEVEL now teaches its stiffness along their mean; or "
-            "record another demonstration here."
-        )
-        self.teleop.show_path(text, False)
-        self.statusBar().showMessage(f"{text} ({saved})", 15000)
-
-    def _new_path_name(self, directory: pathlib.Path) -> str:
-        """``TaughtPath_<n>``, not yet taken in ``directory``."""
-        taken = {path.stem for path in directory.glob("*.yaml")} if directory.is_dir() else set()
-        return unique_skill_name(self.config.path_prefix, taken)
 
     def _learn_dmp(self, stiffness_skill: pathlib.Path) -> None:
         """learn_skill in the background: the DMP of a stiffness taught along a taught path joins the library."""

@@ -28,7 +28,6 @@ from teleteach.core.gui_config import GuiConfig
 from teleteach.core.observed import WORLD_FRAME, ObservedScene, observed_from_markers
 from teleteach.core.questionnaire import Item
 from teleteach.core.study_phase import Phase, StudyView, known_phase
-from teleteach.core.trajectories import Trajectory
 from teleteach.gui.adapter import TabAdapter
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
@@ -86,62 +85,6 @@ def study_view(message: StudyState) -> StudyView:
         success=message.success,
         items=items,
     )
-
-
-class TrajectoryPlayer:
-    """Plays the predefined kinematic trajectory on /equilibrium_pose from its own thread on ROS time (A.2.2)."""
-
-    def __init__(self, trajectory: Trajectory, rate: float, publisher: rospy.Publisher):
-        self.trajectory = trajectory
-        self._period = 1.0 / rate
-        self._publisher = publisher
-        self._stop = threading.Event()
-        self._thread: Optional[threading.Thread] = None
-        self._lock = threading.Lock()
-        self._current: Optional[np.ndarray] = None
-
-    def current(self) -> Optional[np.ndarray]:
-        """The pose last sent, or None before the first one."""
-        with self._lock:
-            return self._current
-
-    @property
-    def running(self) -> bool:
-        """True while the thread plays (or holds the end pose)."""
-        return self._thread is not None and self._thread.is_alive()
-
-    def start(self, trajectory: Optional[Trajectory] = None) -> None:
-        """Start from the first waypoint (of ``trajectory``, a base_link one, if given); then hold the end pose."""
-        self.stop()
-        if trajectory is not None:
-            self.trajectory = trajectory
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._run, name="trajectory_player", daemon=True)
-        self._thread.start()
-
-    def stop(self) -> None:
-        """Stop the thread and wait for it."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-        self._thread = None
-
-    def _run(self) -> None:
-        # The trajectory's times are the robot's (ROS time: simulated time on a simulation): on wall time it would
-        # play too fast whenever the simulation runs slower than real time, and run the product into the shelf.
-        start = rospy.get_time()
-        while not self._stop.is_set() and not rospy.is_shutdown():
-            now = rospy.get_time()
-            pose = self.trajectory.sample(now - start)
-            message = PoseStamped()
-            message.header.stamp = rospy.Time.from_sec(now)
-            message.header.frame_id = self.trajectory.frame
-            p, q = message.pose.position, message.pose.orientation
-            p.x, p.y, p.z, q.x, q.y, q.z, q.w = (float(value) for value in pose)
-            with self._lock:
-                self._current = pose
-            publish(self._publisher, message)
-            self._stop.wait(self._period)
 
 
 class ServiceCaller(QObject):

@@ -25,6 +25,7 @@ from teleteach.core.validation import InvalidCommandError
 from teleteach.gui.adapter import TabAdapter, TabParts
 from teleteach.gui.recording import PathRecorder
 from teleteach.gui.session import Action
+from teleteach.gui.teleop import paths
 from teleteach.gui.teleop.view import TeleopTab, TeleopView
 from teleteach.runtime.node import publish
 from teleteach.shared_control.placement import Opening, assist
@@ -154,5 +155,11 @@ def build(window) -> TabParts:
     adapter = TeleopRos(window.config, window.topics.equilibrium, window.path_recorder)
     adapter.changed.connect(view.on_state, Qt.QueuedConnection)
     view.recording_toggled.connect(lambda: window.carry_out(window.session.toggle_path_recording()))
-    actions = {Action.TELEOP_ON: lambda: adapter.drive_arm(True), Action.TELEOP_OFF: lambda: adapter.drive_arm(False)}
+    actions = {
+        Action.TELEOP_ON: lambda: adapter.drive_arm(True),
+        Action.TELEOP_OFF: lambda: adapter.drive_arm(False),
+        Action.START_PATH_RECORDING: lambda: paths.start_recording(window, view),
+        Action.STOP_PATH_RECORDING: lambda: paths.stop_recording(window),
+        Action.SAVE_PATH: lambda: paths.save_path(window, view),
+    }
     return TabParts(Tab.TELEOP.title, view, adapter, actions)
