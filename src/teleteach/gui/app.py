@@ -26,7 +26,6 @@ from teleteach.core.active_tab import Tab
 from teleteach.core.datadir import data_dir
 from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig, GuiConfigError
-from teleteach.core.skill_file import TARGET_FRAME
 from teleteach.core.study_phase import StudyView
 from teleteach.core.trajectories import Trajectory
 from teleteach.gui.ellipsoid import EllipsoidCommand
@@ -110,7 +109,7 @@ class MainWindow(QMainWindow):
         self.shared_recorder = StiffnessRecorder()
         self.library_names: List[str] = []
         self.saved_skills: List[str] = []
-        self._teaching_target: Optional[Tuple[str, Transform]] = None  # the gap the recording places at
+        self.teaching_target: Optional[Tuple[str, Transform]] = None  # the gap the recording places at
         self.session = TeachingSession()
         self.study = StudyScreen(config)
         self._tab = -1
@@ -206,9 +205,6 @@ class MainWindow(QMainWindow):
             ),
             Action.IMPEDANCE_CONTROL: lambda: self._switch(controllers.impedance, controllers.position),
             Action.POSITION_CONTROL: lambda: self._switch(controllers.position, controllers.impedance),
-            Action.START_STIFFNESS_RECORDING: self._start_recording,
-            Action.STOP_STIFFNESS_RECORDING: self._stop_recording,
-            Action.SAVE_STIFFNESS_SKILL: self._save_stiffness_skill,
         }
         for part in self.parts:
             actions.update(part.actions)
@@ -415,64 +411,6 @@ class MainWindow(QMainWindow):
     def _pause_tree(self, paused: bool) -> None:
         publish(self.topics.pause, Bool(paused))
 
-    def _start_recording(self) -> None:
-        """Play the trajectory (placed relative to the perceived target, from where the hand is) and record."""
-        self._teaching_target = None
-        trajectory = self.trajectory
-        if trajectory.frame == TARGET_FRAME:
-            target, why = self.worker.target_in_base(trajectory.target)
-            if target is None:
-                self.carry_out(self.session.recording_refused())
-                self.statusBar().showMessage(
-                    f"recording not started: trajectory {trajectory.name} places relative to {trajectory.target}: "
-                    f"{why}",
-                    15000,
-                )
-                return
-            self._teaching_target = (trajectory.target, target)
-        hand = self.worker.hand_pose()
-        if trajectory.starts_at_hand and hand is None:
-            self.carry_out(self.session.recording_refused())
-            self.statusBar().showMessage("recording not started: no /cartesian_pose of the arm yet", 15000)
-            return
-        self.recorder.start()
-        publish(self.topics.recording, Bool(True))
-        self.player.start(trajectory.resolve(self._teaching_target and self._teaching_target[1], hand))
-        self.low_level.recording_since = time.monotonic()
-        where = f" at {trajectory.target}" if trajectory.frame == TARGET_FRAME else ""
-        self.statusBar().showMessage(f"recording: playing trajectory {trajectory.name}{where}", 5000)
-
-    def _stop_recording(self) -> None:
-        self.recorder.stop()
-        publish(self.topics.recording, Bool(False))
-        self.player.stop()
-        self.low_level.recording_since = None
-
-    def _save_stiffness_skill(self) -> None:
-        """The demonstration becomes a new skill of the library (III-E), relative to its target when it had one.
-
-        Along a path taught in TELEOP, the skill of the library is the DMP learned from it (learn_skill), and
-        LOW-LEVEL goes back to its predefined trajectory.
-        """
-        trajectory = self.trajectory
-        provenance = {"trajectory": trajectory.name}
-        if trajectory.demonstrations:
-            provenance["path_demonstrations"] = trajectory.demonstrations
-            provenance["path_spread"] = [float(value) for value in trajectory.spread]
-            provenance["path_spread_time"] = [float(value) for value in trajectory.times]  # [s] from the start
-        saved = self.save_recording(
-            self.recorder,
-            "stiffness",
-            self.config.skill_prefix,
-            provenance,
-            self._teaching_target,
-            add=not trajectory.demonstrations,
-        )
-        if trajectory.demonstrations and saved is not None:
-            self._learn_dmp(saved)
-            self.path_series = []
-            self.trajectory = Trajectory.load(self.config.trajectory)
-
     def save_recording(
         self,
         recorder: StiffnessRecorder,
@@ -509,7 +447,7 @@ class MainWindow(QMainWindow):
             )
         return path
 
-    def _learn_dmp(self, stiffness_skill: pathlib.Path) -> None:
+    def learn_dmp(self, stiffness_skill: pathlib.Path) -> None:
         """learn_skill in the background: the DMP of a stiffness taught along a taught path joins the library."""
         if self._learning is not None and self._learning.state() != QProcess.NotRunning:
             name = stiffness_skill.stem  # one learning at a time: this demonstration joins the library as it is

@@ -14,6 +14,7 @@ from geometry_msgs.msg import PoseStamped
 from teleteach.core.active_tab import Tab
 from teleteach.core.trajectories import Trajectory
 from teleteach.gui.adapter import TabParts
+from teleteach.gui.low_level import demonstration
 from teleteach.gui.low_level.view import LowLevelTab
 from teleteach.gui.session import Action
 from teleteach.runtime.node import publish
@@ -32,6 +33,9 @@ def build(window) -> TabParts:
     actions = {
         Action.ENTER_LOW_LEVEL: lambda: view.on_enter(window.worker.latest_sample()),
         Action.LEAVE_LOW_LEVEL: view.on_leave,
+        Action.START_STIFFNESS_RECORDING: lambda: demonstration.start_recording(window, view),
+        Action.STOP_STIFFNESS_RECORDING: lambda: demonstration.stop_recording(window, view),
+        Action.SAVE_STIFFNESS_SKILL: lambda: demonstration.save_skill(window),
     }
     return TabParts(Tab.LOW_LEVEL.title, view, actions=actions)
 
