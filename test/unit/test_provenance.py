@@ -35,3 +35,18 @@ def test_a_bench_asks_for_held_out_seeds_unless_told_development():
         trial_seeds(parser, parser.parse_args(["--trials", "1"]), 4900)
     with pytest.raises(SystemExit):
         trial_seeds(parser, parser.parse_args(["--processes", "0"]), 4900)
+
+
+def test_a_stored_result_rewritten_by_an_earlier_bench_does_not_make_the_next_one_dirty(monkeypatch):
+    from teleteach.run import provenance as module
+
+    asked = []
+
+    def git(*arguments):
+        asked.append(arguments)
+        return " M bench/results/wiping_ablation.json" if "status" in arguments and len(arguments) == 3 else ""
+
+    monkeypatch.setattr(module, "_git", git)
+    assert module.provenance([])["dirty"] is False
+    (status,) = [arguments for arguments in asked if arguments[0] == "status"]
+    assert status[-2:] == (".", ":(exclude)bench/results")  # the code and the settings still count

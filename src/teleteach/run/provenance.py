@@ -42,12 +42,15 @@ def commit() -> str:
 def provenance(config_files: Iterable[pathlib.Path]) -> dict:
     """The provenance of a result whose run starts now (call it first: the code may change while a bench runs).
 
-    The git commit (and whether tracked files differed from it), the command line, the SHA-256 of each configuration
-    file read, the machine (cores, Python, key packages), the date; the bench adds its wall time [s] as ``wall_s``.
+    The git commit (and whether tracked files other than stored results differed from it: a bench run after another
+    has rewritten that one's result, which is an output, not an input), the command line, the SHA-256 of each
+    configuration file read, the machine (cores, Python, key packages), the date; the bench adds its wall time [s] as
+    ``wall_s``.
     """
+    changed = _git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)bench/results")
     return {
         "commit": commit(),
-        "dirty": bool(_git("status", "--porcelain", "--untracked-files=no")),
+        "dirty": bool(changed),
         "command": [pathlib.Path(sys.argv[0]).name, *sys.argv[1:]],
         "config_sha256": {
             pathlib.Path(path).name: hashlib.sha256(pathlib.Path(path).read_bytes()).hexdigest()
