@@ -65,6 +65,14 @@ def shared_control_node(robot_sim, data_root):  # noqa: F811 - the imported fixt
     stop(process)
 
 
+def open_shared_control(qapp, window, device):
+    """START: the device up selects SHARED CONTROL, a click opens it."""
+    device.move(y=0.08)
+    pump_until(qapp, lambda: window.start_tab.selected == 2, 5, "START to select SHARED CONTROL")
+    device.click()
+    pump_until(qapp, lambda: window.tabs.currentIndex() == 3, 5, "SHARED CONTROL")
+
+
 def inside(points, margin=1e-6):
     points = np.asarray(points)
     return bool(
@@ -84,11 +92,7 @@ def test_shared_control_tab_shows_the_plan_and_records_a_skill(
     tab = window.shared_control
     operator = Operator()
     try:
-        # START: device up selects SHARED CONTROL, a click opens it
-        device.move(y=0.08)
-        pump_until(qapp, lambda: window.start_tab.selected == 2, 5, "START to select SHARED CONTROL")
-        device.click()
-        pump_until(qapp, lambda: window.tabs.currentIndex() == 3, 5, "SHARED CONTROL")
+        open_shared_control(qapp, window, device)
 
         def sharing():
             status = tab.status
@@ -195,10 +199,7 @@ def test_wiping_in_shared_control_the_gripper_clutch_teaches_the_stiffness_while
     tab = window.shared_control
     operator = Operator()
     try:
-        device.move(y=0.08)
-        pump_until(qapp, lambda: window.start_tab.selected == 2, 5, "START to select SHARED CONTROL")
-        device.click()
-        pump_until(qapp, lambda: window.tabs.currentIndex() == 3, 5, "SHARED CONTROL")
+        open_shared_control(qapp, window, device)
         # Expect: the node locates the board and says so; the tab draws the board's marked area (its own frame)
         pump_until(
             qapp, lambda: tab.teaching_label.text().startswith("wiping counter_board"), 30, "the wipe in the tab"
