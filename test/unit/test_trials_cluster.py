@@ -8,10 +8,12 @@ requirements-cluster.txt, which scripts/test installs (scripts/setup --cluster).
 import json
 import os
 import pathlib
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 
 import pytest
@@ -58,7 +60,10 @@ def ray_cluster(tmp_path_factory):
     address = f"127.0.0.1:{port}"
     head = [str(RAY), "start", "--block", "--head", "--node-ip-address", "127.0.0.1", "--port", str(port)]
     head += ["--ray-client-server-port", str(client_port), "--num-cpus", "0", "--include-dashboard", "false"]
-    head += ["--temp-dir", str(folder / "t"), "--disable-usage-stats"]
+    # Ray's sockets live under --temp-dir, and a UNIX socket's path is at most 107 bytes: a pytest-xdist worker's
+    # tmp_path (/tmp/pytest-of-root/pytest-N/popen-gwN/...) plus Ray's session folder is longer.
+    short = pathlib.Path(tempfile.mkdtemp(prefix="ray", dir="/tmp"))
+    head += ["--temp-dir", str(short), "--disable-usage-stats"]
     worker = [str(RAY), "start", "--block", "--address", address, "--node-ip-address", "127.0.0.1"]
     worker += ["--num-cpus", "1", "--disable-usage-stats"]
     env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0")
@@ -88,6 +93,7 @@ def ray_cluster(tmp_path_factory):
         yield f"ray://127.0.0.1:{client_port}"
     finally:
         stop(*reversed(started))
+        shutil.rmtree(short, ignore_errors=True)
 
 
 def stop(*processes: subprocess.Popen) -> None:
