@@ -90,6 +90,7 @@ class SharedControlRos(TabAdapter):
         self._gripper: Optional[float] = None
         self._said = None
         self._boundary = []  # the boundary's corners in base_link, as the node last sent them
+        self._stamps: Dict[str, float] = {}  # the stamp of the newest latched message taken, per topic
         self._arm_stamp = -math.inf
         self._subscribers: Dict[str, rospy.Subscriber] = {}
         self._clutch = None
@@ -175,6 +176,8 @@ class SharedControlRos(TabAdapter):
             rospy.logwarn(f"teaching_gui: ignored /shared_control/task: {error}")
             return
         with self._lock:
+            if not self._newer("task", message.header.stamp.to_sec()):
+                return
             self.plane, self.surface = plane, surface
             self.wipe = None if surface is None else WipeTeaching(self.config, surface[1].rotation)
         self._draw_boundary()
@@ -205,8 +208,21 @@ class SharedControlRos(TabAdapter):
     def _on_boundary(self, message: PolygonStamped) -> None:
         """Kept in base_link and drawn on the plane, again when the plane comes (the two topics race)."""
         with self._lock:
+            if not self._newer("boundary", message.header.stamp.to_sec()):
+                return
             self._boundary = [(p.x, p.y, p.z) for p in message.polygon.points]
         self._draw_boundary()
+
+    def _newer(self, topic: str, stamp: float) -> bool:
+        """Whether a latched message is newer than the last one taken (lock held).
+
+        The latched copy a new connection gets can arrive after a newer message published meanwhile: it must not undo
+        it (the plane's own boundary drawn on the board, or the board's plane undone, 1 run in 3 here).
+        """
+        if stamp < self._stamps.get(topic, -math.inf):
+            return False
+        self._stamps[topic] = stamp
+        return True
 
     def _draw_boundary(self) -> None:
         with self._lock:
