@@ -73,6 +73,19 @@ def open_shared_control(qapp, window, device):
     pump_until(qapp, lambda: window.tabs.currentIndex() == 3, 5, "SHARED CONTROL")
 
 
+def record_a_skill(qapp, window, device, while_recording=lambda: None):
+    """A double click records the MPC's output, over 60 samples, another double click stops: a skill is saved."""
+    device.click()
+    device.click()
+    pump_until(qapp, lambda: window.shared_recorder.active, 5, "recording after a double click")
+    pump_until(qapp, lambda: len(window.shared_recorder) > 60, 20, "samples recorded")
+    pump(qapp, 0.5)
+    while_recording()
+    device.click()
+    device.click()
+    pump_until(qapp, lambda: not window.shared_recorder.active, 5, "the recording to stop")
+
+
 def inside(points, margin=1e-6):
     points = np.asarray(points)
     return bool(
@@ -116,15 +129,12 @@ def test_shared_control_tab_shows_the_plan_and_records_a_skill(
         window.screenshot().save(str(artifacts_dir / "gui_shared_control.png"))
 
         # double click: record the MPC's output, double click again: a shared_control skill
-        device.click()
-        device.click()
-        pump_until(qapp, lambda: window.shared_recorder.active, 5, "recording after a double click")
-        pump_until(qapp, lambda: len(window.shared_recorder) > 60, 15, "samples recorded")
-        pump(qapp, 0.5)
-        window.screenshot().save(str(artifacts_dir / "gui_shared_control_recording.png"))
-        device.click()
-        device.click()
-        pump_until(qapp, lambda: not window.shared_recorder.active, 5, "the recording to stop")
+        record_a_skill(
+            qapp,
+            window,
+            device,
+            lambda: window.screenshot().save(str(artifacts_dir / "gui_shared_control_recording.png")),
+        )
     finally:
         operator.close()
 
@@ -242,13 +252,7 @@ def test_wiping_in_shared_control_the_gripper_clutch_teaches_the_stiffness_while
         np.testing.assert_allclose(kept, taught, rtol=1e-6)
 
         # a recording of the wipe is a skill relative to the board, with the stiffness taught
-        device.click()
-        device.click()
-        pump_until(qapp, lambda: window.shared_recorder.active, 5, "recording after a double click")
-        pump_until(qapp, lambda: len(window.shared_recorder) > 60, 20, "samples recorded")
-        device.click()
-        device.click()
-        pump_until(qapp, lambda: not window.shared_recorder.active, 5, "the recording to stop")
+        record_a_skill(qapp, window, device)
     finally:
         operator.close()
     skills = data_root / "skills"
