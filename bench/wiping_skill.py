@@ -2,9 +2,10 @@
 """Benchmark: a wiping skill taught once, learned, and replayed alone on boards where it was not taught (issue 49).
 
 The demonstration, in one go (teleteach.wiping.teaching): a scripted operator (teleteach.wiping.assistance.human_wipe,
-development seed 8: a wave) wipes the counter's whiteboard through the shared controller, pressing stiff (3000 N/m);
-over 35-60 % of the wipe they hold the clutch, the shared controller keeps the wave it recognised, and they shape the
-stiffness into the taught profile (3000, 3000, 300) N/m, with which they finish. What the arm executed, and the
+development seed 8: a wave) wipes the counter's whiteboard through the shared controller, pressing with what the GUI's
+wipe teaching starts them at (SHARED CONTROL's 500 N/m, config/gui.yaml); over 35-60 % of the wipe they hold the
+clutch, the shared controller keeps the wave it recognised, and they shape the stiffness into the taught profile
+(3000, 3000, 300) N/m, with which they finish. What the arm executed, and the
 stiffness with it, in the perceived board's frame, is the demonstrated skill, which the thesis' learning turns into
 DMPs (teleteach.wiping.skill). The learned skill then wipes alone, relative to the board as perceived
 there, on the board where it was taught and on three held-out poses of it: tilted 8.6 degrees, 6 cm farther away and
@@ -59,7 +60,7 @@ from teleteach.wiping.trial import run_wipe
 BENCH = pathlib.Path(__file__).resolve().parent
 RESULTS = BENCH / "results" / "wiping_skill.json"
 DEMONSTRATION_SEED = 8  # development: the operator, the base's and perception's errors of the demonstration
-HELD_OUT_SEEDS = 5100  # replay k uses seed HELD_OUT_SEEDS + k; --development: seed k
+HELD_OUT_SEEDS = 5110  # replay k uses seed HELD_OUT_SEEDS + k; --development: seed k (5100-5109: looked at)
 CONTACT_GOAL, COVERAGE_GOAL = 0.95, 0.90
 SKILLS = ("wave", "cycloid")  # the operators taught with the clutch, one of each per seed
 PARTS = ("before", "clutch", "after")
@@ -189,7 +190,7 @@ def main() -> int:
         )
     goal = "every replay at the held-out poses keeps contact >= 95 % and covers >= 90 % of the demonstrated area"
     print(f"  {'met' if met else 'NOT met'}: {goal}")
-    print("\nthe clutch (stiffness shaped from 3000 N/m to the taught profile while the controller keeps the pattern)")
+    print("\nthe clutch (the stiffness shaped from the GUI's start to the taught one, the pattern kept meanwhile)")
     for name, cell in clutch.items():
         print(
             f"{name:15s} pattern kept in {cell['median_kept_share']:.0%} of the clutch's cycles (median; least "

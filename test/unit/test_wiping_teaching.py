@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from teleteach.core.gui_config import GuiConfig
 from teleteach.core.scene import load_scene
 from teleteach.core.wiping import WipingError, load_wiping_config
 from teleteach.shared_control.loop import SHARED, SharedControlConfig
@@ -14,12 +15,13 @@ from teleteach.sim.robot_sim import RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings
 from teleteach.wiping.ablation import TAUGHT
 from teleteach.wiping.assistance import human_wipe
-from teleteach.wiping.teaching import STIFF, ClutchTeaching, clutch_teaching, taught_wipe
-from teleteach.wiping.trial import SurfaceWiper, wiping_scene
+from teleteach.wiping.teaching import ClutchTeaching, clutch_teaching, taught_wipe
+from teleteach.wiping.trial import SurfaceStiffness, SurfaceWiper, wiping_scene
 
 SCENE = load_scene()
 BOARD = SCENE.surface("counter_board")
 CONFIG = load_wiping_config()
+STIFF = SurfaceStiffness(3000.0, 3000.0, 3000.0)
 
 
 def test_the_stiffness_is_shaped_only_while_the_clutch_is_held():
@@ -49,7 +51,9 @@ def test_while_clutched_the_controller_keeps_the_operators_pattern_and_gives_it_
     after = clutched[-1] + 1
     assert not records[after].message.startswith("clutch")
     np.testing.assert_allclose(records[after].command, commands[after])  # the operator's command again
-    assert stiffnesses[0] == STIFF and stiffnesses[-1] == TAUGHT
+    # the scripted operator starts where the GUI's wipe teaching starts the ellipsoid: SHARED CONTROL's stiffness
+    assert stiffnesses[0] == SurfaceStiffness(*GuiConfig.load().shared_control_stiffness)
+    assert stiffnesses[-1] == TAUGHT
     travel = np.linalg.norm(targets[clutched[-1]] - targets[clutched[0]])
     assert travel > 0.02  # the wave went on across the board meanwhile
     assert np.all(np.linalg.norm(np.diff(targets, axis=0), axis=1) <= 0.3 * config.dt)  # no jump at either end

@@ -7,8 +7,9 @@ along the normal every cycle (``contact_force / K_n``), so the tool keeps pressi
 operator softens or stiffens it. Released, the pattern is the operator's again. The whole wipe, its pattern and its
 stiffness, is one demonstration, which becomes a wiping skill (teleteach.wiping.skill).
 
-The scripted operator of this module starts with one stiffness and, while the clutch is held, shapes it into another
-along a minimum-jerk ramp of each principal stiffness, as the thesis' operator drags the ellipsoid's axes.
+The scripted operator of this module starts where the GUI's wipe teaching starts them (SHARED CONTROL's constant
+stiffness, ``shared_control_stiffness`` of config/gui.yaml) and, while the clutch is held, shapes it into another along
+a minimum-jerk ramp of each principal stiffness, as the thesis' operator drags the ellipsoid's axes.
 """
 
 import dataclasses
@@ -16,6 +17,7 @@ from typing import List, Sequence, Tuple
 
 import numpy as np
 
+from teleteach.core.gui_config import GuiConfig
 from teleteach.core.trajectories import minimum_jerk
 from teleteach.core.wiping import WipingConfig, contact_mask, force_figures
 from teleteach.shared_control.constraints import Box
@@ -70,12 +72,16 @@ def taught_wipe(
 
 
 CLUTCH_SHARE = (0.35, 0.6)  # the clutch is held over this part of the wipe (after the pattern is recognised)
-STIFF = SurfaceStiffness(3000.0, 3000.0, 3000.0)  # the operator starts stiff (constant high of the ablation)
+
+
+def starting_stiffness() -> SurfaceStiffness:
+    """What the GUI's wipe teaching starts the ellipsoid at: SHARED CONTROL's constant stiffness (config/gui.yaml)."""
+    return SurfaceStiffness(*(float(value) for value in GuiConfig.load().shared_control_stiffness))
 
 
 def clutch_teaching(duration: float, taught: SurfaceStiffness) -> ClutchTeaching:
-    """The scripted teacher of a wipe lasting ``duration`` [s]: stiff, then ``taught`` shaped while clutched."""
-    return ClutchTeaching(CLUTCH_SHARE[0] * duration, CLUTCH_SHARE[1] * duration, STIFF, taught)
+    """The scripted teacher of a wipe lasting ``duration`` [s]: the GUI's start, ``taught`` shaped while clutched."""
+    return ClutchTeaching(CLUTCH_SHARE[0] * duration, CLUTCH_SHARE[1] * duration, starting_stiffness(), taught)
 
 
 @dataclasses.dataclass(frozen=True)
