@@ -13,7 +13,8 @@ Xvfb when DISPLAY is unset.
 
 Runs (``--runs``, all three by default):
 
-- ``virtual``: ``full.launch device:=virtual rviz:=false`` (an operator at a screen, without RViz). Phases
+- ``virtual``: ``full.launch device:=virtual rviz:=false start_paused:=false`` (an operator at a screen, without
+  RViz; the tree runs at once, not waiting for the operator's start as it does by default with this device). Phases
   ``tree_running`` (a window inside the tree's program, from the first skill on) and ``idle`` (the program has
   finished: the tree's root succeeded).
 - ``teaching``: ``full.launch device:=scenario rviz:=false`` with bench/data/cpu_budget_operator.yaml: the scripted
@@ -334,7 +335,7 @@ def start_system(name, launch_args, log):
 
 def run_virtual(window, log, extra, profiled):
     """tree_running and idle, with the virtual device."""
-    system, watcher = start_system("virtual", ["device:=virtual", "rviz:=false", *extra], log)
+    system, watcher = start_system("virtual", ["device:=virtual", "rviz:=false", "start_paused:=false", *extra], log)
     try:
         wait_for(system, lambda: watcher.running - {EXECUTION, "Root", "PauseCondition"}, 120, "running skill")
         time.sleep(3.0)  # the nodes' start-up is over

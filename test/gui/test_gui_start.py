@@ -3,7 +3,7 @@
 import time
 
 import pytest
-from conftest import pump, pump_until, start_bt, stop
+from conftest import ROOT, pump, pump_until, start, start_bt, stop
 from std_msgs.msg import Bool
 
 from teleteach.core.active_tab import Tab
@@ -64,6 +64,48 @@ def test_a_tree_that_starts_paused_waits_for_the_start_gesture(
         # the start is an event (behaviour_tree/start), not a "not paused" left latched for the next tree
         assert [message.data for message in pause_log.since(entered)] == [True]
         pump_until(qapp, lambda: "the tree: started" in window.statusBar().currentMessage(), 5, "the status bar")
+    finally:
+        stop(tree)
+
+
+EMPTY_TREE = """execution: BehaviorExecution
+root:
+  type: selector
+  name: Root
+  memory: false
+  children:
+    - {type: pause, name: PauseCondition}
+    - {type: sequence, name: BehaviorExecution, memory: true, children: []}
+"""
+
+
+def test_a_tree_that_is_done_runs_again_with_the_start_gesture(
+    qapp, ros_master, device, make_window, topic_log, data_root, artifacts_dir
+):
+    """A newcomer still learning the gestures when the tree ends goes on without a relaunch (an empty execution
+    composite is done at its first tick: no robot needed)."""
+    import rospy
+
+    execution_log = topic_log("/behaviour_tree/execution", TreeExecution)
+    tree_file = data_root.parent / "empty_tree.yaml"
+    tree_file.write_text(EMPTY_TREE)
+    node = str(ROOT / "nodes" / "behaviour_tree")
+    # a node name of its own: private parameters stay on the master, and the next test's tree must not read these
+    private = [f"_data_dir:={data_root}", f"_tree:={tree_file}", "_startup_timeout:=0", "_start_paused:=false"]
+    command = [node, "__name:=behaviour_tree_done", *private]
+    tree = start(command, data_root.parent / "behaviour_tree.log")
+    try:
+        rospy.wait_for_service("/behaviour_tree/start", timeout=60)
+        window = make_window()
+        device.move(x=0.0)
+        pump_until(qapp, lambda: window.start_tab.tree_done, 10, "START showing the tree done")
+        # Expect the operator told how to go on, and the gesture to run the tree again
+        assert window.start_tab.centre.text().endswith("Handle in the centre, click: run it again.")
+        assert execution_log.last().state == TreeExecution.COMPLETED
+        window.screenshot().save(str(artifacts_dir / "gui_start_tree_done.png"))
+        pump_until(qapp, lambda: window.start_tab.selected == StartTab.NEUTRAL, 5, "the neutral zone")
+        device.click()
+        pump_until(qapp, lambda: "the tree: runs again" in window.statusBar().currentMessage(), 10, "the status bar")
     finally:
         stop(tree)
 

@@ -99,3 +99,27 @@ def test_a_help_request_is_paused_with_the_arm_free():
         tree.tick()
     state = tree.execution_state()
     assert state.state == ExecutionState.PAUSED and "LookToShelf" in state.message
+
+
+def test_a_tree_that_is_done_runs_again_from_its_first_node_when_started():
+    world = SkillWorld(ticks=2)
+    tree = thesis_tree(world)
+    for _ in range(3 * len(THESIS_SEQUENCE)):
+        tree.tick()
+    assert tree.execution_state().state == ExecutionState.COMPLETED
+    world.events.clear()
+    for _ in range(5):
+        tree.tick()
+    # Expect a done tree to tick nothing until it is started again
+    assert world.events == []
+    assert tree.start() == (True, "runs again: BehaviorExecution starts from its first node")
+    tree.tick()
+    # Expect the first node to run at once, and every node again in order
+    assert world.names("start") == [THESIS_SEQUENCE[0]]
+    assert tree.execution_state().state == ExecutionState.RUNNING
+    assert tree.start() == (False, "the tree was started already")
+    for _ in range(3 * len(THESIS_SEQUENCE)):
+        tree.tick()
+    assert world.names("succeed") == THESIS_SEQUENCE
+    assert tree.execution_state().state == ExecutionState.COMPLETED
+    assert status_of(tree, "BehaviorExecution") == Status.SUCCESS

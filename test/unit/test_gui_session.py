@@ -131,21 +131,33 @@ def test_a_tab_beyond_the_contract_is_one_no_rule_concerns(session):
 
 
 def test_a_tree_waiting_for_its_start_is_started_only_by_the_start_gesture(session):
-    session.tree_waiting_changed(True)
+    session.tree_state_changed(waiting=True, done=False)
     session.tab_changed(Tab.LOW_LEVEL)
     session.arm_freed()
     # Expect: a teaching session before the start does not start the tree when it ends
     assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL, A.POSITION_CONTROL]
     assert session.start_requested() == [A.START_TREE]
     assert session.start_requested() == []  # started once
-    session.tree_waiting_changed(False)
+    session.tree_state_changed(waiting=False, done=False)
     session.tab_changed(Tab.LOW_LEVEL)
     session.arm_freed()
     assert session.tab_changed(Tab.START) == [A.LEAVE_LOW_LEVEL, A.POSITION_CONTROL, A.RESUME_TREE]
 
 
+def test_the_start_gesture_runs_a_tree_that_is_done_again(session):
+    session.tab_changed(Tab.START)
+    # Expect: a running tree is not started by the gesture, a done one runs again (once)
+    assert session.start_requested() == []
+    session.tree_state_changed(waiting=False, done=True)
+    assert session.start_requested() == [A.START_TREE]
+    assert session.start_requested() == []
+    session.tree_state_changed(waiting=False, done=True)
+    session.tab_changed(Tab.HIGH_LEVEL)
+    assert session.start_requested() == []
+
+
 def test_the_start_gesture_counts_only_in_start(session):
-    session.tree_waiting_changed(True)
+    session.tree_state_changed(waiting=True, done=False)
     session.tab_changed(Tab.HIGH_LEVEL)
     assert session.start_requested() == []
 

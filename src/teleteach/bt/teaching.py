@@ -19,7 +19,8 @@ Pausing and the arm (:meth:`TeachingTree.execution_state`): a pause suspends the
 that it finishes what it was doing (the thesis: the tree pauses after its running skill); after ``preempt_after``
 seconds of pause a goal still out is cancelled, and the skill starts again when the tree resumes. Only once no goal
 is out (PAUSED) may another controller take the arm. A tree built with ``start_paused`` waits (WAITING) until the
-operator starts it (:meth:`TeachingTree.start`): on a real robot nothing moves before the operator says so.
+operator starts it (:meth:`TeachingTree.start`): on a real robot nothing moves before the operator says so. The same
+start runs a tree that is done (COMPLETED) again from its first node.
 """
 
 import datetime
@@ -434,11 +435,18 @@ class TeachingTree:
             self.revision += 1
 
     def start(self) -> typing.Tuple[bool, str]:
-        """The operator's start of a tree that waits for it (``start_paused``): it runs from the next tick on.
+        """The operator's start of a tree that waits for it (``start_paused``), or of a finished one: it runs again.
 
-        Returns whether it was started now, and what happened in words.
+        A tree that is done runs its execution composite again from the first node (the world stays as it is), so an
+        operator who was still learning the gestures can go on without a relaunch. Returns whether it was started
+        now, and what happened in words.
         """
         with self.lock:
+            if self.completed:
+                self.execution.stop(Status.INVALID)
+                self.completed = False
+                self.revision += 1
+                return True, f"runs again: {self.execution.name} starts from its first node"
             if self.started:
                 return False, "the tree was started already"
             self.started = True

@@ -288,14 +288,14 @@ class MainWindow(QMainWindow):
 
     def _on_execution(self, state: int, message: str) -> None:
         """The tree's execution (teleteach/TreeExecution): START and the status bar show it."""
-        waiting = state == TreeExecution.WAITING
-        self.carry_out(self.session.tree_waiting_changed(waiting))
-        self.start_tab.show_tree(waiting, message)
+        waiting, done = state == TreeExecution.WAITING, state == TreeExecution.COMPLETED
+        self.carry_out(self.session.tree_state_changed(waiting, done))
+        self.start_tab.show_tree(waiting, message, done)
         self.tree_label.setText(f"tree: {message}")
         self.tree_label.setStyleSheet("color: #bf360c; font-weight: bold;" if waiting else "")
 
     def _start_tree(self) -> None:
-        """The operator's start gesture: a tree that started paused runs (behaviour_tree/start, an event)."""
+        """The start gesture: a tree that started paused, or is done, runs (behaviour_tree/start: an event)."""
         self.services.call("start_tree", "behaviour_tree/start", Trigger, TriggerRequest())
         self.publish_selection(Tab.START, "start", "tree")
         self.statusBar().showMessage("starting the tree...", 10000)

@@ -20,7 +20,8 @@ actions to the widgets, the recorders and the ROS calls, so every rule below is 
   hold, off first thing when the tab is left or the window closes. The same for the device in TELEOP.
 - The operator answers a help request with tree edits in HIGH-LEVEL: leaving HIGH-LEVEL (except for LOW-LEVEL or
   TELEOP, where teaching continues the answer) resumes the tree.
-- A tree that started paused waits for the operator's start gesture in START (:meth:`TeachingSession.start_requested`).
+- A tree that started paused waits for the operator's start gesture in START (:meth:`TeachingSession.start_requested`);
+  the same gesture runs a tree that is done again, so a session goes on without a relaunch.
 """
 
 import enum
@@ -56,7 +57,7 @@ class Action(enum.Enum):
     RESET_HIGH_LEVEL = enum.auto()  # the HIGH-LEVEL selection starts again at step 1
     PAUSE_TREE = enum.auto()
     RESUME_TREE = enum.auto()
-    START_TREE = enum.auto()  # the operator's start of a tree that started paused (behaviour_tree/start)
+    START_TREE = enum.auto()  # the operator's start of a tree that started paused or is done (behaviour_tree/start)
     ANNOUNCE_HELP_ANSWERED = enum.auto()  # tell the operator that the tree goes on after their edits
     WAIT_FOR_ARM = enum.auto()  # watch the tree and the arm until the arm is free (bounded), then call arm_freed
     STOP_WAITING_FOR_ARM = enum.auto()  # the session ended before the arm was free
@@ -92,7 +93,7 @@ class TeachingSession:
     """The state of the operator's teaching.
 
     The open tab, whether a session holds the arm (and with which controller), what is recorded or waits to be, whether
-    the robot's help request is open and whether the tree still waits for its first start.
+    the robot's help request is open, whether the tree still waits for its first start and whether it is done.
     """
 
     def __init__(self):
@@ -103,6 +104,7 @@ class TeachingSession:
         self.pending_recording: Optional[Recording] = None  # asked for before the arm was free
         self.help_open = False
         self.tree_waiting = False  # the tree started paused and nobody started it yet
+        self.tree_done = False  # the tree ran to its end: the start gesture runs it again
         self._resume_on_end = True
 
     def tab_changed(self, index: int) -> List[Action]:
@@ -184,16 +186,16 @@ class TeachingSession:
         self.help_open = bool(node_name)
         return []
 
-    def tree_waiting_changed(self, waiting: bool) -> List[Action]:
-        """The tree reports whether it still waits for its first start (teleteach/TreeExecution WAITING)."""
-        self.tree_waiting = waiting
+    def tree_state_changed(self, waiting: bool, done: bool) -> List[Action]:
+        """The tree says whether it waits for its first start, or is done (TreeExecution WAITING, COMPLETED)."""
+        self.tree_waiting, self.tree_done = waiting, done
         return []
 
     def start_requested(self) -> List[Action]:
-        """The operator's start gesture in START: starts a tree that waits for it, and nothing else."""
-        if self.tab != Tab.START or not self.tree_waiting:
+        """The operator's start gesture in START: starts a tree that waits for it or runs a done one again."""
+        if self.tab != Tab.START or not (self.tree_waiting or self.tree_done):
             return []
-        self.tree_waiting = False
+        self.tree_waiting = self.tree_done = False
         return [Action.START_TREE]
 
     def shutdown(self) -> List[Action]:

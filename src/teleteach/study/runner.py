@@ -284,6 +284,8 @@ class StudyRunner:
         trial's parameters, loaded last.
         """
         arguments: Dict[str, Any] = {"device": self.options.device}
+        if self.options.device == "virtual":
+            arguments["start_paused"] = False  # a trial's tree runs from its start, as with every other device
         if self.options.device == "scenario":
             arguments.update(scripted_device(scenario, self.settings.scripted_device_rate))
         arguments.update(

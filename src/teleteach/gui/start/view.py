@@ -58,8 +58,8 @@ class StartTab(QWidget):
     Device X left of the neutral zone selects HIGH-LEVEL, right of it LOW-LEVEL (as in the thesis); device Y up beyond
     half its range selects SHARED CONTROL above them, down beyond half its range TELEOP below them. In the neutral zone
     (``start_neutral_zone`` around the centre) nothing is selected, so a resting, centred handle opens nothing; the
-    centre panel there shows what the tree does, and a click in it starts a tree that waits for its start
-    (``start_requested``).
+    centre panel there shows what the tree does, and a click in it starts a tree that waits for its start, or runs a
+    tree that is done again (``start_requested``).
     """
 
     SHARED_CONTROL_Y = 0.5  # fraction of device_range above which device Y selects SHARED CONTROL (below -: TELEOP)
@@ -77,6 +77,7 @@ class StartTab(QWidget):
         self.active = False
         self.selected = self.NEUTRAL
         self.tree_waiting = False
+        self.tree_done = False
         self.tree_message = "no behaviour tree yet"
         layout = QVBoxLayout(self)
         layout.addStretch(1)
@@ -134,9 +135,9 @@ class StartTab(QWidget):
         self.authority.show()
         self._authority_timer.start(self.AUTHORITY_SHOWN_FOR)
 
-    def show_tree(self, waiting: bool, message: str) -> None:
-        """What the behaviour tree does (teleteach/TreeExecution): a tree waiting for its start is shown loudly."""
-        self.tree_waiting, self.tree_message = waiting, message
+    def show_tree(self, waiting: bool, message: str, done: bool = False) -> None:
+        """What the tree does (teleteach/TreeExecution): loudly when it waits; once done, how to run it again."""
+        self.tree_waiting, self.tree_message, self.tree_done = waiting, message, done
         self._show()
 
     def _show(self) -> None:
@@ -149,6 +150,9 @@ class StartTab(QWidget):
         if self.tree_waiting:
             self.centre.setText("The robot waits for you.\n\nHandle in the centre, click: start its task.")
             self.centre.setStyleSheet(self.WAITING_STYLE.format(border=border))
+        elif self.tree_done:
+            self.centre.setText("The robot's task is done.\n\nHandle in the centre, click: run it again.")
+            self.centre.setStyleSheet(self.STATE_STYLE.format(border=border))
         else:
             self.centre.setText(f"centre: no mode\n\nrobot: {self.tree_message}")
             self.centre.setStyleSheet(self.STATE_STYLE.format(border=border))
