@@ -12,7 +12,7 @@ from session_bags import write_session
 
 from teleteach.control.stiffness import translational_stiffnesses
 from teleteach.recording.report import clicks, make_report, tree_edits
-from teleteach.recording.session import Series, SessionError, TreeSnapshot, read_session
+from teleteach.recording.session import Series, SessionError, TreeSnapshot, axes_yaw_of, read_session
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +44,7 @@ def test_report_writes_three_figures_and_a_summary(session_bag, tmp_path, artifa
     assert "removed PlaceItem" in summary and "added PlaceItem_2" in summary
     assert "| `/sigma7/pose` | geometry_msgs/PoseStamped | 2000 |" in summary
     assert "| Z | 2000.0 | 2000.0 |" in summary
-    assert "Ellipsoid yaw: 0.0 deg .. 45.0 deg." in summary
+    assert "Ellipsoid yaw (modulo 180 deg: an axis has no sign): 0.0 deg .. 45.0 deg." in summary
     shutil.copytree(tmp_path / "report", artifacts_dir / "report_unit", dirs_exist_ok=True)
 
 
@@ -202,3 +202,35 @@ def test_invalid_stiffness_and_device_samples_are_left_out_with_a_note(tmp_path)
     assert "Left out 2 `/eigenvalues` messages the controller rejects" in summary
     assert "Left out 1 `/eigenvectors` messages the controller rejects" in summary
     assert "| X | 500.0 | 500.0 |" in summary
+
+
+def test_an_ellipsoid_s_yaw_is_reported_modulo_180_degrees(tmp_path):
+    """The same ellipsoid with two axes flipped (an eigendecomposition's sign) is no turn of 180 degrees."""
+    import rosbag
+    from session_bags import eigenvalues_message, eigenvectors_message, pose_message, stamp
+
+    flips = [0.0, math.pi, math.radians(-179.8), math.radians(45.0), math.radians(-135.0), math.radians(44.0)]
+    path = tmp_path / "flipped_axes.bag"
+    with rosbag.Bag(str(path), "w") as bag:
+        for step, yaw in enumerate(flips):
+            t = 0.5 * step
+            bag.write("/eigenvalues", eigenvalues_message(500.0, 800.0, 900.0, t=t), stamp(t))
+            bag.write("/eigenvectors", eigenvectors_message(yaw, t=t), stamp(t))
+            bag.write("/sigma7/pose", pose_message(t=t, frame="sigma7"), stamp(t))
+            bag.write("/cartesian_pose", pose_message(t=t), stamp(t))
+    report = make_report(path, tmp_path / "out")
+    # Expect the device's rotation 0 and the ellipsoid's axes at 0, 0.2 and 45 degrees: never -180
+    np.testing.assert_allclose(
+        np.degrees(axes_yaw_of(read_session(path).eigenvectors.values)), [0.0, 0.0, 0.2, 45.0, 45.0, 44.0], atol=1e-9
+    )
+    assert "Ellipsoid yaw (modulo 180 deg: an axis has no sign): 0.0 deg .. 45.0 deg." in report.summary.read_text()
+
+
+def test_an_axes_yaw_starts_within_90_degrees_and_is_continuous_modulo_180():
+    quaternions = Rotation.from_euler("ZYX", [[math.radians(yaw), 0.0, 0.0] for yaw in (170, 179, -179, -100)])
+    np.testing.assert_allclose(np.degrees(axes_yaw_of(quaternions.as_quat())), [-10, -1, 1, 80], atol=1e-9)
+    # a flip about X or Y (roll or pitch by 180 degrees) is the same ellipsoid as well
+    flips = Rotation.from_euler("ZYX", [[0.3, 0.0, math.pi], [0.3, math.pi, 0.0]]).as_quat()
+    np.testing.assert_allclose(axes_yaw_of(flips), [0.3, 0.3], atol=1e-9)
+    bad = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+    assert np.isnan(axes_yaw_of(bad)[0]) and axes_yaw_of(bad)[1] == 0.0

@@ -4,8 +4,8 @@
   the active GUI tab shaded.
 - ``stiffness.png`` (Fig. 6): end-effector position; device translations (dark) against the ellipsoid's principal
   stiffnesses (light); the X-Y section of the stiffness ellipsoid over time.
-- ``rotation.png`` (Fig. 7): end-effector position; device rotation about Z against the ellipsoid's yaw; the X-Y
-  ellipses over time.
+- ``rotation.png`` (Fig. 7): end-effector position; device rotation about Z against the ellipsoid's yaw (modulo 180
+  degrees: an axis has no sign); the X-Y ellipses over time.
 - ``stiffness.csv``: the demonstrated stiffness trajectory with the end-effector position at each command.
 - ``summary.md``: duration, topics with counts and rates, tree edits, stiffness ranges, and the figures made or
   skipped (a figure whose topics are missing is skipped with the reason, a missing end-effector pose leaves its
@@ -26,7 +26,7 @@ from teleteach.control.stiffness import translational_stiffnesses
 from teleteach.core.active_tab import Tab
 from teleteach.core.datadir import atomic_write_bytes, atomic_write_text
 from teleteach.core.plotting import legends_beside, stiffness_ellipses
-from teleteach.recording.session import Series, Session, TreeSnapshot, read_session, yaw_of
+from teleteach.recording.session import Series, Session, TreeSnapshot, axes_yaw_of, read_session
 
 TAB_COLOURS = {
     Tab.HIGH_LEVEL: "#d9f2d9",
@@ -283,7 +283,7 @@ def rotation_figure(session: Session) -> Tuple[Figure, List[str]]:
     cartesian_axes, yaw_axes, ellipse_axes = figure.subplots(3, 1, sharex=True, height_ratios=(1, 1, 0.9))
     notes = _plot_cartesian(cartesian_axes, session)
     device_yaw = session.device_yaw
-    ellipsoid_yaw = yaw_of(session.eigenvectors.values)
+    ellipsoid_yaw = axes_yaw_of(session.eigenvectors.values)
     yaw_axes.plot(device_yaw.times, np.degrees(device_yaw.values), color="#2b4fb2", label="device rotation about Z")
     yaw_axes.plot(
         session.eigenvectors.times,
@@ -291,7 +291,7 @@ def rotation_figure(session: Session) -> Tuple[Figure, List[str]]:
         color="#a6bdf4",
         lw=2,
         drawstyle="steps-post",
-        label="ellipsoid yaw",
+        label="ellipsoid yaw mod 180°",
     )
     yaw_axes.set_ylabel("rotation about Z [deg]")
     yaw_axes.grid(alpha=0.3)
@@ -407,8 +407,9 @@ def _summary(session: Session, report: Report) -> str:
             column_values = session.eigenvalues.values[:, column]
             lines.append(f"| {name} | {column_values.min():.1f} | {column_values.max():.1f} |")
         if session.eigenvectors is not None:
-            yaw = np.degrees(yaw_of(session.eigenvectors.values))
-            lines += ["", f"Ellipsoid yaw: {np.nanmin(yaw):.1f} deg .. {np.nanmax(yaw):.1f} deg."]
+            yaw = np.degrees(axes_yaw_of(session.eigenvectors.values))
+            axes = "modulo 180 deg: an axis has no sign"
+            lines += ["", f"Ellipsoid yaw ({axes}): {np.nanmin(yaw):.1f} deg .. {np.nanmax(yaw):.1f} deg."]
     if report.stiffness_table is not None:
         lines += ["", f"Stiffness trajectory with the end-effector position: `{report.stiffness_table.name}`."]
     lines += ["", "## Figures", ""]

@@ -121,6 +121,20 @@ def yaw_of(quaternions_xyzw: np.ndarray) -> np.ndarray:
     return yaw
 
 
+def axes_yaw_of(quaternions_xyzw: np.ndarray) -> np.ndarray:
+    """Rotation about Z [rad] of an ellipsoid's principal axes: modulo pi, since an axis has no sign.
+
+    The same ellipsoid comes as R and as R with two axes flipped (yaw + pi from an eigendecomposition's sign choice),
+    so the yaw is continuous over time modulo pi and starts in [-pi/2, pi/2). NaN where ``yaw_of`` gives NaN.
+    """
+    yaw = yaw_of(quaternions_xyzw)
+    valid = np.isfinite(yaw)
+    if np.any(valid):
+        axes = np.unwrap(2.0 * yaw[valid]) / 2.0
+        yaw[valid] = axes - np.pi * np.floor(axes[0] / np.pi + 0.5)
+    return yaw
+
+
 def accepted_stiffness(eigenvalues: Series, eigenvectors: Series) -> Tuple[Series, Series, int, int]:
     """The stiffness messages the controller accepts (teleteach.core.validation), and how many were rejected."""
     good_values = [
