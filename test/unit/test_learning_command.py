@@ -12,7 +12,8 @@ import pytest
 
 from teleteach.core import skill_file
 from teleteach.learning import spd
-from teleteach.learning.command import main
+from teleteach.learning.command import advice, main
+from teleteach.learning.skill import LearningParameters
 from teleteach.learning.synthetic import placement_demo
 from teleteach.runtime.processes import own_roscore
 
@@ -226,3 +227,34 @@ def test_a_skill_taught_along_a_teleoperated_path_keeps_its_spread_stretched_wit
     assert learned.provenance["path_demonstrations"] == 3
     assert learned.provenance["path_spread"] == [0.0, 0.02, 0.01]
     np.testing.assert_allclose(learned.provenance["path_spread_time"], [0.0, 10.0, 20.0], rtol=1e-6)
+
+
+def error_of(mean, largest):
+    return {"mean_of_stiffness": mean, "max_of_stiffness": largest, "spread": 0.3}
+
+
+def test_advice_says_what_alarming_numbers_mean_and_what_to_change():
+    """The issue's run: 15 samples over a 78 s recording, max 94 % at a step, a small mean."""
+    parameters = LearningParameters.from_yaml()
+    lines = advice(15, 78.0, error_of(0.021, 0.9399), parameters)
+    assert lines == [
+        "15 stiffness samples in 78.0 s: a sample is a change of the ellipsoid (or the end of a hold), so few samples "
+        "mean the stiffness was held most of the time; the skill holds it too",
+        "max error 94 % is where the stiffness stepped: 6 basis functions per second round a step over about 0.17 s, "
+        "and the mean, 2.1 %, is what a replay follows; --basis-per-second 12 rounds steps less",
+        "the demonstration lasted 78.0 s: a recording runs from one double click to the next, also after the "
+        "trajectory ended, and a replay lasts as long; --duration S replays it in S seconds",
+    ]
+    # Expect a poor fit named as such, and nothing to say of a dense, short, close one
+    assert advice(100, 12.0, error_of(0.08, 0.5), parameters) == [
+        "mean error 8.0 % of the stiffness: the DMP does not follow this demonstration closely; try "
+        "--basis-per-second 12 (now 6) or less --smoothing (now 0.05 s)"
+    ]
+    assert advice(100, 12.0, error_of(0.004, 0.057), parameters) == []
+
+
+def test_learning_a_skill_file_says_which_recording_it_learned_from(data):
+    result = run("Demo", "--data-dir", data)
+    assert result.returncode == 0, result.stderr
+    assert f"learned Demo_dmp from {data / 'skills' / 'Demo.npz'}, all of its stiffness recording (" in result.stdout
+    assert "advice" not in result.stdout  # a dense 20 s demonstration reproduced within 6 %

@@ -140,7 +140,10 @@ def test_two_recordings_are_two_demonstrations(tmp_path, capsys):
         assert (tmp_path / "skills" / f"two_dmp_{number}.png").is_file()
     # Expect --demonstration to learn the one it names, under the plain name
     assert main([str(path), "--data-dir", str(tmp_path), "--demonstration", "2", "--name", "Second"]) == 0
-    assert "learned Second from demonstration 2 of" in capsys.readouterr().out
+    output = capsys.readouterr().out
+    assert "learned Second from demonstration 2 of" in output
+    # Expect the way to the session's figures named
+    assert f"the session's figures (tree edits, stiffness, rotation): rosrun teleteach report {path}" in output
     assert skill_file.load(tmp_path / "skills" / "Second.npz").duration == pytest.approx(4.0, abs=0.05)
 
 

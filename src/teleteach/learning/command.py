@@ -6,6 +6,10 @@ ROS, through the ``/behaviour_tree/add_skill`` service.
 A session bag is learned one demonstration at a time (teleteach.learning.bag: each LOW-LEVEL recording, never the
 time between recordings or a skill the tree replayed): each one becomes a skill of its own, ``<name>_<number>`` when
 there are several, or only the one ``--demonstration N`` names. Nothing is written unless every one was learned.
+
+Each skill's lines say what part of the session (or which skill file) it was learned from, and :func:`advice` says
+what its numbers mean for an operator who has not read Appendix C: few samples, a large maximum error, a long
+demonstration, each with what to change when it is worth changing.
 """
 
 import argparse
@@ -171,9 +175,10 @@ def sources(path: pathlib.Path, number: Optional[int], report: Callable[[str], N
         if number is not None:
             raise LearningError(f"--demonstration picks a demonstration of a session bag; {path} is not a .bag")
         try:
-            return [Source(str(path), demonstrated=skill_file.load(path))]
+            demonstrated = skill_file.load(path)
         except skill_file.SkillFileError as error:
             raise LearningError(str(error)) from None
+        return [Source(f"{path}, {skill_origin(demonstrated)}", demonstrated=demonstrated)]
     session = bag.read_session_bag(path)
     if session.recordings is None:
         found = [Source(f"all of {path} ({session.found_by})", session)]
@@ -194,6 +199,12 @@ def sources(path: pathlib.Path, number: Optional[int], report: Callable[[str], N
         for recording in session.recordings:
             report(f"  {recording}")
     return found if number is None else [found[number - 1]]
+
+
+def skill_origin(skill: skill_file.Skill) -> str:
+    """Where a skill file's samples come from, in words: all of the recording it holds, and along what."""
+    along = skill.provenance.get("trajectory")
+    return f"all of its {skill.kind} recording" + (f" along {along}" if along else "")
 
 
 def files(arguments: argparse.Namespace, root: pathlib.Path, name: str, number: Optional[int]):
@@ -248,18 +259,29 @@ def run(arguments: argparse.Namespace, report: Callable[[str], None]) -> None:
         write_figure_c1(
             plot, demo.sample_time, demo.samples, reproduction.time, reproduction.stiffness, title=skill.name
         )
-        for line in (
-            f"learned {skill.name} from {origin.what} ({demo.samples.shape[0]} stiffness samples, "
-            f"{demo.duration:.1f} s) in {result.learning_time:.3f} s with "
-            f"N = {result.stiffness.parameters.basis_count} basis functions",
-            f"reproduction error (same duration and goal): {describe_error(skill.provenance['reproduction_error'])}",
-            f"saved {saved} (kind dmp, {skill.time.size} samples, {skill.duration:.1f} s)",
-            f"plot {plot}",
-        ):
+        for line in learned_lines(skill, result, origin, parameters):
             report(line)
+        report(f"saved {saved} (kind dmp, {skill.time.size} samples, {skill.duration:.1f} s)")
+        report(f"plot {plot}")
+    if source.suffix == ".bag":
+        report(f"the session's figures (tree edits, stiffness, rotation): rosrun teleteach report {source}")
     if arguments.add:
         for skill, _, _, output, _, _ in learned:
             report(f"added to the BT library: {add_to_library(skill.name, output, arguments.timeout)}")
+
+
+def learned_lines(
+    skill: skill_file.Skill, result: LearnedSkill, origin: Source, parameters: LearningParameters
+) -> List[str]:
+    """What was learned from which part of the session, how well, and the advice on its numbers."""
+    demo, error = result.demonstration, skill.provenance["reproduction_error"]
+    samples = demo.samples.shape[0]
+    return [
+        f"learned {skill.name} from {origin.what} ({samples} stiffness samples, {demo.duration:.1f} s) in "
+        f"{result.learning_time:.3f} s with N = {result.stiffness.parameters.basis_count} basis functions",
+        f"reproduction error (same duration and goal): {describe_error(error)}",
+        *(f"advice: {line}" for line in advice(samples, demo.duration, error, parameters)),
+    ]
 
 
 def reproduced(arguments: argparse.Namespace, name: str, origin: Source, parameters: LearningParameters):
@@ -291,6 +313,53 @@ def describe_error(error: Dict[str, float]) -> str:
     if error["spread"] < SPREAD_WORTH_COMPARING:
         return f"{text} (the demonstration is constant)"
     return f"{text}; mean {100 * error['mean_relative']:.1f} % of the demonstration's variation"
+
+
+HELD_SAMPLES_PER_SECOND = 1.0
+"""Fewer stiffness samples per second than this: the ellipsoid was held between a few changes."""
+STEP_ERROR = 0.25
+"""[share of the stiffness] A largest error above this, with a mean under :data:`POOR_MEAN_ERROR`: a rounded step."""
+POOR_MEAN_ERROR = 0.05
+"""[share of the stiffness] A mean error above this is a fit worth improving."""
+LONG_DEMONSTRATION = 30.0
+"""[s] A demonstration longer than this outlasted the placing trajectories (12-15 s): the replay lasts as long."""
+
+
+def advice(samples: int, duration: float, error: Dict[str, float], parameters: LearningParameters) -> List[str]:
+    """What a learned skill's numbers mean, and what to change when one is worth changing (one line each).
+
+    Args:
+        samples: the demonstration's stiffness samples (the GUI's, recovered from the recording)
+        duration: [s] the demonstration's
+        error: :func:`teleteach.learning.skill.reproduction_error` of the same-duration reproduction
+        parameters: the learning parameters used
+    """
+    per_second = parameters.basis_per_second
+    lines = []
+    if samples < HELD_SAMPLES_PER_SECOND * duration:
+        lines.append(
+            f"{samples} stiffness samples in {duration:.1f} s: a sample is a change of the ellipsoid (or the end of a "
+            "hold), so few samples mean the stiffness was held most of the time; the skill holds it too"
+        )
+    mean, largest = error["mean_of_stiffness"], error["max_of_stiffness"]
+    if mean > POOR_MEAN_ERROR:
+        lines.append(
+            f"mean error {100 * mean:.1f} % of the stiffness: the DMP does not follow this demonstration closely; "
+            f"try --basis-per-second {2 * per_second:g} (now {per_second:g}) or less --smoothing "
+            f"(now {parameters.smoothing:g} s)"
+        )
+    elif largest > STEP_ERROR:
+        lines.append(
+            f"max error {100 * largest:.0f} % is where the stiffness stepped: {per_second:g} basis functions per "
+            f"second round a step over about {1.0 / per_second:.2f} s, and the mean, {100 * mean:.1f} %, is what a "
+            f"replay follows; --basis-per-second {2 * per_second:g} rounds steps less"
+        )
+    if duration > LONG_DEMONSTRATION:
+        lines.append(
+            f"the demonstration lasted {duration:.1f} s: a recording runs from one double click to the next, also "
+            "after the trajectory ended, and a replay lasts as long; --duration S replays it in S seconds"
+        )
+    return lines
 
 
 def main(argv: Sequence[str]) -> int:
