@@ -207,3 +207,29 @@ def test_a_stall_s_click_found_during_a_press_or_its_release_gets_its_own_rising
         assert detector.clicks == 2
         assert not states[(times > 0.626) & (times < 0.749)].any()
         assert states[(times > 0.751) & (times < 0.874)].all() and not states[times > 0.876].any()
+
+
+def test_a_click_completed_while_the_last_one_is_pressed_gets_its_own_rising_edge():
+    """A stall's catch-up pressed the first click late; the second completes, read live, while it is pressed."""
+    detector = ClickDetector(EXACT)
+    detector.catch_up([(0.0, 0.5), (0.125, 0.0), (0.25, 0.5)], now=0.5)
+    times = np.arange(0.5, 1.5, 0.001)
+    angles = [0.0 if 0.52 <= time < 0.56 else 0.5 for time in times]  # the second flick, released at 0.56 s
+    states = np.array([detector.update(time, angle) for time, angle in zip(times, angles)])
+    # Expect: two presses, the second after a release of one pulse, not one press stretched over both
+    assert detector.clicks == 2
+    assert rising_edges(states) == 2
+    assert not states[(times > 0.626) & (times < 0.749)].any()
+
+
+def test_a_queued_click_waits_until_a_release_was_returned():
+    """A press was returned, then the loop stalled past its release and over another click: the button must be seen
+    released once before the next press, or the reader sees one long press."""
+    detector = ClickDetector(EXACT)
+    assert detector.update(0.0, 0.5) is False
+    detector.catch_up([(0.0, 0.5), (0.05, 0.0), (0.1, 0.5)], now=0.1)
+    assert detector.update(0.1, 0.5) is True
+    detector.catch_up([(0.5, 0.0), (0.55, 0.5)], now=2.0)  # a stall of 1.9 s
+    # Expect: released at the first read after the stall, pressed again at the next
+    assert [detector.update(time, 0.5) for time in (2.0, 2.001, 2.125, 2.126)] == [False, True, True, False]
+    assert detector.clicks == 2

@@ -7,6 +7,8 @@ from PyQt5.QtTest import QTest
 from scipy.spatial.transform import Rotation
 
 from teleteach.haptics.click import ClickDetector, ClickParameters
+from teleteach.haptics.loop import DeviceLoop
+from teleteach.haptics.twist import TwistEstimator
 from teleteach.haptics.virtual import CLOSED_GRIPPER, OPEN_GRIPPER, RESTING_GRIPPER, VirtualDevice, VirtualDeviceWindow
 
 pytestmark = pytest.mark.gui
@@ -101,11 +103,16 @@ def test_space_is_one_click_for_the_click_detector(window):
     assert window.device.state()[2] == pytest.approx(RESTING_GRIPPER)
 
 
+def let_go(window):
+    QTest.qWait(VirtualDeviceWindow.RELEASE_DELAY + 100)
+
+
 def test_holding_o_opens_the_gripper_fully(window):
     QTest.keyPress(window, QtCore.Qt.Key_O)
     assert window.device.state()[2] == pytest.approx(OPEN_GRIPPER)
     assert "gripper 0.50 rad" in window.values.text()
     QTest.keyRelease(window, QtCore.Qt.Key_O)
+    let_go(window)
     assert window.device.state()[2] == pytest.approx(RESTING_GRIPPER)
 
 
@@ -114,6 +121,32 @@ def test_holding_c_keeps_the_gripper_closed_for_teleop_s_clutch(window):
     assert window.device.state()[2] == pytest.approx(CLOSED_GRIPPER)
     assert "gripper 0.00 rad" in window.values.text()
     QTest.keyRelease(window, QtCore.Qt.Key_C)
+    let_go(window)
+    assert window.device.state()[2] == pytest.approx(RESTING_GRIPPER)
+    assert "gripper 0.25 rad" in window.values.text()
+
+
+@pytest.mark.parametrize("key", [QtCore.Qt.Key_C, QtCore.Qt.Key_O], ids=["C", "O"])
+def test_a_held_key_s_repeat_does_not_let_the_gripper_go_for_an_instant(window, key):
+    """The X server repeats a held key as release + press; when Qt cannot tell (events queued on a busy machine),
+    both arrive as the operator's own. A hold of C made clicks, and double clicks, of those instants."""
+    detector = ClickDetector(ClickParameters.from_yaml())
+    clock = window.clock
+    QTest.keyPress(window, key)
+    held = window.device.state()[2]
+    angles = []
+    for _ in range(20):  # 25 Hz repeat for 0.8 s
+        QTest.keyRelease(window, key)
+        for _ in range(40):
+            clock.now += 0.001
+            angles.append(window.device.read(clock.now).gripper)
+            detector.update(clock.now, angles[-1])
+        QTest.keyPress(window, key)
+    # Expect the gripper held all along: no instant at rest, so no click
+    assert set(angles) == {held}
+    assert detector.clicks == 0
+    QTest.keyRelease(window, key)
+    let_go(window)
     assert window.device.state()[2] == pytest.approx(RESTING_GRIPPER)
 
 
@@ -140,3 +173,48 @@ def test_enter_is_a_double_click_for_the_gui(window):
         kinds.append(classifier.poll(clock.now))
     assert detector.clicks == 2
     assert [kind for kind in kinds if kind] == [ClickClassifier.DOUBLE]
+
+
+def loop_of(device, clock):
+    """The node's device loop over the virtual device; returns it and the stamps of the published button presses."""
+    presses, previous = [], [False]
+
+    def publish(state):
+        if state.button and not previous[0]:
+            presses.append(state.stamp)
+        previous[0] = state.button
+
+    loop = DeviceLoop(
+        device, publish, clock, ClickDetector(ClickParameters.from_yaml()), TwistEstimator(20.0), lambda line: None
+    )
+    return loop, presses
+
+
+STALLS = [(0.0, 0.5), (0.0, 0.9), (0.05, 0.2), (0.12, 0.3), (0.15, 0.3), (0.25, 0.12), (0.3, 0.25), (0.45, 0.3)]
+
+
+@pytest.mark.parametrize("stall_start, stall", STALLS)
+def test_enter_arrives_as_one_double_click_when_the_device_loop_stalls(application, stall_start, stall):
+    """A busy core stalls the 1 kHz loop (reads 0.1-0.9 s late): the flicks it did not read are caught up, so the GUI
+    still gets two presses within its double-click window, whichever part of the gesture the stall covers. (A stall
+    longer than the window's slack, 0.3 s, between the two flicks would part them, as it would a real device's.)"""
+    from teleteach.core.gui_config import GuiConfig
+    from teleteach.gui.device import ClickClassifier
+
+    clock = Clock()
+    device = VirtualDevice(click_duration=0.2, double_click_gap=0.1, clock=clock)
+    loop, presses = loop_of(device, clock)
+    for _ in range(100):
+        clock.now += 0.001
+        loop.step()
+    device.double_click()
+    clock.now += stall_start
+    loop.step()
+    clock.now += stall  # no read for this long
+    for _ in range(1500):
+        loop.step()
+        clock.now += 0.001
+    classifier = ClickClassifier(GuiConfig.load().double_click_window)
+    kinds = [classifier.click(stamp) for stamp in presses]
+    assert len(presses) == 2, presses
+    assert kinds == [None, ClickClassifier.DOUBLE]

@@ -64,6 +64,10 @@ class ClickDetector:
     ``max_duration`` -> one click: the button state goes True (one rising edge) for ``pulse_duration``.
     A slower close-and-back is a grip, not a click. The two thresholds give hysteresis, so noise around
     either threshold neither starts nor ends a gesture twice.
+
+    Every click gets its own rising edge: one that completes while the button is pressed, or before a release of
+    ``pulse_duration`` after it, waits for that release; and a waiting click is pressed only once a released state
+    was returned, so a loop that stalled through a whole release still reports one (a double click stays two).
     """
 
     def __init__(self, parameters: ClickParameters):
@@ -76,7 +80,8 @@ class ClickDetector:
         self._phase = _Phase.DISARMED
         self._closed_since = 0.0
         self._pressed_until = -math.inf
-        self._queued = 0  # clicks found by catch_up beyond the first: each pressed after the one before
+        self._queued = 0  # clicks waiting for the press under way and its release: each pressed after the one before
+        self._returned_pressed = False  # what update returned last: a queued click waits for a returned release
 
     def catch_up(self, samples: Iterable[Tuple[float, float]], now: float) -> None:
         """Feeds the (time [s], gripper angle [rad]) samples a stalled loop did not read: a stall delays a click.
@@ -87,23 +92,28 @@ class ClickDetector:
         together than the GUI's double-click window).
         """
         found = sum(self._recognise(time, angle) for time, angle in samples)
-        if not found:
-            return
-        if self._queued or now < self._pressed_until + self.parameters.pulse_duration:
-            self._queued += found  # after the press under way and its release: every click its own rising edge
-        else:
-            self._pressed_until = now + self.parameters.pulse_duration
-            self._queued = found - 1
+        if found:
+            self._press(now, found)
 
     def update(self, time: float, gripper_angle: float) -> bool:
         """Feeds one gripper angle [rad] taken at ``time`` [s]; returns the button state."""
         parameters = self.parameters
-        if self._queued and time >= self._pressed_until + parameters.pulse_duration:
+        if self._queued and not self._returned_pressed and time >= self._pressed_until + parameters.pulse_duration:
             self._queued -= 1
             self._pressed_until = time + parameters.pulse_duration
         if self._recognise(time, gripper_angle):
-            self._pressed_until = time + parameters.pulse_duration
-        return time < self._pressed_until
+            self._press(time, 1)
+        self._returned_pressed = time < self._pressed_until
+        return self._returned_pressed
+
+    def _press(self, time: float, clicks: int) -> None:
+        """``clicks`` completed at ``time``: the first pressed now if the button is free, the others queued."""
+        busy = self._returned_pressed or time < self._pressed_until + self.parameters.pulse_duration
+        if self._queued or busy:
+            self._queued += clicks  # after the press under way and its release: every click its own rising edge
+        else:
+            self._pressed_until = time + self.parameters.pulse_duration
+            self._queued = clicks - 1
 
     def _recognise(self, time: float, gripper_angle: float) -> bool:
         """Advances the gesture by one sample; True when it completes a click (counted in ``clicks``)."""

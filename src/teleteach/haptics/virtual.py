@@ -4,13 +4,19 @@ Keys: arrows (or a mouse drag) move x/y, Page Up/Down move z, Q/A W/S E/D turn r
 scripted quick close-and-back of the gripper, detected like a real one), Enter double-clicks (two such flicks
 ``double_click_gap`` apart: a keyboard's two presses are too slow or too irregular for the GUI's double-click window),
 O held down opens the gripper fully, C held down keeps it closed (TELEOP's clutch).
+
+A key's gesture arrives whole on a busy machine too: a flick that a stalled device loop did not read is given to the
+loop's click detector afterwards (:meth:`VirtualDevice.missed_gripper`, as the scenario backend does), so a double
+click stays two clicks; and the X server's key repeat (a release and a press again, which Qt cannot always tell from
+the operator's own when events queue up) does not open a held gripper for an instant, which made clicks of a hold.
 :class:`VirtualDevice` holds the state and is read by the device loop's thread; :class:`VirtualDeviceWindow` only
 edits it from the Qt thread, under the device's lock.
 """
 
+import functools
 import threading
 import time as wall_time
-from typing import Callable, Tuple
+from typing import Callable, List, Tuple
 
 import numpy as np
 from PyQt5 import QtCore, QtWidgets
@@ -28,6 +34,9 @@ ANGLE_LIMIT = 1.0  # [rad] per angle
 
 class VirtualDevice(DeviceBackend):
     """Device state edited by a user interface and read by the device loop (thread-safe).
+
+    A stall of the reading loop must not swallow a click: the flicks between two reads are sampled
+    (``flick_samples`` each) and given by :meth:`missed_gripper`.
 
     Args:
         click_duration: [s] duration of the scripted gripper flick of a click.
@@ -52,6 +61,10 @@ class VirtualDevice(DeviceBackend):
         self._held_closed = False
         self._flicks = [-float("inf")]  # start times of the scripted flicks, in order
         self._closed = False
+        self._last_read = -float("inf")  # [s] the device clock's time of the last read
+        self._missed: List[Tuple[float, float]] = []
+
+    flick_samples = 20  # per scripted flick, for the catch-up after a stall
 
     def move(self, dx: float = 0.0, dy: float = 0.0, dz: float = 0.0) -> None:
         """Moves the end effector by [m], clamped to the workspace."""
@@ -97,18 +110,39 @@ class VirtualDevice(DeviceBackend):
     def state(self) -> Tuple[np.ndarray, np.ndarray, float]:
         """Position [m], roll/pitch/yaw [rad] and gripper angle [rad] now."""
         with self._lock:
-            base = OPEN_GRIPPER if self._held_open else CLOSED_GRIPPER if self._held_closed else RESTING_GRIPPER
-            now = self._clock()
-            started = max((start for start in self._flicks if start <= now), default=-float("inf"))
-            gripper = flick_gripper_angle(base, now - started, self._click_duration)
-            return self._position.copy(), self._rpy.copy(), gripper
+            return self._position.copy(), self._rpy.copy(), self._gripper_at(self._clock())
+
+    def _gripper_at(self, moment: float) -> float:
+        """The gripper angle [rad] at ``moment`` of the device clock (the held state, dipped by a flick)."""
+        base = OPEN_GRIPPER if self._held_open else CLOSED_GRIPPER if self._held_closed else RESTING_GRIPPER
+        started = max((start for start in self._flicks if start <= moment), default=-float("inf"))
+        return flick_gripper_angle(base, moment - started, self._click_duration)
 
     def read(self, time: float) -> DeviceSample:
         """The current state as a device sample (the flick is timed by the device's own wall clock)."""
-        position, _, gripper = self.state()
         with self._lock:
-            quaternion = self._quaternion.copy()
-        return DeviceSample(position, quaternion, gripper)
+            now = self._clock()
+            self._missed = self._flicks_between(self._last_read, now, time)
+            self._last_read = now
+            sample = DeviceSample(self._position.copy(), self._quaternion.copy(), self._gripper_at(now))
+        return sample
+
+    def missed_gripper(self) -> List[Tuple[float, float]]:
+        """The flicks' gripper angles between the last two reads, at the loop's times (none without a stall)."""
+        with self._lock:
+            return self._missed
+
+    def _flicks_between(self, previous: float, now: float, time: float) -> List[Tuple[float, float]]:
+        step = self._click_duration / self.flick_samples
+        if now - previous <= step:
+            return []
+        missed = []
+        for start in self._flicks:
+            if start + self._click_duration > previous and start < now:
+                for moment in np.linspace(start, start + self._click_duration, self.flick_samples + 1):
+                    if previous < moment < now:
+                        missed.append((time - (now - moment), self._gripper_at(moment)))
+        return missed
 
     @property
     def finished(self) -> bool:
@@ -123,6 +157,7 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
     POSITION_STEP = 0.005  # [m] per key press
     ANGLE_STEP = 0.05  # [rad] per key press
     DRAG_SCALE = 0.0005  # [m/px] of mouse drag
+    RELEASE_DELAY = 80  # [ms] a released O or C lets go after this, unless pressed again: the key repeat's release
     _ROTATION_KEYS = {
         QtCore.Qt.Key_Q: (1, 0, 0),
         QtCore.Qt.Key_A: (-1, 0, 0),
@@ -146,6 +181,13 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
         self.setWindowTitle("teleteach: virtual Sigma.7")
         self.setFocusPolicy(QtCore.Qt.StrongFocus)
         self._drag_origin = None
+        self._releases = {}  # O and C: the timer that lets the held gripper go
+        for key, hold in ((QtCore.Qt.Key_O, device.hold_open), (QtCore.Qt.Key_C, device.hold_closed)):
+            timer = QtCore.QTimer(self)
+            timer.setSingleShot(True)
+            timer.setInterval(self.RELEASE_DELAY)
+            timer.timeout.connect(functools.partial(self._let_go, hold))
+            self._releases[key] = timer
         self.values = QtWidgets.QLabel()
         self.values.setTextFormat(QtCore.Qt.PlainText)
         self.values.setStyleSheet("font-family: monospace; font-size: 14px")
@@ -185,19 +227,25 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
         elif key in (QtCore.Qt.Key_Return, QtCore.Qt.Key_Enter) and not event.isAutoRepeat():
             self.device.double_click()
         elif key == QtCore.Qt.Key_O and not event.isAutoRepeat():
+            self._releases[key].stop()
             self.device.hold_open(True)
         elif key == QtCore.Qt.Key_C and not event.isAutoRepeat():
+            self._releases[key].stop()
             self.device.hold_closed(True)
         else:
             super().keyPressEvent(event)
             return
         self.refresh()
 
+    def _let_go(self, hold: Callable[[bool], None]) -> None:
+        """A released O or C was not pressed again: its hold ends, the gripper goes back to rest."""
+        hold(False)
+        self.refresh()
+
     def keyReleaseEvent(self, event):  # noqa: N802 (Qt API)
-        """Releasing O or C lets the gripper back to rest."""
-        if event.key() in (QtCore.Qt.Key_O, QtCore.Qt.Key_C) and not event.isAutoRepeat():
-            (self.device.hold_open if event.key() == QtCore.Qt.Key_O else self.device.hold_closed)(False)
-            self.refresh()
+        """Releasing O or C lets the gripper back to rest ``RELEASE_DELAY`` later, unless the key is pressed again."""
+        if event.key() in self._releases and not event.isAutoRepeat():
+            self._releases[event.key()].start()
         else:
             super().keyReleaseEvent(event)
 
