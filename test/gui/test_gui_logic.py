@@ -492,3 +492,14 @@ def test_a_mode_holds_the_axis_it_makes_live_until_the_handle_meets_it():
     command.device(sample(x=0.0, y=0.0, z=0.0))
     command.device(sample(x=0.0, y=0.08, z=0.0))
     assert command.stiffness()[0][1] == pytest.approx(2705.0)
+
+
+def test_click_classifier_names_two_clicks_just_too_far_apart_for_a_double():
+    clicks = ClickClassifier(0.6)
+    assert clicks.click(0.0) is None and clicks.missed_double_hint() == ""
+    assert clicks.click(0.9) == ClickClassifier.SINGLE
+    assert clicks.missed_double_hint() == "two single clicks 0.90 s apart: a double click needs both within 0.6 s"
+    assert clicks.click(1.2) == ClickClassifier.DOUBLE and clicks.missed_double is None
+    # Expect two clicks far apart (more than two windows) to be two singles meant as such
+    assert clicks.click(5.0) is None
+    assert clicks.click(6.3) == ClickClassifier.SINGLE and clicks.missed_double_hint() == ""

@@ -305,3 +305,21 @@ def test_an_arm_that_does_not_come_to_rest_is_not_switched_and_the_tab_says_why(
         thread.join(2)
         service.shutdown()
         joints.unregister()
+
+
+def test_two_clicks_too_far_apart_for_a_double_click_are_named(qapp, device, make_window):
+    """A double click that came out as two singles (a slow hand, or keys on a busy machine): LOW-LEVEL cycles the
+    mode twice, as it should, and the status bar says why no recording started."""
+    window = make_window()
+    hints = []
+    window.low_level.click_hint.connect(hints.append)
+    open_low_level(qapp, window, device)
+    pump(qapp, 1.0)  # the click that opened the tab is no part of the pair
+    device.click()
+    pump(qapp, 0.8)
+    device.click()
+    pump_until(qapp, lambda: hints, 5, "the hint")
+    # Expect the gap and the window named, in the status bar
+    assert hints[0].startswith("two single clicks 0.") and hints[0].endswith("a double click needs both within 0.6 s")
+    assert window.statusBar().currentMessage() == hints[0]
+    assert window.session.recording is None

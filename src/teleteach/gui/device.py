@@ -89,19 +89,23 @@ class ClickClassifier:
     stamped with the device's own clock (the stamp of its latest pose), not when the GUI thread gets to them: a busy
     GUI thread or a slow simulation then neither splits a double click into two singles nor joins two singles into a
     double. ``poll`` is told when the last click arrived, so it does not call a click single while the next one is
-    still on its way to the GUI.
+    still on its way to the GUI. Two clicks a little too far apart for a double (``NEAR_MISS`` windows) were most
+    likely meant as one: :meth:`missed_double_hint` says so, for the tab to show.
     """
 
     SINGLE = "single"
     DOUBLE = "double"
+    NEAR_MISS = 2.0  # a second click within this many windows of the first was most likely meant as a double click
 
     def __init__(self, window: float):
         self.window = window
         self._pending: Optional[float] = None
+        self._single: float = -math.inf  # [s] the last click that was no part of a double (pending or single)
+        self.missed_double: Optional[float] = None  # [s] between the last two clicks, when a double was missed
 
     def reset(self) -> None:
         """Drop a pending click (e.g. when the tab is left)."""
-        self._pending = None
+        self._pending, self._single = None, -math.inf
 
     @property
     def pending(self) -> bool:
@@ -114,12 +118,22 @@ class ClickClassifier:
         Returns DOUBLE when it completes a double click, SINGLE when it follows a pending click whose window had
         passed (that one was single), else None.
         """
+        self.missed_double = None
         if self._pending is not None and stamp - self._pending <= self.window:
-            self._pending = None
+            self._pending, self._single = None, -math.inf
             return self.DOUBLE
+        if stamp - self._single <= self.NEAR_MISS * self.window:
+            self.missed_double = stamp - self._single
         expired = self._pending is not None
-        self._pending = stamp
+        self._pending = self._single = stamp
         return self.SINGLE if expired else None
+
+    def missed_double_hint(self) -> str:
+        """What to tell the operator when the last two clicks came too far apart for a double ("" otherwise)."""
+        if self.missed_double is None:
+            return ""
+        gap, window = self.missed_double, self.window
+        return f"two single clicks {gap:.2f} s apart: a double click needs both within {window:.1f} s"
 
     def poll(self, now: float, last_arrival: float = -math.inf) -> Optional[str]:
         """Returns SINGLE once a pending click has outlived the window and no later click has arrived since."""

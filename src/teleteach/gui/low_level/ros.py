@@ -30,6 +30,7 @@ def build(window) -> TabParts:
         device_time=lambda: window.worker.device_time,
     )
     view.recording_toggled.connect(lambda: window.carry_out(window.session.toggle_stiffness_recording()))
+    view.click_hint.connect(lambda text: window.statusBar().showMessage(text, 8000))
     actions = {
         Action.ENTER_LOW_LEVEL: lambda: view.on_enter(window.worker.latest_sample()),
         Action.LEAVE_LOW_LEVEL: view.on_leave,

@@ -26,6 +26,7 @@ class LowLevelTab(QWidget):
     """The ellipsoid views, the commanded values, the mode and the recording state (thesis II-C, Fig. 4)."""
 
     recording_toggled = pyqtSignal()
+    click_hint = pyqtSignal(str)  # two clicks too far apart for a double click: what the operator should know
 
     def __init__(
         self,
@@ -119,6 +120,8 @@ class LowLevelTab(QWidget):
         if not self.active:
             return
         kind = self.clicks.click(stamp)
+        if self.clicks.missed_double is not None:
+            self.click_hint.emit(self.clicks.missed_double_hint())
         if kind == ClickClassifier.DOUBLE:
             self.recording_toggled.emit()
         elif kind == ClickClassifier.SINGLE:

@@ -264,6 +264,7 @@ def build(window) -> TabParts:
     ):
         signal.connect(slot, Qt.QueuedConnection)
     view.recording_toggled.connect(lambda: window.carry_out(window.session.toggle_shared_recording()))
+    view.click_hint.connect(lambda text: window.statusBar().showMessage(text, 8000))
     actions = {
         Action.SHARED_CONTROL_ON: lambda: publish(window.topics.shared_control, Bool(True)),
         Action.SHARED_CONTROL_OFF: lambda: publish(window.topics.shared_control, Bool(False)),

@@ -204,6 +204,7 @@ class SharedControlTab(QWidget):
     """SHARED CONTROL: the plane view and the MPC's status; double click records the MPC's output as a skill."""
 
     recording_toggled = pyqtSignal()
+    click_hint = pyqtSignal(str)  # two clicks too far apart for a double click: what the operator should know
 
     def __init__(self, config: GuiConfig, recorded_samples: Callable[[], int]):
         super().__init__()
@@ -248,8 +249,12 @@ class SharedControlTab(QWidget):
 
     def on_click(self, stamp: float) -> None:
         """A double click starts or stops the recording (single clicks do nothing here)."""
-        if self.active and self.clicks.click(stamp) == ClickClassifier.DOUBLE:
+        if not self.active:
+            return
+        if self.clicks.click(stamp) == ClickClassifier.DOUBLE:
             self.recording_toggled.emit()
+        elif self.clicks.missed_double is not None:
+            self.click_hint.emit(self.clicks.missed_double_hint())
 
     def on_teaching(self, text: str) -> None:
         """What the wipe's teaching is doing (empty: no wipe, the no-contact plane)."""

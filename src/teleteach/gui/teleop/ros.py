@@ -155,6 +155,7 @@ def build(window) -> TabParts:
     adapter = TeleopRos(window.config, window.topics.equilibrium, window.path_recorder)
     adapter.changed.connect(view.on_state, Qt.QueuedConnection)
     view.recording_toggled.connect(lambda: window.carry_out(window.session.toggle_path_recording()))
+    view.click_hint.connect(lambda text: window.statusBar().showMessage(text, 8000))
     actions = {
         Action.TELEOP_ON: lambda: adapter.drive_arm(True),
         Action.TELEOP_OFF: lambda: adapter.drive_arm(False),

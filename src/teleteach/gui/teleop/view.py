@@ -68,6 +68,7 @@ class TeleopTab(QWidget):
     """
 
     recording_toggled = pyqtSignal()
+    click_hint = pyqtSignal(str)  # two clicks too far apart for a double click: what the operator should know
 
     def __init__(self, config: GuiConfig):
         super().__init__()
@@ -134,8 +135,12 @@ class TeleopTab(QWidget):
 
         (The clutch is a longer close of the gripper, never a click.)
         """
-        if self.active and self.clicks.click(stamp) == ClickClassifier.DOUBLE:
+        if not self.active:
+            return
+        if self.clicks.click(stamp) == ClickClassifier.DOUBLE:
             self.recording_toggled.emit()
+        elif self.clicks.missed_double is not None:
+            self.click_hint.emit(self.clicks.missed_double_hint())
 
     def show_path(self, text: str, recording: bool) -> None:
         """What the path is: being recorded (loud) or what was kept."""
