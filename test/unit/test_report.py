@@ -48,6 +48,18 @@ def test_report_writes_three_figures_and_a_summary(session_bag, tmp_path, artifa
     shutil.copytree(tmp_path / "report", artifacts_dir / "report_unit", dirs_exist_ok=True)
 
 
+def test_a_report_from_a_session_already_read_is_the_report_of_its_bag(session_bag, tmp_path, monkeypatch):
+    import teleteach.recording.report as report_module
+
+    expected = make_report(session_bag, tmp_path / "read_here")
+    session = read_session(session_bag)
+    monkeypatch.setattr(report_module, "read_session", lambda path: pytest.fail(f"{path} read a second time"))
+    given = make_report(session_bag, tmp_path / "given", session=session)
+    assert given.summary.read_text() == expected.summary.read_text()
+    assert given.stiffness_table.read_text() == expected.stiffness_table.read_text()
+    assert sorted(given.figures) == sorted(expected.figures) and given.edits == expected.edits
+
+
 def test_stiffness_table_pairs_each_command_with_the_end_effector_position(session_bag, tmp_path):
     report = make_report(session_bag, tmp_path / "report")
     table = np.genfromtxt(report.stiffness_table, delimiter=",", names=True)

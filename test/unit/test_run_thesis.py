@@ -458,6 +458,28 @@ def test_a_scripted_system_s_command_line_reaches_its_device_node(tmp_path):
     assert device.required  # a scripted operator that fails its script ends the system
 
 
+def test_the_real_time_factor_reaches_the_simulation_only_when_asked(tmp_path):
+    scenario = ROOT / "config" / "scenarios" / "thesis_III_D.yaml"
+    default = ThesisRun(options_for(scenario, data_root=tmp_path)).launch_arguments()
+    assert "real_time_factor" not in default  # config/controllers.yaml's
+    faster = ThesisRun(options_for(scenario, data_root=tmp_path, real_time_factor=2.0)).launch_arguments()
+    assert faster["real_time_factor"] == "2"
+    assert {name: value for name, value in faster.items() if name not in ("real_time_factor", "record_prefix")} == {
+        name: value for name, value in default.items() if name != "record_prefix"
+    }
+    command = full_launch(faster, port=11999)
+    result = subprocess.run(["roslaunch", "--dump-params", *command[3:]], capture_output=True, text=True, check=True)
+    assert yaml.safe_load(result.stdout)["/robot_sim/real_time_factor"] == 2
+    refused = subprocess.run(
+        [str(ROOT / "nodes" / "run_thesis"), "--real-time-factor", "-1", "--data-dir", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert refused.returncode == 2 and "--real-time-factor must be 0" in refused.stderr, refused.stderr
+
+
 def test_a_bag_is_taken_once_rosbag_closed_it(tmp_path):
     bags = tmp_path / "bags"
     bags.mkdir()

@@ -422,13 +422,19 @@ def _summary(session: Session, report: Report) -> str:
     return "\n".join(lines) + "\n"
 
 
-def make_report(bag: Union[str, pathlib.Path], out_dir: Union[str, pathlib.Path, None] = None) -> Report:
+def make_report(
+    bag: Union[str, pathlib.Path], out_dir: Union[str, pathlib.Path, None] = None, session: Optional[Session] = None
+) -> Report:
     """Read ``bag`` and write the figures and ``summary.md`` into ``out_dir`` (default: ``<bag stem>_report``).
+
+    ``session``: ``bag`` already read (:func:`read_session`), by a caller that needed it too (run_thesis judges the
+    placements from it): a 40 MB bag takes ~3 s to read.
 
     Raises:
         SessionError: the bag cannot be read (missing, foreign, truncated); nothing is written.
     """
-    session = read_session(bag)
+    if session is None:
+        session = read_session(bag)
     out = pathlib.Path(out_dir) if out_dir else session.path.with_name(session.path.stem + "_report")
     out.mkdir(parents=True, exist_ok=True)
     edits = tree_edits(session.trees)

@@ -84,6 +84,10 @@ class Options:
     stiffer_insertion: bool = True  # III-C's peg-in-hole X stiffening (III-D omits it)
     alignment_yaw: Optional[float] = None  # [deg] III-D: direction of the stiffest horizontal axis after alignment
     device_rate: float = 250.0
+    # simulated seconds per wall second (full.launch's real_time_factor); None: config/controllers.yaml's (1.0). The
+    # scenario, the tree and every node run on the simulation's clock, so a factor of 2 plays the same run in about
+    # half the wall time where the machine has the cores for it (the sim's step is ~0.25 ms of its 1 ms)
+    real_time_factor: Optional[float] = None
 
 
 def options_for(scenario: pathlib.Path, **overrides) -> Options:
@@ -276,16 +280,7 @@ class ThesisRun:
         options, scenario, experiment = self.options, self.scenario, self.experiment
         if experiment.own_display():
             self.say(f"run_thesis: started Xvfb on {experiment.display}")
-        arguments = {
-            **scripted_device(options.scenario, options.device_rate),
-            "headless": True,
-            "tree": options.tree,
-            "skills": options.skills,
-            "trajectory": options.trajectory,
-            "record": True,
-            "record_prefix": self.prefix,
-            "data_dir": self.root,
-        }
+        arguments = self.launch_arguments()
         launch = experiment.own_launch(lambda port: full_launch(arguments, port), self.folder / "launch.log")
         self.say(f"run_thesis: launched full.launch (master {experiment.master_uri}), log {self.folder / 'launch.log'}")
         experiment.join("run_thesis", anonymous=True)
@@ -310,6 +305,23 @@ class ThesisRun:
             experiment.stop(launch, grace=25.0)
             self._mark("launch_stopped")
         return self._results(monitor, finished, reason, shots.errors)
+
+    def launch_arguments(self) -> Dict[str, object]:
+        """full.launch's arguments of the run: headless, the scripted operator, the tree, the recorder."""
+        options = self.options
+        arguments = {
+            **scripted_device(options.scenario, options.device_rate),
+            "headless": True,
+            "tree": options.tree,
+            "skills": options.skills,
+            "trajectory": options.trajectory,
+            "record": True,
+            "record_prefix": self.prefix,
+            "data_dir": self.root,
+        }
+        if options.real_time_factor is not None:
+            arguments["real_time_factor"] = f"{options.real_time_factor:g}"
+        return arguments
 
     def _wait(self, monitor: Monitor, launch, duration: float, rospy) -> Tuple[bool, str]:
         """Until the scenario has ended and the tree has finished, roslaunch died or the wall time is up."""
@@ -448,13 +460,15 @@ class ThesisRun:
                 product: (gap, taught_name if setter == outcome.TAUGHT_SKILL else setter)
                 for product, gap, setter in options.placements
             }
+            session = None
             try:
-                problems_p, placements = outcome.check_placements(read_session(bag), load_scene(), expected)
+                session = read_session(bag)  # read once: the placements and the report
+                problems_p, placements = outcome.check_placements(session, load_scene(), expected)
                 problems += problems_p
             except (SessionError, SceneError) as error:
                 problems.append(f"placements unreadable: {error}")
             try:
-                report = make_report(bag, folder / "report")
+                report = make_report(bag, folder / "report", session=session)
                 figures = sorted(str(path.relative_to(folder)) for path in report.figures.values())
             except (SessionError, OSError) as error:
                 problems.append(f"report failed: {error}")
@@ -521,12 +535,21 @@ def main(argv=None) -> int:
         "--timeout", type=float, default=Options.timeout, help="[s] wall time for the scenario and the tree"
     )
     parser.add_argument("--no-rviz", action="store_true", help="skip the RViz screenshot at the end")
+    parser.add_argument(
+        "--real-time-factor",
+        type=float,
+        default=None,
+        help="simulated seconds per wall second (default: config/controllers.yaml's, 1.0)",
+    )
     arguments = parser.parse_args(argv)
+    if arguments.real_time_factor is not None and arguments.real_time_factor < 0.0:
+        parser.error(f"--real-time-factor must be 0 (as fast as possible) or more, got {arguments.real_time_factor:g}")
     options = options_for(
         pathlib.Path(arguments.scenario),
         data_root=pathlib.Path(arguments.data_dir).expanduser() if arguments.data_dir else None,
         timeout=arguments.timeout,
         rviz=not arguments.no_rviz,
+        real_time_factor=arguments.real_time_factor,
     )
     try:
         summary = ThesisRun(options).run()
