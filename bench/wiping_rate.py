@@ -198,7 +198,7 @@ def wipe(operator, seconds: float, segment: float, rng) -> tuple:
     first = last = None
     heading, left = math.pi, seconds
     while left > 1e-9:
-        start, end = operator.wave(min(segment, left), heading, rng)
+        start, end = operator.pattern("wave", min(segment, left), heading, rng)
         first = start if first is None else first
         last, heading, left = end, heading + math.pi, left - segment
     return first, last

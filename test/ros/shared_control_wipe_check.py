@@ -56,11 +56,11 @@ class WipeUnderSharedControl(unittest.TestCase):
                 nan.vector.x = nan.vector.y = nan.vector.z = float("nan")
                 bad.publish(nan)
 
-        start, _ = operator.wave(2.5, math.pi, np.random.default_rng(49), nan_midway)
+        start, _ = operator.pattern("wave", 2.5, math.pi, np.random.default_rng(49), nan_midway)
         # The clutch, once the wave is recognised: the hand leaves the pattern for the ellipsoid, the controller keeps
         # the wave (on into the boundary, if the tool gets there)
         clutch_start, clutch_end = operator.teach(2.0, seen_in_base, TAUGHT, STIFFENED)
-        _, end = operator.wave(4.5, math.pi, np.random.default_rng(50))
+        _, end = operator.pattern("wave", 4.5, math.pi, np.random.default_rng(50))
         # The operator's input is lost (nothing more is sent): the tool must leave the board and the node stop.
         rospy.sleep(4.0)
         after = rospy.Time.now().to_sec()

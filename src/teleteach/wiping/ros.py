@@ -26,6 +26,7 @@ BASE_POSE = "wipe_counter"  # config/supermarket.yaml: where the base stands to 
 TAUGHT = (3000.0, 3000.0, 300.0)  # [N/m] along u, along v, along the normal
 RATE = 50.0  # [Hz] of the operator's commands
 WAVE = (0.03, 20.0, 0.0)  # amplitude [m], spatial frequency [1/m], phase [m]
+PATTERNS = {"wave": WAVE, "cycloid": (0.025, 20.0, 0.0)}  # rho of each skill the scripted operator draws
 SPEED = 0.05  # [m/s]
 NOISE = 0.005  # [m/s] per axis: the hand's noise on the commands
 CONTACT = 1.0  # [N] a normal force below this is no contact
@@ -103,6 +104,8 @@ class ScriptedWipe:
         self.enabler = rospy.Publisher("/shared_control/enable", Bool, queue_size=1, latch=True)
         self.command = rospy.Publisher("/shared_control/operator_command", Vector3Stamped, queue_size=10)
         self.clutch = rospy.Publisher("/shared_control/clutch", Bool, queue_size=1)
+        self.sent = []  # (ROS time [s], command (u, v) [m/s]) of each pattern command
+        self.stiffness = (np.array(TAUGHT, dtype=float), np.array([0.0, 0.0, 0.0, 1.0]))  # the last sent, its axes
 
     def press_with(self, seen_in_base: Transform, stiffness=TAUGHT) -> None:
         """Send the stiffness (along u, v and the normal of the board as perceived) on /eigenvalues, /eigenvectors."""
@@ -115,25 +118,29 @@ class ScriptedWipe:
         axes.quaternion.x, axes.quaternion.y, axes.quaternion.z, axes.quaternion.w = seen_in_base.rotation.as_quat()
         self.eigenvectors.publish(axes)
         self.eigenvalues.publish(values)
+        self.stiffness = (np.array(stiffness, dtype=float), seen_in_base.rotation.as_quat())
 
     def enable(self, enabled: bool = True) -> None:
         """Publish on /shared_control/enable (latched)."""
         self.enabler.publish(self._types[2](data=enabled))
 
-    def wave(
+    def pattern(
         self,
+        skill: str,
         duration: float,
         heading: float = math.pi,
         rng: Optional[np.random.Generator] = None,
         each: Optional[Callable[[int, float], None]] = None,
     ) -> Tuple[float, float]:
-        """Command the wave along ``heading`` [rad] (pi: right to left) at RATE for ``duration`` [s] of ROS time.
+        """Command ``skill`` (PATTERNS) along ``heading`` [rad] (pi: right to left) at RATE for ``duration`` [s].
 
-        ``each(k, stamp)`` runs after the k-th command is sent. Returns the ROS times [s] of the first and last.
+        ``duration`` is ROS time; ``each(k, stamp)`` runs after the k-th command is sent, and each command is kept in
+        ``sent`` (ROS time [s], (u, v) [m/s]). Returns the ROS times [s] of the first and last.
         """
         rospy, vector_type = self._rospy, self._types[0]
         times = np.arange(0.0, duration, 1.0 / RATE)
-        commands = synthetic_commands("wave", WAVE, heading, SPEED, times, NOISE, rng or np.random.default_rng(49))
+        rng = rng or np.random.default_rng(49)
+        commands = synthetic_commands(skill, PATTERNS[skill], heading, SPEED, times, NOISE, rng)
         start = rospy.Time.now().to_sec()
         rate = rospy.Rate(RATE)
         for k, (x, y) in enumerate(commands):
@@ -141,6 +148,7 @@ class ScriptedWipe:
             message.header.stamp = rospy.Time.now()
             message.vector.x, message.vector.y = float(x), float(y)
             self.command.publish(message)
+            self.sent.append((message.header.stamp.to_sec(), np.array([x, y])))
             if each is not None:
                 each(k, message.header.stamp.to_sec())
             rate.sleep()
@@ -170,10 +178,10 @@ class ScriptedWipe:
 
 
 class WorldRecord:
-    """The force on the tool, the TCP and the controller's states as they come, each with its ROS stamp.
+    """The force on the tool, the TCP, the equilibrium and the controller's states as they come, with their ROS stamps.
 
-    States also carry the wall time [s, time.monotonic] at which they were received. ``poses``: False leaves
-    /cartesian_pose (200 Hz) alone, for a caller that does not need the TCP.
+    Poses also carry the TCP's orientation, states the wall time [s, time.monotonic] at which they were received.
+    ``poses``: False leaves /cartesian_pose (200 Hz) and /equilibrium_pose alone, for a caller that needs neither.
     """
 
     def __init__(self, poses: bool = True):
@@ -186,13 +194,16 @@ class WorldRecord:
 
         self._clock = time.monotonic
         self.lock = threading.Lock()
-        self.forces, self.poses, self.states = [], [], []
+        self.forces, self.poses, self.states, self.equilibria = [], [], [], []
         self._subscribers = [
             rospy.Subscriber("/force_torque_ext", WrenchStamped, self._on_force, queue_size=1000),
             rospy.Subscriber("/shared_control/state", SharedControlState, self._on_state, queue_size=1000),
         ]
         if poses:
-            self._subscribers.append(rospy.Subscriber("/cartesian_pose", PoseStamped, self._on_pose, queue_size=1000))
+            self._subscribers += [
+                rospy.Subscriber("/cartesian_pose", PoseStamped, self._on_pose, queue_size=1000),
+                rospy.Subscriber("/equilibrium_pose", PoseStamped, self._on_equilibrium, queue_size=1000),
+            ]
 
     def _on_force(self, message):
         f = message.wrench.force
@@ -200,16 +211,22 @@ class WorldRecord:
             self.forces.append((message.header.stamp.to_sec(), np.array([f.x, f.y, f.z])))
 
     def _on_pose(self, message):
+        p, q = message.pose.position, message.pose.orientation
+        with self.lock:
+            position, quaternion = np.array([p.x, p.y, p.z]), np.array([q.x, q.y, q.z, q.w])
+            self.poses.append((message.header.stamp.to_sec(), position, quaternion))
+
+    def _on_equilibrium(self, message):
         p = message.pose.position
         with self.lock:
-            self.poses.append((message.header.stamp.to_sec(), np.array([p.x, p.y, p.z])))
+            self.equilibria.append((message.header.stamp.to_sec(), np.array([p.x, p.y, p.z])))
 
     def _on_state(self, message):
         with self.lock:
             self.states.append((message.header.stamp.to_sec(), message, self._clock()))
 
     def between(self, store: str, start: float, end: float) -> np.ndarray:
-        """The values of ``forces`` or ``poses`` stamped in [start, end] [s of ROS time]."""
+        """The values of ``forces``, ``poses`` (positions) or ``equilibria`` stamped in [start, end] [s of ROS time]."""
         with self.lock:
             return np.array([value for stamp, value, *_ in getattr(self, store) if start <= stamp <= end])
 
