@@ -12,8 +12,8 @@ from conftest import ROOT
 PACKAGE = ROOT / "src" / "teleteach"
 # The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers and the nodes' entries, the actionlib
 # helpers the ros.py layers share (their status thread stops with rospy's shutdown), the experiment runner (it joins its
-# master as a node), the main job, the learn_skill CLI and the study's trial processes (docs/architecture.md:
-# study/runner.py starts the study node, importing it in functions).
+# master as a node), the main jobs (the thesis', the wipe's), the learn_skill CLI and the study's trial processes
+# (docs/architecture.md: study/runner.py starts the study node, importing it in functions).
 ROS_LAYERS = {
     "runtime/node.py",
     "executables.py",
@@ -22,6 +22,7 @@ ROS_LAYERS = {
     "gui/app.py",
     "gui/worker.py",
     "run/thesis.py",
+    "wiping/scenario_ros.py",
     "learning/command.py",
     "study/runner.py",
 }
