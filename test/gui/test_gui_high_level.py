@@ -396,3 +396,30 @@ def test_every_button_fits_the_visible_width_at_any_window_size(qapp, artifacts_
     # Expect six buttons a row when there is room, and more rows as the window narrows
     assert rows[2400] == 2 and rows[1180] > rows[1400] >= rows[2400] and rows[800] >= rows[1180], rows
     tab.close()
+
+
+def test_step_two_shows_no_operation_before_it_is_reached_and_undo_is_cued_before_its_threshold(
+    qapp, bt_node, device, make_window, artifacts_dir
+):
+    window = make_window()
+    high = window.high_level
+    pump_until(qapp, lambda: "PlaceItem" in high.flow.choices, 20, "buttons from the tree")
+    open_high_level(qapp, window, device)
+
+    def highlighted():
+        return [label.text() for label in high.operation_labels if "font-weight: bold" in label.styleSheet()]
+
+    # Expect the greyed step 2 to highlight nothing while step 1 is active, whatever device Y says
+    device.move(x=centre(high.flow.choices.index("PlaceItem"), len(high.flow.choices)), y=-0.09)
+    pump_until(qapp, lambda: high.flow.selected_node == "PlaceItem", 5, "PlaceItem selected")
+    assert high.flow.step is Step.NODE and highlighted() == []
+    window.screenshot().save(str(artifacts_dir / "gui_high_level_step1.png"))
+    device.click()
+    pump_until(qapp, lambda: high.flow.step is Step.OPERATION, 5, "step 2")
+    pump_until(qapp, lambda: highlighted() == ["remove"], 5, "remove highlighted once step 2 is active")
+    # Expect a handle pushed 4 cm down told how far undo is, and 6 cm down told what a click does
+    device.move(y=-0.09, z=-0.04)
+    pump_until(qapp, lambda: "(handle down 4.0 cm: undo from 5.0 cm)" in high.selected_label.text(), 5, "the cue")
+    assert high.flow.edit_gesture == ""
+    device.move(y=-0.09, z=-0.06)
+    pump_until(qapp, lambda: high.selected_label.text() == "click to undo the last edit (handle down)", 5, "undo")

@@ -47,6 +47,9 @@ STATUS_NAMES = {
 }
 
 
+EDIT_CUE = 0.5  # a handle pushed (pulled) beyond this share of edit_push is told how far undo (redo) still is
+
+
 class LibrarySkill(NamedTuple):
     """A skill of the library as the HIGH-LEVEL tab shows it (the fields of teleteach/SkillLibrary)."""
 
@@ -227,6 +230,13 @@ class SelectionFlow:
         elif self.step is Step.PARAMETER:
             values = self.parameter_values
             self.parameter_index = scale_to_index(sample.roll, self.config.device_angle_range, len(values))
+
+    @property
+    def edit_gesture_near(self) -> str:
+        """The edit the handle is on its way to (beyond half ``edit_push``), before a click would send it, or ""."""
+        if self.edit_gesture or abs(self.height) < EDIT_CUE * self.config.edit_push:
+            return ""
+        return "undo" if self.height < 0.0 else "redo"
 
     @property
     def edit_gesture(self) -> str:

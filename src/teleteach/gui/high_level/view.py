@@ -363,7 +363,7 @@ class HighLevelTab(QWidget):
             label.setVisible(position < len(shown))
             if position < len(shown):
                 label.setText(shown[position])
-                chosen = shown[position] == flow.selected_operation
+                chosen = flow.step is not Step.NODE and shown[position] == flow.selected_operation
                 restyle(label, "font-weight: bold; color: #e65100;" if chosen else "color: #555;")
 
     def _show_dial(self) -> None:
@@ -395,5 +395,11 @@ class HighLevelTab(QWidget):
         if flow.edit_gesture and flow.step is not Step.WAITING:
             step_text = (
                 f"click to {flow.edit_gesture} the last edit (handle {'down' if flow.edit_gesture == 'undo' else 'up'})"
+            )
+        elif flow.edit_gesture_near and flow.step is not Step.WAITING:
+            way = "down" if flow.edit_gesture_near == "undo" else "up"
+            step_text += (
+                f"  (handle {way} {100 * abs(flow.height):.1f} cm: {flow.edit_gesture_near} from "
+                f"{100 * flow.config.edit_push:.1f} cm)"
             )
         return step_text
