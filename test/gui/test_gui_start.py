@@ -24,6 +24,15 @@ def test_a_centred_handle_selects_no_mode_and_its_click_opens_nothing(qapp, devi
     for x, selected in ((0.015, StartTab.NEUTRAL), (0.03, 1), (-0.03, 0), (-0.015, StartTab.NEUTRAL)):
         device.move(x=x)
         pump_until(qapp, lambda selected=selected: window.start_tab.selected == selected, 5, f"x {x} -> {selected}")
+    # Expect a handle on its way down (or up) told how far TELEOP (SHARED CONTROL) still is
+    centre = window.start_tab.centre
+    device.move(y=-0.03)
+    pump_until(qapp, lambda: "handle down 3.0 cm: TELEOP from 5.0 cm" in centre.text(), 5, "the TELEOP cue")
+    assert window.start_tab.selected == StartTab.NEUTRAL
+    device.move(y=0.04)
+    pump_until(qapp, lambda: "handle up 4.0 cm: SHARED CONTROL from 5.0 cm" in centre.text(), 5, "the cue")
+    device.move(y=0.01)
+    pump_until(qapp, lambda: "cm:" not in centre.text(), 5, "no cue near the centre")
 
 
 def test_a_tree_that_starts_paused_waits_for_the_start_gesture(

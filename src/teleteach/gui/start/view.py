@@ -79,6 +79,7 @@ class StartTab(QWidget):
         self.tree_waiting = False
         self.tree_done = False
         self.tree_message = "no behaviour tree yet"
+        self.cue = ""  # in the neutral zone: how far SHARED CONTROL or TELEOP still is, once the handle is on its way
         layout = QVBoxLayout(self)
         layout.addStretch(1)
         title = big(QLabel("Teleoperated teaching"), 20)
@@ -147,14 +148,15 @@ class StartTab(QWidget):
                 f"QPushButton {{ background: {button.property('colour')}; border: {border}; font-size: 16pt; }}"
             )
         border = "5px solid #e65100" if self.selected == self.NEUTRAL else "1px dashed #888"
+        cue = f"\n\n{self.cue}" if self.cue else ""
         if self.tree_waiting:
-            self.centre.setText("The robot waits for you.\n\nHandle in the centre, click: start its task.")
+            self.centre.setText(f"The robot waits for you.\n\nHandle in the centre, click: start its task.{cue}")
             self.centre.setStyleSheet(self.WAITING_STYLE.format(border=border))
         elif self.tree_done:
-            self.centre.setText("The robot's task is done.\n\nHandle in the centre, click: run it again.")
+            self.centre.setText(f"The robot's task is done.\n\nHandle in the centre, click: run it again.{cue}")
             self.centre.setStyleSheet(self.STATE_STYLE.format(border=border))
         else:
-            self.centre.setText(f"centre: no mode\n\nrobot: {self.tree_message}")
+            self.centre.setText(f"centre: no mode{cue}\n\nrobot: {self.tree_message}")
             self.centre.setStyleSheet(self.STATE_STYLE.format(border=border))
 
     def on_device(self, sample: DeviceSample) -> None:
@@ -168,9 +170,18 @@ class StartTab(QWidget):
                 selected = self.NEUTRAL
             else:
                 selected = 0 if sample.x < 0.0 else 1
-            if selected != self.selected:
-                self.selected = selected
+            cue = self._cue(sample.y) if selected == self.NEUTRAL else ""
+            if selected != self.selected or cue != self.cue:
+                self.selected, self.cue = selected, cue
                 self._show()
+
+    def _cue(self, y: float) -> str:
+        """Beyond half the way up (down) to SHARED CONTROL (TELEOP): how far it still is ("" nearer the centre)."""
+        threshold = self.SHARED_CONTROL_Y * self.config.device_range
+        if abs(y) < 0.5 * threshold:
+            return ""
+        mode, way = ("SHARED CONTROL", "up") if y > 0.0 else ("TELEOP", "down")
+        return f"handle {way} {100 * abs(y):.1f} cm: {mode} from {100 * threshold:.1f} cm"
 
     def on_click(self, _stamp: float = 0.0) -> None:
         """Open the chosen mode; in the neutral zone, ask to start the tree."""
