@@ -5,16 +5,16 @@ none is) it lays out a scratch folder build/mutation/<module>/ (links to this ch
 setup.cfg telling mutmut the one file to mutate and the module's tests from bench/mutation.yaml), runs ``mutmut run``
 there (its output in mutmut.log beside it), reads every mutant's status (``mutmut results --all true``), sets aside
 the equivalent mutants the yaml names, prints each survivor as file:line and its mutated line, and merges
-{module: {mutants, killed, survived, timeout, score, ...}} into bench/results/mutation.json (the modules not run
-keep their entries). The score is (killed + timeout) / mutants, equivalents excluded; a mutant no selected test
-reaches ("no tests") counts as survived. Not a test: far too slow for CI. Needs mutmut 3 (Python >= 3.10).
+{module: {mutants, killed, survived, timeout, score, ..., provenance}} into bench/results/mutation.json (the modules
+not run keep their entries; the provenance says at which commit each was run). The score is (killed + timeout) /
+mutants, equivalents excluded; a mutant no selected test reaches ("no tests") counts as survived. Not a test: far too
+slow for CI. Needs mutmut 3 (Python >= 3.10).
 
     source build/env.sh && python bench/mutation.py haptics/click.py     (or: bash scripts/mutation haptics/click.py)
 """
 
 import argparse
 import ast
-import datetime
 import json
 import pathlib
 import re
@@ -24,6 +24,8 @@ import sys
 import time
 
 import yaml
+
+from teleteach.run.provenance import provenance
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "bench" / "mutation.yaml"
@@ -215,6 +217,7 @@ def mutmut(folder: pathlib.Path, *arguments, log=None) -> str:
 
 def run_module(module: str, entry: dict, jobs: int) -> dict:
     """Mutation testing of one module: its figures, with its survivors (where, original and mutated line)."""
+    result_provenance = provenance([CONFIG])
     folder = prepare(module, entry["tests"])
     print(f"mutation: {module} against {len(entry['tests'])} test files (log: {folder / 'mutmut.log'})", flush=True)
     started = time.monotonic()
@@ -232,7 +235,7 @@ def run_module(module: str, entry: dict, jobs: int) -> dict:
     result = tally(statuses, applied)
     result["seconds"] = round(seconds, 1)
     result["tests"] = list(entry["tests"])
-    result["date"] = datetime.date.today().isoformat()
+    result["provenance"] = result_provenance
     result["survivors"] = []
     for name in left:
         if name in applied:
