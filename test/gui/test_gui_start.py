@@ -217,3 +217,19 @@ def test_while_a_skill_replays_the_clutch_corrects_it_and_start_says_who_leads(
     pump_until(qapp, lambda: not window.start_tab.authority.isVisible(), 5, "the replay's line to go")
     pump(qapp, 0.5)
     assert len(corrections.messages) == count
+
+
+def test_with_the_virtual_device_start_says_where_its_keys_go(qapp, ros_master, device, make_window, artifacts_dir):
+    import rospy
+
+    rospy.set_param("/sigma7_node/backend", "virtual")
+    try:
+        window = make_window()
+    finally:
+        rospy.delete_param("/sigma7_node/backend")
+    keys = window.start_tab.keys
+    pump_until(qapp, keys.isVisible, 5, "the keys shown")
+    assert "teleteach: virtual Sigma.7" in keys.text() and "Space: click; Enter: double click" in keys.text()
+    window.screenshot().save(str(artifacts_dir / "gui_start_virtual_device.png"))
+    # Expect nothing of keys with another device
+    assert not make_window().start_tab.keys.isVisible()

@@ -41,6 +41,14 @@ def window(application):
     application.processEvents()
 
 
+def test_the_window_says_the_keys_go_to_it_and_opens_in_the_screen_s_corner(window):
+    """Without a window manager every window opens at (0, 0): this one would be under the GUI's."""
+    assert "The device's keys go to this window" in window.findChildren(QtWidgets.QLabel)[1].text()
+    screen = QtWidgets.QApplication.primaryScreen().availableGeometry()
+    assert window.x() > 0 and window.y() > 0
+    assert window.x() + window.width() <= screen.right() + 1 and window.y() + window.height() <= screen.bottom() + 1
+
+
 def test_arrow_and_page_keys_move_the_device(window):
     for key in (QtCore.Qt.Key_Right, QtCore.Qt.Key_Right, QtCore.Qt.Key_Up, QtCore.Qt.Key_PageDown):
         QTest.keyClick(window, key)

@@ -192,6 +192,7 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
         self.values.setTextFormat(QtCore.Qt.PlainText)
         self.values.setStyleSheet("font-family: monospace; font-size: 14px")
         help_text = QtWidgets.QLabel(
+            "The device's keys go to this window: click it to type here.\n"
             "arrows / mouse drag: x, y    PgUp / PgDn: z\n"
             "Q/A roll   W/S pitch   E/D yaw\n"
             "Space: click    Enter: double click    O (hold): gripper fully open    C (hold): gripper closed"
@@ -200,10 +201,20 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
         layout.addWidget(self.values)
         layout.addWidget(help_text)
         self.setMinimumSize(360, 240)
+        self._place_in_corner()
         self._timer = QtCore.QTimer(self)
         self._timer.timeout.connect(self.refresh)
         self._timer.start(int(1000 / refresh_hz))
         self.refresh()
+
+    def _place_in_corner(self) -> None:
+        """Bottom right of the screen, not under the GUI at (0, 0) where every window opens without a window manager.
+
+        The keys go to this window: it must be found.
+        """
+        screen = QtWidgets.QApplication.primaryScreen().availableGeometry()
+        size = self.sizeHint().expandedTo(self.minimumSize())
+        self.move(screen.right() - size.width(), screen.bottom() - size.height())
 
     def refresh(self) -> None:
         """Shows the device's current values."""

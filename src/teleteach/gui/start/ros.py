@@ -85,6 +85,7 @@ class StartRos(TabAdapter):
 def build(window) -> TabParts:
     """START in ``window``."""
     view = StartTab(window.config)
+    view.show_device(rospy.get_param("sigma7_node/backend", ""))  # set by device.launch before any node starts
     adapter = StartRos(window.config)
     adapter.authority.connect(view.show_authority, Qt.QueuedConnection)
     view.start_requested.connect(lambda: window.carry_out(window.session.start_requested()))

@@ -29,6 +29,13 @@ MODE_BUTTONS = (  # text, colour, height [px] of START's buttons, in the order o
 )
 
 
+VIRTUAL_DEVICE_KEYS = (
+    "Virtual device: type into its small window \u201cteleteach: virtual Sigma.7\u201d (click it first). Arrows: x, y; "
+    "PgUp/PgDn: z; Q/A W/S E/D: roll, pitch, yaw; Space: click; Enter: double click; hold O: gripper fully open "
+    "(back to START); hold C: gripper closed (TELEOP's clutch)."
+)
+
+
 @dataclasses.dataclass(frozen=True)
 class AuthorityView:
     """Who leads the skill the robot replays (skills/authority), and the operator's clutch on its correction."""
@@ -116,6 +123,12 @@ class StartTab(QWidget):
         gesture = QLabel("In any mode, open the gripper fully to come back here.")
         gesture.setAlignment(Qt.AlignCenter)
         layout.addWidget(gesture)
+        self.keys = QLabel()
+        self.keys.setAlignment(Qt.AlignCenter)
+        self.keys.setWordWrap(True)
+        self.keys.setStyleSheet("background: #fff8e1; color: #5d4037; font-size: 12pt; padding: 6px;")
+        self.keys.hide()
+        layout.addWidget(self.keys)
         layout.addStretch(2)
         self._show()
 
@@ -129,6 +142,11 @@ class StartTab(QWidget):
             button.clicked.connect(lambda _checked, tab=index + 1: self.mode_chosen.emit(tab))
             buttons.append(button)
         return buttons
+
+    def show_device(self, backend: str) -> None:
+        """Which device drives the GUI: for the virtual one, where its keys go and what they do."""
+        self.keys.setVisible(backend == "virtual")
+        self.keys.setText(VIRTUAL_DEVICE_KEYS)
 
     def show_authority(self, view: AuthorityView) -> None:
         """A skill replays: who leads it and what the operator's correction does (hidden once the reports stop)."""
