@@ -91,6 +91,9 @@ def test_the_task_plane_has_axes_in_metres_and_the_fitting_errors_say_something(
     assert len(x_ticks) >= 3 and len(y_ticks) >= 3
     assert min(x_ticks) <= -0.2 and max(x_ticks) >= 0.2 and min(y_ticks) <= -0.1 and max(y_ticks) >= 0.1
     assert all("[m]" in title for title in AXIS_TITLES)
+    # Expect the y axis' title beside its tick labels, not over them
+    *ticks, title = tab.view.label_boxes
+    assert len(ticks) == len(y_ticks) and not any(title.intersects(box) for box in ticks)
     assert "none yet" in tab.errors_label.text() and "(m/s)" in tab.errors_label.text()
     tab.on_state(SharedStatus(1, "wave", ("wave", "cycloid"), (0.0007, 0.008), 0.001, 0.02, (0.0, 0.0)))
     assert "wave: 0.0007" in tab.errors_label.text()

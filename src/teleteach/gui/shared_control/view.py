@@ -11,7 +11,7 @@ import collections
 import dataclasses
 import math
 import time
-from typing import Callable, Optional, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 from PyQt5.QtCore import QPointF, QRectF, Qt, pyqtSignal
@@ -71,7 +71,7 @@ class PlaneView(QWidget):
     point for the operator standing behind the robot.
     """
 
-    MARGIN_PX = 50  # room for the tick labels and the axis titles
+    MARGIN_PX = 64  # room for the tick labels and the axis titles beside them
     DEFAULT_EXTENT = ((-0.3, -0.2), (0.3, 0.2))
 
     def __init__(self, trail_length: int):
@@ -82,6 +82,7 @@ class PlaneView(QWidget):
         self.trail = collections.deque(maxlen=trail_length)
         self.arm_trail = collections.deque(maxlen=trail_length)
         self.plan = np.zeros((0, 2))
+        self.label_boxes: List[QRectF] = []  # the y tick labels' and the y title's (pixels) as last drawn: apart
 
     def extent(self) -> Tuple[np.ndarray, np.ndarray]:
         """Lower-left and upper-right corner of the shown area [m]."""
@@ -160,19 +161,25 @@ class PlaneView(QWidget):
             painter.drawLine(QPointF(x, bottom), QPointF(x, bottom + 5))
             text = f"{value:.2f}"
             painter.drawText(QPointF(x - metrics.horizontalAdvance(text) / 2, bottom + 6 + metrics.ascent()), text)
+        self.label_boxes = []
         for value in y_ticks:
             y = self.to_pixels((low[0], value)).y()
             painter.drawLine(QPointF(left - 5, y), QPointF(left, y))
             text = f"{value:.2f}"
-            painter.drawText(QPointF(left - 7 - metrics.horizontalAdvance(text), y + metrics.ascent() / 2), text)
+            width = metrics.horizontalAdvance(text)
+            painter.drawText(QPointF(left - 7 - width, y + metrics.ascent() / 2), text)
+            self.label_boxes.append(QRectF(left - 7 - width, y - metrics.ascent() / 2, width, metrics.height()))
         painter.setPen(QColor("#212121"))
         painter.drawText(
             QRectF(0, self.height() - metrics.height() - 2, self.width(), metrics.height()),
             Qt.AlignCenter,
             AXIS_TITLES[0],
         )
+        widest = max((metrics.horizontalAdvance(f"{value:.2f}") for value in y_ticks), default=0)
+        title_right = max(metrics.height() + 2, left - 11 - widest)  # left of the tick labels, on the widget
+        self.label_boxes.append(QRectF(title_right - metrics.height(), 0, metrics.height(), self.height()))
         painter.save()
-        painter.translate(metrics.height() + 2, self.height() / 2)
+        painter.translate(title_right, self.height() / 2)
         painter.rotate(-90)
         painter.drawText(
             QRectF(-self.height() / 2, -metrics.height(), self.height(), metrics.height()),
@@ -291,7 +298,10 @@ class SharedControlTab(QWidget):
         """Refresh the text panel."""
         self.status = status
         if status is None:
-            self.skill_label.setText("skill: - (no /shared_control/state yet: is shared_control running?)")
+            self.skill_label.setText(
+                "skill: - (waiting for /shared_control/state: the shared controller needs a few seconds to start;"
+                " if none comes, is shared_control running?)"
+            )
             self.mode_label.setText("mode: -")
             self.errors_label.setText("fitting errors: - (no state yet)")
             self.times_label.setText("")
