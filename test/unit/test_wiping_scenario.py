@@ -125,3 +125,37 @@ def test_checks_pass_only_when_the_world_says_so():
         assert len(failed) == 1 and failed[0].startswith(phase), (phase, key, failed)
     markdown = scenario.summary_markdown({"passed": False, "checks": found, "phases": {}})
     assert markdown.startswith("# run_wipe: FAILED") and "ok   wave: in contact >= 95%" in markdown
+
+
+def test_the_scripted_hand_asks_through_a_joystick_or_the_device_what_the_node_reads_back():
+    from types import SimpleNamespace
+
+    from teleteach.core.paths import config_values
+    from teleteach.shared_control.config import SharedControlNodeConfig
+    from teleteach.shared_control.ros import command_from_joy, command_from_twist
+    from teleteach.wiping.ros import device_velocity_for, joy_axes_for
+
+    node = SharedControlNodeConfig.from_parameters(config_values("shared_control.yaml"))
+    command = np.array([-0.05, 0.12])
+    axes = joy_axes_for(command, node.joy_axes, node.joy_scale)
+    np.testing.assert_allclose(
+        command_from_joy(SimpleNamespace(axes=list(axes)), node.joy_axes, node.joy_scale), command
+    )
+    # beyond full deflection the stick saturates: the node reads the joystick's most
+    fast = joy_axes_for([0.0, 1.0], node.joy_axes, node.joy_scale)
+    assert np.all(np.abs(fast) <= 1.0)
+    assert command_from_joy(SimpleNamespace(axes=list(fast)), node.joy_axes, node.joy_scale)[1] == abs(
+        node.joy_scale[1]
+    )
+    velocity = device_velocity_for(command, node.twist_projection, node.twist_scale)
+    linear = SimpleNamespace(x=velocity[0], y=velocity[1], z=velocity[2])
+    twist = SimpleNamespace(twist=SimpleNamespace(linear=linear))
+    read = command_from_twist(twist, np.asarray(node.twist_projection, dtype=float), node.twist_scale)
+    np.testing.assert_allclose(read, command)
+    # a turned projection (the device's plane mapped onto a tilted surface) is inverted too
+    turned = np.array([[0.0, 1.0, 0.0], [-0.6, 0.0, 0.8]])
+    velocity = device_velocity_for(command, turned, 2.0)
+    read = command_from_twist(
+        SimpleNamespace(twist=SimpleNamespace(linear=SimpleNamespace(**dict(zip("xyz", velocity))))), turned, 2.0
+    )
+    np.testing.assert_allclose(read, command)

@@ -27,6 +27,7 @@ TEACHING_TOPICS = (
     "behaviour_tree/help_request",
     "shared_control/state",
     "shared_control/operator_command",
+    "joy",
     "shared_control/clutch",
     "shared_control/obstacle",
     "shared_control/task",
@@ -40,8 +41,8 @@ TEACHING_TOPICS = (
 )
 """Everything a session bag records (the scene too, so that a visual replay shows the shelf and the products; in a
 simulation the true scene and the base's errors, so that the run is judged from the world; the GUI's recording flag,
-so that learn_skill takes each demonstration on its own; the shared controller's input, task and obstacle, so that a
-wipe's measures can be computed again from the bag).
+so that learn_skill takes each demonstration on its own; the shared controller's input (a joystick's too), task and
+obstacle, so that a wipe's measures can be computed again from the bag).
 
 Relative names: the recorder records them in its namespace (``/eigenvalues`` at the root, where the offline
 readers, teleteach.recording.session and teleteach.learning.bag, expect them).

@@ -11,7 +11,7 @@ the board puts on the tool along its true normal (``/force_torque_ext``).
 
 import math
 import threading
-from typing import Callable, Optional, Tuple
+from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -89,20 +89,54 @@ def board_in_base(settle: float = 1.0) -> Tuple[Transform, Transform]:
     return world_in_base * seen("/teleteach/scene"), world_in_base * seen("/teleteach/true_scene")
 
 
-class ScriptedWipe:
-    """The operator's side of a wipe: the stiffness, the enable and the commands (publishers made once)."""
+def joy_axes_for(command, axes: Sequence[int], scale: Sequence[float]) -> np.ndarray:
+    """The joystick's deflections that ask for ``command`` (u, v) [m/s] (shared_control's ``joy`` input).
 
-    def __init__(self):
+    Each within [-1, 1]: a command beyond full deflection saturates, as a real stick does.
+    """
+    deflections = np.zeros(max(axes) + 1)
+    for axis, value, per_deflection in zip(axes, command, scale):
+        deflections[axis] = np.clip(value / per_deflection, -1.0, 1.0)
+    return deflections
+
+
+def device_velocity_for(command, projection, scale: float) -> np.ndarray:
+    """The device's linear velocity [m/s] whose projection on the task plane, scaled, is ``command`` (``twist``)."""
+    return np.linalg.pinv(np.asarray(projection, dtype=float)) @ (np.asarray(command, dtype=float) / scale)
+
+
+class ScriptedWipe:
+    """The operator's side of a wipe: the stiffness, the enable and the commands (publishers made once).
+
+    ``hand``: what the commands come through, one of shared_control's inputs: ``operator_command`` (the task-plane
+    velocity itself), ``joy`` (a joystick's axes, /joy) or ``twist`` (the Sigma.7's velocity, /sigma7/twist), mapped
+    with the node's own parameters (config/shared_control.yaml).
+    """
+
+    def __init__(self, hand: str = "operator_command"):
         import rospy
-        from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+        from geometry_msgs.msg import QuaternionStamped, TwistStamped, Vector3Stamped
+        from sensor_msgs.msg import Joy
         from std_msgs.msg import Bool
 
-        self._rospy = rospy
+        from teleteach.core.paths import config_values
+        from teleteach.shared_control.config import INPUTS, SharedControlNodeConfig
+
+        if hand not in INPUTS:
+            raise ValueError(f"unknown input {hand!r}: one of {', '.join(INPUTS)}")
+        self._rospy, self.hand = rospy, hand
+        self._node = SharedControlNodeConfig.from_parameters(config_values("shared_control.yaml"))
         self._types = (Vector3Stamped, QuaternionStamped, Bool)
         self.eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1, latch=True)
         self.eigenvectors = rospy.Publisher("/eigenvectors", QuaternionStamped, queue_size=1, latch=True)
         self.enabler = rospy.Publisher("/shared_control/enable", Bool, queue_size=1, latch=True)
-        self.command = rospy.Publisher("/shared_control/operator_command", Vector3Stamped, queue_size=10)
+        topic, message_type = {
+            "operator_command": ("/shared_control/operator_command", Vector3Stamped),
+            "joy": ("/joy", Joy),
+            "twist": ("/sigma7/twist", TwistStamped),
+        }[hand]
+        self._command_type = message_type
+        self.command = rospy.Publisher(topic, message_type, queue_size=10)
         self.clutch = rospy.Publisher("/shared_control/clutch", Bool, queue_size=1)
         self.sent = []  # (ROS time [s], command (u, v) [m/s]) of each pattern command
         self.stiffness = (np.array(TAUGHT, dtype=float), np.array([0.0, 0.0, 0.0, 1.0]))  # the last sent, its axes
@@ -137,22 +171,37 @@ class ScriptedWipe:
         ``duration`` is ROS time; ``each(k, stamp)`` runs after the k-th command is sent, and each command is kept in
         ``sent`` (ROS time [s], (u, v) [m/s]). Returns the ROS times [s] of the first and last.
         """
-        rospy, vector_type = self._rospy, self._types[0]
+        rospy = self._rospy
         times = np.arange(0.0, duration, 1.0 / RATE)
         rng = rng or np.random.default_rng(49)
         commands = synthetic_commands(skill, PATTERNS[skill], heading, SPEED, times, NOISE, rng)
         start = rospy.Time.now().to_sec()
         rate = rospy.Rate(RATE)
-        for k, (x, y) in enumerate(commands):
-            message = vector_type()
-            message.header.stamp = rospy.Time.now()
-            message.vector.x, message.vector.y = float(x), float(y)
+        for k, command in enumerate(commands):
+            message, asked = self._command_message(command, rospy.Time.now())
             self.command.publish(message)
-            self.sent.append((message.header.stamp.to_sec(), np.array([x, y])))
+            self.sent.append((message.header.stamp.to_sec(), asked))
             if each is not None:
                 each(k, message.header.stamp.to_sec())
             rate.sleep()
         return start, rospy.Time.now().to_sec()
+
+    def _command_message(self, command, stamp):
+        """The message of ``command`` (u, v) [m/s] through the hand, and the command the node reads from it."""
+        message = self._command_type()
+        message.header.stamp = stamp
+        node = self._node
+        if self.hand == "joy":
+            message.axes = [float(value) for value in joy_axes_for(command, node.joy_axes, node.joy_scale)]
+            asked = np.array([node.joy_scale[i] * message.axes[axis] for i, axis in enumerate(node.joy_axes)])
+        elif self.hand == "twist":
+            velocity = device_velocity_for(command, node.twist_projection, node.twist_scale)
+            message.twist.linear.x, message.twist.linear.y, message.twist.linear.z = (float(v) for v in velocity)
+            asked = node.twist_scale * np.asarray(node.twist_projection, dtype=float) @ velocity
+        else:
+            message.vector.x, message.vector.y = float(command[0]), float(command[1])
+            asked = np.asarray(command, dtype=float)
+        return message, asked
 
     def teach(self, duration: float, seen_in_base: Transform, before=TAUGHT, after=TAUGHT) -> Tuple[float, float]:
         """Hold the clutch for ``duration`` [s] of ROS time, shaping the stiffness from ``before`` into ``after``.

@@ -226,20 +226,30 @@ def summary_markdown(summary: dict) -> str:
 
 
 def plot_contact_force(tracks: Dict[str, Track], threshold: float, path: pathlib.Path) -> None:
-    """The board's push on the eraser over the scenario, each phase in its colour (time from the first wipe)."""
+    """The board's push on the eraser: the operator's wipe, each phase in its colour, and the tree's replay beside it.
+
+    Each panel's time runs from its first sample (the drive and the learning between them are left out).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     from matplotlib import pyplot
 
-    figure, axes = pyplot.subplots(figsize=(10, 3.5))
-    origin = min(track.times[0] for track in tracks.values())
-    for name, track in tracks.items():
-        axes.plot(track.times - origin, track.normal_forces, linewidth=0.8, label=name)
-    axes.axhline(threshold, color="grey", linestyle=":", linewidth=0.8, label="contact threshold")
-    axes.set_xlabel("time [s of simulated time]")
-    axes.set_ylabel("board's push on the eraser [N]")
-    axes.legend(loc="upper right", fontsize=8)
+    panels = [[name for name in tracks if name != "replay"], [name for name in tracks if name == "replay"]]
+    panels = [names for names in panels if names]
+    colours = {name: f"C{index}" for index, name in enumerate(tracks)}
+    spans = [max(tracks[n].times[-1] for n in names) - min(tracks[n].times[0] for n in names) for names in panels]
+    figure, axes = pyplot.subplots(1, len(panels), figsize=(11, 3.5), sharey=True, width_ratios=spans, squeeze=False)
+    for axis, names, title in zip(axes[0], panels, ("under shared control, taught", "the tree's learned skill")):
+        origin = min(tracks[name].times[0] for name in names)
+        for name in names:
+            track = tracks[name]
+            axis.plot(track.times - origin, track.normal_forces, linewidth=0.8, color=colours[name], label=name)
+        axis.axhline(threshold, color="grey", linestyle=":", linewidth=0.8, label="contact threshold")
+        axis.set_title(title, fontsize=9)
+        axis.set_xlabel("time [s of simulated time]")
+        axis.legend(loc="lower right", fontsize=7)
+    axes[0][0].set_ylabel("board's push on the eraser [N]")
     figure.tight_layout()
     figure.savefig(path, dpi=120)
     pyplot.close(figure)

@@ -26,6 +26,7 @@ from teleteach.core.wiping import load_wiping_config
 from teleteach.gui.recording import StiffnessRecorder
 from teleteach.runtime.experiment import Experiment
 from teleteach.runtime.processes import closed_bag
+from teleteach.shared_control.config import INPUTS
 from teleteach.shared_control.surface import wiping_box
 from teleteach.wiping import scenario
 from teleteach.wiping.assistance import moving_edge
@@ -105,8 +106,8 @@ class DemonstrationRecorder:
 class WipeScenario:
     """One run of the scenario into ``<root>/runs/wipe_<time>/``; :meth:`run` returns the summary."""
 
-    def __init__(self, root: pathlib.Path, timeout: float):
-        self.root, self.timeout = pathlib.Path(root), timeout
+    def __init__(self, root: pathlib.Path, timeout: float, hand: str = "operator_command"):
+        self.root, self.timeout, self.hand = pathlib.Path(root), timeout, hand
         self.folder = self.root / "runs" / ("wipe_" + time.strftime("%Y-%m-%d-%H-%M-%S"))
         self.folder.mkdir(parents=True)
         self.experiment = Experiment(self.folder, self.root)
@@ -141,6 +142,7 @@ class WipeScenario:
     def _run(self) -> dict:
         experiment = self.experiment
         command = ["roslaunch", "teleteach", "wipe.launch", f"data_dir:={self.root}", f"record_prefix:={self.prefix}"]
+        command.append(f"input:={self.hand}")
         experiment.own_launch(lambda port: command[:1] + ["-p", str(port)] + command[1:], self.folder / "launch.log")
         experiment.join("run_wipe", anonymous=True)
         self.say(f"launched wipe.launch (master {experiment.master_uri}), log {self.folder / 'launch.log'}")
@@ -150,7 +152,7 @@ class WipeScenario:
         if not drive_to(scenario.TEACHING_POSE, timeout=min(self.left(), 120.0)):
             raise RuntimeError(f"the base did not arrive at {scenario.TEACHING_POSE}")
         seen, true = board_in_base()
-        operator = ScriptedWipe()
+        operator = ScriptedWipe(self.hand)
         start_stiffness = tuple(float(value) for value in GuiConfig.load().shared_control_stiffness)
         operator.press_with(seen, start_stiffness)
         operator.enable()
@@ -176,7 +178,8 @@ class WipeScenario:
         found = scenario.checks(phases, self.config)
         for check in found:
             self.say(f"{'ok  ' if check['passed'] else 'FAIL'} {check['check']}: {check['seen']}")
-        return {"passed": all(check["passed"] for check in found), "checks": found, "phases": phases}
+        passed = all(check["passed"] for check in found)
+        return {"passed": passed, "input": self.hand, "checks": found, "phases": phases}
 
     def _located(self) -> Transform:
         """The board as the node located it on enable (/shared_control/task), in base_link."""
@@ -354,9 +357,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(prog="run_wipe", description=scenario.__doc__.splitlines()[0])
     parser.add_argument("--data-dir", type=pathlib.Path, default=None, help="data directory (default: the usual)")
     parser.add_argument("--timeout", type=float, default=900.0, help="[s] wall time allowed for the whole scenario")
+    parser.add_argument(
+        "--input",
+        choices=INPUTS,
+        default="operator_command",
+        help="how the operator's commands come: the task-plane velocity, a joystick (/joy) or the Sigma.7's twist",
+    )
     arguments = parser.parse_args(argv)
     try:
-        summary = WipeScenario(data_dir(arguments.data_dir), arguments.timeout).run()
+        summary = WipeScenario(data_dir(arguments.data_dir), arguments.timeout, arguments.input).run()
     except (RuntimeError, TimeoutError) as error:
         print(f"run_wipe: {error}", file=sys.stderr)
         return 2
