@@ -1,0 +1,398 @@
+"""The tables of figures in the docs, rendered from the stored results in bench/results/ (issue 51, item 2).
+
+A figure copied into the docs by hand drifts from the result it came from. Each table stands in the markdown between
+``<!-- results:NAME -->`` and ``<!-- /results -->``; this renders it from the JSON of the bench that measured it, with
+the run's commit and command, and writes it there. ``--check`` writes nothing: it names the tables that differ from
+what the stored results render (test/unit/test_docs_figures.py fails on them) and every stored result older than the
+last change to what its bench measures (bench/measures.yaml, the bench's own script, the config files it read).
+
+    source build/env.sh && python bench/render_docs.py [--check]
+"""
+
+import argparse
+import dataclasses
+import hashlib
+import json
+import math
+import pathlib
+import re
+import subprocess
+import sys
+from typing import Callable
+
+import yaml
+from scipy.spatial.transform import Rotation
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "bench" / "results"
+MEASURES = ROOT / "bench" / "measures.yaml"
+DOCS = (ROOT / "docs" / "benchmarks.md", ROOT / "README.md")
+BLOCK = re.compile(r"(<!-- results:(\w+) -->\n)(.*?)(<!-- /results -->)", re.DOTALL)
+ABLATION_CELLS = {
+    "constant_high": "constant high",
+    "constant_low": "constant low",
+    "taught_isotropic": "isotropic, the taught volume",
+    "taught_anisotropic": "taught",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Figure:
+    """A table of the docs: the bench that measured it, its stored results, and how it reads them."""
+
+    bench: str
+    results: tuple
+    render: Callable[[dict], list]
+
+
+@dataclasses.dataclass(frozen=True)
+class Measured:
+    """One stored result and what it measured: the files whose change after its commit makes it older than the code."""
+
+    label: str
+    provenance: dict
+    paths: tuple
+
+
+def load(name: str) -> dict:
+    return json.loads((RESULTS / name).read_text())
+
+
+def table(header, rows) -> list:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return lines + ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]
+
+
+def goal_lines(goals) -> list:
+    """The bench's goals, one line each, with what it measured where it says."""
+    lines = []
+    for goal in goals:
+        measured = f": {goal['measured']}" if "measured" in goal else ""
+        lines.append(f"- {'met' if goal['met'] else '**not met**'}: {goal['goal']}{measured}")
+    return lines
+
+
+def run_line(name: str, record: dict) -> str:
+    """Where a result came from, in one line: file, command, commit, date, wall time, cores."""
+    provenance = record["provenance"]
+    dirty = " (the tree dirty)" if provenance["dirty"] else ""
+    command = " ".join(provenance["command"])
+    return (
+        f"`bench/results/{name}`: `{command}` at {provenance['commit'][:7]}{dirty}, {provenance['date'][:10]}, "
+        f"{provenance['wall_s']:.0f} s on {provenance['machine']['cores']} cores."
+    )
+
+
+def stiffness_label(values) -> str:
+    return "(" + ", ".join(f"{value:.0f}" for value in values) + ")"
+
+
+def wiping_ablation(results: dict) -> list:
+    result = results["wiping_ablation.json"]
+    rows = []
+    for cell, label in ABLATION_CELLS.items():
+        figures = result["cells"][cell]
+        rows.append(
+            [
+                f"{label} {stiffness_label(result['settings']['cells'][cell])}",
+                f"{figures['kept_contact']} / {figures['trials']}",
+                f"{figures['median_force_mean_n']:.1f} N",
+                f"{figures['median_force_spread_n']:.2f} N",
+                f"{figures['median_peak_force_n']:.1f} N",
+                f"{1e3 * figures['median_tracking_rms_m']:.1f} mm",
+                f"{figures['median_F_x']:.2e}".replace("e-0", "e-"),
+            ]
+        )
+    header = ["cell", "kept contact >= 95 %", "median force", "median spread", "median peak", "tracking (RMS)", "F_x"]
+    return [*table(header, rows), "", *goal_lines(result["goals"])]
+
+
+def wiping_shared_control(results: dict) -> list:
+    result = results["wiping_shared_control.json"]
+    rows = []
+    for pattern, figures in result["summary"].items():
+        rows.append(
+            [
+                f"{pattern}, {figures['trials']} wipes",
+                f"{figures['direct_violations']} in {figures['direct_trials_violating']} wipes",
+                figures["shared_violations"],
+                f"{figures['shared_over_direct_F_x_median']:.2f}x "
+                f"(lower in {figures['shared_F_x_lower_in']} of {figures['trials']})",
+                f"{100 * figures['misidentified_cycles'] / figures['cycles']:.1f} % of {figures['cycles']}",
+                f"{figures['solve_p99_ms']:.1f} ms",
+                figures["over_cycle"],
+            ]
+        )
+    edge = result["moving_edge"]
+    rows.append(
+        [
+            f"IV-D's moving edge, {edge['trials']} wipes",
+            f"{edge['direct_violations']} in {edge['direct_trials_violating']} wipes",
+            f"{edge['shared_violations']} (the true boundary: {edge['shared_boundary_violations']})",
+            "",
+            "",
+            f"{edge['solve_p99_ms']:.1f} ms",
+            edge["over_cycle"],
+        ]
+    )
+    header = [
+        "operators",
+        "cycles outside, direct",
+        "cycles outside, shared",
+        "F_x shared / direct (paired median)",
+        "misidentified cycles",
+        "solve p99 (worst wipe)",
+        "cycles over 20 ms",
+    ]
+    return [*table(header, rows), "", *goal_lines(result["goals"])]
+
+
+def pose_change(taught: dict, pose: dict) -> str:
+    """How far a board pose is from the taught one: its centre's move and its rotation."""
+    moved = math.dist(taught["center"], pose["center"])
+    turned = Rotation.from_euler("xyz", taught["rpy"]).inv() * Rotation.from_euler("xyz", pose["rpy"])
+    return f"{100 * moved:.0f} cm, {math.degrees(turned.magnitude()):.1f} deg"
+
+
+def wiping_skill(results: dict) -> list:
+    result = results["wiping_skill.json"]
+    poses = result["settings"]["poses"]
+    rows = []
+    for pose, figures in result["cells"].items():
+        rows.append(
+            [
+                f"{pose} ({pose_change(poses['taught'], poses[pose])})",
+                f"{figures['kept_contact']} / {figures['trials']}",
+                f"{figures['covered_goal']} / {figures['trials']}",
+                f"{100 * figures['median_coverage_of_demonstration']:.0f} % "
+                f"(least {100 * figures['least_coverage_of_demonstration']:.0f} %)",
+                f"{figures['median_force_mean_n']:.1f} +- {figures['median_force_spread_n']:.1f} N",
+            ]
+        )
+    header = [
+        "board pose (from the taught one)",
+        "kept contact >= 95 %",
+        "wiped >= 90 % of the demonstration's area",
+        "share of it wiped, median",
+        "force",
+    ]
+    demonstration = result["demonstration"]
+    clutch_rows = []
+    for name, figures in result["clutch"].items():
+        force, spread = figures["median_force_n"], figures["median_spread_n"]
+        low, high = figures["travel_ratio_range"]
+        clutch_rows.append(
+            [
+                name.removeprefix("clutch_"),
+                f"{100 * figures['median_kept_share']:.0f} % (least {100 * figures['least_kept_share']:.0f} %)",
+                f"{figures['median_travel_ratio']:.2f}x ({low:.2f}-{high:.2f}x)",
+                f"{figures['kept_contact']} / {figures['trials']}",
+                " / ".join(f"{force[phase]:.1f} +- {spread[phase]:.1f}" for phase in ("before", "clutch", "after"))
+                + " N",
+            ]
+        )
+    clutch_header = [
+        f"clutch, {next(iter(result['clutch'].values()))['trials']} held-out operators each",
+        "pattern kept, median of the clutched cycles",
+        "travel vs the operator's own",
+        "contact >= 95 % through it",
+        "force before / during / after",
+    ]
+    return [
+        f"The demonstration: in contact {100 * demonstration['contact_fraction']:.0f} % of its cycles, "
+        f"{100 * demonstration['covered_fraction']:.0f} % of the marked area covered.",
+        "",
+        *table(header, rows),
+        "",
+        *goal_lines([result["goal"]]),
+        "",
+        *table(clutch_header, clutch_rows),
+    ]
+
+
+def load_range(condition: dict) -> str:
+    low, high = (round(value) for value in condition["load_average"])
+    return f"load {low}" if low == high else f"load {low}-{high}"
+
+
+WIPING_RATE_CONDITIONS = {"as_is": "as is", "busy_2": "2 busy loops"}
+
+
+def wiping_rate(results: dict) -> list:
+    rows = []
+    for name, option in (("wiping_rate_realtime_0.json", "`--realtime-priority 0`"), ("wiping_rate.json", "(default)")):
+        result = results[name]
+        for condition, label in WIPING_RATE_CONDITIONS.items():
+            figures = result["conditions"][condition]
+            solve = figures["solve_ms_in_contact"]
+            rows.append(
+                [
+                    option,
+                    result["settings"]["scheduling"]["shared_control"],
+                    f"{label} ({load_range(figures)})",
+                    f"{100 * figures['contact_fraction']:.0f} %",
+                    f"**{figures['contact_late']} of {figures['contact_cycles']} "
+                    f"({100 * figures['contact_late_fraction']:.2f} %)**",
+                    f"{solve['p50']:.2f} / {solve['p99']:.2f} / {solve['max']:.1f} ms",
+                    figures["gaps_over_40_ms_in_contact"],
+                    f"{figures['real_time_factor']:.2f}",
+                ]
+            )
+    header = [
+        "`python bench/wiping_rate.py ...`",
+        "node's scheduling",
+        "condition",
+        "in contact",
+        "late cycles in contact",
+        "solve p50 / p99 / max",
+        "state gaps > 40 ms",
+        "RTF",
+    ]
+    return table(header, rows)
+
+
+def mutation(results: dict) -> list:
+    rows = []
+    for module, figures in results["mutation.json"].items():
+        timeout = f" (+{figures['timeout']} timed out)" if figures["timeout"] else ""
+        provenance = figures["provenance"]
+        rows.append(
+            [
+                module,
+                ", ".join(pathlib.Path(test).stem for test in figures["tests"]),
+                figures["mutants"],
+                f"{figures['killed']}{timeout}",
+                figures["survived"],
+                figures["equivalent_excluded"],
+                f"{100 * figures['score']:.1f} %",
+                f"{figures['seconds'] / 60:.1f} min",
+                f"{provenance['commit'][:7]}{' (dirty)' if provenance['dirty'] else ''}, {provenance['date'][:10]}",
+            ]
+        )
+    header = ["module", "tests", "mutants", "killed", "survived", "equivalent set aside", "score", "time", "run at"]
+    return table(header, rows)
+
+
+FIGURES = {
+    "wiping_ablation": Figure("wiping_ablation", ("wiping_ablation.json",), wiping_ablation),
+    "wiping_shared_control": Figure("wiping_shared_control", ("wiping_shared_control.json",), wiping_shared_control),
+    "wiping_skill": Figure("wiping_skill", ("wiping_skill.json",), wiping_skill),
+    "wiping_rate": Figure("wiping_rate", ("wiping_rate_realtime_0.json", "wiping_rate.json"), wiping_rate),
+    "mutation": Figure("mutation", ("mutation.json",), mutation),
+}
+
+
+def render(name: str) -> str:
+    """The markdown between a block's markers: the table (and goals) from the stored results, then where each came
+    from (mutation's rows say it themselves: each module is run apart)."""
+    figure = FIGURES[name]
+    results = {result: load(result) for result in figure.results}
+    lines = figure.render(results)
+    runs = [run_line(result, record) for result, record in results.items() if "provenance" in record]
+    if runs:
+        lines += [line for run in runs for line in ("", f"From {run}")]
+    return "\n".join(lines) + "\n"
+
+
+def rendered(text: str, source: str = "the text") -> str:
+    """``text`` with every results block rendered anew; an unknown name is refused."""
+
+    def block(match):
+        name = match.group(2)
+        if name not in FIGURES:
+            raise KeyError(f"{source}: <!-- results:{name} --> names no figure of bench/render_docs.py")
+        return match.group(1) + render(name) + match.group(4)
+
+    return BLOCK.sub(block, text)
+
+
+def differing(paths=DOCS) -> dict:
+    """{doc: [names of the blocks whose text differs from what the stored results render]}; docs without any left
+    out."""
+    found = {}
+    for path in paths:
+        text = path.read_text()
+        for match in BLOCK.finditer(text):
+            if match.group(2) not in FIGURES or render(match.group(2)) != match.group(3):
+                found.setdefault(path, []).append(match.group(2))
+    return found
+
+
+def git(*arguments: str) -> str:
+    return subprocess.run(["git", *arguments], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
+
+
+def measured_results(measures=None) -> list:
+    """Every stored result behind a figure, with the paths its bench measures."""
+    measures = yaml.safe_load(MEASURES.read_text()) if measures is None else measures
+    found = []
+    for figure in FIGURES.values():
+        for name in figure.results:
+            record = load(name)
+            if figure.bench == "mutation":
+                for module, entry in record.items():
+                    paths = (f"src/teleteach/{module}", *entry["tests"])
+                    found.append(Measured(f"{name}: {module}", entry.get("provenance", {}), paths))
+                continue
+            paths = (f"bench/{figure.bench}.py", *measures[figure.bench])
+            found.append(Measured(name, record.get("provenance", {}), paths))
+    return found
+
+
+def config_path(name: str) -> pathlib.Path:
+    return next((path for path in (ROOT / "config" / name, ROOT / "bench" / name) if path.exists()), ROOT / name)
+
+
+def older_than_the_code(measured: Measured, log=git) -> list:
+    """Why a stored result may not hold for the code as it is: run on a dirty tree, code it measures changed by a
+    later commit, a config file it read changed since. Empty when none."""
+    provenance = measured.provenance
+    if not provenance:
+        return ["no provenance: the commit it was measured at is unknown"]
+    reasons = ["run with uncommitted changes"] if provenance["dirty"] else []
+    commit = provenance["commit"]
+    try:
+        changes = log("log", "--format=%h %ad %s", "--date=short", f"{commit}..HEAD", "--", *measured.paths)
+    except subprocess.CalledProcessError:
+        return [*reasons, f"its commit {commit[:7]} is not in this checkout's history"]
+    if changes:
+        lines = changes.splitlines()
+        reasons.append(f"{len(lines)} later commit(s) changed what it measures, the last: {lines[0][:100]}")
+    for name, digest in provenance.get("config_sha256", {}).items():
+        path = config_path(name)
+        if not path.exists() or hashlib.sha256(path.read_bytes()).hexdigest() != digest:
+            reasons.append(f"{name} differs from the one it read")
+    return reasons
+
+
+def staleness_report(measures=None) -> str:
+    """One line per stored result older than the code it measures, and why."""
+    lines = []
+    for measured in measured_results(measures):
+        reasons = older_than_the_code(measured)
+        if reasons:
+            lines.append(f"{measured.label} ({measured.provenance.get('commit', '?')[:7]}): {'; '.join(reasons)}")
+    return "\n".join(lines)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--check", action="store_true", help="write nothing: say what differs and what is stale")
+    options = parser.parse_args()
+    if options.check:
+        different = differing()
+        for path, names in different.items():
+            print(f"{path.relative_to(ROOT)}: differs from the stored results: {', '.join(names)}")
+        print("stored results older than the code they measure:\n" + (staleness_report() or "none"))
+        return 1 if different else 0
+    for path in DOCS:
+        text = path.read_text()
+        new = rendered(text, str(path.relative_to(ROOT)))
+        if new != text:
+            path.write_text(new)
+            print(f"rendered {path.relative_to(ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
