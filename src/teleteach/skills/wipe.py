@@ -7,7 +7,8 @@ turned with it): in position control over its start at the approach height, unde
 pattern with its stiffness, and back off. Judged from the robot's own sensors, as a user's robot can: the force along
 the perceived normal (/force_torque_ext) says when the tool touched, the TCP (/cartesian_pose) where its face was.
 The wipe succeeds when the tool kept contact for ``min_contact`` of the pattern and swept at least ``min_coverage``
-of the area the skill's own pattern sweeps (config/wiping.yaml).
+of the area its demonstration swept (config/wiping.yaml): the skill's tool path (its ``cartesian_pose``), which lags
+the equilibrium by friction over stiffness as the replay does, not the equilibrium's path, which no tool sweeps whole.
 """
 
 from typing import Tuple
@@ -134,10 +135,11 @@ class SurfaceReplay:
         return np.array(forces), np.array(poses)
 
     def _judge(self, skill, name: str, plan: ReplayPlan, surface: Transform, forces, poses) -> str:
-        """The wipe's message when it kept contact and swept the pattern's area; SkillError saying what fell short."""
+        """The wipe's message when it kept contact and swept its demonstration's area; else SkillError saying why."""
         settings, footprint = self.settings, self.tool.size[:2]
         to_surface = surface.inverse()
-        planned, planned_yaws = faces_on(to_surface.apply_poses(np.column_stack([plan.positions, plan.orientations])))
+        demonstrated = to_surface.apply_poses(skill.in_base(surface).cartesian_pose)
+        planned, planned_yaws = faces_on(demonstrated)
         wiped, wiped_yaws = faces_on(to_surface.apply_poses(poses))
         margin = max(footprint)
         low, high = planned.min(axis=0) - margin, planned.max(axis=0) + margin
@@ -152,7 +154,7 @@ class SurfaceReplay:
             f"wiped {name} with {skill.name} ({skill.kind}, taught on {skill.target.name}): {len(plan.times)} cycles "
             f"over {plan.duration:.1f} s, in contact {figures['contact_fraction']:.0%} of them, force "
             f"{figures['force_mean_n']:.1f} N mean, {figures['peak_force_n']:.1f} N peak; swept {coverage:.0%} of "
-            f"the area its pattern sweeps"
+            f"the area its demonstration swept"
         )
         if figures["contact_fraction"] < settings.min_contact or coverage < settings.min_coverage:
             raise SkillError(
