@@ -57,8 +57,15 @@ def test_each_phase_has_the_papers_and_the_worlds_measures(run):
 
 def test_the_demonstration_and_the_learned_skill_are_relative_to_the_board(run):
     _, folder, data = run
-    demonstration = skill_file.load(folder / "DemonstratedWipe_1.npz")
-    learned = skill_file.load(data / "skills" / "LearnedWipe.npz")
+    # Expect: each named after its run, so a second run replaces nothing the first one taught
+    (demonstration_file,) = folder.glob("DemonstratedWipe_*.npz")
+    (learned_file,) = (data / "skills").glob("LearnedWipe_*.npz")
+    assert (
+        demonstration_file.stem.split("_", 1)[1]
+        == learned_file.stem.split("_", 1)[1]
+        == folder.name[len("wipe_") :].replace("-", "_")
+    )
+    demonstration, learned = skill_file.load(demonstration_file), skill_file.load(learned_file)
     for skill in (demonstration, learned):
         assert skill.target.name == "counter_board" and skill.target.kind == skill_file.SURFACE
     assert learned.kind == "dmp" and demonstration.kind == "shared_control"

@@ -32,7 +32,6 @@ from teleteach.wiping import scenario
 from teleteach.wiping.assistance import moving_edge
 from teleteach.wiping.ros import ScriptedWipe, WorldRecord, board_in_base, drive_to
 
-DEMONSTRATION, LEARNED = "DemonstratedWipe_1", "LearnedWipe"
 TREE_INDEX = 1  # the learned skill goes after MoveBaseAside (config/scenarios/wipe_tree.yaml)
 STATUSES = {1: "INVALID", 2: "RUNNING", 3: "SUCCESS", 4: "FAILURE"}
 
@@ -40,11 +39,12 @@ STATUSES = {1: "INVALID", 2: "RUNNING", 3: "SUCCESS", 4: "FAILURE"}
 class TreeWatch:
     """The latest status and message of each node of the tree (/behaviour_tree/log/tree) and the library's names."""
 
-    def __init__(self):
+    def __init__(self, learned: str):
         import rospy
 
         from teleteach.msg import BehaviourTree, SkillLibrary
 
+        self.learned = learned
         self._lock = threading.Lock()
         self.nodes: Dict[str, Tuple[str, str]] = {}
         self.library: Tuple[str, ...] = ()
@@ -58,7 +58,7 @@ class TreeWatch:
     def _on_tree(self, message) -> None:
         with self._lock:
             self.nodes = {b.name: (STATUSES.get(b.status, "?"), b.message) for b in message.behaviours}
-            if self.started is None and self.nodes.get(LEARNED, ("",))[0] == "RUNNING":
+            if self.started is None and self.nodes.get(self.learned, ("",))[0] == "RUNNING":
                 self.started = self._now()
 
     def _on_library(self, message) -> None:
@@ -117,6 +117,8 @@ class WipeScenario:
         self.footprint = self.scene.wiping_tool.size[:2]
         self.box, self.area = wiping_box(board, self.footprint), board.area
         self._deadline = time.monotonic() + timeout
+        stamp = self.folder.name.removeprefix("wipe_").replace("-", "_")  # a run's skills never replace another's
+        self.demonstration, self.learned = f"DemonstratedWipe_{stamp}", f"LearnedWipe_{stamp}"
 
     def say(self, line: str) -> None:
         """One line of progress on stdout."""
@@ -146,7 +148,7 @@ class WipeScenario:
         experiment.own_launch(lambda port: command[:1] + ["-p", str(port)] + command[1:], self.folder / "launch.log")
         experiment.join("run_wipe", anonymous=True)
         self.say(f"launched wipe.launch (master {experiment.master_uri}), log {self.folder / 'launch.log'}")
-        record, tree = WorldRecord(), TreeWatch()
+        record, tree = WorldRecord(), TreeWatch(self.learned)
         if not experiment.wait_until(lambda: record.poses, self.left()):
             raise TimeoutError("no /cartesian_pose from robot_sim")
         if not drive_to(scenario.TEACHING_POSE, timeout=min(self.left(), 120.0)):
@@ -269,8 +271,8 @@ class WipeScenario:
 
     def _save_demonstration(self, recorder: StiffnessRecorder, located: Transform) -> pathlib.Path:
         """The demonstration saved as the GUI saves a wipe, in the data directory's skills and the run's folder."""
-        skill = scenario_skill(recorder, located, GuiConfig.load().rotational_stiffness)
-        path = skill_file.save(skill, self.root / "skills" / DEMONSTRATION)
+        skill = scenario_skill(recorder, self.demonstration, located, GuiConfig.load().rotational_stiffness)
+        path = skill_file.save(skill, self.root / "skills" / self.demonstration)
         shutil.copy(path, self.folder / path.name)
         self.say(f"teaching: the demonstration ({skill.time[-1] - skill.time[0]:.1f} s) saved to {path}")
         return path
@@ -282,22 +284,22 @@ class WipeScenario:
 
         from teleteach.srv import ChangeTree
 
-        demonstration = self.root / "skills" / f"{DEMONSTRATION}.npz"
-        said = learn_and_add(demonstration, LEARNED, self.root, self.experiment.environment())
-        self.say(f"learned: {said.splitlines()[-1] if said else LEARNED}")
-        if not self.experiment.wait_until(lambda: LEARNED in tree.library, min(self.left(), 30.0)):
-            raise RuntimeError(f"{LEARNED} never joined the tree's library")
+        demonstration, learned = self.root / "skills" / f"{self.demonstration}.npz", self.learned
+        said = learn_and_add(demonstration, learned, self.root, self.experiment.environment())
+        self.say(f"learned: {said.splitlines()[-1] if said else learned}")
+        if not self.experiment.wait_until(lambda: learned in tree.library, min(self.left(), 30.0)):
+            raise RuntimeError(f"{learned} never joined the tree's library")
         change = rospy.ServiceProxy("/change_tree", ChangeTree)(
-            node_name=LEARNED, operation="insert", index=TREE_INDEX, parent="", node_type="", parameter=0.0
+            node_name=learned, operation="insert", index=TREE_INDEX, parent="", node_type="", parameter=0.0
         )
         if not change.success:
-            raise RuntimeError(f"the tree refused {LEARNED}: {change.message}")
+            raise RuntimeError(f"the tree refused {learned}: {change.message}")
         rospy.wait_for_service("/behaviour_tree/start", timeout=min(self.left(), 30.0))
         rospy.ServiceProxy("/behaviour_tree/start", Trigger)()
-        self.say(f"replay: the tree drives to {scenario.REPLAY_POSE} and wipes with {LEARNED}")
-        if not self.experiment.wait_until(lambda: tree.status(LEARNED)[0] in ("SUCCESS", "FAILURE"), self.left()):
-            raise TimeoutError(f"{LEARNED} did not end: {tree.status(LEARNED)}")
-        status, message = tree.status(LEARNED)
+        self.say(f"replay: the tree drives to {scenario.REPLAY_POSE} and wipes with {learned}")
+        if not self.experiment.wait_until(lambda: tree.status(learned)[0] in ("SUCCESS", "FAILURE"), self.left()):
+            raise TimeoutError(f"{learned} did not end: {tree.status(learned)}")
+        status, message = tree.status(learned)
         ended = rospy.get_time()
         _, true = board_in_base()
         figures = {"status": status, "message": message}
@@ -314,7 +316,7 @@ class WipeScenario:
 
         Below by at least half the skill's least depth, so the glides on and off are left out.
         """
-        learned = skill_file.load(self.root / "skills" / f"{LEARNED}.npz")
+        learned = skill_file.load(self.root / "skills" / f"{self.learned}.npz")
         reach = self.scene.wiping_tool.reach
         half_depth = 0.5 * float(np.min(reach - learned.equilibrium_pose[:, 2]))
         with record.lock:
@@ -323,10 +325,12 @@ class WipeScenario:
         return (below[0], below[-1]) if len(below) > 1 else None
 
 
-def scenario_skill(recorder: StiffnessRecorder, located: Transform, rotational_stiffness: float) -> skill_file.Skill:
+def scenario_skill(
+    recorder: StiffnessRecorder, name: str, located: Transform, rotational_stiffness: float
+) -> skill_file.Skill:
     """The recorded wipe as the GUI saves one: a ``shared_control`` skill relative to the board as located."""
     provenance = {"source": "run_wipe", "recorded": time.time(), "wiped": scenario.BOARD}
-    skill = recorder.to_skill(DEMONSTRATION, rotational_stiffness, provenance, kind="shared_control")
+    skill = recorder.to_skill(name, rotational_stiffness, provenance, kind="shared_control")
     return skill.relative_to(scenario.BOARD, located, skill_file.SURFACE)
 
 
@@ -366,7 +370,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     arguments = parser.parse_args(argv)
     try:
         summary = WipeScenario(data_dir(arguments.data_dir), arguments.timeout, arguments.input).run()
-    except (RuntimeError, TimeoutError) as error:
+    except (RuntimeError, TimeoutError, ValueError) as error:
         print(f"run_wipe: {error}", file=sys.stderr)
         return 2
     return 0 if summary["passed"] else 1
