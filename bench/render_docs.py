@@ -273,12 +273,22 @@ def mutation(results: dict) -> list:
     return table(header, rows)
 
 
+def mutation_scores(results: dict) -> list:
+    """The README's line: the modules with their score, the best first, those of equal score together."""
+    by_score = {}
+    for module, figures in results["mutation.json"].items():
+        by_score.setdefault(figures["score"], []).append(module.removesuffix(".py"))
+    parts = [f"{', '.join(modules)} {100 * score:.1f} %" for score, modules in sorted(by_score.items(), reverse=True)]
+    return [", ".join(parts)]
+
+
 FIGURES = {
     "wiping_ablation": Figure("wiping_ablation", ("wiping_ablation.json",), wiping_ablation),
     "wiping_shared_control": Figure("wiping_shared_control", ("wiping_shared_control.json",), wiping_shared_control),
     "wiping_skill": Figure("wiping_skill", ("wiping_skill.json",), wiping_skill),
     "wiping_rate": Figure("wiping_rate", ("wiping_rate_realtime_0.json", "wiping_rate.json"), wiping_rate),
     "mutation": Figure("mutation", ("mutation.json",), mutation),
+    "mutation_scores": Figure("mutation", ("mutation.json",), mutation_scores),
 }
 
 
@@ -326,16 +336,16 @@ def measured_results(measures=None) -> list:
     """Every stored result behind a figure, with the paths its bench measures."""
     measures = yaml.safe_load(MEASURES.read_text()) if measures is None else measures
     found = []
-    for figure in FIGURES.values():
-        for name in figure.results:
-            record = load(name)
-            if figure.bench == "mutation":
-                for module, entry in record.items():
-                    paths = (f"src/teleteach/{module}", *entry["tests"])
-                    found.append(Measured(f"{name}: {module}", entry.get("provenance", {}), paths))
-                continue
-            paths = (f"bench/{figure.bench}.py", *measures[figure.bench])
-            found.append(Measured(name, record.get("provenance", {}), paths))
+    stored = dict.fromkeys((figure.bench, name) for figure in FIGURES.values() for name in figure.results)
+    for bench, name in stored:
+        record = load(name)
+        if bench == "mutation":
+            for module, entry in record.items():
+                paths = (f"src/teleteach/{module}", *entry["tests"])
+                found.append(Measured(f"{name}: {module}", entry.get("provenance", {}), paths))
+            continue
+        paths = (f"bench/{bench}.py", *measures[bench])
+        found.append(Measured(name, record.get("provenance", {}), paths))
     return found
 
 
@@ -361,7 +371,8 @@ def older_than_the_code(measured: Measured, log=git) -> list:
     for name, digest in provenance.get("config_sha256", {}).items():
         path = config_path(name)
         if not path.exists() or hashlib.sha256(path.read_bytes()).hexdigest() != digest:
-            reasons.append(f"{name} differs from the one it read")
+            last = log("log", "-1", "--format=%h %ad %s", "--date=short", "--", str(path.relative_to(ROOT)))
+            reasons.append(f"{name} differs from the one it read" + (f", last changed by {last[:80]}" if last else ""))
     return reasons
 
 
