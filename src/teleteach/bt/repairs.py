@@ -71,11 +71,12 @@ class RepairMemory:
             node, reason = entry.get("node"), entry.get("reason")
             if not isinstance(node, str) or not isinstance(reason, str):
                 raise RepairError(f"{where}: node and reason must be strings")
-            repairs[(node, reason)] = tuple(_request(edit, where) for edit in entry["edits"])
+            repairs[(node, reason)] = tuple(edit_request(edit, where) for edit in entry["edits"])
         return cls(repairs)
 
 
-def _request(data: typing.Any, where: str) -> EditRequest:
+def edit_request(data: typing.Any, where: str) -> EditRequest:
+    """An edit saved as a mapping of EditRequest's fields; :class:`RepairError` naming ``where`` when it is not one."""
     fields = EditRequest._fields
     if not isinstance(data, dict) or set(data) - set(fields) or data.get("operation") not in OPERATIONS:
         raise RepairError(f"{where}: an edit is a mapping of {', '.join(fields)} with a known operation, got {data!r}")

@@ -41,11 +41,13 @@ from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairError, RepairMemory
 from teleteach.bt.tree import LeafFactory, TreeSpec, TreeSpecError, create_root, dump_live_yaml, load_tree, node_type
+from teleteach.bt.tree_policy import PolicyConfig, TreePolicy, policy_yaml
 from teleteach.core.datadir import temporary_beside
 
 TREE_FILE = "current_tree.yaml"
 LIBRARY_FILE = "skill_library.yaml"
 REPAIRS_FILE = "repairs.yaml"
+POLICY_FILE = "tree_policy.yaml"
 PREVIOUS = "previous"  # current_tree.yaml -> current_tree.previous.yaml: the version before the last save
 CORRUPT = "corrupt"  # current_tree.yaml -> current_tree.corrupt-<time>.yaml: a file that could not be loaded
 
@@ -176,6 +178,7 @@ class TreeStore:
         self.tree_path = self.directory / TREE_FILE
         self.library_path = self.directory / LIBRARY_FILE
         self.repairs_path = self.directory / REPAIRS_FILE
+        self.policy_path = self.directory / POLICY_FILE
         self._unflushed: typing.Set[pathlib.Path] = set()
         self._flush_lock = threading.Lock()
         self._flush_wanted = threading.Event()
@@ -198,6 +201,19 @@ class TreeStore:
         problems: typing.List[str] = []
         repairs = self._load_or_set_aside(self.repairs_path, _load_repairs, problems)
         return repairs or RepairMemory(), "; ".join(problems)
+
+    def save_policy(self, policy: TreePolicy) -> None:
+        """Replace the saved tree policy (its demonstrations)."""
+        self._replace(self.policy_path, policy_yaml(policy))
+
+    def restore_policy(self, config: PolicyConfig) -> typing.Tuple[TreePolicy, str]:
+        """The saved tree policy (one without demonstrations if none), and what had to be set aside ("" if nothing).
+
+        A corrupt file, or one saved under another feature set, is set aside: the tree then asks as it would without.
+        """
+        problems: typing.List[str] = []
+        policy = self._load_or_set_aside(self.policy_path, lambda path: _load_policy(path, config), problems)
+        return policy if policy is not None else TreePolicy(config), "; ".join(problems)
 
     def flush(self) -> None:
         """Make what was saved durable (fsync); the background thread calls it after each save."""
@@ -270,7 +286,8 @@ class TreeStore:
         self, path: pathlib.Path, load: typing.Callable[[pathlib.Path], typing.Any], problems: typing.List[str]
     ) -> typing.Any:
         """``load(path)``, else ``load`` of its previous version, else None; each file that fails is set aside."""
-        what = {self.tree_path: "tree", self.library_path: "library"}.get(path, "repairs")
+        names = {self.tree_path: "tree", self.library_path: "library", self.policy_path: "tree policy"}
+        what = names.get(path, "repairs")
         failures = []
         for candidate in (path, previous_path(path)):
             if not candidate.is_file():
@@ -292,6 +309,10 @@ class TreeStore:
 
 def _load_repairs(path: pathlib.Path) -> RepairMemory:
     return RepairMemory.from_dict(yaml.safe_load(path.read_text()), source=str(path))
+
+
+def _load_policy(path: pathlib.Path, config: PolicyConfig) -> TreePolicy:
+    return TreePolicy.from_dict(yaml.safe_load(path.read_text()), config, source=str(path))
 
 
 def previous_path(path: pathlib.Path) -> pathlib.Path:
