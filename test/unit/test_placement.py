@@ -220,3 +220,35 @@ def test_run_placements_say_what_errors_each_placement_met(scene):
     }
     # before any MoveBase, and without both views of the gap, the bag says nothing
     assert session.base_error(1.0) is None and session.gap_perception_error("gap_2", 30.0) is None
+
+
+@pytest.mark.parametrize("side, expect_inside", [(-1.0, True), (1.0, False)])
+def test_each_threshold_of_the_judgement_holds_from_both_sides(scene, side, expect_inside):
+    # Expect: each threshold decides at its promised value (written here, not read from the module, so a changed
+    # constant fails): 2 cm in height, the gap's own tolerance across, 10 deg of tilt, a neighbour pushed 1 cm, carried
+    # 5 cm; a tenth of a millimetre (a hundredth of a degree) either side
+    gap = scene.gap("gap_2")
+    initial = shelf(scene)
+    target = np.array(gap.position)
+    step = 1e-4
+    raised = target + np.array([0.0, 0.0, 0.02 + side * step])
+    final = dict(initial, product_pick_2=raised)
+    judged = placement.judge(scene, "product_pick_2", (raised, UPRIGHT), initial, final)
+    assert (judged.gap == "gap_2") is expect_inside
+    aside = target + np.array([0.0, gap.tolerance + side * step, 0.0])
+    judged = placement.judge(scene, "product_pick_2", (aside, UPRIGHT), initial, dict(initial, product_pick_2=aside))
+    assert (judged.gap == "gap_2") is expect_inside
+    tilted = Rotation.from_euler("x", 10.0 + side * 0.01, degrees=True).as_quat()
+    assert placement.judge(scene, "product_pick_2", (target, tilted), initial, initial).upright is expect_inside
+    neighbour = sorted(placement.neighbours(gap, initial, "product_pick_2"))[0]
+    push = np.array([0.0, 0.01 + side * step, 0.0])
+    pushed = dict(initial, **{neighbour: initial[neighbour] + push})
+    judged = placement.judge(scene, "product_pick_2", (target, UPRIGHT), initial, pushed)
+    assert (judged.displaced == []) is expect_inside
+    # carried (moved more than CARRIED) and at board height: a placement somebody made; the height bound as above
+    start = target - np.array([0.05 - side * step, 0.0, 0.0])
+    moved = {"product_pick_2": (target, UPRIGHT)}
+    carried = placement.placed_products(scene, dict(initial, product_pick_2=start), moved)
+    assert ([p.product for p in carried] == ["product_pick_2"]) is expect_inside
+    high = {"product_pick_2": (raised, UPRIGHT)}
+    assert (len(placement.placed_products(scene, initial, high)) == 1) is expect_inside
