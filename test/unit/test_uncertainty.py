@@ -1,11 +1,13 @@
 """What the simulated robot gets wrong: base error and perception noise (teleteach.sim.uncertainty)."""
 
+import dataclasses
 import math
 import re
 
 import numpy as np
 import pytest
 import yaml
+from scipy.spatial.transform import Rotation
 
 from teleteach.core.observed import observed_from_scene
 from teleteach.core.scene import load_scene
@@ -129,3 +131,30 @@ def test_a_bias_depends_on_the_seed_the_viewpoint_and_the_object_not_on_how_many
     assert not np.allclose(
         quiet.bias("gaps", "gap_1").position, PerceptionNoise(settings, 8).bias("gaps", "gap_1").position
     )
+
+
+def test_perception_errs_in_each_objects_own_frame_at_a_turned_frame():
+    # Expect: gap_1 and a product turned 90 degrees about the vertical (and the product tilted) err along their own
+    # axes: an error along the object's x shows along world y, its yaw adds to the object's (in world axes it would not)
+    scene = load_scene()
+    truth = observed_from_scene(scene)
+    turned_gap = dataclasses.replace(truth.gaps["gap_1"], yaw=truth.gaps["gap_1"].yaw + math.pi / 2)
+    box = truth.products["product_pick_1"]
+    tilted = Rotation.from_euler("zx", [90.0, 20.0], degrees=True)
+    turned_box = dataclasses.replace(box, quaternion=tilted.as_quat())
+    turned = dataclasses.replace(
+        truth, gaps={"gap_1": turned_gap}, products={"product_pick_1": turned_box}, surfaces={}
+    )
+    noise = PerceptionNoise(load_uncertainty().perception, 3)
+    views = [noise.perceive(turned) for _ in range(400)]
+    gap_bias, box_bias = noise.bias("gaps", "gap_1"), noise.bias("products", "product_pick_1")
+    gap_offsets = np.array([view.gaps["gap_1"].position for view in views]) - np.array(turned_gap.position)
+    expected = Rotation.from_euler("z", turned_gap.yaw).apply(gap_bias.position)
+    # 400 looks: the mean's standard error is 0.025 mm, so 0.1 mm tells the frames apart (they differ by 0.5 mm here)
+    np.testing.assert_allclose(gap_offsets.mean(axis=0), expected, atol=1e-4)
+    assert np.max(np.abs(expected - gap_bias.position)) > 3e-4
+    box_offsets = np.array([view.products["product_pick_1"].position for view in views]) - np.array(box.position)
+    np.testing.assert_allclose(box_offsets.mean(axis=0), tilted.apply(box_bias.position), atol=1e-4)
+    assert np.max(np.abs(tilted.apply(box_bias.position) - box_bias.position)) > 3e-4
+    yaws = [view.gaps["gap_1"].yaw - turned_gap.yaw for view in views]
+    assert float(np.mean(yaws)) == pytest.approx(gap_bias.yaw, abs=2e-3)
