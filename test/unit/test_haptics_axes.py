@@ -41,7 +41,7 @@ def test_operator_is_the_identity_and_a_matrix_is_taken_by_rows():
     "value, message",
     [
         ("sdk", "~axes/dhd: unknown convention 'sdk'; one of operator, force_dimension, or a 3x3 rotation matrix"),
-        ([[1, 0], [0, 1]], "~axes/dhd: a convention name or a 3x3 matrix of numbers (rows), got [[1, 0], [0, 1]]"),
+        ([[1, 0], [0, 1]], "~axes/dhd: a 3x3 matrix of numbers (rows), got [[1, 0], [0, 1]] (or a convention name: "),
         ([[1, 0, 0], [0, 1, 0], [0, 0, 2]], "is not a rotation (orthonormal rows, determinant +1)"),
         ([[1, 0, 0], [0, 1, 0], [0, 0, -1]], "is not a rotation (orthonormal rows, determinant +1)"),
     ],

@@ -203,3 +203,27 @@ def test_a_trajectory_may_start_at_zero_touch_its_limits_and_carry_velocities_re
     assert times.tolist() == [0.0, 1.5]
     np.testing.assert_allclose(positions, [lower, upper])
     np.testing.assert_allclose(speeds, [velocities, [0.0] * 7])
+
+
+def test_a_rotation_typed_to_a_few_decimals_is_taken_as_the_nearest_rotation():
+    from scipy.spatial.transform import Rotation
+
+    # Expect: every rotation typed to 4 decimals is taken (at 6 decimals 2 % were refused), made exactly orthonormal
+    for rotation in Rotation.random(200, random_state=2):
+        typed = rotation.as_matrix().round(4)
+        taken = v.rotation_matrix(typed.tolist(), "axes")
+        np.testing.assert_allclose(taken @ taken.T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(taken) == pytest.approx(1.0)
+        assert (Rotation.from_matrix(taken).inv() * rotation).magnitude() < 1e-3
+    for refused, why in (
+        ([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], "not a rotation"),  # a mirror
+        ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.002]], "not a rotation"),  # 2e-3 off: a typo, not rounding
+        ([[0.99, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], "not a rotation"),
+        ([[1.0, 0.0], [0.0, 1.0]], "a 3x3 matrix of numbers"),
+        ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, float("nan")]], "a 3x3 matrix of numbers"),
+        ("up", "a 3x3 matrix of numbers"),
+    ):
+        with pytest.raises(v.InvalidCommandError, match=why):
+            v.rotation_matrix(refused, "axes")
+    # within the tolerance: 1.0004 squared is 8e-4 off one, still typed rounding
+    v.rotation_matrix([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0004]], "axes")

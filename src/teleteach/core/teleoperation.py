@@ -21,9 +21,7 @@ from typing import Callable, Optional, Sequence, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.core.validation import InvalidCommandError, finite_vector, validate_quaternion
-
-ROTATION_TOLERANCE = 1e-6
+from teleteach.core.validation import InvalidCommandError, finite_vector, rotation_matrix, validate_quaternion
 
 
 class TeleopParametersError(ValueError):
@@ -89,15 +87,9 @@ class TeleopParameters:
                 f"{self.clutch_release_above} rad"
             )
         try:
-            matrix = np.array(self.operator_to_base, dtype=float)
-        except (TypeError, ValueError):
-            matrix = np.zeros(0)
-        if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
-            raise TeleopParametersError(
-                f"teleop/operator_to_base must be a 3x3 matrix (rows), got {self.operator_to_base!r}"
-            )
-        if not np.allclose(matrix @ matrix.T, np.eye(3), atol=ROTATION_TOLERANCE) or np.linalg.det(matrix) < 0.0:
-            raise TeleopParametersError(f"teleop/operator_to_base {self.operator_to_base!r} is not a rotation")
+            rotation_matrix(self.operator_to_base, "teleop/operator_to_base")
+        except InvalidCommandError as error:
+            raise TeleopParametersError(str(error)) from None
         low, high = (np.array(box, dtype=float) for box in (self.workspace_low, self.workspace_high))
         if low.shape != (3,) or high.shape != (3,) or not np.all(np.isfinite(low) & np.isfinite(high) & (low < high)):
             raise TeleopParametersError(

@@ -8,8 +8,10 @@ the last good one.
 import math
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 QUATERNION_NORM_TOLERANCE = 1e-3
+TYPED_ROTATION_TOLERANCE = 1e-3  # a rotation matrix typed with 4 decimals (0.7071) is this close to orthonormal
 
 
 class InvalidCommandError(ValueError):
@@ -49,6 +51,24 @@ def validate_eigenvalues(values, max_stiffness):
     if np.any(eigenvalues < 0.0):
         raise InvalidCommandError(f"negative stiffness: {eigenvalues.tolist()} N/m")
     return np.minimum(eigenvalues, max_stiffness)
+
+
+def rotation_matrix(values, what):
+    """A 3x3 rotation matrix (rows) as a person types it, made exactly orthonormal (the nearest rotation).
+
+    Within TYPED_ROTATION_TOLERANCE of orthonormal rows with determinant +1: typed to a few decimals, a rotation is
+    never exactly orthonormal. A mirror, a scaled or skewed matrix: InvalidCommandError.
+    """
+    try:
+        matrix = np.array(values, dtype=float)
+    except (TypeError, ValueError):
+        matrix = np.zeros(0)
+    if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+        raise InvalidCommandError(f"{what}: a 3x3 matrix of numbers (rows), got {values!r}")
+    off = np.abs(matrix @ matrix.T - np.eye(3)).max()
+    if off > TYPED_ROTATION_TOLERANCE or np.linalg.det(matrix) <= 0.0:
+        raise InvalidCommandError(f"{what}: {values!r} is not a rotation (orthonormal rows, determinant +1)")
+    return Rotation.from_matrix(matrix).as_matrix()
 
 
 def validate_quaternion(values, what="quaternion"):

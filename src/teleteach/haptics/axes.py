@@ -22,6 +22,7 @@ from typing import Sequence, Union
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from teleteach.core.validation import InvalidCommandError, rotation_matrix
 from teleteach.haptics.device import DeviceSample
 from teleteach.haptics.guidance import Wrench
 
@@ -29,7 +30,6 @@ CONVENTIONS = {
     "operator": np.eye(3),
     "force_dimension": np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
 }
-ROTATION_TOLERANCE = 1e-6
 
 
 class AxisMappingError(ValueError):
@@ -58,14 +58,9 @@ class AxisMapping:
                 )
             return cls(CONVENTIONS[value])
         try:
-            matrix = np.array(value, dtype=float)
-        except (TypeError, ValueError):
-            matrix = np.zeros(0)
-        if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
-            raise AxisMappingError(f"{name}: a convention name or a 3x3 matrix of numbers (rows), got {value!r}")
-        if not np.allclose(matrix @ matrix.T, np.eye(3), atol=ROTATION_TOLERANCE) or np.linalg.det(matrix) < 0.0:
-            raise AxisMappingError(f"{name}: {value!r} is not a rotation (orthonormal rows, determinant +1)")
-        return cls(matrix)
+            return cls(rotation_matrix(value, name))
+        except InvalidCommandError as error:
+            raise AxisMappingError(f"{error} (or a convention name: {', '.join(CONVENTIONS)})") from None
 
     def to_operator(self, sample: DeviceSample) -> DeviceSample:
         """The sample's position and orientation in the operator frame (gripper and button unchanged)."""
