@@ -151,6 +151,16 @@ def test_the_reference_acceleration_is_capped_per_part_and_zero_without_a_recent
     assert controller.reference_velocity_time == late
 
 
+def test_a_zero_acceleration_cap_the_validation_allows_turns_the_feed_forward_off_without_dividing_by_zero():
+    # Expect: max_reference_acceleration 0 (>= 0 is valid): no reference acceleration, a steady velocity included
+    controller = started(dataclasses.replace(PARAMS, max_reference_acceleration=0.0))
+    for time in (1.0, 1.0 + 1 / 128, 1.0 + 2 / 128):  # the same velocity again: zero acceleration, zero cap
+        controller.set_reference_velocity([0.1, 0.0, 0.0], [0.0, 0.0, 0.0], time=time)
+        assert list(controller.reference_acceleration) == [0.0] * 6
+    controller.set_reference_velocity([0.3, 0.0, 0.0], [0.0, 0.2, 0.0], time=1.0 + 3 / 128)
+    assert list(controller.reference_acceleration) == [0.0] * 6
+
+
 def test_the_torque_rate_is_limited_per_joint_from_the_model_torque_at_the_start():
     params = dataclasses.replace(PARAMS, max_torque_step=0.5)
     start = arm_state(seed=3)

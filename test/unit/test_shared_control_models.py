@@ -229,6 +229,10 @@ def test_synthetic_commands_add_the_noise_of_the_generator_given():
     times = np.arange(0, 0.5, 0.01)
     clean = synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times)
     assert synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times, noise=0.0) == pytest.approx(clean)
+    # no noise draws nothing from the caller's generator: its next numbers are still the caller's
+    generator = np.random.default_rng(4)
+    synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times, 0.0, generator)
+    assert generator.random() == np.random.default_rng(4).random()
     noisy = synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times, 0.5, np.random.default_rng(3))
     assert noisy == pytest.approx(clean + 0.5 * np.random.default_rng(3).standard_normal((len(times), 2)))
     unseeded = synthetic_commands("wave", (0.02, 10.0, 0.0), 0.3, 0.05, times, 0.5)

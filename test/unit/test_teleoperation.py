@@ -142,6 +142,21 @@ def test_the_equilibrium_moves_no_faster_than_the_speed_limit():
     assert command.reason == ""
 
 
+def test_a_paused_clock_moves_nothing_and_divides_by_nothing():
+    # Expect: two ticks at the same time (simulated time paused: dt = 0) hold the pose, the handle still or moved
+    operator = Operator()
+    operator.clutch()
+    held = operator.hold(0.2)
+    device = (operator.position, operator.orientation)
+    again = operator.teleop.update(operator.now, operator.gripper, device, 0.0, 0.5)
+    np.testing.assert_array_equal(again.pose, held.pose)
+    assert again.reason == ""
+    moved = (operator.position + [0.0, 0.005, 0.0], Rotation.from_euler("z", 0.1).as_quat())
+    again = operator.teleop.update(operator.now, operator.gripper, moved, 0.0, 0.5)
+    np.testing.assert_array_equal(again.pose, held.pose)
+    assert "speed limit" in again.reason and "angular speed limit" in again.reason
+
+
 def test_the_workspace_bounds_the_equilibrium_and_an_arm_outside_may_only_come_back():
     operator = Operator()
     operator.clutch()
@@ -178,6 +193,8 @@ def test_a_lost_device_holds_and_releases_the_clutch_until_the_gripper_opens():
     operator.clutch()
     operator.glide((0.0, 0.01, 0.0), 0.5)
     held = operator.hold(0.2).pose
+    command = operator.hold(DT, age=0.5)  # a pose exactly device_timeout old (0.5 s) still counts
+    assert command.clutch is Clutch.ENGAGED and command.reason == ""
     command = operator.hold(0.1, age=0.6, position=(0.0, 0.05, 0.0))
     assert command.clutch is Clutch.RELEASED and command.reason.startswith("device lost")
     np.testing.assert_allclose(command.pose, held)
