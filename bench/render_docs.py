@@ -273,6 +273,38 @@ def mutation(results: dict) -> list:
     return table(header, rows)
 
 
+def ray_workers(results: dict) -> list:
+    """Trials per minute with one and two Ray workers, in the order run, and the ratio of each pair."""
+    runs = results["ray_workers.json"]["runs"]
+    rows = [
+        [
+            run["workers"],
+            run["worker_niceness"],
+            run["beside"] or "other sessions' work only",
+            f"{run['load_start']:.1f} -> {run['load_end']:.1f}",
+            f"{run['wall_s']:.0f} s",
+            f"{run['trials_per_minute']:.1f}",
+        ]
+        for run in runs
+    ]
+    header = [
+        "workers",
+        "Ray's worker niceness",
+        "beside it",
+        "load average (1 min), start -> end",
+        "wall of the 16 trials, connecting included",
+        "trials per minute",
+    ]
+    pairs = [(runs[index], runs[index + 1]) for index in range(0, len(runs) - 1, 2)]
+    ratios = [
+        max(pair, key=lambda run: run["workers"])["trials_per_minute"]
+        / min(pair, key=lambda run: run["workers"])["trials_per_minute"]
+        for pair in pairs
+    ]
+    ratio_line = "2 : 1 worker, each pair of runs in turn: " + ", ".join(f"{ratio:.2f}x" for ratio in ratios)
+    return [*table(header, rows), "", ratio_line]
+
+
 def mutation_scores(results: dict) -> list:
     """The README's line: the modules with their score, the best first, those of equal score together."""
     by_score = {}
@@ -289,6 +321,7 @@ FIGURES = {
     "wiping_rate": Figure("wiping_rate", ("wiping_rate_realtime_0.json", "wiping_rate.json"), wiping_rate),
     "mutation": Figure("mutation", ("mutation.json",), mutation),
     "mutation_scores": Figure("mutation", ("mutation.json",), mutation_scores),
+    "ray_workers": Figure("ray_workers", ("ray_workers.json",), ray_workers),
 }
 
 
@@ -344,7 +377,8 @@ def measured_results(measures=None) -> list:
                 paths = (f"src/teleteach/{module}", *entry["tests"])
                 found.append(Measured(f"{name}: {module}", entry.get("provenance", {}), paths))
             continue
-        paths = (f"bench/{bench}.py", *measures[bench])
+        script = f"bench/{bench}.py"
+        paths = (*([script] if (ROOT / script).exists() else []), *measures[bench])
         found.append(Measured(name, record.get("provenance", {}), paths))
     return found
 
