@@ -21,7 +21,8 @@ import sys
 from typing import Callable
 
 import yaml
-from scipy.spatial.transform import Rotation
+
+from teleteach.core.rotations import rpy_rotation
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "bench" / "results"
@@ -150,7 +151,7 @@ def wiping_shared_control(results: dict) -> list:
 def pose_change(taught: dict, pose: dict) -> str:
     """How far a board pose is from the taught one: its centre's move and its rotation."""
     moved = math.dist(taught["center"], pose["center"])
-    turned = Rotation.from_euler("xyz", taught["rpy"]).inv() * Rotation.from_euler("xyz", pose["rpy"])
+    turned = rpy_rotation(taught["rpy"]).inv() * rpy_rotation(pose["rpy"])
     return f"{100 * moved:.0f} cm, {math.degrees(turned.magnitude()):.1f} deg"
 
 

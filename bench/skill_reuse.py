@@ -31,7 +31,16 @@ from matplotlib.figure import Figure
 
 from teleteach.core import skill_file
 from teleteach.core.scene import load_scene
-from teleteach.run.trials import TrialJob, TrialSetup, add_engine_arguments, run_trials, summarise, trial_store
+from teleteach.run.trials import (
+    TrialJob,
+    TrialSetup,
+    add_engine_arguments,
+    placement_provenance,
+    run_trials,
+    summarise,
+    trial_store,
+)
+from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 
 BENCH = pathlib.Path(__file__).resolve().parent
 SKILL_FILE = BENCH / "data" / "DemonstratedPlace_1.npz"
@@ -79,6 +88,7 @@ def main():
     parser.add_argument("--skill", type=pathlib.Path, default=SKILL_FILE, help="the taught skill (in gap_1's frame)")
     options = parser.parse_args()
     started = time.perf_counter()
+    origin = placement_provenance(DEFAULT_UNCERTAINTY_FILE, options.skill)
     scene = load_scene()
     skill = skill_file.load(options.skill)
     if skill.frame != skill_file.TARGET_FRAME:
@@ -110,6 +120,7 @@ def main():
             "total_wall_s": wall,
         },
         "trials": trials,
+        "provenance": {**origin, "wall_s": round(wall, 1)},
     }
     print(f"\nskill taught at {TAUGHT_AT[0]}; seeds {seeds[0]}-{seeds[-1]}")
     print(

@@ -57,7 +57,15 @@ from teleteach.run.ablation import (
     sweep_name,
     vertical_name,
 )
-from teleteach.run.trials import TrialJob, TrialSetup, add_engine_arguments, run_trials, summarise, trial_store
+from teleteach.run.trials import (
+    TrialJob,
+    TrialSetup,
+    add_engine_arguments,
+    placement_provenance,
+    run_trials,
+    summarise,
+    trial_store,
+)
 from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 
 BENCH = pathlib.Path(__file__).resolve().parent
@@ -250,7 +258,7 @@ def main():
     for value in (*options.sweep, *options.vertical):
         if not 0.0 < value <= HIGH_STIFFNESS:
             parser.error(f"a stiffness must lie in (0, {HIGH_STIFFNESS:g}] N/m (the controller's range), got {value:g}")
-    started = time.perf_counter()
+    started, origin = time.perf_counter(), placement_provenance(options.uncertainty, options.skill)
     scene = load_scene()
     taught = skill_file.load(options.skill)
     if taught.frame != skill_file.TARGET_FRAME:
@@ -294,6 +302,7 @@ def main():
             "total_wall_s": wall,
         },
         "trials": trials,
+        "provenance": {**origin, "wall_s": round(wall, 1)},
     }
     results["goals"] = goals(results)
     results["across_contrast"] = across_contrast(trials, options.sweep)

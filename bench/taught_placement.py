@@ -30,10 +30,19 @@ import time
 
 from teleteach.core import skill_file
 from teleteach.core.gui_config import GuiConfig
+from teleteach.core.paths import config_file
 from teleteach.core.scene import load_scene
 from teleteach.run.teleop_trials import OperatorModel, run_teleop_trial
-from teleteach.run.trials import TrialJob, TrialSetup, add_engine_arguments, run_trials, summarise, trial_store
-from teleteach.sim.uncertainty import load_uncertainty
+from teleteach.run.trials import (
+    TrialJob,
+    TrialSetup,
+    add_engine_arguments,
+    placement_provenance,
+    run_trials,
+    summarise,
+    trial_store,
+)
+from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE, load_uncertainty
 from teleteach.skills.config import load_motion_config
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "taught_placement.json"
@@ -68,6 +77,8 @@ def main():
     parser.add_argument("--skill", type=pathlib.Path, help="reuse this taught skill file instead of teaching one here")
     options = parser.parse_args()
     started = time.perf_counter()
+    read = (DEFAULT_UNCERTAINTY_FILE, config_file("gui.yaml"), *([options.skill] if options.skill else []))
+    origin = placement_provenance(*read)
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
     if options.skill:
         skill_path, results_path = options.skill.resolve(), RESULTS.with_name("taught_placement_from_file.json")
@@ -117,6 +128,7 @@ def main():
             "total_wall_s": time.perf_counter() - started,
         },
         "trials": trials,
+        "provenance": {**origin, "wall_s": round(time.perf_counter() - started, 1)},
     }
     print(f"\n{'gap':6s} {'clearance':>9s} {'success':>17s} {'median peak force':>26s}")
     for gap, row in results["gaps"].items():

@@ -32,9 +32,11 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from teleteach.core.gui_config import GuiConfig
+from teleteach.core.paths import config_file
 from teleteach.core.scene import load_scene
 from teleteach.run.teleop_trials import OperatorModel, TeleopJob, summarise_forces
-from teleteach.run.trials import TrialSetup, add_engine_arguments, run_trials, trial_store
+from teleteach.run.trials import TrialSetup, add_engine_arguments, placement_provenance, run_trials, trial_store
+from teleteach.sim.uncertainty import DEFAULT_UNCERTAINTY_FILE
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results" / "teleop_assistance.json"
 PRODUCT = "product_pick_1"
@@ -96,6 +98,7 @@ def main():
     parser.add_argument("--output", type=pathlib.Path, default=RESULTS, help=f"results file ({RESULTS})")
     options = parser.parse_args()
     started = time.perf_counter()
+    origin = placement_provenance(options.uncertainty or DEFAULT_UNCERTAINTY_FILE, config_file("gui.yaml"))
     scene, gui = load_scene(), GuiConfig.load()
     model = OperatorModel()
     seeds = list(range(SEEDS, SEEDS + options.trials))
@@ -150,6 +153,7 @@ def main():
     overall = np.mean(all_on) / np.mean(all_off) if np.mean(all_off) > 0 else float("nan")
     overall_interval = paired_ratio_interval(all_off, all_on)
     results["overall"] = {"ratio_of_means": overall, "ratio_interval": list(overall_interval)}
+    results["provenance"] = {**origin, "wall_s": round(wall, 1)}
     results["settings"] = {
         "trials": options.trials,
         "seeds": seeds,

@@ -50,3 +50,15 @@ def test_a_stored_result_rewritten_by_an_earlier_bench_does_not_make_the_next_on
     assert module.provenance([])["dirty"] is False
     (status,) = [arguments for arguments in asked if arguments[0] == "status"]
     assert status[-2:] == (".", ":(exclude)bench/results")  # the code and the settings still count
+
+
+def test_a_placement_bench_names_the_configuration_every_trial_reads_and_its_own_files(tmp_path):
+    from teleteach.run.trials import placement_provenance
+
+    skill = tmp_path / "TaughtPlace.npz"
+    skill.write_bytes(b"a taught skill")
+    record = placement_provenance(config_file("uncertainty.yaml"), skill)
+    assert sorted(record["config_sha256"]) == sorted(
+        ["supermarket.yaml", "skills_motion.yaml", "controllers.yaml", "uncertainty.yaml", "TaughtPlace.npz"]
+    )
+    assert record["config_sha256"]["TaughtPlace.npz"] == hashlib.sha256(b"a taught skill").hexdigest()

@@ -25,9 +25,11 @@ from scipy.spatial.transform import Rotation
 
 from teleteach.control import panda
 from teleteach.core import placement
+from teleteach.core.paths import config_file
 from teleteach.core.rotations import yaw_rotation
 from teleteach.core.scene import Scene
 from teleteach.run.engine import run_jobs
+from teleteach.run.provenance import provenance
 from teleteach.run.sim_robot import SimRobot
 from teleteach.sim.robot_sim import TRAJECTORY, RobotSim
 from teleteach.sim.uncertainty import UncertaintySettings
@@ -38,6 +40,7 @@ from teleteach.skills.runner import REPLAY_SKILL, SkillRunner
 SETTLE_TIME = 0.5  # [s] the squeezed product settles in the fingers before the skill starts
 SCENE_RADIUS = 0.3  # [m] products farther than this from the gap's target are left out of a trial's scene
 FORCE_WINDOW = 20  # [steps] contact forces are averaged over this many 1 ms steps (a 50 Hz force sensor)
+PLACEMENT_CONFIG = ("supermarket.yaml", "skills_motion.yaml", "controllers.yaml")  # what every placement trial reads
 
 
 class ContactRecordingSim(RobotSim):
@@ -338,6 +341,14 @@ def add_engine_arguments(parser, processes: int = 2) -> None:
     parser.add_argument(
         "--fresh", action="store_true", help="run every trial, not continuing with those an interrupted run stored"
     )
+
+
+def placement_provenance(*files) -> dict:
+    """A placement bench's provenance: the configuration every trial reads (scene, motion, controllers) and ``files``.
+
+    ``files``: what else the trials read, such as the uncertainty file or a skill file (teleteach.run.provenance).
+    """
+    return provenance([*(config_file(name) for name in PLACEMENT_CONFIG), *files])
 
 
 def trial_store(results: pathlib.Path, arguments) -> pathlib.Path:
