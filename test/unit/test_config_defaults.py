@@ -1,6 +1,8 @@
-"""Defaults live in the yaml files: a parameter dataclass has no code default for a value its yaml sets, so that
-reading the code never misleads about what runs; a missing value is named in one line."""
+"""Defaults live in the yaml files: a parameter dataclass has no code default for a value its yaml sets, nor does any
+function or field of the library default to a yaml's value, so that reading the code never misleads about what runs;
+a value several nodes need is written once (config/shared/); a missing value is named in one line."""
 
+import ast
 import dataclasses
 import xml.etree.ElementTree as ElementTree
 
@@ -12,6 +14,7 @@ from teleteach.bt.ros import BehaviourTreeConfig
 from teleteach.control.franka_stiffness import StiffnessBridgeConfig
 from teleteach.control.impedance import ImpedanceParams
 from teleteach.core.gui_config import GuiConfig, GuiConfigError
+from teleteach.core.paths import SharedValueError, config_values, with_shared
 from teleteach.haptics.click import ClickParameters
 from teleteach.haptics.guidance import GuidanceLimits
 from teleteach.haptics.hand import HandParameters
@@ -30,10 +33,7 @@ from teleteach.viz.ellipsoid import EllipsoidMarkerConfig, EllipsoidScale
 
 
 def config(name, *section):
-    data = yaml.safe_load((ROOT / "config" / name).read_text())
-    for key in section:
-        data = data[key]
-    return data
+    return config_values(name, *section)
 
 
 def comparable(value):
@@ -265,3 +265,87 @@ def test_the_learning_parameters_are_their_yaml_and_make_the_dmps():
     )
     with pytest.raises(ValueError, match=r"^learn_skill's parameters \(config/learning.yaml\): unknown x$"):
         LearningParameters.from_yaml(x=1.0)
+
+
+def yaml_numbers():
+    """{key: the numbers some config/*.yaml gives it (shared sections included)}, nested keys by their own name."""
+    found = {}
+
+    def collect(values):
+        for key, value in values.items():
+            if isinstance(value, dict):
+                collect(value)
+            elif isinstance(value, (int, float)) and not isinstance(value, bool):
+                found.setdefault(key, set()).add(float(value))
+
+    for path in sorted((ROOT / "config").glob("*.yaml")):
+        collect(config(path.name))
+    return found
+
+
+def number_defaults(tree):
+    """(line, name, value) of each argument or class field of ``tree`` that defaults to a number."""
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            arguments = node.args.posonlyargs + node.args.args
+            named = list(zip(arguments[len(arguments) - len(node.args.defaults) :], node.args.defaults))
+            named += [(arg, default) for arg, default in zip(node.args.kwonlyargs, node.args.kw_defaults) if default]
+            pairs = [(arg.arg, default) for arg, default in named]
+        elif isinstance(node, ast.ClassDef):
+            pairs = [
+                (statement.target.id, statement.value)
+                for statement in node.body
+                if isinstance(statement, ast.AnnAssign) and isinstance(statement.target, ast.Name) and statement.value
+            ]
+        else:
+            continue
+        for name, default in pairs:
+            value = getattr(default, "value", None)
+            if isinstance(default, ast.Constant) and isinstance(value, (int, float)) and not isinstance(value, bool):
+                yield default.lineno, name, float(value)
+
+
+def test_no_code_default_in_the_library_repeats_a_yaml_value():
+    # Expect no argument or field anywhere in the library to default to the number a yaml gives the key of its name
+    # (rotational_stiffness = 30.0 stood in three places beside the yaml): the caller passes the yaml's value. Zero
+    # is left out: it says "none" (no offset, no seed) more often than it copies a value.
+    numbers = yaml_numbers()
+    copies = [
+        f"{path.relative_to(ROOT)}:{line} {name} = {value:g}"
+        for path in sorted((ROOT / "src" / "teleteach").rglob("*.py"))
+        for line, name, value in number_defaults(ast.parse(path.read_text()))
+        if value != 0.0 and value in numbers.get(name, ())
+    ]
+    assert copies == []
+
+
+def test_the_check_for_copied_defaults_sees_arguments_and_fields():
+    tree = ast.parse("def f(a, rate=1.0, *, seed=0, gain=2):\n    pass\nclass C:\n    width: float = 0.5\n")
+    assert [(name, value) for _, name, value in number_defaults(tree)] == [
+        ("rate", 1.0),
+        ("seed", 0.0),
+        ("gain", 2.0),
+        ("width", 0.5),
+    ]
+
+
+def test_a_value_two_nodes_need_is_written_once():
+    # Expect the GUI, the simulated impedance controller and the real robot's bridge to read max_stiffness and
+    # rotational_stiffness from config/shared/stiffness.yaml alone, through the one reader of the yaml files
+    shared = yaml.safe_load((ROOT / "config" / "shared" / "stiffness.yaml").read_text())
+    assert set(shared) == {"max_stiffness", "rotational_stiffness"}
+    readers = [("gui.yaml",), ("controllers.yaml", "cartesian_impedance_controller"), ("stiffness_bridge.yaml",)]
+    for where in readers:
+        raw = yaml.safe_load((ROOT / "config" / where[0]).read_text())
+        for key in where[1:]:
+            raw = raw[key]
+        assert not set(shared) & set(raw), where
+        assert {key: config(*where)[key] for key in shared} == shared, where
+    assert (
+        GuiConfig.load().max_stiffness
+        == StiffnessBridgeConfig.from_mapping(config("stiffness_bridge.yaml")).max_stiffness
+    )
+    with pytest.raises(SharedValueError, match=r"^here/section: max_stiffness written again"):
+        with_shared({"section": {"shared": ["stiffness"], "max_stiffness": 4000.0}}, "here")
+    with pytest.raises(SharedValueError, match=r"^here: no shared section 'stiff'"):
+        with_shared({"shared": ["stiff"]}, "here")

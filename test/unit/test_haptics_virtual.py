@@ -32,7 +32,7 @@ def application():
 @pytest.fixture
 def window(application):
     clock = Clock()
-    widget = VirtualDeviceWindow(VirtualDevice(click_duration=0.2, clock=clock))
+    widget = VirtualDeviceWindow(VirtualDevice(click_duration=0.2, double_click_gap=0.1, clock=clock))
     widget.clock = clock
     widget.show()
     QTest.qWaitForWindowExposed(widget)

@@ -40,7 +40,7 @@ from teleteach.msg import (
 from teleteach.msg import (
     SkillLibrary as SkillLibraryMsg,
 )
-from teleteach.runtime.node import node_parameters
+from teleteach.runtime.node import node_parameters, server_value
 from teleteach.runtime.ros_actions import server_ready
 from teleteach.srv import AddSkill, AddSkillResponse, ChangeTree, ChangeTreeResponse
 
@@ -344,7 +344,7 @@ class BehaviourTreeNode:
         data_root = datadir.data_dir(config.data_dir)
         # a tree in a namespace (one of two robots on a master) keeps its own files: trees/<namespace>/
         store = TreeStore(data_root / "trees" / rospy.get_namespace().strip("/"))
-        restarted = rospy.get_param(RUNNING_PARAM, False)
+        restarted = server_value(RUNNING_PARAM, False)
         if restarted:
             rospy.logwarn("behaviour_tree: the previous behaviour_tree died without stopping: resuming what it saved")
         rospy.set_param(RUNNING_PARAM, True)

@@ -5,15 +5,63 @@ import math
 import pathlib
 from typing import Any, Dict, Mapping, Tuple
 
-import yaml
-
 from teleteach.core import parameters
-from teleteach.core.paths import config_file
+from teleteach.core.paths import config_values
 from teleteach.core.robot_controllers import ControllerNames, ControllerNamesError, controller_names
 from teleteach.core.teleoperation import TeleopParameters, TeleopParametersError
 
 DEVICE_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
-CONFIG_DIR = config_file()
+
+
+POSITIVE = (
+    "device_range",
+    "device_angle_range",
+    "reject_position_beyond",
+    "reject_angle_beyond",
+    "stiffness_per_pixel",
+    "max_stiffness",
+    "min_stiffness",
+    "double_click_window",
+    "gripper_open_threshold",
+    "publish_rate",
+    "device_ui_rate",
+    "repaint_rate",
+    "player_rate",
+    "service_timeout",
+    "device_timeout",
+    "health_rate",
+    "rotation_gain",
+    "edit_push",
+    "page_turn",
+    "guidance_max_force",
+    "guidance_max_torque",
+    "guidance_refresh",
+    "study_start_radius",
+    "guidance_mode_angle_width",
+    "takeover_tolerance",
+    "takeover_angle",
+    "start_neutral_zone",
+    "arm_rest_speed",
+    "arm_free_timeout",
+    "taught_path_approach",
+)
+"""The GUI parameters that must be numbers > 0."""
+NON_NEGATIVE = (
+    "deadband_position",
+    "deadband_angle",
+    "rotational_stiffness",
+    "gripper_rearm_below",
+    "guidance_detent_stiffness",
+    "guidance_hold_stiffness",
+    "guidance_angle_detent_stiffness",
+    "guidance_angle_hold_stiffness",
+    "guidance_damping",
+    "guidance_angular_damping",
+    "guidance_mode_angle_stiffness",
+    "guidance_click_stiffness",
+    "guidance_angle_click_stiffness",
+)
+"""The GUI parameters that must be numbers >= 0."""
 
 
 class GuiConfigError(ValueError):
@@ -57,6 +105,7 @@ class GuiConfig:
     trajectory: str
     skill_prefix: str
     initial_tab: int
+    data_dir: str
     shared_control_stiffness: Tuple[float, float, float]
     shared_skill_prefix: str
     shared_trail_length: int
@@ -84,61 +133,23 @@ class GuiConfig:
     path_prefix: str
 
     def __post_init__(self):
-        positive = (
-            "device_range",
-            "device_angle_range",
-            "reject_position_beyond",
-            "reject_angle_beyond",
-            "stiffness_per_pixel",
-            "max_stiffness",
-            "min_stiffness",
-            "double_click_window",
-            "gripper_open_threshold",
-            "publish_rate",
-            "device_ui_rate",
-            "repaint_rate",
-            "player_rate",
-            "service_timeout",
-            "device_timeout",
-            "health_rate",
-            "rotation_gain",
-            "edit_push",
-            "page_turn",
-            "guidance_max_force",
-            "guidance_max_torque",
-            "guidance_refresh",
-            "study_start_radius",
-            "guidance_mode_angle_width",
-            "takeover_tolerance",
-            "takeover_angle",
-            "start_neutral_zone",
-            "arm_rest_speed",
-            "arm_free_timeout",
-            "taught_path_approach",
-        )
-        for name in positive:
+        self._check_numbers()
+        self._check_orderings()
+        self._check_choices()
+
+    def _check_numbers(self) -> None:
+        """Each of POSITIVE > 0, each of NON_NEGATIVE >= 0, all finite."""
+        for name in POSITIVE:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise GuiConfigError(f"GUI parameter {name} must be a positive number, got {value!r}")
-        non_negative = (
-            "deadband_position",
-            "deadband_angle",
-            "rotational_stiffness",
-            "gripper_rearm_below",
-            "guidance_detent_stiffness",
-            "guidance_hold_stiffness",
-            "guidance_angle_detent_stiffness",
-            "guidance_angle_hold_stiffness",
-            "guidance_damping",
-            "guidance_angular_damping",
-            "guidance_mode_angle_stiffness",
-            "guidance_click_stiffness",
-            "guidance_angle_click_stiffness",
-        )
-        for name in non_negative:
+        for name in NON_NEGATIVE:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise GuiConfigError(f"GUI parameter {name} must be a number >= 0, got {value!r}")
+
+    def _check_orderings(self) -> None:
+        """Values that must lie below (or between) others: stiffness limits, hysteresis, zones within the range."""
         if not self.min_stiffness < self.max_stiffness:
             raise GuiConfigError(f"min_stiffness {self.min_stiffness} must be below max_stiffness {self.max_stiffness}")
         if not self.min_stiffness <= self.initial_stiffness <= self.max_stiffness:
@@ -147,6 +158,19 @@ class GuiConfig:
             )
         if not self.gripper_rearm_below < self.gripper_open_threshold:
             raise GuiConfigError("gripper_rearm_below must be below gripper_open_threshold (hysteresis)")
+        if not self.start_neutral_zone < self.device_range:
+            raise GuiConfigError(
+                f"start_neutral_zone {self.start_neutral_zone} must be below device_range {self.device_range}"
+            )
+        if not self.edit_push < self.device_range:
+            raise GuiConfigError(f"edit_push {self.edit_push} must be below device_range {self.device_range}")
+        if not self.page_turn < self.device_angle_range:
+            raise GuiConfigError(
+                f"page_turn {self.page_turn} must be below device_angle_range ({self.device_angle_range})"
+            )
+
+    def _check_choices(self) -> None:
+        """Names, lists and choices: locked axes, the first tab, prefixes, the dials' values, the controllers."""
         unknown = [axis for axis in self.locked_axes if axis not in DEVICE_AXES]
         if unknown:
             raise GuiConfigError(f"locked_axes {unknown} unknown; allowed: {', '.join(DEVICE_AXES)}")
@@ -158,28 +182,15 @@ class GuiConfig:
         for name in ("skill_prefix", "shared_skill_prefix", "path_prefix"):
             if not getattr(self, name).isidentifier():
                 raise GuiConfigError(f"{name} {getattr(self, name)!r} must be an identifier")
-        stiffness = self.shared_control_stiffness
-        if len(stiffness) != 3 or not all(
-            isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in stiffness
-        ):
-            raise GuiConfigError(f"shared_control_stiffness must be 3 positive numbers [N/m], got {stiffness!r}")
-        if not self.start_neutral_zone < self.device_range:
+        if len(self.shared_control_stiffness) != 3 or not _positive_numbers(self.shared_control_stiffness):
             raise GuiConfigError(
-                f"start_neutral_zone {self.start_neutral_zone} must be below device_range {self.device_range}"
-            )
-        if not self.edit_push < self.device_range:
-            raise GuiConfigError(f"edit_push {self.edit_push} must be below device_range {self.device_range}")
-        if not self.page_turn < self.device_angle_range:
-            raise GuiConfigError(
-                f"page_turn {self.page_turn} must be below device_angle_range ({self.device_angle_range})"
+                f"shared_control_stiffness must be 3 positive numbers [N/m], got {self.shared_control_stiffness!r}"
             )
         if not self.retry_attempts or not all(
             isinstance(value, int) and not isinstance(value, bool) and value >= 1 for value in self.retry_attempts
         ):
             raise GuiConfigError(f"retry_attempts must be whole numbers >= 1, got {self.retry_attempts!r}")
-        if not self.timeout_seconds or not all(
-            isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in self.timeout_seconds
-        ):
+        if not self.timeout_seconds or not _positive_numbers(self.timeout_seconds):
             raise GuiConfigError(f"timeout_seconds must be positive numbers [s], got {self.timeout_seconds!r}")
         try:
             self.controller_names  # noqa: B018 - an unknown section is refused before any window opens
@@ -217,8 +228,7 @@ class GuiConfig:
         A section's override (``teleop``) changes the keys it names and keeps the others, as the parameter server
         merges a launch's value into the yaml.
         """
-        path = pathlib.Path(path) if path else CONFIG_DIR / "gui.yaml"
-        values: Dict[str, Any] = yaml.safe_load(path.read_text()) or {}
+        values = config_values(pathlib.Path(path) if path else "gui.yaml")
         return cls.from_mapping(_merged(values, overrides))
 
 
@@ -229,3 +239,7 @@ def _merged(base: Mapping[str, Any], overrides: Mapping[str, Any]) -> Dict[str, 
         both = isinstance(value, Mapping) and isinstance(merged.get(key), Mapping)
         merged[key] = _merged(merged[key], value) if both else value
     return merged
+
+
+def _positive_numbers(values) -> bool:
+    return all(isinstance(value, (int, float)) and math.isfinite(value) and value > 0 for value in values)

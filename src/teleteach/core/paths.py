@@ -35,11 +35,43 @@ def config_file(*parts: str) -> pathlib.Path:
     return share_dir().joinpath("config", *parts)
 
 
-def config_values(name: str, *section: str) -> typing.Dict[str, typing.Any]:
-    """The values of config/<name> (the one place of a node's values), or of its nested ``section``."""
+SHARED = "shared"
+"""A yaml's key (at any level) naming the sections of config/shared/ whose keys it has: ``shared: [stiffness]``."""
+
+
+class SharedValueError(ValueError):
+    """A yaml names a shared section that does not exist, or repeats one of its keys."""
+
+
+def config_values(name: typing.Union[str, pathlib.Path], *section: str) -> typing.Dict[str, typing.Any]:
+    """The values of config/<name> (or of the yaml at a path), or of its nested ``section``: the one way to read them.
+
+    A mapping that says ``shared: [<section>, ...]`` gets the keys of config/shared/<section>.yaml, a value several
+    nodes need written once; a mapping that gives one of them itself is refused (a second place of the value).
+    """
     import yaml
 
-    values = yaml.safe_load(config_file(name).read_text()) or {}
+    path = name if isinstance(name, pathlib.Path) else config_file(name)
+    values = with_shared(yaml.safe_load(path.read_text()) or {}, str(name))
     for key in section:
         values = values[key]
     return dict(values)
+
+
+def with_shared(values: typing.Any, where: str) -> typing.Any:
+    """``values`` with each ``shared`` key replaced by the keys of the sections it names (nested mappings too)."""
+    import yaml
+
+    if not isinstance(values, dict):
+        return values
+    resolved = {key: with_shared(value, f"{where}/{key}") for key, value in values.items() if key != SHARED}
+    for section in values.get(SHARED) or ():
+        path = config_file(SHARED, f"{section}.yaml")
+        if not path.is_file():
+            raise SharedValueError(f"{where}: no shared section {section!r} (config/{SHARED}/{section}.yaml)")
+        shared = yaml.safe_load(path.read_text()) or {}
+        repeated = sorted(set(shared) & set(resolved))
+        if repeated:
+            raise SharedValueError(f"{where}: {', '.join(repeated)} written again (config/{SHARED}/{section}.yaml)")
+        resolved.update(shared)
+    return resolved

@@ -29,6 +29,7 @@ import numpy as np
 
 from teleteach.core.datadir import atomic_write_bytes
 from teleteach.core.frames import Transform
+from teleteach.core.paths import config_values
 
 KINDS = ("stiffness", "shared_control", "dmp")
 BASE_FRAME = "base_link"
@@ -56,6 +57,11 @@ class Target:
         return Transform.from_pose(self.pose_in_base)
 
 
+def shared_rotational_stiffness() -> float:
+    """K_R [Nm/rad] the nodes share (config/shared/stiffness.yaml): a skill's when it was given none."""
+    return float(config_values("shared/stiffness.yaml")["rotational_stiffness"])
+
+
 @dataclasses.dataclass
 class Skill:
     """A demonstrated (or learned) skill: stiffness and poses over time."""
@@ -66,7 +72,7 @@ class Skill:
     stiffness: np.ndarray
     equilibrium_pose: np.ndarray
     cartesian_pose: np.ndarray
-    rotational_stiffness: float = 30.0
+    rotational_stiffness: float = dataclasses.field(default_factory=shared_rotational_stiffness)
     provenance: Dict[str, Any] = dataclasses.field(default_factory=dict)
     frame: str = BASE_FRAME
     target: Optional[Target] = None
@@ -220,7 +226,7 @@ def load(path: Union[str, pathlib.Path]) -> Skill:
     if missing:
         raise SkillFileError(f"skill file {path} lacks {', '.join(sorted(missing))}")
     try:
-        target = meta.get("target")
+        target, rotational = meta.get("target"), meta.get("rotational_stiffness")
         return Skill(
             name=meta["name"],
             kind=meta["kind"],
@@ -228,7 +234,7 @@ def load(path: Union[str, pathlib.Path]) -> Skill:
             stiffness=arrays["stiffness"],
             equilibrium_pose=arrays["equilibrium_pose"],
             cartesian_pose=arrays["cartesian_pose"],
-            rotational_stiffness=float(meta.get("rotational_stiffness", 30.0)),
+            rotational_stiffness=shared_rotational_stiffness() if rotational is None else float(rotational),
             provenance=meta.get("provenance", {}),
             frame=meta.get("frame", BASE_FRAME),
             target=_target(target),

@@ -23,7 +23,7 @@ class TwistEstimator:
     1 kHz differences of an encoder-based position carry.
     """
 
-    def __init__(self, cutoff_frequency: float = 20.0):
+    def __init__(self, cutoff_frequency: float):
         if not (math.isfinite(cutoff_frequency) and cutoff_frequency > 0.0):
             raise ValueError(f"twist cutoff frequency must be a positive number of Hz, got {cutoff_frequency}")
         self._time_constant = 1.0 / (2.0 * math.pi * cutoff_frequency)

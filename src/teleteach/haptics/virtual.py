@@ -46,8 +46,8 @@ class VirtualDevice(DeviceBackend):
 
     def __init__(
         self,
-        click_duration: float = 0.2,
-        double_click_gap: float = 0.1,
+        click_duration: float,
+        double_click_gap: float,
         clock: Callable[[], float] = wall_time.monotonic,
     ) -> None:
         self._lock = threading.Lock()

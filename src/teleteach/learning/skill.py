@@ -128,7 +128,7 @@ class LearnedSkill:
     poses: Dict[str, PoseDMP]
     demonstration: Demonstration
     parameters: LearningParameters
-    rotational_stiffness: float = 30.0
+    rotational_stiffness: float = dataclasses.field(default_factory=skill_file.shared_rotational_stiffness)
     learning_time: float = 0.0
     learning_cpu_time: float = 0.0
     source: Dict[str, Any] = dataclasses.field(default_factory=dict)
@@ -215,15 +215,19 @@ def learn(
     poses: Dict[str, Tuple[np.ndarray, np.ndarray]],
     name: str,
     parameters: Optional[LearningParameters] = None,
-    rotational_stiffness: float = 30.0,
+    rotational_stiffness: Optional[float] = None,
     source: Optional[Dict[str, Any]] = None,
 ) -> LearnedSkill:
     """Preprocess the streams (:func:`teleteach.learning.preprocess.prepare`) and learn every DMP.
 
     Raises:
         LearningError: naming the stream and the problem (too few samples, non-SPD, non-monotonic times, ...).
+
+    ``rotational_stiffness`` [Nm/rad] is the skill's K_R (None: the one the nodes share, config/shared/stiffness.yaml).
     """
     parameters = parameters or LearningParameters.from_yaml()
+    if rotational_stiffness is None:
+        rotational_stiffness = skill_file.shared_rotational_stiffness()
     started, started_cpu = clock.perf_counter(), clock.process_time()
     demonstration = prepare(
         stiffness_times,

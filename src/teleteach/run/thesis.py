@@ -35,6 +35,7 @@ from teleteach.run import outcome
 from teleteach.run.outcome import RunSummary
 from teleteach.run.pictures import background_colour, rviz_picture
 from teleteach.runtime.experiment import Experiment
+from teleteach.runtime.node import server_value
 from teleteach.runtime.processes import (
     ProcessError,
     closed_bag,
@@ -333,12 +334,12 @@ class ThesisRun:
                 return self._ended_early()
             try:
                 if start is None and rospy.has_param("sigma7_node/scenario_start"):
-                    start = float(rospy.get_param("sigma7_node/scenario_start"))
+                    start = float(server_value("sigma7_node/scenario_start"))
                     self.say(
                         f"run_thesis: scenario started at simulated t = {start:.2f} s ({duration:.0f} s without waits)"
                     )
                 now = rospy.get_time()
-                if played_at is None and rospy.get_param("sigma7_node/scenario_played", False):
+                if played_at is None and server_value("sigma7_node/scenario_played", False):
                     played_at = now  # the device node says so: with waits, the end is not start + duration
             except OSError as error:  # the master is roslaunch's: it goes first when a required node ends the launch
                 try:

@@ -73,10 +73,7 @@ def parameters_help(parameters_file: str = "", parameters: typing.Sequence[Param
     entries = list(parameters)
     source = ""
     if parameters_file:
-        from teleteach.core.paths import config_file
-
-        path = config_file(parameters_file)
-        entries += yaml_parameters(path.read_text())
+        entries += file_parameters(parameters_file)
         source = f"; defaults from config/{parameters_file}"
     if not entries:
         return "parameters: none"
@@ -84,6 +81,23 @@ def parameters_help(parameters_file: str = "", parameters: typing.Sequence[Param
     for entry in entries:
         lines.append(f"  ~{entry.name} (default {entry.default}): {entry.meaning}".rstrip(": "))
     return "\n".join(lines)
+
+
+def file_parameters(name: str) -> typing.List[Parameter]:
+    """The parameters of ``config/<name>``, its ``shared: [section]`` replaced by ``config/shared/<section>.yaml``'s."""
+    import yaml
+
+    from teleteach.core.paths import SHARED, config_file
+
+    text = config_file(name).read_text()
+    found = []
+    for entry in yaml_parameters(text):
+        if entry.name != SHARED:
+            found.append(entry)
+            continue
+        for section in yaml.safe_load(text)[SHARED]:
+            found += yaml_parameters(config_file(SHARED, f"{section}.yaml").read_text())
+    return found
 
 
 _KEY = re.compile(r"^(?P<indent>\s*)(?P<key>[A-Za-z_][\w]*):(?P<value>[^#]*?)\s*(#\s?(?P<comment>.*))?$")
@@ -164,16 +178,28 @@ def node_parameters(
     mapping is overridden key by key (``~plane/origin`` alone keeps the yaml's ``plane/normal``).
     ``get_param(name, default)`` is ``rospy.get_param`` unless given.
     """
-    import yaml
-
-    from teleteach.core.paths import config_file
+    from teleteach.core.paths import config_values
 
     if get_param is None:
         import rospy
 
         get_param = rospy.get_param
-    defaults = yaml.safe_load(config_file(defaults_file).read_text()) or {}
+    defaults = config_values(defaults_file)
     return {name: merged(value, get_param(f"~{name}", value)) for name, value in defaults.items()}
+
+
+_NO_DEFAULT = object()
+
+
+def server_value(name: str, default: typing.Any = _NO_DEFAULT) -> typing.Any:
+    """A value another process leaves on the parameter server (a flag, what a launch chose), ``default`` if none.
+
+    Not a parameter of the node's own: those come through :func:`node_parameters`. Without ``default`` a name not on
+    the server raises KeyError.
+    """
+    import rospy
+
+    return rospy.get_param(name) if default is _NO_DEFAULT else rospy.get_param(name, default)
 
 
 def merged(default: typing.Any, override: typing.Any) -> typing.Any:

@@ -180,7 +180,7 @@ class SkillEstimation:
         layout: ParameterLayout,
         n_window: int,
         dt: float,
-        speed_scale: float = 0.1,
+        speed_scale: float,
         solver: str = "fast",
         max_iter: int = 15,
         cache_dir: Optional[str] = None,

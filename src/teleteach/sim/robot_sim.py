@@ -7,7 +7,6 @@ benchmarks call them directly.
 import pathlib
 
 import numpy as np
-import yaml
 
 from teleteach.control import panda
 from teleteach.control.impedance import CartesianImpedanceController, ImpedanceParams
@@ -16,7 +15,7 @@ from teleteach.control.manager import ControllerManager
 from teleteach.core import parameters, validation
 from teleteach.core.frames import Transform
 from teleteach.core.observed import ObservedScene, observed_from_scene
-from teleteach.core.paths import config_file
+from teleteach.core.paths import config_file, config_values
 from teleteach.core.robot_controllers import controller_names
 from teleteach.core.scene import BasePose, Scene, Surface, load_scene
 from teleteach.sim.gripper import SimGripper
@@ -35,7 +34,7 @@ class ControllerConfigError(ValueError):
 
 def load_controller_config(path=None):
     """The controller settings (config/controllers.yaml by default) as a dict."""
-    return yaml.safe_load(pathlib.Path(path or DEFAULT_CONTROLLER_FILE).read_text())
+    return config_values(pathlib.Path(path or DEFAULT_CONTROLLER_FILE))
 
 
 def impedance_params(config) -> ImpedanceParams:

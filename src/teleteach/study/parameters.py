@@ -15,7 +15,7 @@ from typing import Any, Dict, List, Optional, Tuple
 import yaml
 
 from teleteach.core.gui_config import GuiConfig, GuiConfigError
-from teleteach.core.paths import config_file, share_dir
+from teleteach.core.paths import config_values, share_dir
 
 NODE_PARAMETER_FILES = {
     "teaching_gui": "gui.yaml",
@@ -48,7 +48,7 @@ RUNNER_NODE_PARAMETERS = ("behaviour_tree/data_dir", "sigma7_node/backend", "sig
 @functools.lru_cache(maxsize=None)
 def node_defaults(node: str) -> Dict[str, Any]:
     """The parameters of ``node`` as its yaml gives them, flattened to ``a/b`` names."""
-    data = yaml.safe_load(config_file(NODE_PARAMETER_FILES[node]).read_text()) or {}
+    data = config_values(NODE_PARAMETER_FILES[node])
     return dict(_flatten(data))
 
 

@@ -35,6 +35,7 @@ from teleteach.core.observed import TRUE_SCENE_TOPIC, product_poses
 from teleteach.core.scene import Scene
 from teleteach.core.study_phase import Phase
 from teleteach.msg import BehaviourTree, HelpRequest, Selection, StudyState
+from teleteach.runtime.node import server_value
 from teleteach.srv import StudyInput, StudyInputResponse
 from teleteach.study.goals import Goal, GoalJudge, Judgement, TreeView
 from teleteach.study.metrics import TrialMetrics
@@ -241,7 +242,7 @@ def not_ready(trees_heard: int) -> List[str]:
 
 def parameters_seen(names: Iterable[str]) -> Dict[str, Any]:
     """The values of ``<node>/<parameter>`` names on the parameter server now (what each node read at its start)."""
-    return {name: rospy.get_param("/" + name, None) for name in names}
+    return {name: server_value("/" + name, None) for name in names}
 
 
 def clear_parameters(keep: Iterable[str]) -> List[str]:
