@@ -161,10 +161,13 @@ def teaching_gui(description: str) -> ExitStatus:
     if problem:
         print(f"teaching_gui cannot start: {problem}", file=sys.stderr)
         return 1
+    import rospy
+
     from teleteach.gui.app import run
+    from teleteach.gui.ros import gui_config
 
     init_node("teaching_gui")
-    return run()
+    return run(exit_on_bad_parameter("teaching_gui", gui_config), rospy.is_shutdown)
 
 
 def session_bag(description: str) -> ExitStatus:

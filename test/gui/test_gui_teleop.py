@@ -165,7 +165,7 @@ def test_a_path_taught_in_teleop_is_taught_its_stiffness_in_low_level_and_become
     assert (taught.frame, taught.starts_at_hand, taught.demonstrations) == ("target", True, 1)
     assert window.trajectory.name == "TaughtPath_1"
     # Expect the path kept relative to its gap: placed back at that gap, it ends where the arm was sent
-    gap, why = window.worker.target_in_base(taught.target)
+    gap, why = window.worker.perception.target_in_base(taught.target)
     assert gap is not None, why
     end = taught.resolve(gap, np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])).positions[-1]
     last = equilibria.last().pose.position

@@ -10,7 +10,8 @@ import pytest
 from conftest import ROOT
 
 PACKAGE = ROOT / "src" / "teleteach"
-# The ROS layers: each part's ros.py, the GUI's Qt+ROS pair, the node helpers and the nodes' entries, the actionlib
+# The ROS layers: each part's ros.py, the GUI's worker, arm and perception (the scene and TF) and its window (no
+# rospy of its own: it hosts the worker and the tabs' adapters), the node helpers and the nodes' entries, the actionlib
 # helpers the ros.py layers share (their status thread stops with rospy's shutdown), the experiment runner (it joins its
 # master as a node), the main jobs (the thesis', the wipe's), the learn_skill CLI and the study's trial processes
 # (docs/architecture.md: study/runner.py starts the study node, importing it in functions).
@@ -21,6 +22,8 @@ ROS_LAYERS = {
     "runtime/experiment.py",
     "gui/app.py",
     "gui/worker.py",
+    "gui/perception.py",
+    "gui/arm.py",
     "run/thesis.py",
     "wiping/scenario_ros.py",
     "learning/command.py",
@@ -335,25 +338,16 @@ GET_PARAM = re.compile(r"rospy\.get_param\(")
 
 
 def test_a_node_reads_its_parameters_through_the_one_helper():
-    """runtime.node.node_parameters reads a node's yaml and its private parameters; nothing else asks the server.
-
-    What is left reads a flag another process leaves on the parameter server, not a parameter of its own (issue 56:
-    to become a topic or a service); the GUI's reading is its own refactoring's.
-    """
-    left = {
-        "src/teleteach/bt/ros.py": 1,  # ~running: a behaviour_tree that died is resumed by its respawn
-        "src/teleteach/haptics/ros.py": 1,  # device_monitor waits for sigma7_node's scenario_start
-        "src/teleteach/run/thesis.py": 2,  # run_thesis watches sigma7_node's scenario_start and scenario_played
-        "src/teleteach/study/ros.py": 1,  # the study node reads back the condition's parameters the launch set
-    }
-    helper, gui = PACKAGE / "runtime" / "node.py", PACKAGE / "gui"
+    """runtime.node.node_parameters reads a node's yaml and its private parameters, runtime.node.server_value a flag
+    another process leaves on the server (issue 56: to become a topic or a service); nothing else asks the server."""
+    helper = PACKAGE / "runtime" / "node.py"
     found = {
         str(path.relative_to(ROOT)): len(GET_PARAM.findall(path.read_text()))
         for path in PACKAGE.rglob("*.py")
-        if path != helper and gui not in path.parents
+        if path != helper
     }
-    found = {path: count for path, count in found.items() if count}
-    assert {path: count for path, count in found.items() if count > left.get(path, 0)} == {}
+    assert {path: count for path, count in found.items() if count} == {}
+    assert len(GET_PARAM.findall(helper.read_text())) == 2  # the check saw the helper's own
 
 
 ROSCORE_START = re.compile(r"""["']roscore["']\s*,\s*["']-p["']""")

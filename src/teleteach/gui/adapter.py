@@ -25,7 +25,7 @@ class TabAdapter(QObject):
         tab: the index of its tab (teleteach.core.active_tab.Tab).
         hears_arm: while its tab is active the worker hears the arm (/cartesian_pose, /joint_states) and runs the
             stiffness stream (``tick``).
-        hears_scene: while its tab is active the worker hears the perceived scene and TF (``worker.nearest_gap``).
+        hears_scene: while its tab is active the worker hears the perceived scene and TF (``worker.perception``).
     """
 
     hears_arm = False
@@ -59,7 +59,7 @@ class TabAdapter(QObject):
 
     def measured_pose(self) -> Optional[np.ndarray]:
         """The arm's latest /cartesian_pose as the worker heard it, or None."""
-        return None if self.worker is None else self.worker.hand_pose()
+        return None if self.worker is None else self.worker.arm.hand_pose()
 
 
 @dataclasses.dataclass

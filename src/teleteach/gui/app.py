@@ -8,79 +8,43 @@ runs, plays the kinematic trajectory while recording and turns a recording into 
 """
 
 import math
-import pathlib
 import sys
 import time
-from typing import List, Optional, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
-import rospy
-from geometry_msgs.msg import PoseStamped
-from PyQt5.QtCore import QMetaObject, QPoint, QProcess, Qt, QThread, QTimer
+from PyQt5.QtCore import QMetaObject, QPoint, Qt, QThread, QTimer
 from PyQt5.QtGui import QPainter, QPixmap
 from PyQt5.QtWidgets import QApplication, QLabel, QMainWindow, QStackedWidget, QTabWidget, QVBoxLayout, QWidget
-from std_msgs.msg import Bool, Int8
 from std_srvs.srv import Trigger, TriggerRequest
 
-from teleteach.core import skill_file
 from teleteach.core.active_tab import Tab
 from teleteach.core.datadir import data_dir
 from teleteach.core.frames import Transform
-from teleteach.core.gui_config import GuiConfig, GuiConfigError
+from teleteach.core.gui_config import GuiConfig
 from teleteach.core.study_phase import StudyView
 from teleteach.core.trajectories import Trajectory
+from teleteach.gui.arm_handover import ArmHandover
 from teleteach.gui.ellipsoid import EllipsoidCommand
-from teleteach.gui.guidance import GuidanceDesigner, HeldPose, guidance_fields
+from teleteach.gui.guidance import GuidanceDesigner, HeldPose
 from teleteach.gui.high_level import ros as high_level_tab
 from teleteach.gui.low_level import ros as low_level_tab
-from teleteach.gui.recording import PathRecorder, StiffnessRecorder, unique_skill_name
+from teleteach.gui.recording import PathRecorder, StiffnessRecorder
+from teleteach.gui.ros import ServiceCaller, WindowTopics, log
 from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, TeachingSession
 from teleteach.gui.shared_control import ros as shared_control_tab
 from teleteach.gui.start import ros as start_tab
 from teleteach.gui.study import Page, StudyScreen
 from teleteach.gui.study_page import StudyPage
+from teleteach.gui.taught_skills import TaughtSkills
 from teleteach.gui.teleop import ros as teleop_tab
-from teleteach.gui.worker import DEVICE_LOST, RosWorker, ServiceCaller
+from teleteach.gui.worker import DEVICE_LOST, RosWorker
 from teleteach.haptics.guidance import Guidance
-from teleteach.msg import HapticGuidance, Selection, TreeExecution
-from teleteach.runtime.node import publish
-from teleteach.srv import (
-    AddSkill,
-    AddSkillRequest,
-    StudyInput,
-    StudyInputRequest,
-    SwitchController,
-    SwitchControllerRequest,
-)
+from teleteach.msg import TreeExecution
+from teleteach.srv import StudyInput, StudyInputRequest
 
-SWITCH_SERVICE = "controller_manager/switch_controller"
 # The window's tabs in their order (teleteach.core.active_tab.Tab): each one package's build(window) (gui/adapter.py)
 TABS = (start_tab.build, high_level_tab.build, low_level_tab.build, shared_control_tab.build, teleop_tab.build)
-LEARNING_GRACE_MS = 60000  # a DMP being learned as the window closes gets this long to join the library
-
-
-class WindowTopics:
-    """Every topic the window publishes itself, in one place (the worker sends the stiffness, the player the pose).
-
-    The recording and shared-control flags start false, latched, so that a late subscriber knows.
-    """
-
-    def __init__(self):
-        latched = {"queue_size": 1, "latch": True}
-        self.active_tab = rospy.Publisher("teleteach/active_tab", Int8, **latched)
-        self.pause = rospy.Publisher("behaviour_tree/pause", Bool, **latched)
-        self.recording = rospy.Publisher("teleteach/recording", Bool, **latched)
-        self.shared_control = rospy.Publisher("shared_control/enable", Bool, **latched)
-        self.guidance = rospy.Publisher("sigma7/guidance", HapticGuidance, **latched)
-        self.selection = rospy.Publisher("teleteach/selection", Selection, queue_size=20)
-        self.equilibrium = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=10)
-        publish(self.recording, Bool(False))
-        publish(self.shared_control, Bool(False))
-
-    def close(self) -> None:
-        """Publish no more: latched values of a closed window must not reach nodes that start later."""
-        for publisher in vars(self).values():
-            publisher.unregister()
 
 
 def _banner(style: str) -> QLabel:
@@ -99,16 +63,13 @@ class MainWindow(QMainWindow):
         super().__init__()
         self.config = config
         self.data_root = data_dir(data_root)
-        self.skills_dir = self.data_root / "skills"
         self.trajectory = Trajectory.load(config.trajectory)  # LOW-LEVEL's; a path taught in TELEOP replaces it
         self.path_recorder = PathRecorder()
         self.path_series: List[Trajectory] = []  # demonstrations of the path being taught, in its gap's frame
-        self._learning: Optional[QProcess] = None  # learn_skill turning a taught path's stiffness into a DMP skill
         self.command = EllipsoidCommand(config)
         self.recorder = StiffnessRecorder()
         self.shared_recorder = StiffnessRecorder()
         self.library_names: List[str] = []
-        self.saved_skills: List[str] = []
         self.teaching_target: Optional[Tuple[str, Transform]] = None  # the gap the recording places at
         self.session = TeachingSession()
         self.study = StudyScreen(config)
@@ -118,14 +79,12 @@ class MainWindow(QMainWindow):
         self._device_sample = None
         self._sent_guidance: Optional[Guidance] = None
         self._guidance_sent_at = -math.inf
-        self._arm_deadline = math.inf
-        self._arm_timer = QTimer(self)  # while a session waits for the arm to be free
-        self._arm_timer.timeout.connect(self._check_arm)
 
         self.topics = WindowTopics()
         self.player = low_level_tab.TrajectoryPlayer(self.trajectory, config.player_rate, self.topics.equilibrium)
         self.services = ServiceCaller(config.service_timeout)
         self.services.finished.connect(self._on_service)
+        self.skills = TaughtSkills(self, log)
         self.tabs = QTabWidget()
         self.parts = [build(self) for build in TABS]
         self.start_tab, self.high_level, self.low_level, self.shared_control, self.teleop = (
@@ -133,6 +92,7 @@ class MainWindow(QMainWindow):
         )  # the tabs the window itself still talks to
         adapters = [part.adapter for part in self.parts if part.adapter is not None]
         self.worker = RosWorker(config, self.command, self.recorder, self.player.current, adapters=adapters)
+        self.arm = ArmHandover(self)
         self._build_window()
         self._actions = self._session_actions()
         self._start_worker()
@@ -198,13 +158,13 @@ class MainWindow(QMainWindow):
             Action.PAUSE_TREE: lambda: self._pause_tree(True),
             Action.RESUME_TREE: lambda: self._pause_tree(False),
             Action.START_TREE: self._start_tree,
-            Action.WAIT_FOR_ARM: self._wait_for_arm,
-            Action.STOP_WAITING_FOR_ARM: self._stop_waiting_for_arm,
+            Action.WAIT_FOR_ARM: self.arm.wait,
+            Action.STOP_WAITING_FOR_ARM: self.arm.stop_waiting,
             Action.ANNOUNCE_HELP_ANSWERED: lambda: self.statusBar().showMessage(
                 "help request answered: the tree resumes", 15000
             ),
-            Action.IMPEDANCE_CONTROL: lambda: self._switch(controllers.impedance, controllers.position),
-            Action.POSITION_CONTROL: lambda: self._switch(controllers.position, controllers.impedance),
+            Action.IMPEDANCE_CONTROL: lambda: self.arm.switch(controllers.impedance, controllers.position),
+            Action.POSITION_CONTROL: lambda: self.arm.switch(controllers.position, controllers.impedance),
         }
         for part in self.parts:
             actions.update(part.actions)
@@ -297,14 +257,8 @@ class MainWindow(QMainWindow):
     def _start_tree(self) -> None:
         """The start gesture: a tree that started paused, or is done, runs (behaviour_tree/start: an event)."""
         self.services.call("start_tree", "behaviour_tree/start", Trigger, TriggerRequest())
-        self.publish_selection(Tab.START, "start", "tree")
+        self.topics.send_selection(Tab.START, "start", "tree")
         self.statusBar().showMessage("starting the tree...", 10000)
-
-    def publish_selection(self, tab: Tab, step: str, choice: str) -> None:
-        """A confirmed choice, for studies and bags (teleteach/Selection)."""
-        message = Selection(tab=tab.name, step=step, choice=choice)
-        message.header.stamp = rospy.Time.now()
-        publish(self.topics.selection, message)
 
     def _on_health(self, problems: str) -> None:
         self.health_label.setText(problems)
@@ -333,9 +287,7 @@ class MainWindow(QMainWindow):
         now = time.monotonic()
         if guidance == self._sent_guidance and now - self._guidance_sent_at < self.config.guidance_refresh:
             return
-        message = HapticGuidance(**guidance_fields(guidance))
-        message.header.stamp = rospy.Time.now()
-        publish(self.topics.guidance, message)
+        self.topics.send_guidance(guidance)
         self._sent_guidance, self._guidance_sent_at = guidance, now
 
     # tabs -----------------------------------------------------------------------------------------
@@ -346,130 +298,19 @@ class MainWindow(QMainWindow):
         self.worker.reset_device_filter()
         for position, tab in enumerate(self._tab_widgets):
             tab.active = position == index
-        publish(self.topics.active_tab, Int8(index))
+        self.topics.send_active_tab(index)
         self.carry_out(self.session.tab_changed(index))
         # The worker hears the new tab last: a pose arriving while LOW-LEVEL opens must find the ellipsoid already
         # held, or it would set it to wherever the handle is (the soft takeover bypassed)
         self.worker.active_tab = index
-
-    def set_recording(self, recording: bool) -> None:
-        """Say on teleteach/recording whether a tab records (latched)."""
-        publish(self.topics.recording, Bool(recording))
 
     def carry_out(self, actions) -> None:
         """Do what the teaching session says (teleteach.gui.session), in its order."""
         for action in actions:
             self._actions[action]()
 
-    # LOW-LEVEL ------------------------------------------------------------------------------------
-    def _wait_for_arm(self) -> None:
-        """Hand the arm to the impedance controller once the tree's skill stopped and the arm rests (bounded)."""
-        self._arm_deadline = time.monotonic() + self.config.arm_free_timeout
-        self._show_controller("waiting for the arm to be free...")
-        self._arm_timer.start(100)
-        self._check_arm()
-
-    def _stop_waiting_for_arm(self) -> None:
-        self._arm_timer.stop()
-        self._show_controller("-")
-
-    def _check_arm(self) -> None:
-        if not self._arm_timer.isActive():
-            return
-        free, why = self.worker.arm_free()
-        if free:
-            self._arm_timer.stop()
-            self.carry_out(self.session.arm_freed())
-        elif time.monotonic() > self._arm_deadline:
-            self._arm_timer.stop()
-            self.carry_out(self.session.arm_not_freed())
-            text = (
-                f"the arm was not free within {self.config.arm_free_timeout:g} s ({why}): the impedance controller was"
-                " not started; go back to START and enter again"
-            )
-            self._show_controller(text)
-            self.statusBar().showMessage(text, 30000)
-        else:
-            self._show_controller(f"waiting for the arm: {why}")
-
-    def _show_controller(self, text: str) -> None:
-        """What the arm's controller does, in the teaching tabs that show it."""
-        for tab in (self.low_level, self.teleop):
-            tab.controller_label.setText(f"controller: {text}")
-
-    def _switch(self, start: str, stop: str) -> None:
-        self._show_controller(f"switching to {start}...")
-        request = SwitchControllerRequest(
-            start_controllers=[start],
-            stop_controllers=[stop],
-            strictness=SwitchControllerRequest.STRICT,
-            start_asap=False,
-            timeout=0.0,
-        )
-        self.services.call("switch:" + start, SWITCH_SERVICE, SwitchController, request)
-
     def _pause_tree(self, paused: bool) -> None:
-        publish(self.topics.pause, Bool(paused))
-
-    def save_recording(
-        self,
-        recorder: StiffnessRecorder,
-        kind: str,
-        prefix: str,
-        provenance: dict,
-        target: Optional[Tuple[str, Transform]] = None,
-        add: bool = True,
-    ) -> Optional[pathlib.Path]:
-        """A stopped recording -> skill file in data_dir()/skills (-> /behaviour_tree/add_skill).
-
-        Returns the file, or None when it was not saved (the status bar says why).
-        """
-        name = unique_skill_name(prefix, self.library_names + self.saved_skills, self.skills_dir)
-        try:
-            skill = recorder.to_skill(
-                name,
-                self.config.rotational_stiffness,
-                {"source": "teaching_gui", "recorded": time.time(), **provenance},
-                kind=kind,
-            )
-            if target is not None:
-                skill = skill.relative_to(*target)
-            path = skill_file.save(skill, self.skills_dir / name)
-        except skill_file.SkillFileError as error:
-            hint = "" if len(recorder) >= 2 else " (no /cartesian_pose received? is robot_sim running?)"
-            self.statusBar().showMessage(f"recording not saved: {error}{hint}", 15000)
-            return None
-        self.saved_skills.append(name)
-        self.statusBar().showMessage(f"saved {name} ({len(skill.time)} samples) to {path}", 10000)
-        if add:
-            self.services.call(
-                f"add_skill:{name}", "behaviour_tree/add_skill", AddSkill, AddSkillRequest(name, kind, str(path))
-            )
-        return path
-
-    def learn_dmp(self, stiffness_skill: pathlib.Path) -> None:
-        """learn_skill in the background: the DMP of a stiffness taught along a taught path joins the library."""
-        if self._learning is not None and self._learning.state() != QProcess.NotRunning:
-            name = stiffness_skill.stem  # one learning at a time: this demonstration joins the library as it is
-            request = AddSkillRequest(name, "stiffness", str(stiffness_skill))
-            self.services.call(f"add_skill:{name}", "behaviour_tree/add_skill", AddSkill, request)
-            self.statusBar().showMessage(f"still learning the previous skill: {name} joins as a stiffness skill", 15000)
-            return
-        process = QProcess(self)
-        process.setProcessChannelMode(QProcess.MergedChannels)
-        name = f"{stiffness_skill.stem}_dmp"
-        arguments = ["teleteach", "learn_skill", str(stiffness_skill), "--name", name, "--add"]
-        process.finished.connect(lambda code, _status: self._on_learned(process, name, code))
-        process.start("rosrun", [*arguments, "--data-dir", str(self.data_root)])
-        self._learning = process
-        self.statusBar().showMessage(f"learning {name} (a DMP skill) from {stiffness_skill.name}...", 15000)
-
-    def _on_learned(self, process: QProcess, name: str, code: int) -> None:
-        lines = bytes(process.readAll()).decode(errors="replace").strip().splitlines()
-        last = lines[-1] if lines else "no output"
-        text = f"{name} is in the skill library: {last}" if code == 0 else f"{name} was not learned: {last}"
-        self.teleop.show_path(text, False)
-        self.statusBar().showMessage(text, 30000)
+        self.topics.send_pause(paused)
 
     # service answers ------------------------------------------------------------------------------
     def _on_service(self, key: str, success: bool, message: str, response) -> None:
@@ -480,14 +321,6 @@ class MainWindow(QMainWindow):
             else:
                 self.high_level.on_answer(False, message)
                 self.statusBar().showMessage(message, 15000)
-        elif key.startswith("switch:"):
-            controller = key.split(":", 1)[1]
-            if success and response.ok:
-                self._show_controller(f"{controller} active")
-            else:
-                reason = message or "the controller manager refused the switch"
-                self._show_controller(f"switch to {controller} failed")
-                self.statusBar().showMessage(f"switch to {controller} failed: {reason}", 15000)
         elif key == "start_tree":
             if success:
                 self.statusBar().showMessage(f"the tree: {response.message}", 10000)
@@ -497,13 +330,6 @@ class MainWindow(QMainWindow):
             self.study.answered(success and response.success, message if not success else response.message)
             if self.study.page is Page.STUDY:
                 self.study_page.show_screen(self.study)
-        elif key.startswith("add_skill:"):
-            name = key.split(":", 1)[1]
-            if success and response.success:
-                text = f"{name} is in the skill library: a new button in HIGH-LEVEL"
-            else:
-                text = f"{name} was not added to the skill library: {response.message if success else message}"
-            self.statusBar().showMessage(text, 15000)
 
     def screenshot(self) -> QPixmap:
         """The window as the operator sees it (``grab()`` misses the text the GL view paints over its views)."""
@@ -528,48 +354,23 @@ class MainWindow(QMainWindow):
         """
         if self.thread.isRunning():
             self._guidance_timer.stop()
-            publish(self.topics.guidance, HapticGuidance(**guidance_fields(self._guidance.free())))
+            self.topics.send_guidance(self._guidance.free())
             self.carry_out(self.session.shutdown())
             self.player.stop()
             QMetaObject.invokeMethod(self.worker, "stop", Qt.BlockingQueuedConnection)
             self.thread.quit()
             self.thread.wait(3000)
             self.topics.close()
-        self._finish_learning()
-
-    def _finish_learning(self) -> None:
-        """A DMP still being learned is learned to the end, not lost: Qt would kill its process with the window."""
-        process = self._learning
-        if process is None or process.state() == QProcess.NotRunning:
-            return
-        process.finished.disconnect()  # its answer has no window left to be shown in
-        rospy.loginfo("waiting up to %.0f s for learn_skill to finish the DMP it learns", LEARNING_GRACE_MS / 1000)
-        if process.waitForFinished(LEARNING_GRACE_MS):
-            output = bytes(process.readAll()).decode(errors="replace").strip().splitlines()
-            rospy.loginfo(output[-1] if output else f"learn_skill ended with exit status {process.exitCode()}")
-        else:
-            process.kill()
-            process.waitForFinished(1000)
-            rospy.logwarn("learn_skill did not finish in %.0f s and was stopped", LEARNING_GRACE_MS / 1000)
+        self.skills.finish_learning()
 
 
-def run() -> int:
-    """The node after rospy.init_node: params (``config/gui.yaml`` overridden by the private ones) -> window -> Qt loop.
-
-    A bad parameter ends it with one line (exit status 2).
-    """
-    parameters = dict(rospy.get_param("~", {}))
-    data_root = parameters.pop("data_dir", None)  # the launch's data directory (auto: $TELETEACH_DATA or the default)
-    try:
-        config = GuiConfig.load(**parameters)
-    except GuiConfigError as error:
-        rospy.logfatal(f"teaching_gui cannot start: {error}")
-        return 2
+def run(config: GuiConfig, stopped: Callable[[], bool]) -> int:
+    """The window of ``config`` in Qt's loop, closed once ``stopped()`` (the node's shutdown); its exit status."""
     app = QApplication.instance() or QApplication(list(sys.argv[:1]))
-    window = MainWindow(config, data_root=data_root)
+    window = MainWindow(config, data_root=config.data_dir)
     window.show()
     watchdog = QTimer()
-    watchdog.timeout.connect(lambda: rospy.is_shutdown() and window.close())
+    watchdog.timeout.connect(lambda: stopped() and window.close())
     watchdog.start(200)  # also lets Python run its SIGINT handler while Qt waits
     app.aboutToQuit.connect(window.shutdown)
     return app.exec_()

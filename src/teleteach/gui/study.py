@@ -19,7 +19,7 @@ from typing import List, Optional, Tuple
 
 from teleteach.core.gui_config import GuiConfig
 from teleteach.core.questionnaire import Item
-from teleteach.core.study_phase import Phase, StudyView
+from teleteach.core.study_phase import Phase, StudyView, known_phase
 from teleteach.gui.device import DeviceSample, scale_to_index
 
 
@@ -162,3 +162,29 @@ class StudyScreen:
         item = self.item
         if item is not None:
             self.position = scale_to_index(self.sample.x, self.config.device_range, item.points)
+
+
+ITEM_FIELDS = (
+    "item_names",
+    "item_titles",
+    "item_questions",
+    "item_low",
+    "item_high",
+    "item_points",
+    "item_minimum",
+    "item_maximum",
+)
+"""teleteach/StudyState's arrays, one per field of a questionnaire's Item, in the Item's order."""
+
+
+def study_view(message) -> StudyView:
+    """The GUI's view of a teleteach/StudyState message: the view's fields by their names, the items from arrays."""
+    phase = known_phase(message.phase)
+    items = tuple(Item(*fields) for fields in zip(*(getattr(message, name) for name in ITEM_FIELDS)))
+    named = {
+        field.name: getattr(message, field.name)
+        for field in dataclasses.fields(StudyView)
+        if field.name not in ("phase", "items")
+    }
+    # a newer study's phase: wait as when preparing
+    return StudyView(phase=phase if phase is not None else Phase.PREPARING, items=items, **named)

@@ -26,6 +26,14 @@ def _font(label: QLabel, points: int, bold: bool = False) -> QLabel:
     return label
 
 
+def _paragraph(points: int, bold: bool = False, style: str = "") -> QLabel:
+    """A label of text that wraps, in ``points``, with ``style``."""
+    label = _font(QLabel(), points, bold)
+    label.setWordWrap(True)
+    label.setStyleSheet(style)
+    return label
+
+
 class CentreTarget(QWidget):
     """A ring (the start gesture's radius) and a dot where the handle is (device X right, Y up)."""
 
@@ -116,12 +124,9 @@ class StudyPage(QWidget):
         self.header = _font(QLabel(), 12)
         self.header.setStyleSheet("color: #555;")
         column.addWidget(self.header)
-        self.title = _font(QLabel(), 24, bold=True)
-        self.title.setWordWrap(True)
-        self.title.setStyleSheet(TITLE_STYLE)
+        self.title = _paragraph(24, bold=True, style=TITLE_STYLE)
         column.addWidget(self.title)
-        self.body = _font(QLabel(), 15)
-        self.body.setWordWrap(True)
+        self.body = _paragraph(15)
         self.body.setTextFormat(Qt.RichText)
         column.addWidget(self.body)
         column.addSpacing(20)
@@ -133,8 +138,7 @@ class StudyPage(QWidget):
         target_row.addStretch(1)
         column.addLayout(target_row)
 
-        self.question = _font(QLabel(), 18, bold=True)
-        self.question.setWordWrap(True)
+        self.question = _paragraph(18, bold=True)
         column.addWidget(self.question)
         self.scale = ScaleView()  # moved by the device only
         column.addWidget(self.scale)
@@ -148,13 +152,9 @@ class StudyPage(QWidget):
             ends.addWidget(label, 1)
         column.addLayout(ends)
         column.addStretch(1)
-        self.message = _font(QLabel(), 14, bold=True)
-        self.message.setWordWrap(True)
-        self.message.setStyleSheet("color: #b71c1c;")
+        self.message = _paragraph(14, bold=True, style="color: #b71c1c;")
         column.addWidget(self.message)
-        self.hint = _font(QLabel(), 13)
-        self.hint.setWordWrap(True)
-        self.hint.setStyleSheet("background: #eef; padding: 8px; border: 1px solid #99b;")
+        self.hint = _paragraph(13, style="background: #eef; padding: 8px; border: 1px solid #99b;")
         column.addWidget(self.hint)
         self._slider_shown: Optional[bool] = None
         self._screens = {

@@ -15,24 +15,20 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import rospy
-import tf2_ros
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
 from PyQt5.QtCore import QObject, Qt, QTimer, pyqtSignal, pyqtSlot
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
-from visualization_msgs.msg import MarkerArray
 
 from teleteach.core.active_tab import Tab
-from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig
-from teleteach.core.observed import WORLD_FRAME, ObservedScene, observed_from_markers
-from teleteach.core.questionnaire import Item
-from teleteach.core.study_phase import Phase, StudyView, known_phase
 from teleteach.gui.adapter import TabAdapter
+from teleteach.gui.arm import ArmListener
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
+from teleteach.gui.perception import Perception
 from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
+from teleteach.gui.study import study_view
 from teleteach.msg import (
     BehaviourTree,
     HelpRequest,
@@ -42,105 +38,7 @@ from teleteach.msg import (
 )
 from teleteach.runtime.node import publish, shutting_down
 
-
-def pose_to_array(pose) -> np.ndarray:
-    """(x, y, z, qx, qy, qz, qw) of a geometry_msgs/Pose."""
-    p, q = pose.position, pose.orientation
-    return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w])
-
-
 DEVICE_LOST = "device lost (/sigma7/pose silent)"
-
-
-def study_view(message: StudyState) -> StudyView:
-    """The GUI's view of a teleteach/StudyState."""
-    phase = known_phase(message.phase)
-    items = tuple(
-        Item(*fields)
-        for fields in zip(
-            message.item_names,
-            message.item_titles,
-            message.item_questions,
-            message.item_low,
-            message.item_high,
-            message.item_points,
-            message.item_minimum,
-            message.item_maximum,
-        )
-    )
-    return StudyView(
-        phase=phase if phase is not None else Phase.PREPARING,  # a newer study's phase: wait as when preparing
-        study=message.study,
-        participant=message.participant,
-        condition=message.condition,
-        condition_label=message.condition_label,
-        task=message.task,
-        title=message.title,
-        instructions=message.instructions,
-        trial=message.trial,
-        trials=message.trials,
-        elapsed=message.elapsed,
-        timeout=message.timeout,
-        status=message.status,
-        success=message.success,
-        items=items,
-    )
-
-
-class ServiceCaller(QObject):
-    """Calls ROS services off the GUI thread; the answer (or the reason for failing) comes back as a signal.
-
-    A call that has no answer after twice ``timeout`` (finding the service, then the call) is reported as failed at
-    once; its thread is left to finish.
-    """
-
-    finished = pyqtSignal(str, bool, str, object)  # key, success, message, response
-    _deliver = pyqtSignal(str, int, bool, str, object)  # from the calling thread to this object's thread
-
-    def __init__(self, timeout: float):
-        super().__init__()
-        self.timeout = timeout
-        self._pending = {}
-        self._counter = 0
-        self._deliver.connect(self._on_delivered, Qt.QueuedConnection)
-
-    def call(self, key: str, service: str, service_class, request) -> None:
-        """Start ``service(request)``; ``finished(key, ...)`` follows, from this object's thread."""
-        self._counter += 1
-        token = self._counter
-        self._pending[key] = token
-        threading.Thread(
-            target=self._run, args=(key, token, service, service_class, request), daemon=True, name=f"call_{key}"
-        ).start()
-        # waiting for the service and the call itself may each take up to the timeout
-        QTimer.singleShot(int(2 * self.timeout * 1000) + 200, lambda: self._expire(key, token, service))
-
-    def busy(self, key: str) -> bool:
-        """True while a call under ``key`` has neither answered nor timed out."""
-        return key in self._pending
-
-    def _expire(self, key: str, token: int, service: str) -> None:
-        if self._pending.get(key) == token:
-            del self._pending[key]
-            self.finished.emit(key, False, f"{service}: no answer within {self.timeout:.1f} s", None)
-
-    def _run(self, key, token, service, service_class, request) -> None:
-        try:
-            rospy.wait_for_service(service, timeout=self.timeout)
-            response = rospy.ServiceProxy(service, service_class)(request)
-            result = (True, "", response)
-        except rospy.ROSException as error:
-            result = (False, f"{service} is not available ({error})", None)
-        except (rospy.ServiceException, OSError) as error:
-            result = (False, f"{service} failed: {error}", None)
-        self._deliver.emit(key, token, *result)
-
-    @pyqtSlot(str, int, bool, str, object)
-    def _on_delivered(self, key, token, success, message, response) -> None:
-        if self._pending.get(key) != token:
-            return
-        del self._pending[key]
-        self.finished.emit(key, success, message, response)
 
 
 class RosWorker(QObject):
@@ -148,11 +46,12 @@ class RosWorker(QObject):
 
     Thesis Fig. A.1, orange block. The tabs' own topics are their adapters' (teleteach.gui.adapter).
 
-    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /cartesian_pose and /joint_states (in
-    LOW-LEVEL and a tab whose adapter ``hears_arm``), /behaviour_tree/log/tree, /behaviour_tree/skill_library,
-    /behaviour_tree/help_request, /behaviour_tree/execution, study/state (a user study's state); in LOW-LEVEL and a tab
-    whose adapter ``hears_scene``, teleteach/scene and TF world -> base_frame (the gap a target-frame trajectory places
-    at). The tree's execution and /joint_states tell whether the arm is free for the impedance controller.
+    ROS Subscribers: /sigma7/pose, /sigma7/button, /sigma7/gripper_angle, /behaviour_tree/log/tree,
+    /behaviour_tree/skill_library, /behaviour_tree/help_request, /behaviour_tree/execution, study/state (a user study's
+    state); through ``arm`` (teleteach.gui.arm) /cartesian_pose and /joint_states in LOW-LEVEL and a tab whose adapter
+    ``hears_arm``, through ``perception`` (teleteach.gui.perception) teleteach/scene and TF in LOW-LEVEL and a tab
+    whose adapter ``hears_scene``. The tree's execution and /joint_states tell whether the arm is free for the
+    impedance controller.
     ROS Publishers: /eigenvalues, /eigenvectors (while LOW-LEVEL is active, or as a ``hears_arm`` adapter's ``tick``
     sends them).
     """
@@ -201,7 +100,6 @@ class RosWorker(QObject):
         self._emitted_seq = 0
         self._emitted: Optional[object] = None  # the DeviceSample last sent to the widgets
         self._pose: Optional[tuple] = None  # the newest /sigma7/pose not yet parsed: (position, quaternion)
-        self._measured: Optional[Tuple[float, np.ndarray]] = None  # the arm's latest /cartesian_pose: (stamp, pose)
         self._publish_lock = threading.Lock()
         self._last_publish = -1.0
         self._last_seen = {}
@@ -211,11 +109,9 @@ class RosWorker(QObject):
         self.device_time = 0.0  # the device's clock: the header stamp of its latest pose [s]
         self._subscribers: Dict[str, rospy.Subscriber] = {}
         self._timers: List[QTimer] = []
-        self._scene: Optional[ObservedScene] = None
-        self._tf_buffer: Optional[tf2_ros.Buffer] = None
-        self._tf_listener: Optional[tf2_ros.TransformListener] = None
+        self.arm = ArmListener(config, self._on_arm)  # heard in the tabs that command a stiffness
+        self.perception = Perception(config.base_frame)  # the scene and TF, heard in LOW-LEVEL and TELEOP
         self._execution: Optional[TreeExecution] = None
-        self._arm_motion: Tuple[float, float] = (-math.inf, math.inf)  # (when, fastest joint speed [rad/s])
         self._device_pose: Optional[tuple] = None  # the newest /sigma7/pose: (position, quaternion, when it came)
         self._gripper_angle: Optional[float] = None
 
@@ -276,59 +172,27 @@ class RosWorker(QObject):
 
     @pyqtSlot()
     def _follow_tab(self) -> None:
-        """Run the stiffness stream and hear the arm only in the tabs that command a stiffness (worker thread).
-
-        /cartesian_pose (200 Hz) is recorded with the stiffness and drawn as the arm's trail in SHARED CONTROL;
-        /joint_states tells when the arm rests, before the impedance controller takes it.
-        """
+        """Run the stiffness stream and hear the arm only in the tabs that command a stiffness (worker thread)."""
         if self._publish_timer is None:
             return  # not started yet: start() looks at the tab
-        arm_topics = (
-            ("cartesian_pose", PoseStamped, self._on_cartesian),
-            ("joint_states", JointState, self._on_joint_states),
-        )
         for adapter in self.adapters:
             adapter.tab_changed(self._active_tab)
-        if self._active_tab == Tab.LOW_LEVEL or self._adapter(hearing_arm=True) is not None:
-            if not self._publish_timer.isActive():
-                self._publish_timer.start()
-            for topic, message_class, callback in arm_topics:
-                if topic not in self._subscribers:
-                    self._subscribers[topic] = rospy.Subscriber(
-                        topic, message_class, callback, queue_size=5, tcp_nodelay=True
-                    )
-        else:
+        commanding = self._active_tab == Tab.LOW_LEVEL or self._adapter(hearing_arm=True) is not None
+        if commanding and not self._publish_timer.isActive():
+            self._publish_timer.start()
+        elif not commanding:
             self._publish_timer.stop()
-            for topic, _, _ in arm_topics:
-                subscriber = self._subscribers.pop(topic, None)
-                if subscriber is not None:
-                    subscriber.unregister()
-            self._measured = None  # a recording must not start from where the arm was in another tab
-            self._arm_motion = (-math.inf, math.inf)  # nor an arm count as resting on what it did back then
+        self.arm.listen(commanding)
         adapter = self._adapter()
-        self._follow_target(self._active_tab == Tab.LOW_LEVEL or (adapter is not None and adapter.hears_scene))
-
-    def _follow_target(self, teaching: bool) -> None:
-        """Hear the perceived scene and TF only in LOW-LEVEL and a tab that ``hears_scene`` (TELEOP)."""
-        if teaching and "teleteach/scene" not in self._subscribers:
-            self._tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
-            self._tf_listener = tf2_ros.TransformListener(self._tf_buffer)
-            self._subscribers["teleteach/scene"] = rospy.Subscriber(
-                "teleteach/scene", MarkerArray, self._on_scene, queue_size=1
-            )
-        elif not teaching and "teleteach/scene" in self._subscribers:
-            self._subscribers.pop("teleteach/scene").unregister()
-            self._tf_listener.unregister()
-            self._tf_buffer = self._tf_listener = None
-            with self._lock:
-                self._scene = None
+        self.perception.listen(self._active_tab == Tab.LOW_LEVEL or (adapter is not None and adapter.hears_scene))
 
     @pyqtSlot()
     def stop(self) -> None:
         """Cooperative stop: timers off, topics and the TF listener gone (runs in the worker thread)."""
         for timer in self._timers:
             timer.stop()
-        self._follow_target(False)
+        self.perception.listen(False)
+        self.arm.listen(False)
         for subscriber in self._subscribers.values():
             subscriber.unregister()
         self._subscribers.clear()
@@ -389,12 +253,7 @@ class RosWorker(QObject):
         if self._gripper.update(message.data):
             self.gripper_opened.emit()
 
-    def _on_cartesian(self, message: PoseStamped) -> None:
-        pose = pose_to_array(message.pose)
-        if not np.all(np.isfinite(pose)):
-            return
-        stamp = message.header.stamp.to_sec() or rospy.get_time()
-        self._measured = (stamp, pose)
+    def _on_arm(self, stamp: float, pose: np.ndarray) -> None:
         adapter = self._adapter(hearing_arm=True)
         if adapter is not None:
             adapter.on_arm(stamp, pose)
@@ -420,53 +279,9 @@ class RosWorker(QObject):
         self._execution = message
         self.execution_changed.emit(message.state, message.message)
 
-    def _on_joint_states(self, message: JointState) -> None:
-        speeds = [abs(value) for value in message.velocity if math.isfinite(value)]
-        self._arm_motion = (time.monotonic(), max(speeds, default=0.0))
-
     def arm_free(self) -> Tuple[bool, str]:
-        """Whether the impedance controller may take the arm now, and if not, why not.
-
-        Free means: the behaviour tree (if one runs) reports no skill goal out, and the arm (if /joint_states is
-        published) rests: every joint slower than ``arm_rest_speed`` in a message younger than ``device_timeout``.
-        A publisher the master knows but this GUI is not connected to yet counts as there (it is on its way).
-        """
-        tree, joints = self._subscribers.get("behaviour_tree/execution"), self._subscribers.get("joint_states")
-        if tree is None or joints is None:
-            return False, "the GUI's subscribers are starting"
-        published = None
-        if tree.get_num_connections() == 0 or joints.get_num_connections() == 0:
-            try:
-                published = {name for name, _ in rospy.get_published_topics()}
-            except (OSError, rospy.ROSException):
-                return False, "the ROS master does not answer"
-        if published is not None and tree.resolved_name in published and tree.get_num_connections() == 0:
-            return False, "connecting to the behaviour tree"
-        if published is not None and joints.resolved_name in published and joints.get_num_connections() == 0:
-            return False, "connecting to /joint_states"
-        if tree.get_num_connections() > 0:
-            execution = self._execution
-            if execution is None:
-                return False, "waiting for the behaviour tree's state"
-            if execution.state not in (TreeExecution.PAUSED, TreeExecution.WAITING, TreeExecution.COMPLETED):
-                return False, f"the tree still drives the arm ({execution.message})"
-        if joints.get_num_connections() > 0:
-            seen, speed = self._arm_motion
-            if time.monotonic() - seen > self.config.device_timeout:
-                return False, "waiting for /joint_states"
-            if speed >= self.config.arm_rest_speed:
-                return False, f"the arm still moves ({speed:.2f} rad/s)"
-        return True, ""
-
-    def _on_scene(self, message: MarkerArray) -> None:
-        scene, _ = observed_from_markers(message.markers)
-        with self._lock:
-            self._scene = scene
-
-    def scene(self) -> Optional[ObservedScene]:
-        """What perception reports (teleteach/scene), heard in LOW-LEVEL and TELEOP; None before it or elsewhere."""
-        with self._lock:
-            return self._scene
+        """Whether the impedance controller may take the arm now (tree stopped, arm at rest), or why not."""
+        return self.arm.free(self._subscribers.get("behaviour_tree/execution"), self._execution)
 
     def device_pose(self) -> Optional[tuple]:
         """The newest /sigma7/pose: (position, quaternion, when it came on time.monotonic()), or None."""
@@ -476,55 +291,6 @@ class RosWorker(QObject):
     def gripper_angle(self) -> Optional[float]:
         """The newest /sigma7/gripper_angle [rad], or None."""
         return self._gripper_angle
-
-    def hand_pose(self) -> Optional[np.ndarray]:
-        """The arm's latest /cartesian_pose (x y z qx qy qz qw, base_link), or None before the first."""
-        pose = self._measured_pose()
-        return None if pose is None else pose.copy()
-
-    def _measured_pose(self) -> Optional[np.ndarray]:
-        measured = self._measured
-        return None if measured is None else measured[1]
-
-    def target_in_base(self, gap: str) -> Tuple[Optional[Transform], str]:
-        """base_link <- the perceived gap's frame, or (None, why not): needs the gap perceived and the base in TF."""
-        with self._lock:
-            scene = self._scene
-        if scene is None:
-            return None, "no perception yet (teleteach/scene)"
-        if gap not in scene.gaps:
-            return None, f"perception reports no {gap} (it reports {', '.join(sorted(scene.gaps)) or 'no gaps'})"
-        base, why = self.base_in_world()
-        if base is None:
-            return None, why
-        return base.inverse() * scene.gaps[gap].frame, ""
-
-    def base_in_world(self) -> Tuple[Optional[Transform], str]:
-        """The base frame in world (TF world -> base_frame, heard in LOW-LEVEL and TELEOP), or (None, why not)."""
-        buffer = self._tf_buffer
-        if buffer is None:
-            return None, "not in LOW-LEVEL or TELEOP"
-        try:
-            stamped = buffer.lookup_transform(WORLD_FRAME, self.config.base_frame, rospy.Time(0))
-        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as error:
-            return None, f"no transform {WORLD_FRAME} -> {self.config.base_frame}: {error}"
-        t, r = stamped.transform.translation, stamped.transform.rotation
-        return Transform.from_pose([t.x, t.y, t.z, r.x, r.y, r.z, r.w]), ""
-
-    def nearest_gap(self, point) -> Tuple[Optional[str], Optional[Transform], str]:
-        """The perceived gap whose origin is nearest ``point`` (base_link), its pose in base_link, or why none."""
-        with self._lock:
-            scene = self._scene
-        if scene is None or not scene.gaps:
-            return None, None, "no perception yet (teleteach/scene)" if scene is None else "perception reports no gaps"
-        found = []
-        for gap in sorted(scene.gaps):
-            target, why = self.target_in_base(gap)
-            if target is None:
-                return None, None, why
-            found.append((float(np.linalg.norm(target.position - np.asarray(point))), gap, target))
-        _, gap, target = min(found, key=lambda entry: entry[0])
-        return gap, target, ""
 
     # worker thread timers -----------------------------------------------------------------------
     def _publish_stiffness(self) -> None:
@@ -543,7 +309,7 @@ class RosWorker(QObject):
         if self.active_tab != Tab.LOW_LEVEL:
             return
         self._publish(urgent=False)
-        measured = self._measured
+        measured = self.arm.measured
         if self.recorder.active and measured is not None:
             stamp = rospy.get_time() if rospy.rostime.is_wallclock() else measured[0]
             self.recorder.add(stamp, self.command.stiffness_matrix(), self.equilibrium(), measured[1])

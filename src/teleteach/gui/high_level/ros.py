@@ -15,7 +15,7 @@ def build(window) -> TabParts:
     """HIGH-LEVEL in ``window``."""
     view = HighLevelTab(window.config)
     view.request_ready.connect(lambda request: send_change(window, request))
-    view.selection_confirmed.connect(lambda step, choice: window.publish_selection(Tab.HIGH_LEVEL, step, choice))
+    view.selection_confirmed.connect(lambda step, choice: window.topics.send_selection(Tab.HIGH_LEVEL, step, choice))
     return TabParts(Tab.HIGH_LEVEL.title, view, actions={Action.RESET_HIGH_LEVEL: view.reset})
 
 

@@ -2,7 +2,7 @@
 
 from typing import List, Optional, Sequence, Tuple
 
-from PyQt5.QtCore import QEvent, QObject, QSize, Qt, pyqtSignal
+from PyQt5.QtCore import QEvent, QObject, Qt, pyqtSignal
 from PyQt5.QtWidgets import (
     QDial,
     QFrame,
@@ -22,6 +22,16 @@ from PyQt5.QtWidgets import (
 from teleteach.bt.editor import EditRequest
 from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import DeviceSample
+from teleteach.gui.high_level.styles import (
+    ACTIVE_STEP_STYLE,
+    BUTTON_STYLE,
+    MAX_COLUMNS,
+    REPAIR_STYLE,
+    SELECTED_STYLE,
+    STEP_STYLE,
+    UNAVAILABLE_STYLE,
+    button_size,
+)
 from teleteach.gui.high_level.tree_view import TreeView
 from teleteach.gui.selection import (
     COMPOSITE_TYPES,
@@ -34,28 +44,6 @@ from teleteach.gui.selection import (
     TreeSnapshot,
 )
 from teleteach.gui.widgets import big, restyle
-
-SELECTED_STYLE = "QPushButton { background: #ffd54f; border: 3px solid #e65100; font-weight: bold; padding: 6px; }"
-BUTTON_STYLE = "QPushButton { padding: 6px; }"
-UNAVAILABLE_STYLE = "QPushButton { padding: 6px; color: #9e9e9e; background: #eeeeee; }"
-REPAIR_STYLE = "QPushButton { padding: 6px; color: white; background: #d22828; font-weight: bold; }"
-_GROUP = "QGroupBox#step {{ border: {}; border-radius: 4px; margin-top: 1.3em; }} "
-_TITLE = "QGroupBox#step::title {{ subcontrol-origin: margin; left: 8px; {} }}"
-ACTIVE_STEP_STYLE = _GROUP.format("3px solid #2e7d32") + _TITLE.format("color: #1b5e20; font-weight: bold;")
-STEP_STYLE = _GROUP.format("1px solid #bbb") + _TITLE.format("")
-MAX_COLUMNS = 6  # buttons per row when the window is wide enough
-
-
-def _button_size(names: Sequence[str]) -> QSize:
-    """The size a node button needs for the longest of ``names`` in the selected (bold, bordered) style."""
-    probe = QPushButton()
-    probe.setStyleSheet(SELECTED_STYLE)
-    size = QSize(0, 0)
-    for name in names:
-        probe.setText(name)
-        size = size.expandedTo(probe.sizeHint())
-    probe.deleteLater()
-    return size
 
 
 class HighLevelTab(QWidget):
@@ -226,7 +214,7 @@ class HighLevelTab(QWidget):
         self.unavailable = set()
         self._groups = []
         names: List[str] = []
-        size = _button_size([name for _, entries in groups for name in entries] + library)
+        size = button_size([name for _, entries in groups for name in entries] + library)
         for title, entries in [*groups, ("Skill library", library)]:
             if not entries:
                 continue

@@ -15,7 +15,7 @@ def start_recording(window, view: LowLevelTab) -> None:
     window.teaching_target = None
     trajectory = window.trajectory
     if trajectory.frame == TARGET_FRAME:
-        target, why = window.worker.target_in_base(trajectory.target)
+        target, why = window.worker.perception.target_in_base(trajectory.target)
         if target is None:
             window.carry_out(window.session.recording_refused())
             window.statusBar().showMessage(
@@ -25,13 +25,13 @@ def start_recording(window, view: LowLevelTab) -> None:
             )
             return
         window.teaching_target = (trajectory.target, target)
-    hand = window.worker.hand_pose()
+    hand = window.worker.arm.hand_pose()
     if trajectory.starts_at_hand and hand is None:
         window.carry_out(window.session.recording_refused())
         window.statusBar().showMessage("recording not started: no /cartesian_pose of the arm yet", 15000)
         return
     window.recorder.start()
-    window.set_recording(True)
+    window.topics.send_recording(True)
     window.player.start(trajectory.resolve(window.teaching_target and window.teaching_target[1], hand))
     view.recording_since = time.monotonic()
     where = f" at {trajectory.target}" if trajectory.frame == TARGET_FRAME else ""
@@ -41,7 +41,7 @@ def start_recording(window, view: LowLevelTab) -> None:
 def stop_recording(window, view: LowLevelTab) -> None:
     """Stop recording and playing."""
     window.recorder.stop()
-    window.set_recording(False)
+    window.topics.send_recording(False)
     window.player.stop()
     view.recording_since = None
 
@@ -58,7 +58,7 @@ def save_skill(window) -> None:
         provenance["path_demonstrations"] = trajectory.demonstrations
         provenance["path_spread"] = [float(value) for value in trajectory.spread]
         provenance["path_spread_time"] = [float(value) for value in trajectory.times]  # [s] from the start
-    saved = window.save_recording(
+    saved = window.skills.save(
         window.recorder,
         "stiffness",
         window.config.skill_prefix,
@@ -67,6 +67,6 @@ def save_skill(window) -> None:
         add=not trajectory.demonstrations,
     )
     if trajectory.demonstrations and saved is not None:
-        window.learn_dmp(saved)
+        window.skills.learn_dmp(saved)
         window.path_series = []
         window.trajectory = Trajectory.load(window.config.trajectory)

@@ -33,11 +33,11 @@ from teleteach.core.active_tab import Tab
 from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.adapter import TabAdapter, TabParts
+from teleteach.gui.arm import pose_to_array
 from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.session import Action
 from teleteach.gui.shared_control.teaching import WipeTeaching
 from teleteach.gui.shared_control.view import SharedControlTab, SharedStatus
-from teleteach.gui.worker import pose_to_array
 from teleteach.msg import SharedControlState, SharedControlTask
 from teleteach.runtime.node import publish
 from teleteach.shared_control.plane import TaskPlane
@@ -278,14 +278,14 @@ def build(window) -> TabParts:
 def _start_recording(window, view: SharedControlTab, recorder: StiffnessRecorder) -> None:
     """Record the MPC's /equilibrium_pose and /cartesian_pose."""
     recorder.start()
-    window.set_recording(True)
+    window.topics.send_recording(True)
     view.recording_since = time.monotonic()
     window.statusBar().showMessage("recording the shared-control trajectory", 5000)
 
 
 def _stop_recording(window, view: SharedControlTab, recorder: StiffnessRecorder) -> None:
     recorder.stop()
-    window.set_recording(False)
+    window.topics.send_recording(False)
     view.recording_since = None
     view.show_status(view.status)
 
@@ -296,8 +296,8 @@ def _save_skill(window, recorder: StiffnessRecorder, adapter: SharedControlRos) 
     surface = adapter.surface
     if surface is None:
         stiffness = [float(value) for value in window.config.shared_control_stiffness]
-        window.save_recording(recorder, "shared_control", prefix, {"stiffness": stiffness})
+        window.skills.save(recorder, "shared_control", prefix, {"stiffness": stiffness})
         return
     name, pose = surface
     target = (name, pose, skill_file.SURFACE)
-    window.save_recording(recorder, "shared_control", prefix, {"wiped": name}, target=target)
+    window.skills.save(recorder, "shared_control", prefix, {"wiped": name}, target=target)

@@ -23,7 +23,7 @@ from teleteach.core.teleoperation import ReplayCorrection
 from teleteach.gui.adapter import TabAdapter, TabParts
 from teleteach.gui.start.view import AuthorityView, StartTab
 from teleteach.msg import SkillAuthority
-from teleteach.runtime.node import publish
+from teleteach.runtime.node import publish, server_value
 
 
 class StartRos(TabAdapter):
@@ -85,10 +85,10 @@ class StartRos(TabAdapter):
 def build(window) -> TabParts:
     """START in ``window``."""
     view = StartTab(window.config)
-    view.show_device(rospy.get_param("sigma7_node/backend", ""))  # set by device.launch before any node starts
+    view.show_device(server_value("sigma7_node/backend", ""))  # set by device.launch before any node starts
     adapter = StartRos(window.config)
     adapter.authority.connect(view.show_authority, Qt.QueuedConnection)
     view.start_requested.connect(lambda: window.carry_out(window.session.start_requested()))
     view.mode_chosen.connect(window.tabs.setCurrentIndex)
-    view.mode_chosen.connect(lambda tab: window.publish_selection(Tab.START, "mode", Tab(tab).name))
+    view.mode_chosen.connect(lambda tab: window.topics.send_selection(Tab.START, "mode", Tab(tab).name))
     return TabParts(Tab.START.title, view, adapter)

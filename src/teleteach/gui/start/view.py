@@ -59,6 +59,16 @@ def authority_text(view: AuthorityView) -> str:
     return f"{text} {view.reason}" if view.reason else text
 
 
+def _note(style: str) -> QLabel:
+    """A centred line that wraps, hidden until it has something to say."""
+    label = QLabel()
+    label.setAlignment(Qt.AlignCenter)
+    label.setWordWrap(True)
+    label.setStyleSheet(style)
+    label.hide()
+    return label
+
+
 class StartTab(QWidget):
     """Choose the teaching mode with the device, a click opens it; start a tree that waits for the operator.
 
@@ -98,11 +108,7 @@ class StartTab(QWidget):
         )
         hint.setAlignment(Qt.AlignCenter)
         layout.addWidget(hint)
-        self.authority = QLabel()
-        self.authority.setAlignment(Qt.AlignCenter)
-        self.authority.setWordWrap(True)
-        self.authority.setStyleSheet("background: #e1f5fe; color: #01579b; font-size: 13pt; padding: 6px;")
-        self.authority.hide()
+        self.authority = _note("background: #e1f5fe; color: #01579b; font-size: 13pt; padding: 6px;")
         self._authority_timer = QTimer(self)
         self._authority_timer.setSingleShot(True)
         self._authority_timer.timeout.connect(self.authority.hide)
@@ -123,11 +129,7 @@ class StartTab(QWidget):
         gesture = QLabel("In any mode, open the gripper fully to come back here.")
         gesture.setAlignment(Qt.AlignCenter)
         layout.addWidget(gesture)
-        self.keys = QLabel()
-        self.keys.setAlignment(Qt.AlignCenter)
-        self.keys.setWordWrap(True)
-        self.keys.setStyleSheet("background: #fff8e1; color: #5d4037; font-size: 12pt; padding: 6px;")
-        self.keys.hide()
+        self.keys = _note("background: #fff8e1; color: #5d4037; font-size: 12pt; padding: 6px;")
         layout.addWidget(self.keys)
         layout.addStretch(2)
         self._show()

@@ -10,14 +10,14 @@ from teleteach.gui.teleop.view import TeleopTab
 def start_recording(window, view: TeleopTab) -> None:
     """Record the path the arm takes."""
     window.path_recorder.start()
-    window.set_recording(True)
+    window.topics.send_recording(True)
     view.show_path("RECORDING the path: move the arm with the clutch; double click to stop", True)
 
 
 def stop_recording(window) -> None:
     """Stop recording the path."""
     window.path_recorder.stop()
-    window.set_recording(False)
+    window.topics.send_recording(False)
 
 
 def save_path(window, view: TeleopTab) -> None:
@@ -32,7 +32,7 @@ def save_path(window, view: TeleopTab) -> None:
     name = series[0].name if series else _new_path_name(window.config, directory)
     try:
         path = window.path_recorder.to_trajectory(name)
-        gap, target, why = window.worker.nearest_gap(path.positions[-1])
+        gap, target, why = window.worker.perception.nearest_gap(path.positions[-1])
         if gap is None:
             raise TrajectoryError(f"path {name!r}: no gap to keep it relative to: {why}")
         if series and series[0].target != gap:

@@ -132,14 +132,14 @@ class TeleopRos(TabAdapter):
         if now - self._opening_checked < self.ASSISTANCE_PERIOD:
             return self._opening
         self._opening_checked = now
-        gap, target, why = self.worker.nearest_gap(hand[:3])
-        base, base_why = self.worker.base_in_world()
+        gap, target, why = self.worker.perception.nearest_gap(hand[:3])
+        base, base_why = self.worker.perception.base_in_world()
         if gap is None or base is None:
             self._opening = (None, f"assistance: {why or base_why}")
         elif np.linalg.norm(target.position - hand[:3]) > parameters.reach:
             self._opening = (None, f"assistance: no gap within {100 * parameters.reach:.0f} cm")
         else:
-            opening, why = Opening.perceived(self.worker.scene(), gap, base, hand, self._held_below)
+            opening, why = Opening.perceived(self.worker.perception.scene(), gap, base, hand, self._held_below)
             if opening is None:
                 self._opening = (None, f"assistance at {gap}: {why}")
             else:
