@@ -61,7 +61,7 @@ def test_config_file_loads_with_the_thesis_values():
         ({"initial_tab": 5}, "initial_tab"),
         (
             {"teleop": {"operator_to_base": [[1, 0, 0], [0, 1, 0], [0, 0, -1]]}},
-            "teleop/operator_to_base .* not a rotation",
+            "teleop/operator_to_base: .* is not a rotation",
         ),
         ({"teleop": {"max_speed": 0.0}}, "teleop/max_speed must be a positive number"),
         ({"teleop": {"speed": 0.1}}, "unknown teleop/speed"),
