@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
-from main_job import run_thesis
+from main_job import FASTER, run_thesis
 from scipy.spatial.transform import Rotation
 
 from teleteach.core import skill_file
@@ -139,7 +139,9 @@ def test_run_folder_holds_bag_report_and_screenshots(run):
 
 
 def test_thesis_iii_d_turns_the_ellipsoid_places_at_45_degrees_and_reuses_it(tmp_path):
-    result = run_thesis(tmp_path, "--scenario", ROOT / "config" / "scenarios" / "thesis_III_D.yaml", "--no-rviz")
+    result = run_thesis(
+        tmp_path, "--scenario", ROOT / "config" / "scenarios" / "thesis_III_D.yaml", "--no-rviz", *FASTER
+    )
     assert result.returncode == 0, result.stdout + result.stderr
     folder = next((tmp_path / "runs").iterdir())
     skill = skill_file.load(next((folder / "skills").glob("*.npz")))
