@@ -18,6 +18,7 @@ import pathlib
 import re
 import subprocess
 import sys
+import textwrap
 from typing import Callable
 
 import yaml
@@ -312,7 +313,7 @@ def mutation_scores(results: dict) -> list:
     for module, figures in results["mutation.json"].items():
         by_score.setdefault(figures["score"], []).append(module.removesuffix(".py"))
     parts = [f"{', '.join(modules)} {100 * score:.1f} %" for score, modules in sorted(by_score.items(), reverse=True)]
-    return [", ".join(parts)]
+    return textwrap.wrap(", ".join(parts), 120, break_on_hyphens=False)
 
 
 FIGURES = {
