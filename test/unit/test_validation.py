@@ -225,5 +225,9 @@ def test_a_rotation_typed_to_a_few_decimals_is_taken_as_the_nearest_rotation():
     ):
         with pytest.raises(v.InvalidCommandError, match=why):
             v.rotation_matrix(refused, "axes")
-    # within the tolerance: 1.0004 squared is 8e-4 off one, still typed rounding
+    # within the tolerance: 1.0004 squared is 8e-4 off one, still typed rounding; a row leaning 1e-3 into the next
+    # is exactly at the tolerance (M M^T's off-diagonal is that 1e-3), still taken
     v.rotation_matrix([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0004]], "axes")
+    v.rotation_matrix([[1.0, 1e-3, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], "axes")
+    with pytest.raises(v.InvalidCommandError, match="a 3x3 matrix of numbers"):  # a word where a number belongs
+        v.rotation_matrix([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, "one"]], "axes")
