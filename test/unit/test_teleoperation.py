@@ -151,7 +151,7 @@ def test_a_paused_clock_moves_nothing_and_divides_by_nothing():
     again = operator.teleop.update(operator.now, operator.gripper, device, 0.0, 0.5)
     np.testing.assert_array_equal(again.pose, held.pose)
     assert again.reason == ""
-    moved = (operator.position + [0.0, 0.005, 0.0], Rotation.from_euler("z", 0.1).as_quat())
+    moved = (operator.position + np.array([0.0, 0.005, 0.0]), Rotation.from_euler("z", 0.1).as_quat())
     again = operator.teleop.update(operator.now, operator.gripper, moved, 0.0, 0.5)
     np.testing.assert_array_equal(again.pose, held.pose)
     assert "speed limit" in again.reason and "angular speed limit" in again.reason
@@ -244,9 +244,14 @@ def test_nothing_is_commanded_before_the_start_or_after_the_stop():
 @pytest.mark.parametrize(
     "change, named",
     [
-        ({"operator_to_base": ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, -1.0))}, "not a rotation"),
-        ({"operator_to_base": ((1.0, 0.0), (0.0, 1.0))}, "3x3"),
+        (
+            {"operator_to_base": ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, -1.0))},
+            "^teleop/operator_to_base: .* is not a rotation",
+        ),
+        ({"operator_to_base": ((1.0, 0.0), (0.0, 1.0))}, "^teleop/operator_to_base: a 3x3"),
         ({"workspace_low": (1.0, -0.5, 0.1)}, "workspace_low"),
+        ({"workspace_low": ("low", -0.5, 0.1)}, "^teleop/workspace_low .* must lie below workspace_high"),
+        ({"workspace_high": None}, "^teleop/workspace_low .* must lie below workspace_high"),
         ({"clutch_below": 0.3}, "hysteresis"),
         ({"max_speed": 0.0}, "max_speed"),
         ({"rotation_scale": -1.0}, "rotation_scale"),

@@ -90,12 +90,16 @@ class TeleopParameters:
             rotation_matrix(self.operator_to_base, "teleop/operator_to_base")
         except InvalidCommandError as error:
             raise TeleopParametersError(str(error)) from None
-        low, high = (np.array(box, dtype=float) for box in (self.workspace_low, self.workspace_high))
+        box_error = TeleopParametersError(
+            f"teleop/workspace_low {self.workspace_low!r} must lie below workspace_high {self.workspace_high!r} "
+            "(3 numbers each, base frame [m])"
+        )
+        try:
+            low, high = (np.array(box, dtype=float) for box in (self.workspace_low, self.workspace_high))
+        except (TypeError, ValueError):
+            raise box_error from None
         if low.shape != (3,) or high.shape != (3,) or not np.all(np.isfinite(low) & np.isfinite(high) & (low < high)):
-            raise TeleopParametersError(
-                f"teleop/workspace_low {self.workspace_low!r} must lie below workspace_high {self.workspace_high!r} "
-                "(3 numbers each, base frame [m])"
-            )
+            raise box_error
 
     @property
     def rotation(self) -> Rotation:
