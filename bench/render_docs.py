@@ -275,6 +275,31 @@ def mutation(results: dict) -> list:
     return table(header, rows)
 
 
+def teleop_assistance(results: dict) -> list:
+    """Per gap, the assistance off and on over the same seeds: touches, peak force on the neighbours, success."""
+    result = next(iter(results.values()))
+    rows = []
+    for gap, figures in result["gaps"].items():
+        off, on = figures["off"], figures["on"]
+        rows.append(
+            [
+                f"{gap} ({1e3 * result['settings']['clearance_m'][gap]:.0f} mm)",
+                f"{off['touched_neighbours']} / {on['touched_neighbours']} of {off['trials']}",
+                f"{off['mean_peak_neighbour_force_n']:.2f} -> {on['mean_peak_neighbour_force_n']:.2f} N",
+                f"{off['median_peak_neighbour_force_n']:.2f} / {on['median_peak_neighbour_force_n']:.2f} N",
+                " / ".join(f"{round(row['success_rate'] * row['trials'])} of {row['trials']}" for row in (off, on)),
+            ]
+        )
+    header = [
+        "gap (clearance per side)",
+        "touched a neighbour, off / on",
+        "mean peak neighbour force, off -> on",
+        "median, off / on",
+        "success, off / on",
+    ]
+    return [*table(header, rows), "", f"- {result['goal']}"]
+
+
 def ray_workers(results: dict) -> list:
     """Trials per minute with one and two Ray workers, in the order run, and the ratio of each pair."""
     runs = results["ray_workers.json"]["runs"]
@@ -324,6 +349,9 @@ FIGURES = {
     "mutation": Figure("mutation", ("mutation.json",), mutation),
     "mutation_scores": Figure("mutation", ("mutation.json",), mutation_scores),
     "ray_workers": Figure("ray_workers", ("ray_workers.json",), ray_workers),
+    "teleop_assistance_exact_perception": Figure(
+        "teleop_assistance", ("teleop_assistance_exact_perception.json",), teleop_assistance
+    ),
 }
 
 
@@ -375,9 +403,10 @@ def measured_results(measures=None) -> list:
     for bench, name in stored:
         record = load(name)
         if bench == "mutation":
-            for module, entry in record.items():
+            for module, entry in record.items():  # what a module's score measures: the module and its tests
                 paths = (f"src/teleteach/{module}", *entry["tests"])
-                found.append(Measured(f"{name}: {module}", entry.get("provenance", {}), paths))
+                measured = {**entry["provenance"], "config_sha256": {}} if "provenance" in entry else {}
+                found.append(Measured(f"{name}: {module}", measured, paths))
             continue
         script = f"bench/{bench}.py"
         paths = (*([script] if (ROOT / script).exists() else []), *measures[bench])
@@ -386,7 +415,8 @@ def measured_results(measures=None) -> list:
 
 
 def config_path(name: str) -> pathlib.Path:
-    return next((path for path in (ROOT / "config" / name, ROOT / "bench" / name) if path.exists()), ROOT / name)
+    candidates = (ROOT / "config" / name, ROOT / "bench" / name, ROOT / "bench" / "data" / name)
+    return next((path for path in candidates if path.exists()), ROOT / name)
 
 
 def older_than_the_code(measured: Measured, log=git) -> list:
