@@ -110,10 +110,10 @@ class ScriptedWipe:
 
     ``hand``: what the commands come through, one of shared_control's inputs: ``operator_command`` (the task-plane
     velocity itself), ``joy`` (a joystick's axes, /joy) or ``twist`` (the Sigma.7's velocity, /sigma7/twist), mapped
-    with the node's own parameters (config/shared_control.yaml).
+    with the node's own parameters (config/shared_control.yaml). ``patterns``: each skill's rho (default PATTERNS).
     """
 
-    def __init__(self, hand: str = "operator_command"):
+    def __init__(self, hand: str = "operator_command", patterns=PATTERNS):
         import rospy
         from geometry_msgs.msg import QuaternionStamped, TwistStamped, Vector3Stamped
         from sensor_msgs.msg import Joy
@@ -124,7 +124,7 @@ class ScriptedWipe:
 
         if hand not in INPUTS:
             raise ValueError(f"unknown input {hand!r}: one of {', '.join(INPUTS)}")
-        self._rospy, self.hand = rospy, hand
+        self._rospy, self.hand, self.patterns = rospy, hand, dict(patterns)
         self._node = SharedControlNodeConfig.from_parameters(config_values("shared_control.yaml"))
         self._types = (Vector3Stamped, QuaternionStamped, Bool)
         self.eigenvalues = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1, latch=True)
@@ -166,15 +166,15 @@ class ScriptedWipe:
         rng: Optional[np.random.Generator] = None,
         each: Optional[Callable[[int, float], None]] = None,
     ) -> Tuple[float, float]:
-        """Command ``skill`` (PATTERNS) along ``heading`` [rad] (pi: right to left) at RATE for ``duration`` [s].
+        """Command ``skill`` (its rho from ``patterns``) along ``heading`` [rad] (pi: right to left) at RATE.
 
-        ``duration`` is ROS time; ``each(k, stamp)`` runs after the k-th command is sent, and each command is kept in
-        ``sent`` (ROS time [s], (u, v) [m/s]). Returns the ROS times [s] of the first and last.
+        For ``duration`` [s] of ROS time; ``each(k, stamp)`` runs after the k-th command is sent, and each command is
+        kept in ``sent`` (ROS time [s], (u, v) [m/s]). Returns the ROS times [s] of the first and last.
         """
         rospy = self._rospy
         times = np.arange(0.0, duration, 1.0 / RATE)
         rng = rng or np.random.default_rng(49)
-        commands = synthetic_commands(skill, PATTERNS[skill], heading, SPEED, times, NOISE, rng)
+        commands = synthetic_commands(skill, self.patterns[skill], heading, SPEED, times, NOISE, rng)
         start = rospy.Time.now().to_sec()
         rate = rospy.Rate(RATE)
         for k, command in enumerate(commands):

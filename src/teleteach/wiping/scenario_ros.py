@@ -154,7 +154,7 @@ class WipeScenario:
         if not drive_to(scenario.TEACHING_POSE, timeout=min(self.left(), 120.0)):
             raise RuntimeError(f"the base did not arrive at {scenario.TEACHING_POSE}")
         seen, true = board_in_base()
-        operator = ScriptedWipe(self.hand)
+        operator = ScriptedWipe(self.hand, scenario.PATTERNS)
         start_stiffness = tuple(float(value) for value in GuiConfig.load().shared_control_stiffness)
         operator.press_with(seen, start_stiffness)
         operator.enable()
