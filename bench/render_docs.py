@@ -309,6 +309,7 @@ def ray_workers(results: dict) -> list:
             run["worker_niceness"],
             run["beside"] or "other sessions' work only",
             f"{run['load_start']:.1f} -> {run['load_end']:.1f}",
+            run["trials"],
             f"{run['wall_s']:.0f} s",
             f"{run['trials_per_minute']:.1f}",
         ]
@@ -319,7 +320,8 @@ def ray_workers(results: dict) -> list:
         "Ray's worker niceness",
         "beside it",
         "load average (1 min), start -> end",
-        "wall of the 16 trials, connecting included",
+        "trials",
+        "wall, connecting included",
         "trials per minute",
     ]
     pairs = [(runs[index], runs[index + 1]) for index in range(0, len(runs) - 1, 2)]
