@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
-from main_job import FASTER, run_thesis
+from main_job import run_thesis
 
 from teleteach.core import skill_file
 from teleteach.core.scene import load_scene
@@ -22,7 +22,7 @@ SCENARIO = ROOT / "config" / "scenarios" / "teach_placement.yaml"
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     data = tmp_path_factory.mktemp("teach_data")
-    result = run_thesis(data, "--scenario", SCENARIO, "--no-rviz", *FASTER)
+    result = run_thesis(data, "--scenario", SCENARIO, "--no-rviz")
     folders = sorted((data / "runs").iterdir())
     assert len(folders) == 1, result.stdout + result.stderr
     return data, result, folders[0]
