@@ -6,10 +6,10 @@ import subprocess
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 RUN_TIMEOUT = 480.0  # [s] wall: the runner bounds itself (scenario 300 s, RViz picture 2 x 45 s, stop, report)
-# The two long variants (III-D, teach_placement) at twice real time: every node runs on the simulation's clock, so the
-# same run takes less wall time where a core is free (III-D 94 -> 55 s, teach_placement 180 -> 121 s at load 3-7 on 2
-# cores), and about the same on a saturated machine (docs/benchmarks.md). The main job itself (test_thesis_e2e's module
-# run, as scripts/demo runs it) stays at config/controllers.yaml's 1.0.
+# The III-D variant at twice real time: every node runs on the simulation's clock, so the same run takes less wall time
+# where a core is free (94 -> 55 s at load 3-7 on 2 cores), and about the same on a saturated machine
+# (docs/benchmarks.md). teach_placement went back to 1.0 (at 2, in a full suite, its wait for START once ran out). The
+# main job itself (test_thesis_e2e's module run, as scripts/demo runs it) stays at config/controllers.yaml's 1.0.
 FASTER = ("--real-time-factor", "2")
 
 
