@@ -16,11 +16,10 @@ import numpy as np
 import rospy
 import rostest
 from geometry_msgs.msg import Vector3Stamped
-from scipy.spatial.transform import Rotation
 
-from teleteach.core.frames import Transform
 from teleteach.core.scene import load_scene
 from teleteach.msg import SharedControlTask
+from teleteach.shared_control.ros import task_of
 from teleteach.shared_control.surface import wiping_box
 from teleteach.wiping.ros import BOARD, CONTACT, TAUGHT, ScriptedWipe, WorldRecord, board_in_base, drive_to
 
@@ -50,9 +49,7 @@ class WipeUnderSharedControl(unittest.TestCase):
         rospy.sleep(0.5)
         operator.enable()
         self.wait_for(lambda: record.states, "the approach to the board (then /shared_control/state)", 90.0)
-        task = rospy.wait_for_message("/shared_control/task", SharedControlTask, timeout=30.0)
-        p, q = task.surface_pose.position, task.surface_pose.orientation
-        located = Transform(np.array([p.x, p.y, p.z]), Rotation.from_quat([q.x, q.y, q.z, q.w]))
+        _, (_, located) = task_of(rospy.wait_for_message("/shared_control/task", SharedControlTask, timeout=30.0))
 
         bad = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1)  # a bad message mid-wipe changes nothing
         half = int(2.0 * 50.0) // 2

@@ -102,6 +102,27 @@ def _set_pose(pose, position: Sequence[float], quaternion: Sequence[float]) -> N
     pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (float(v) for v in quaternion)
 
 
+def task_of(message) -> Tuple[TaskPlane, Optional[Tuple[str, Transform]]]:
+    """The task plane of a /shared_control/task message, and the wiped surface (name, pose in base_link) or None.
+
+    Raises:
+        ValueError: a pose that is not finite or not a rotation.
+    """
+
+    def transform(pose) -> Transform:
+        p, q = pose.position, pose.orientation
+        position, quaternion = np.array([p.x, p.y, p.z]), np.array([q.x, q.y, q.z, q.w])
+        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quaternion)) and np.linalg.norm(quaternion) > 0.5):
+            raise ValueError(f"not a pose: {position.tolist()} {quaternion.tolist()}")
+        return Transform(position, Rotation.from_quat(quaternion))
+
+    plane = transform(message.plane)
+    axes = plane.rotation.as_matrix()
+    task_plane = TaskPlane(plane.position, axes[:, 0], axes[:, 1], plane.rotation.as_quat())
+    surface = (message.surface, transform(message.surface_pose)) if message.surface else None
+    return task_plane, surface
+
+
 def obstacle_from_pose(message) -> StraightEdge:
     """Straight edge from geometry_msgs/PoseStamped in task-plane coordinates: (x, y) and yaw of the free side."""
     p, q = message.pose.position, message.pose.orientation

@@ -259,6 +259,6 @@ def plot_contact_force(tracks: Dict[str, Track], threshold: float, path: pathlib
 
 
 def write_summary(folder: pathlib.Path, summary: dict) -> None:
-    """summary.json (grids left out) and summary.md, atomically."""
+    """summary.json and summary.md, atomically (the phases without their grids: the caller drops them)."""
     atomic_write_text(folder / "summary.json", json.dumps(summary, indent=1, default=float) + "\n")
     atomic_write_text(folder / "summary.md", summary_markdown(summary))

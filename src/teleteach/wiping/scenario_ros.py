@@ -14,7 +14,6 @@ import time
 from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from teleteach.control.stiffness import translational_stiffness
 from teleteach.core import skill_file
@@ -23,10 +22,12 @@ from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig
 from teleteach.core.scene import load_scene
 from teleteach.core.wiping import load_wiping_config
+from teleteach.gui.arm import pose_to_array
 from teleteach.gui.recording import StiffnessRecorder
 from teleteach.runtime.experiment import Experiment
 from teleteach.runtime.processes import closed_bag
 from teleteach.shared_control.config import INPUTS
+from teleteach.shared_control.ros import task_of
 from teleteach.shared_control.surface import wiping_box
 from teleteach.wiping import scenario
 from teleteach.wiping.assistance import moving_edge
@@ -84,18 +85,13 @@ class DemonstrationRecorder:
             rospy.Subscriber("/equilibrium_pose", PoseStamped, self._on_equilibrium, queue_size=100),
         ]
 
-    @staticmethod
-    def _pose(message) -> np.ndarray:
-        p, q = message.pose.position, message.pose.orientation
-        return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w])
-
     def _on_arm(self, message) -> None:
-        self._measured = self._pose(message)
+        self._measured = pose_to_array(message.pose)
 
     def _on_equilibrium(self, message) -> None:
         values, quaternion = self.operator.stiffness
         stiffness = translational_stiffness(values, quaternion)
-        self.recorder.add(message.header.stamp.to_sec(), stiffness, self._pose(message), self._measured)
+        self.recorder.add(message.header.stamp.to_sec(), stiffness, pose_to_array(message.pose), self._measured)
 
     def close(self) -> None:
         """Unregister the topics."""
@@ -190,10 +186,10 @@ class WipeScenario:
         from teleteach.msg import SharedControlTask
 
         message = rospy.wait_for_message("/shared_control/task", SharedControlTask, timeout=min(self.left(), 30.0))
-        if message.surface != scenario.BOARD:
+        _, surface = task_of(message)
+        if surface is None or surface[0] != scenario.BOARD:
             raise RuntimeError(f"shared control wipes {message.surface!r}, not {scenario.BOARD}")
-        p, q = message.surface_pose.position, message.surface_pose.orientation
-        return Transform(np.array([p.x, p.y, p.z]), Rotation.from_quat([q.x, q.y, q.z, q.w]))
+        return surface[1]
 
     def _tracks(self, record: WorldRecord, start: float, end: float, true: Transform, located: Transform):
         """The phase's TCP and force on the true board and on the board as located."""

@@ -24,7 +24,6 @@ import rospy
 from geometry_msgs.msg import PolygonStamped, PoseStamped
 from nav_msgs.msg import Path
 from PyQt5.QtCore import Qt, pyqtSignal
-from scipy.spatial.transform import Rotation
 from std_msgs.msg import Bool, Float64
 
 from teleteach.control.stiffness import translational_stiffness
@@ -41,30 +40,9 @@ from teleteach.gui.shared_control.view import SharedControlTab, SharedStatus
 from teleteach.msg import SharedControlState, SharedControlTask
 from teleteach.runtime.node import publish
 from teleteach.shared_control.plane import TaskPlane
-from teleteach.shared_control.ros import obstacle_from_pose
+from teleteach.shared_control.ros import obstacle_from_pose, task_of
 
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
-
-
-def task_of(message: SharedControlTask) -> Tuple[TaskPlane, Optional[Tuple[str, Transform]]]:
-    """The task plane of a /shared_control/task message, and the wiped surface (name, pose in base_link) or None.
-
-    Raises:
-        ValueError: a pose that is not finite or not a rotation.
-    """
-
-    def transform(pose) -> Transform:
-        p, q = pose.position, pose.orientation
-        position, quaternion = np.array([p.x, p.y, p.z]), np.array([q.x, q.y, q.z, q.w])
-        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quaternion)) and np.linalg.norm(quaternion) > 0.5):
-            raise ValueError(f"not a pose: {position.tolist()} {quaternion.tolist()}")
-        return Transform(position, Rotation.from_quat(quaternion))
-
-    plane = transform(message.plane)
-    axes = plane.rotation.as_matrix()
-    task_plane = TaskPlane(plane.position, axes[:, 0], axes[:, 1], plane.rotation.as_quat())
-    surface = (message.surface, transform(message.surface_pose)) if message.surface else None
-    return task_plane, surface
 
 
 class SharedControlRos(TabAdapter):
