@@ -123,6 +123,11 @@ def test_checks_pass_only_when_the_world_says_so():
         phases[phase][key] = value
         failed = [check["check"] for check in scenario.checks(phases, CONFIG) if not check["passed"]]
         assert len(failed) == 1 and failed[0].startswith(phase), (phase, key, failed)
+    # a replay the world saw no pattern of fails, whatever the tree said
+    phases = passing_phases()
+    phases["replay"] = {"status": "SUCCESS", "message": "wiped"}
+    failed = [check["check"] for check in scenario.checks(phases, CONFIG) if not check["passed"]]
+    assert failed == ["replay: the learned skill pressed on the board"]
     markdown = scenario.summary_markdown({"passed": False, "checks": found, "phases": {}})
     assert markdown.startswith("# run_wipe: FAILED") and "ok   wave: in contact >= 95%" in markdown
 

@@ -197,7 +197,9 @@ def checks(phases: Dict[str, dict], config: WipingConfig) -> List[Dict[str, obje
     check("teaching: the clutch kept the wave", kept >= RECOGNISED, f"in {kept:.0%} of the clutched cycles")
     replay = phases["replay"]
     check("replay: the tree's learned wipe succeeded", replay["status"] == "SUCCESS", replay["message"])
-    if "contact_fraction" in replay:
+    if "contact_fraction" not in replay:
+        check("replay: the learned skill pressed on the board", False, "its equilibrium never went below the face")
+    else:
         check(
             f"replay: in contact >= {config.min_contact:.0%}",
             replay["contact_fraction"] >= config.min_contact,
