@@ -6,7 +6,8 @@ along its normal, axes those of the board as perceived) and enables shared contr
 perception and TF; then a scripted operator wipes with a wave from right to left and on into the boundary, and early
 on holds the clutch for a while, stiffening the normal as the GUI's wipe teaching would, while the controller keeps
 the wave. Every check is on what the world did: the force the board puts on the tool along its true normal, the TCP in
-the true board's frame, and what the controller recognised.
+the true board's frame, and what the controller recognised. A second wipe goes stiffer along the normal than the arm
+takes: the wipe must end off the board, with one line saying why.
 """
 
 import math
@@ -27,6 +28,7 @@ BOUNDARY_TOLERANCE = 0.005  # [m] the tool's centre beyond the boundary (the arm
 REFERENCE_TOLERANCE = 0.001  # [m] the controller's equilibrium beyond the boundary: its constraint's own slack
 SETTLING = 0.5  # [s] into the wipe before the tool is held to BOUNDARY_TOLERANCE (it starts where the approach left it)
 STIFFENED = (3000.0, 3000.0, 1000.0)  # [N/m] what the operator shapes while clutched: a stiffer normal
+TOO_STIFF = (3000.0, 3000.0, 5000.0)  # [N/m] a normal stiffer than the arm's max_stiffness (3000 N/m)
 
 
 class WipeUnderSharedControl(unittest.TestCase):
@@ -140,6 +142,47 @@ class WipeUnderSharedControl(unittest.TestCase):
         self.assertGreater(last_face, 0.015, "the tool did not retract off the board")
         self.assertTrue(stopped, "shared control went on without input")
         self.check_the_clutch_kept_the_wave(record, true_in_base, clutch_start, clutch_end)
+
+    def test_the_wipe_ends_off_the_board_when_the_stiffness_goes_beyond_what_the_arm_takes(self):
+        from rosgraph_msgs.msg import Log
+
+        lines = []
+        rospy.Subscriber("/rosout", Log, lambda message: lines.append(message.msg), queue_size=100)
+        record = WorldRecord()
+        self.assertTrue(drive_to(), "the base did not arrive at the counter")
+        seen_in_base, true_in_base = board_in_base()
+        operator = ScriptedWipe()
+        operator.press_with(seen_in_base)
+        rospy.sleep(0.5)
+        operator.enable()
+        self.wait_for(lambda: record.states, "the approach to the board (then /shared_control/state)", 90.0)
+        sent = []
+
+        def too_stiff_midway(k, stamp):
+            if k == 50:  # 1 s into the wave the normal goes stiffer than the arm's controller takes (it would clamp)
+                operator.press_with(seen_in_base, TOO_STIFF)
+                sent.append(stamp)
+
+        start, end = operator.pattern("wave", 4.0, math.pi, np.random.default_rng(51), too_stiff_midway)
+        rospy.sleep(1.0)
+        reach, normal = load_scene().wiping_tool.reach, true_in_base.rotation.apply([0.0, 0.0, 1.0])
+        before = record.between("forces", start + 0.5, sent[0]) @ normal
+        lifted = record.between("forces", end - 0.5, end) @ normal
+        last_face = true_in_base.inverse().apply_point(record.between("poses", end - 0.5, end)[-1])[2] - reach
+        with record.lock:
+            stopped = all(stamp < sent[0] + 2.0 for stamp, _, _ in record.states)
+        said = [line for line in lines if "outside the arm's range" in line and "the wipe ends" in line]
+        print(
+            f"stiffness {TOO_STIFF} N/m mid-wipe: before, median force {np.median(before):.1f} N; after, force "
+            f"{np.max(lifted):.2f} N at most, the eraser's face {1000 * last_face:.0f} mm off the board, shared "
+            f"control {'stopped' if stopped else 'still running'}; the log: {said}",
+            flush=True,
+        )
+        self.assertGreaterEqual(float(np.mean(before >= CONTACT)), 0.9, "the wipe was not in contact before")
+        self.assertLess(float(np.max(lifted)), CONTACT, "the tool still pressed with a stiffness the arm clamps")
+        self.assertGreater(last_face, 0.015, "the tool did not retract off the board")
+        self.assertTrue(stopped, "shared control went on with a stiffness the arm clamps")
+        self.assertEqual(len(said), 1, f"not one line saying why: {lines[-5:]}")
 
     def check_the_clutch_kept_the_wave(self, record, true_in_base, start, end):
         """While clutched: the wave kept by the controller (right to left at 5 cm/s, swaying), the tool on the board

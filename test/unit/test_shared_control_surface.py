@@ -10,12 +10,24 @@ from teleteach.control.stiffness import translational_stiffness
 from teleteach.core.frames import Transform
 from teleteach.core.scene import load_scene
 from teleteach.core.wiping import WipingError, load_wiping_config
-from teleteach.shared_control.surface import SurfaceError, SurfaceWipe, pressing_depth, surface_plane, wiping_box
+from teleteach.shared_control.surface import (
+    SurfaceError,
+    SurfaceWipe,
+    check_stiffness,
+    pressing_depth,
+    surface_plane,
+    wiping_box,
+)
 
 SCENE = load_scene()
 BOARD = SCENE.surface("counter_board")
 TOOL = SCENE.wiping_tool
 TURNED = Transform(np.array([0.55, -0.1, 0.3]), Rotation.from_euler("xyz", [0.2, -0.15, 2.0]))
+MAX_STIFFNESS = 3000.0  # [N/m] config/shared/stiffness.yaml
+
+
+def board_wipe() -> SurfaceWipe:
+    return SurfaceWipe(BOARD, TOOL, load_wiping_config(), SCENE.robot.mount_height, MAX_STIFFNESS)
 
 
 def taught_in(frame: Transform) -> np.ndarray:
@@ -45,7 +57,7 @@ def test_the_plane_has_the_surfaces_axes_and_holds_the_tcp_pressing_beyond_the_f
 
 
 def test_a_wipe_starts_on_a_surface_in_reach_and_its_depth_follows_the_stiffness():
-    wipe = SurfaceWipe(BOARD, TOOL, load_wiping_config(), SCENE.robot.mount_height)
+    wipe = board_wipe()
     in_base = Transform(np.array([0.55, 0.0, 0.63]), BOARD.frame.rotation)
     plane, box = wipe.start(in_base, taught_in(in_base))
     assert (box.x_min, box.y_max) == pytest.approx((-0.175, 0.07))
@@ -55,7 +67,7 @@ def test_a_wipe_starts_on_a_surface_in_reach_and_its_depth_follows_the_stiffness
 
 
 def test_a_surface_out_of_reach_or_with_an_area_smaller_than_the_tool_is_refused_with_the_reason():
-    wipe = SurfaceWipe(BOARD, TOOL, load_wiping_config(), SCENE.robot.mount_height)
+    wipe = board_wipe()
     far = Transform(np.array([1.2, 0.0, 0.63]), BOARD.frame.rotation)
     with pytest.raises(SurfaceError, match="out of the arm's reach"):
         wipe.start(far, taught_in(far))
@@ -76,7 +88,25 @@ def test_wiping_settings_out_of_range_are_refused(tmp_path):
 
 
 def test_a_wipe_that_ends_holds_the_tool_off_the_surface_over_where_it_was():
-    wipe = SurfaceWipe(BOARD, TOOL, load_wiping_config(), SCENE.robot.mount_height)
+    wipe = board_wipe()
     off = wipe.off_surface(TURNED, (0.1, -0.05))
     face = TURNED.inverse().apply_point(off) - [0.0, 0.0, TOOL.reach]  # where the tool's face is, in the surface frame
     np.testing.assert_allclose(face, [0.1, -0.05, load_wiping_config().approach_height], atol=1e-12)
+
+
+def test_a_stiffness_the_arm_would_clamp_is_refused_whatever_its_axes_and_one_at_the_maximum_is_taken():
+    wipe = board_wipe()
+    in_base = Transform(np.array([0.55, 0.0, 0.63]), BOARD.frame.rotation)
+    at_max = translational_stiffness([3000.0, 3000.0, 300.0], TURNED.rotation)  # turned axes: rounding, not a breach
+    check_stiffness(at_max, MAX_STIFFNESS)
+    wipe.plane(in_base, at_max)
+    for values in ([3000.1, 3000.0, 300.0], [3000.0, 300.0, 5000.0]):
+        with pytest.raises(SurfaceError, match=r"outside the arm's range \[0, 3000\] N/m"):
+            wipe.plane(in_base, translational_stiffness(values, TURNED.rotation))
+    with pytest.raises(SurfaceError, match="outside the arm's range"):
+        check_stiffness(np.diag([3000.0, -0.1, 300.0]), MAX_STIFFNESS)
+    check_stiffness(np.diag([3000.0, 0.0, 300.0]), MAX_STIFFNESS)
+    with pytest.raises(SurfaceError, match="not finite"):
+        check_stiffness(np.diag([3000.0, np.nan, 300.0]), MAX_STIFFNESS)
+    with pytest.raises(SurfaceError, match="normal"):  # in range, but nothing presses along the normal
+        wipe.plane(in_base, translational_stiffness([3000.0, 3000.0, 0.0], in_base.rotation))

@@ -280,11 +280,16 @@ class SharedControlNode:
         config = SharedControlNodeConfig.from_parameters(node_parameters("shared_control.yaml"))
         surface = None
         if config.surface:
+            from teleteach.core.paths import config_values
             from teleteach.core.scene import load_scene
 
             scene = load_scene()
             surface = SurfaceWipe(
-                scene.surface(config.surface), scene.wiping_tool, load_wiping_config(), scene.robot.mount_height
+                scene.surface(config.surface),
+                scene.wiping_tool,
+                load_wiping_config(),
+                scene.robot.mount_height,
+                float(config_values("shared/stiffness.yaml")["max_stiffness"]),
             )
         return cls(config, surface)
 
@@ -615,14 +620,15 @@ class SharedControlNode:
             schedule.finish(self._rospy.get_time())
             return None
         if self._surface is not None:
-            if math.isfinite(self._last_input) and now - self._last_input > self._surface.wipe.settings.input_loss_time:
-                self._retract(now - self._last_input)
-                schedule.finish(self._rospy.get_time())
-                return None
+            silence = now - self._last_input
             try:
+                if math.isfinite(self._last_input) and silence > self._surface.wipe.settings.input_loss_time:
+                    raise SurfaceError(f"no operator input for {silence:.1f} s")
                 self.plane = self._surface.plane()  # the pressing depth follows the stiffness being taught
             except SurfaceError as error:
-                self._rejected = f"kept the last plane: {error}"
+                self._end_wipe(str(error))
+                schedule.finish(self._rospy.get_time())
+                return None
         command = self._commands.sample(cycle_time - self.command_delay)
         obstacle = self._obstacle
         if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
@@ -654,16 +660,19 @@ class SharedControlNode:
             self._rospy.loginfo(f"shared_control: {line}")
         return record
 
-    def _retract(self, silence: float) -> None:
-        """The operator's input is lost mid-wipe: take the tool off the surface (then the node disables itself)."""
+    def _end_wipe(self, reason: str) -> None:
+        """The wipe cannot go on: take the tool off the surface along its normal, then the node disables itself.
+
+        ``reason`` (the input lost, a stiffness the arm does not take) is the one line the log says why in.
+        """
         state = self.controller.state
         position, off = self.plane.to_base(state), self._surface.off_surface(state)
         orientation = self.plane.orientation
         self._approach = (Approach.at_most(position, orientation, off, orientation, *self.approach_limits), 0.0)
         self._retracting = True
         self._rospy.logwarn(
-            f"shared_control: no operator input for {silence:.1f} s: the wipe ends, the tool retracts off "
-            f"{self._surface.wipe.surface.name} and shared control disables itself"
+            f"shared_control: {reason}: the wipe ends, the tool retracts off {self._surface.wipe.surface.name} and "
+            "shared control disables itself"
         )
 
     def _pose(self, stamp, point):

@@ -3,7 +3,9 @@
 The plane has the surface's own axes (u, v), so the MPC plans in the surface's frame; its origin lies beyond the face
 along the normal by the pressing depth, ``contact_force / K_n`` with K_n the commanded stiffness along the normal: the
 equilibrium asks for the same force whatever the operator teaches, where perception is right. The boundary is the
-marked area shrunk by half the tool's contact patch.
+marked area shrunk by half the tool's contact patch. A stiffness outside the range the arm's impedance controller
+takes (config/shared/stiffness.yaml) is refused: the controller would clamp it, and the depth would press with
+another force than the one asked.
 """
 
 import dataclasses
@@ -17,6 +19,8 @@ from teleteach.core.scene import Surface, WipingTool
 from teleteach.core.wiping import ARM_REACH, TOOL_DOWN, WipingConfig, off_surface
 from teleteach.shared_control.constraints import Box
 from teleteach.shared_control.plane import TaskPlane
+
+RANGE_SLACK = 1e-9  # of max_stiffness: the rounding of R diag(lambda) R^T, not a tolerance on the range
 
 
 class SurfaceError(ValueError):
@@ -38,6 +42,19 @@ def pressing_depth(settings: WipingConfig, stiffness: np.ndarray, normal: Sequen
     if not math.isfinite(along) or along <= 0.0:
         raise SurfaceError(f"the stiffness along the surface's normal must be > 0 N/m, got {along}")
     return min(settings.contact_force / along, settings.max_depth)
+
+
+def check_stiffness(stiffness: np.ndarray, max_stiffness: float) -> None:
+    """Raise SurfaceError unless every principal stiffness of ``stiffness`` (3 x 3) lies in [0, max_stiffness] [N/m]."""
+    stiffness = np.asarray(stiffness, dtype=float)
+    if not np.all(np.isfinite(stiffness)):
+        raise SurfaceError(f"the stiffness is not finite: {stiffness.tolist()}")
+    principal = np.linalg.eigvalsh(stiffness)
+    slack = RANGE_SLACK * max_stiffness
+    if principal.min() < -slack or principal.max() > max_stiffness + slack:
+        raise SurfaceError(
+            f"the stiffness {np.round(principal, 1).tolist()} N/m is outside the arm's range [0, {max_stiffness:g}] N/m"
+        )
 
 
 def wiping_box(surface: Surface, footprint: Tuple[float, float]) -> Box:
@@ -78,15 +95,22 @@ class SurfaceWipe:
         tool: the mounted wiping tool.
         settings: the wiping settings (the force to press with, how far to retract, when the input counts as lost).
         mount_height: panda_link0 above base_link [m] (the arm's reach is measured from there).
+        max_stiffness: the largest principal stiffness the arm's impedance controller takes [N/m].
     """
 
     surface: Surface
     tool: WipingTool
     settings: WipingConfig
     mount_height: float
+    max_stiffness: float
 
     def plane(self, surface_in_base: Transform, stiffness: np.ndarray) -> TaskPlane:
-        """The task plane on the surface perceived at ``surface_in_base``, pressing with ``stiffness`` (base_link)."""
+        """The task plane on the surface perceived at ``surface_in_base``, pressing with ``stiffness`` (base_link).
+
+        Raises:
+            SurfaceError: the stiffness is outside the arm's range, or has none along the normal.
+        """
+        check_stiffness(stiffness, self.max_stiffness)
         normal = surface_in_base.rotation.apply([0.0, 0.0, 1.0])
         depth = pressing_depth(self.settings, stiffness, normal)
         return surface_plane(surface_in_base, self.tool, depth)
