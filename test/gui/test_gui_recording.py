@@ -70,7 +70,9 @@ def test_recording_makes_a_skill_that_appears_in_the_library(
     # the label says "waiting for the arm", then "switching to <controller>..." first: wait for the switch's answer
     label = window.low_level.controller_label
     pump_until(qapp, lambda: label.text().endswith(("active", "failed")), 30, "the controller switch answer")
-    assert label.text() == f"controller: {IMPEDANCE} active", label.text()
+    switches = [line for line in (data_root.parent / "sim.log").read_text().splitlines() if "switch_controller" in line]
+    why = f"{label.text()}; status bar: {window.statusBar().currentMessage()!r}; robot_sim: {switches}"
+    assert label.text() == f"controller: {IMPEDANCE} active", why
     assert IMPEDANCE in running_controllers()
 
     # compliant approach (phase 1), then stiff along Y (phase 2), as in thesis III-C
