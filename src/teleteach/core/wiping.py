@@ -232,6 +232,27 @@ def covered_area(
         (cells along u, cells along v), True where covered (for a plot and for ``coverage_of``); ``cell_size_m``,
         the cells' (du, dv) [m].
     """
+    positions, yaws, in_contact, patch = _patch_samples(positions, yaws, in_contact, footprint)
+    resolution = _positive("resolution", resolution)
+    area = as_rectangle("area", area)
+    n_u, n_v, du, dv = _grid_cells(area, resolution)
+    if min(patch) < max(du, dv):
+        raise ValueError(f"footprint {footprint} is smaller than a grid cell ({du:.3g} x {dv:.3g} m): use a finer grid")
+    reach = math.hypot(*patch) / 2
+    centres, angles = _placements(positions, yaws, in_contact, min(du, dv) / 2, reach)
+    near = _near_area(centres, area, reach, (du, dv))
+    grid = np.zeros((n_u, n_v), dtype=bool)
+    _paint_patches(grid, centres[near], angles[near], patch, area[:2], (du, dv), reach)
+    return {
+        "covered_area_m2": float(grid.sum()) * du * dv,
+        "covered_fraction": float(grid.mean()),
+        "grid": grid,
+        "cell_size_m": (du, dv),
+    }
+
+
+def _patch_samples(positions, yaws, in_contact, footprint) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``covered_area``'s samples and footprint as arrays, rejected with a reason when their shapes disagree."""
     positions = as_samples("positions", positions, 2)
     yaws = as_samples("yaws", yaws)
     if yaws.size != positions.shape[0]:
@@ -240,24 +261,45 @@ def covered_area(
     patch = as_samples("footprint", footprint)
     if patch.size != 2 or np.any(patch <= 0):
         raise ValueError(f"footprint must be (length_u, width_v) with both > 0, got {tuple(patch)}")
-    length, width = patch
-    resolution = _positive("resolution", resolution)
-    u_min, v_min, u_max, v_max = as_rectangle("area", area)
+    return positions, yaws, in_contact, patch
+
+
+def _grid_cells(area: Tuple[float, float, float, float], resolution: float) -> Tuple[int, int, float, float]:
+    """Cells along u and v and their size (du, dv) [m]: a whole number of cells about ``resolution`` fills the area."""
+    u_min, v_min, u_max, v_max = area
     n_u = max(1, round((u_max - u_min) / resolution))
     n_v = max(1, round((v_max - v_min) / resolution))
-    du, dv = (u_max - u_min) / n_u, (v_max - v_min) / n_v
-    if min(length, width) < max(du, dv):
-        raise ValueError(f"footprint {footprint} is smaller than a grid cell ({du:.3g} x {dv:.3g} m): use a finer grid")
-    reach = math.hypot(length, width) / 2
-    centres, angles = _placements(positions, yaws, in_contact, min(du, dv) / 2, reach)
-    # Only placements whose patch can reach the area (this also keeps far-away centres from overflowing an index).
-    near = (
+    return n_u, n_v, (u_max - u_min) / n_u, (v_max - v_min) / n_v
+
+
+def _near_area(
+    centres: np.ndarray, area: Tuple[float, float, float, float], reach: float, cell: Tuple[float, float]
+) -> np.ndarray:
+    """Mask of the placements whose patch can reach the area (this also keeps far centres from overflowing an index)."""
+    u_min, v_min, u_max, v_max = area
+    du, dv = cell
+    return (
         (centres[:, 0] > u_min - reach - du)
         & (centres[:, 0] < u_max + reach + du)
         & (centres[:, 1] > v_min - reach - dv)
         & (centres[:, 1] < v_max + reach + dv)
     )
-    centres, angles = centres[near], angles[near]
+
+
+def _paint_patches(
+    grid: np.ndarray,
+    centres: np.ndarray,
+    angles: np.ndarray,
+    patch: np.ndarray,
+    origin: Tuple[float, float],
+    cell: Tuple[float, float],
+    reach: float,
+) -> None:
+    """Mark in ``grid`` every cell whose centre lies on a placed patch, in chunks so memory stays bounded."""
+    length, width = patch
+    u_min, v_min = origin
+    du, dv = cell
+    n_u, n_v = grid.shape
     # Cell offsets, around the cell holding a patch's centre, whose centres can lie on the patch.
     offsets_u, offsets_v = np.meshgrid(
         np.arange(-math.ceil(reach / du) - 1, math.ceil(reach / du) + 2),
@@ -267,7 +309,6 @@ def covered_area(
     offsets_u, offsets_v = offsets_u.ravel(), offsets_v.ravel()
     home_u = np.floor((centres[:, 0] - u_min) / du).astype(int)
     home_v = np.floor((centres[:, 1] - v_min) / dv).astype(int)
-    grid = np.zeros((n_u, n_v), dtype=bool)
     chunk = max(1, CHUNK_CELLS // offsets_u.size)
     for first in range(0, centres.shape[0], chunk):
         rows = slice(first, first + chunk)
@@ -287,12 +328,6 @@ def covered_area(
             & (cell_v < n_v)
         )
         grid[cell_u[hit], cell_v[hit]] = True
-    return {
-        "covered_area_m2": float(grid.sum()) * du * dv,
-        "covered_fraction": float(grid.mean()),
-        "grid": grid,
-        "cell_size_m": (du, dv),
-    }
 
 
 def coverage_of(grid: np.ndarray, reference_grid: np.ndarray) -> float:
