@@ -14,7 +14,7 @@ modelled operator's, lives here too: :func:`minimum_jerk` and its rate.
 """
 
 import pathlib
-from typing import List, Optional, Sequence, Union
+from typing import List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import yaml
@@ -208,6 +208,16 @@ def phase_of(trajectory: Trajectory) -> np.ndarray:
 MEAN_WAYPOINT_PERIOD = 0.05  # [s] a mean's waypoints are this far apart (of its longest demonstration), 2 to 400
 
 
+def _at_progress(demonstration: Trajectory, grid: np.ndarray) -> Tuple[np.ndarray, np.ndarray, Rotation]:
+    """Times, positions and orientations at which a demonstration reached each progress of ``grid``, so they align."""
+    phase = phase_of(demonstration)
+    keep = np.concatenate([[True], np.diff(phase) > 0.0])  # a pause (no progress) keeps its first instant
+    phase, kept_times = phase[keep], demonstration.times[keep]
+    at = np.interp(grid, phase, kept_times)
+    positions = np.array([np.interp(at, demonstration.times, demonstration.positions[:, axis]) for axis in range(3)]).T
+    return at, positions, Slerp(demonstration.times, Rotation.from_quat(demonstration.quaternions))(at)
+
+
 def mean_trajectory(demonstrations: List[Trajectory], name: str, points: Optional[int] = None) -> Trajectory:
     """The mean of demonstrations of one path, aligned by progress along it, with their spread at each waypoint.
 
@@ -231,15 +241,10 @@ def mean_trajectory(demonstrations: List[Trajectory], name: str, points: Optiona
     grid = np.linspace(0.0, 1.0, points)
     positions, rotations, times = [], [], []
     for demonstration in demonstrations:
-        phase = phase_of(demonstration)
-        keep = np.concatenate([[True], np.diff(phase) > 0.0])  # a pause (no progress) keeps its first instant
-        phase, kept_times = phase[keep], demonstration.times[keep]
-        at = np.interp(grid, phase, kept_times)
+        at, position, rotation = _at_progress(demonstration, grid)
         times.append(at)
-        positions.append(
-            np.array([np.interp(at, demonstration.times, demonstration.positions[:, axis]) for axis in range(3)]).T
-        )
-        rotations.append(Slerp(demonstration.times, Rotation.from_quat(demonstration.quaternions))(at))
+        positions.append(position)
+        rotations.append(rotation)
     mean_positions = np.mean(positions, axis=0)
     mean_times = np.mean(times, axis=0)
     mean_times = mean_times[0] + np.maximum.accumulate(mean_times - mean_times[0])
