@@ -235,6 +235,11 @@ def plan_velocity(plan: np.ndarray, dt: float, index: int) -> np.ndarray:
     return np.gradient(plan, dt, axis=1)[:, index]
 
 
+def _fit_error(result: SolveResult) -> float:
+    """How badly an estimate explains the window: its cost, infinite when the estimation failed."""
+    return result.cost if result.theta is not None and np.isfinite(result.cost) else math.inf
+
+
 def _weights(layout: ParameterLayout, groups: Sequence[float]) -> np.ndarray:
     curvature, heading, speed, skill = groups
     weights = np.full(layout.n, float(skill))
@@ -281,49 +286,54 @@ class SharedControl:
         self.estimations: Dict[str, SkillEstimation] = {}
         self.optimisations: Dict[str, TrajectoryOptimisation] = {}
         for name in self.skills:
-            se = ParameterLayout(
-                SKILLS[name],
-                path,
-                cfg.estimation_curvature_bound,
-                cfg.estimation_curvature_rate_bound,
-                cfg.speed_bounds,
-            )
-            to = ParameterLayout(
-                SKILLS[name],
-                path,
-                cfg.optimisation_curvature_bound,
-                cfg.optimisation_curvature_rate_bound,
-                cfg.speed_bounds,
-            )
-            # Both layouts share scales, so theta / scale means the same in both problems.
-            to.scale = se.scale
-            self.estimation_layouts[name] = se
-            self.optimisation_layouts[name] = to
-            self.estimations[name] = SkillEstimation(
-                se,
-                cfg.n_window,
-                cfg.dt,
-                cfg.speed_scale,
-                cfg.solver,
-                cfg.max_iterations_estimation,
-                cfg.cache_dir,
-                cfg.recency_half_life,
-            )
-            self.optimisations[name] = TrajectoryOptimisation(
-                to,
-                cfg.n_horizon,
-                cfg.dt,
-                cfg.solver,
-                cfg.max_iterations_optimisation,
-                cfg.constraint_penalty,
-                cfg.cache_dir,
-            )
+            self._add_problems(name, path)
         self._controls: Dict[str, object] = {}  # u(s, theta) per skill, built when first asked (keep)
         self.box = UNBOUNDED
         self.obstacle: Optional[StraightEdge] = None
         if box is not None:
             self.set_boundary(box)
         self.reset(initial_state)
+
+    def _add_problems(self, name: str, path: ClothoidPath) -> None:
+        """Build the skill's estimation and optimisation problems, on layouts sharing scales, once at start."""
+        cfg = self.config
+        se = ParameterLayout(
+            SKILLS[name],
+            path,
+            cfg.estimation_curvature_bound,
+            cfg.estimation_curvature_rate_bound,
+            cfg.speed_bounds,
+        )
+        to = ParameterLayout(
+            SKILLS[name],
+            path,
+            cfg.optimisation_curvature_bound,
+            cfg.optimisation_curvature_rate_bound,
+            cfg.speed_bounds,
+        )
+        # Both layouts share scales, so theta / scale means the same in both problems.
+        to.scale = se.scale
+        self.estimation_layouts[name] = se
+        self.optimisation_layouts[name] = to
+        self.estimations[name] = SkillEstimation(
+            se,
+            cfg.n_window,
+            cfg.dt,
+            cfg.speed_scale,
+            cfg.solver,
+            cfg.max_iterations_estimation,
+            cfg.cache_dir,
+            cfg.recency_half_life,
+        )
+        self.optimisations[name] = TrajectoryOptimisation(
+            to,
+            cfg.n_horizon,
+            cfg.dt,
+            cfg.solver,
+            cfg.max_iterations_optimisation,
+            cfg.constraint_penalty,
+            cfg.cache_dir,
+        )
 
     # Environment -----------------------------------------------------------------------------------------------
 
@@ -523,9 +533,57 @@ class SharedControl:
         return self._record(mode, CycleReport(command, notes), "; ".join([*notes, message]), velocity=velocity)
 
     def _shared(self, command, notes) -> SharedControlRecord:
-        cfg = self.config
+        """A cycle with a full window: estimate each skill, identify the operator's, plan it, blend with the command."""
         commands = np.array(self.window)
         self._estimation_cycles += 1
+        results, errors, report = self._estimate_skills(command, notes, commands)
+        best = int(np.argmin(errors))
+        if not np.isfinite(errors[best]):
+            self._forget()
+            notes.append("skill estimation failed for every skill")
+            return self._fallback(report)
+        confidence = identification_confidence(errors)
+        if self._switch_pending(self.skills[best], confidence):
+            best, confidence = self._reseed_identified(commands, results, errors, report)
+        skill = self._identify(self.skills[best], confidence, errors)
+        result = self._optimise(skill, results[skill].theta)
+        report.skill, report.parameters, report.confidence = skill, result.theta.tolist(), confidence
+        report.optimisation_time, report.iterations = result.time, (report.iterations[0], result.iterations)
+        plan = None
+        if np.all(np.isfinite(result.theta)):
+            plan, _ = self.optimisations[skill].states(result.theta, self.state)
+        if plan is None or not np.all(np.isfinite(plan)):
+            notes.append(f"trajectory optimisation {result.status} after {result.iterations} iterations: no plan")
+            self.skill = None
+            return self._fallback(report)
+        message = self._plan_message(skill, result)
+        step = self._step_in_margin(plan)
+        if step is None:
+            notes.append("no free state exists within the margin")
+            self.skill = None
+            return self._fallback(report)
+        planned, planned_velocity, stopped = step
+        if stopped:
+            message += "; step stopped at the constraint"
+        self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
+        authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
+        state, velocity = self._blend(planned, planned_velocity, command, authority)
+        state, velocity, paced = self._paced(state, velocity)
+        if paced:
+            message += f"; {paced}"
+        # The stored plan passes through the executed state, so a fallback continues from where the robot is.
+        self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
+        self.state = state
+        self._advance(results, result.theta)
+        mode = SHARED if authority > 0.0 else UNKNOWN
+        if authority < 1.0:
+            message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
+        return self._record(mode, report, "; ".join([*notes, message]), plan, velocity, authority)
+
+    def _estimate_skills(
+        self, command, notes, commands: np.ndarray
+    ) -> Tuple[Dict[str, SolveResult], List[float], CycleReport]:
+        """Each skill's estimate on the window and its fit error, in the cycle's report, to identify the operator's."""
         errors, results = [], {}
         estimation_time, estimation_iterations = 0.0, 0
         for name in self.skills:
@@ -534,27 +592,28 @@ class SharedControl:
             estimation_time += result.time
             self._cpu[0] += result.cpu_time
             estimation_iterations += max(result.iterations, 0)
-            errors.append(result.cost if result.theta is not None and np.isfinite(result.cost) else math.inf)
+            errors.append(_fit_error(result))
         report = CycleReport(command, notes, list(self.skills), errors, estimation_time=estimation_time)
         report.iterations = (estimation_iterations, 0)
-        best = int(np.argmin(errors))
-        if not np.isfinite(errors[best]):
-            self._forget()
-            notes.append("skill estimation failed for every skill")
-            return self._fallback(report)
-        confidence = identification_confidence(errors)
-        if self._switch_pending(self.skills[best], confidence):
-            # Before the identification leaves a skill, that skill's estimate gets a fresh seed: a local minimum of
-            # its warm start after the operator's pattern changed must not switch the skill back and forth.
-            current, previous = self.skills.index(self.identified), results[self.identified]
-            result = results[self.identified] = self._reseeded(self.identified, commands, previous)
-            report.estimation_time += result.time - previous.time
-            self._cpu[0] += result.cpu_time - previous.cpu_time
-            errors[current] = result.cost if result.theta is not None and np.isfinite(result.cost) else math.inf
-            report.errors = list(errors)
-            best, confidence = int(np.argmin(errors)), identification_confidence(errors)
-        skill = self._identify(self.skills[best], confidence, errors)
-        theta_hat = results[skill].theta
+        return results, errors, report
+
+    def _reseed_identified(self, commands: np.ndarray, results, errors: List[float], report: CycleReport):
+        """The best skill's index and the confidence after the identified skill is estimated again from a fresh seed.
+
+        Before the identification leaves a skill, that skill's estimate gets a fresh seed: a local minimum of its warm
+        start after the operator's pattern changed must not switch the skill back and forth.
+        """
+        current, previous = self.skills.index(self.identified), results[self.identified]
+        result = results[self.identified] = self._reseeded(self.identified, commands, previous)
+        report.estimation_time += result.time - previous.time
+        self._cpu[0] += result.cpu_time - previous.cpu_time
+        errors[current] = _fit_error(result)
+        report.errors = list(errors)
+        return int(np.argmin(errors)), identification_confidence(errors)
+
+    def _optimise(self, skill: str, theta_hat: np.ndarray) -> SolveResult:
+        """The skill's plan from the estimate, warm-started from the last plan's solution while the skill stays."""
+        cfg = self.config
         layout = self.optimisation_layouts[skill]
         if skill == self.skill and self.theta_star is not None:
             guess, (lam_x, lam_g) = self.theta_star, self.lam
@@ -578,45 +637,31 @@ class SharedControl:
                 lam_g,
             )
         self._cpu[1] = result.cpu_time
-        report.skill, report.parameters, report.confidence = skill, result.theta.tolist(), confidence
-        report.optimisation_time, report.iterations = result.time, (estimation_iterations, result.iterations)
-        plan = None
-        if np.all(np.isfinite(result.theta)):
-            plan, _ = optimisation.states(result.theta, self.state)
-        if plan is None or not np.all(np.isfinite(plan)):
-            notes.append(f"trajectory optimisation {result.status} after {result.iterations} iterations: no plan")
-            self.skill = None
-            return self._fallback(report)
-        message = f"shared control: {skill}"
+        return result
+
+    def _step_in_margin(self, plan: np.ndarray) -> Optional[Tuple[np.ndarray, np.ndarray, bool]]:
+        """The plan's first step and its velocity, and whether it was stopped at the margin (None: no free state).
+
+        A step entering the margin (only possible with slack) becomes the nearest point that keeps it, so every
+        executed state keeps the margin the arm needs to lag without crossing.
+        """
+        cfg = self.config
+        planned, planned_velocity = plan[:, 1], plan_velocity(plan, cfg.dt, 1)
+        if constraints.violation(planned, self.box, self.obstacle, cfg.margin) > 0.0:
+            safe = self._safe_state(planned)
+            if safe is None:
+                return None
+            return safe, (safe - self.state) / cfg.dt, True
+        return planned, planned_velocity, False
+
+    def _plan_message(self, skill: str, result: SolveResult) -> str:
+        """The cycle's line for the operator: the skill, and whether its plan is a last iterate or cuts the margin."""
+        message, margin = f"shared control: {skill}", self.config.margin
         if not result.success:
             message += f" (optimisation {result.status} after {result.iterations} iterations: its last iterate)"
         if result.slack > 0.0:
-            message += f"; no plan keeps the {1e3 * cfg.margin:.0f} mm margin: {1e3 * result.slack:.1f} mm into it"
-        planned, planned_velocity = plan[:, 1], plan_velocity(plan, cfg.dt, 1)
-        if constraints.violation(planned, self.box, self.obstacle, cfg.margin) > 0.0:
-            # The plan's step enters the margin (only possible with slack): the nearest point that keeps it instead,
-            # so every executed state keeps the margin the arm needs to lag without crossing.
-            safe = self._safe_state(planned)
-            if safe is None:
-                notes.append("no free state exists within the margin")
-                self.skill = None
-                return self._fallback(report)
-            planned, planned_velocity = safe, (safe - self.state) / cfg.dt
-            message += "; step stopped at the constraint"
-        self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
-        authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
-        state, velocity = self._blend(planned, planned_velocity, command, authority)
-        state, velocity, paced = self._paced(state, velocity)
-        if paced:
-            message += f"; {paced}"
-        # The stored plan passes through the executed state, so a fallback continues from where the robot is.
-        self.plan, self.plan_index = plan + (state - plan[:, 1])[:, None], 1
-        self.state = state
-        self._advance(results, result.theta)
-        mode = SHARED if authority > 0.0 else UNKNOWN
-        if authority < 1.0:
-            message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
-        return self._record(mode, report, "; ".join([*notes, message]), plan, velocity, authority)
+            message += f"; no plan keeps the {1e3 * margin:.0f} mm margin: {1e3 * result.slack:.1f} mm into it"
+        return message
 
     def _paced(self, target, velocity) -> Tuple[np.ndarray, np.ndarray, str]:
         """The step towards ``target`` no faster than the operator's fastest command in the window, and why if cut.
