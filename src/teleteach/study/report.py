@@ -307,8 +307,18 @@ def _number(value: Optional[float], digits: int = 1) -> str:
 
 
 def markdown(report: Report) -> str:
-    """report.md."""
-    data = report.data
+    """report.md: the study's overview, then one section per table, in the order a reader checks them."""
+    lines = _overview(report.data)
+    lines += _task_table(report.summary)
+    lines += _tlx_table(report.tlx_summary)
+    lines += _items_table(extra_items(report.data), report.tlx_summary)
+    lines += _comparisons_table(report.comparisons)
+    lines += _files_list(report.figures)
+    return "\n".join(lines) + "\n"
+
+
+def _overview(data: StudyData) -> List[str]:
+    """The title and who took part, naming the incomplete participants, whose trials still count."""
     complete = [name for name, (done, planned) in data.participants.items() if done == planned]
     lines = [f"# Study {data.name}", ""]
     lines.append(
@@ -323,13 +333,18 @@ def markdown(report: Report) -> str:
             f"Incomplete: {shown}; their finished trials are included, comparisons use the participants with data in "
             "both conditions."
         )
-    lines += ["", "## Per condition and task", ""]
+    return lines
+
+
+def _task_table(summary: List[dict]) -> List[str]:
+    """The trials' measures per condition and task."""
+    lines = ["", "## Per condition and task", ""]
     lines.append(
         "| condition | task | trials | successes | task time mean [s] | sd | median | wrong selections mean | sd | "
         "median | undo mean | help requests mean | peak force mean [N] |"
     )
     lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for row in report.summary:
+    for row in summary:
         lines.append(
             f"| {row['condition']} | {row['task']} | {row['trials']} | {row['successes']} | "
             f"{_number(row['task_time_s_mean'])} | {_number(row['task_time_s_sd'])} | "
@@ -338,33 +353,46 @@ def markdown(report: Report) -> str:
             f"{_number(row['undo_count_mean'], 2)} | {_number(row['help_requests_mean'], 2)} | "
             f"{_number(row['peak_force_n_mean'], 1)} |"
         )
-    lines += ["", "Task time over successful trials; the other columns over all trials.", ""]
-    lines += ["## NASA-TLX (raw) per condition", ""]
+    return [*lines, "", "Task time over successful trials; the other columns over all trials.", ""]
+
+
+def _tlx_table(tlx_summary: List[dict]) -> List[str]:
+    """The raw NASA-TLX and its subscales per condition."""
+    lines = ["## NASA-TLX (raw) per condition", ""]
     lines.append("| condition | participants | raw TLX mean | sd | median | " + " | ".join(TLX_NAMES) + " |")
     lines.append("|---|---|---|---|---|" + "---|" * len(TLX_NAMES))
-    for row in report.tlx_summary:
+    for row in tlx_summary:
         subscales = " | ".join(_number(row[f"{name}_mean"]) for name in TLX_NAMES)
         lines.append(
             f"| {row['condition']} | {row['participants']} | {_number(row['raw_tlx_mean'])} | "
             f"{_number(row['raw_tlx_sd'])} | {_number(row['raw_tlx_median'])} | {subscales} |"
         )
-    lines += ["", "Subscale columns: means (0-100; performance: 0 perfect, 100 failure).", ""]
-    items = extra_items(data)
-    if items:
-        lines += ["## Other questionnaire items per condition", ""]
-        lines.append("| item | condition | participants | mean | sd | median |")
-        lines.append("|---|---|---|---|---|---|")
-        for item in items:
-            for row in report.tlx_summary:
-                lines.append(
-                    f"| {item} | {row['condition']} | {row['participants']} | {_number(row[f'{item}_mean'], 2)} | "
-                    f"{_number(row[f'{item}_sd'], 2)} | {_number(row[f'{item}_median'], 1)} |"
-                )
-        lines.append("")
-    lines += ["## Paired comparisons (Wilcoxon signed-rank, two-sided)", ""]
+    return [*lines, "", "Subscale columns: means (0-100; performance: 0 perfect, 100 failure).", ""]
+
+
+def _items_table(items: List[str], tlx_summary: List[dict]) -> List[str]:
+    """The questionnaire's items beyond the TLX per condition; nothing when it has none."""
+    if not items:
+        return []
+    lines = ["## Other questionnaire items per condition", ""]
+    lines.append("| item | condition | participants | mean | sd | median |")
+    lines.append("|---|---|---|---|---|---|")
+    for item in items:
+        for row in tlx_summary:
+            lines.append(
+                f"| {item} | {row['condition']} | {row['participants']} | {_number(row[f'{item}_mean'], 2)} | "
+                f"{_number(row[f'{item}_sd'], 2)} | {_number(row[f'{item}_median'], 1)} |"
+            )
+    lines.append("")
+    return lines
+
+
+def _comparisons_table(comparisons: List[Comparison]) -> List[str]:
+    """The paired tests between conditions, and how their pairs were formed."""
+    lines = ["## Paired comparisons (Wilcoxon signed-rank, two-sided)", ""]
     lines.append("| measure | task | conditions | n | medians | median difference | W | p | effect size r |")
     lines.append("|---|---|---|---|---|---|---|---|---|")
-    for comparison in report.comparisons:
+    for comparison in comparisons:
         tested = comparison.p_value is not None
         lines.append(
             f"| {comparison.measure} | {comparison.task} | {comparison.first} vs {comparison.second} | "
@@ -378,19 +406,22 @@ def markdown(report: Report) -> str:
                 else f"- | - | - ({comparison.note}) |"
             )
         )
-    lines += [
+    return [
+        *lines,
         "",
         "Each participant's mean under each condition (task time: successful trials) is one pair; zero differences "
         "are dropped. Effect size: matched-pairs rank-biserial correlation (positive: higher under the first "
         "condition).",
         "",
-        "## Figures and files",
-        "",
     ]
-    lines += [f"- `{path.name}`" for path in report.figures.values()]
+
+
+def _files_list(figures: Dict[str, pathlib.Path]) -> List[str]:
+    """What the report's folder holds besides report.md, so a reader finds the figures and tables."""
+    lines = ["## Figures and files", ""]
+    lines += [f"- `{path.name}`" for path in figures.values()]
     files = ("trials.csv", "questionnaires.csv", "tlx.csv", "summary.csv", "comparisons.csv")
-    lines += [f"- `{name}`" for name in files]
-    return "\n".join(lines) + "\n"
+    return lines + [f"- `{name}`" for name in files]
 
 
 def draw_figures(data: StudyData, tlx: List[dict]) -> Dict[str, "Figure"]:
