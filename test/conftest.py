@@ -27,6 +27,9 @@ ALONE = {
     " dropped product_pick_1 at a real-time factor of 0.44)",
     "test/test_rostests.py::test_rostest[shared_control_boundary]": "bounds its 50 Hz loop's rate (> 45 Hz) and late"
     " cycles (< 50 %): beside the e2e runs, under other sessions' load, 72 % were late",
+    "test/gui/test_bench_haptic_guidance.py": "a modelled hand on the wall clock clicks through the device node's 1 kHz"
+    " loop: beside another system test the guidance went stale and a click's push confirmed a neighbour (CI), under"
+    " two busy loops three clicks in a row were not taken",
 }
 E2E = "test/e2e/"
 
