@@ -150,65 +150,31 @@ def run_teleop_trial(
     equilibrium and the measured pose from the clutch to the release, every RECORD_PERIOD, at that stiffness, relative
     to the gap as the robot perceived it (``result["skill"]``, a skill_file.Skill).
     """
-    parameters, stiffness = gui.teleop, gui.initial_stiffness
+    parameters = gui.teleop
     trial_scene = scene_around(scene, setup.gap, setup.product)
     trial_uncertainty = uncertainty.with_overrides(seed=setup.seed)
     sim = ContactRecordingSim(trial_scene, trial_uncertainty)
     try:
         offset = grasp_offset(trial_uncertainty, np.random.default_rng([setup.seed, 2]))
-        hold_product(sim, config, setup.product, setup.base_pose, offset)
-        robot = SimRobot(sim)
-        robot.switch_controllers([IMPEDANCE], [TRAJECTORY])
-        robot.command_stiffness([stiffness] * 3, [0.0, 0.0, 0.0, 1.0], sim.time)
-        position, quaternion = robot.cartesian_pose()
-        hand = np.concatenate([position, quaternion])
+        robot, hand = _held_under_impedance(sim, config, setup, offset, gui.initial_stiffness)
         base = Transform.from_planar(*robot.base_pose())
-        gap_truth = trial_scene.gap(setup.gap)
-        operator = ScriptedOperator(
-            model, base.inverse() * gap_truth.frame, hand, parameters, np.random.default_rng([setup.seed, 3])
-        )
+        operator = _scripted_operator(model, parameters, base, trial_scene.gap(setup.gap), hand, setup.seed)
         constrain, why = (
             _assistance(robot, setup.gap, base, hand, config, parameters.assistance) if assistance else (None, "")
         )
         before = {name: pose for name, (pose, _) in sim.world.product_poses().items()}
         sim.watch(setup.product)
-        teleop = Teleoperation(parameters)
         start, wall_start = sim.time, time.perf_counter()
-        teleop.start(hand, start)
-        _tick(sim, robot, teleop, start, OPEN, (np.zeros(3), [0.0, 0.0, 0.0, 1.0]), None)  # the gripper rests first
-        clutch_at = sim.time + parameters.clutch_hold + 2 * CYCLE
-        while sim.time < clutch_at:
-            _tick(sim, robot, teleop, sim.time, CLOSED, (np.zeros(3), [0.0, 0.0, 0.0, 1.0]), constrain)
-        began, released, limited, recorded = sim.time, False, set(), []
-        while sim.time - began < operator.end:
-            t = sim.time - began
-            if not released and t >= operator.release_at:
-                robot.move_gripper(config.gripper.release_width, config.gripper.speed)
-                released = True
-            command = _tick(sim, robot, teleop, sim.time, CLOSED, operator.device(t), constrain)
-            limited.update(part.split(":")[0] for part in command.reason.split("; ") if part)
-            if teach and not released and (not recorded or sim.time - recorded[-1][0] >= RECORD_PERIOD - 1e-9):
-                recorded.append((sim.time, command.pose, np.concatenate(robot.cartesian_pose())))
+        limited, recorded = _teleoperate(sim, robot, parameters, hand, operator, constrain, config, teach)
         wall = time.perf_counter() - wall_start
-        poses = sim.world.product_poses()
-        final = {name: pose for name, (pose, _) in poses.items()}
-        judged = placement.judge(sim.true_scene(), setup.product, poses[setup.product], before, final, setup.gap)
-        in_gap = gap_truth.frame.inverse().apply_point(poses[setup.product][0])
+        judged = _judged(sim, setup, trial_scene.gap(setup.gap), before)
         taught = _skill(teach, recorded, gui, robot, setup.gap, base) if teach else None
         return {
             "skill": taught,
             "seed": setup.seed,
             "assistance": assistance,
             "assistance_problem": why,
-            "success": not judged.problems(setup.gap) and sim.world.grasped is None,
-            "peak_force_n": max(sim.peak_force.values()),
-            "peak_shelf_force_n": sim.peak_force["shelf"],
-            "peak_neighbour_force_n": sim.peak_force["neighbours"],
-            "neighbour_max_move_m": judged.neighbours_max_move_m,
-            "distance_m": judged.distance_m,
-            "depth_m": float(in_gap[0]),
-            "lateral_m": float(in_gap[1]),
-            "tilt_deg": judged.tilt_deg,
+            **judged,
             "aim_error_m": operator.aim.tolist(),
             "grasp_offset": offset.tolist(),
             "limits_met": sorted(limited),
@@ -217,6 +183,78 @@ def run_teleop_trial(
         }
     finally:
         sim.close()
+
+
+def _held_under_impedance(
+    sim: ContactRecordingSim, config: MotionConfig, setup: TrialSetup, offset, stiffness: float
+) -> Tuple[SimRobot, np.ndarray]:
+    """The robot holding the product under TELEOP's impedance at the trial's start, and its hand pose."""
+    hold_product(sim, config, setup.product, setup.base_pose, offset)
+    robot = SimRobot(sim)
+    robot.switch_controllers([IMPEDANCE], [TRAJECTORY])
+    robot.command_stiffness([stiffness] * 3, [0.0, 0.0, 0.0, 1.0], sim.time)
+    position, quaternion = robot.cartesian_pose()
+    return robot, np.concatenate([position, quaternion])
+
+
+def _scripted_operator(
+    model: OperatorModel, parameters: TeleopParameters, base: Transform, gap, hand: np.ndarray, seed: int
+) -> ScriptedOperator:
+    """The modelled operator aiming at the true gap as the robot's base sees it, with the trial's own noise."""
+    return ScriptedOperator(model, base.inverse() * gap.frame, hand, parameters, np.random.default_rng([seed, 3]))
+
+
+def _teleoperate(
+    sim: ContactRecordingSim,
+    robot: SimRobot,
+    parameters: TeleopParameters,
+    hand: np.ndarray,
+    operator: ScriptedOperator,
+    constrain,
+    config: MotionConfig,
+    teach: str,
+) -> Tuple[set, list]:
+    """The operator's part: hold the clutch, move the device, release; the limits met and the samples to teach.
+
+    Returns the names of the limits TELEOP applied and, with ``teach``, (time, equilibrium, measured pose) every
+    RECORD_PERIOD until the release.
+    """
+    teleop = Teleoperation(parameters)
+    teleop.start(hand, sim.time)
+    _tick(sim, robot, teleop, sim.time, OPEN, (np.zeros(3), [0.0, 0.0, 0.0, 1.0]), None)  # the gripper rests first
+    clutch_at = sim.time + parameters.clutch_hold + 2 * CYCLE
+    while sim.time < clutch_at:
+        _tick(sim, robot, teleop, sim.time, CLOSED, (np.zeros(3), [0.0, 0.0, 0.0, 1.0]), constrain)
+    began, released, limited, recorded = sim.time, False, set(), []
+    while sim.time - began < operator.end:
+        t = sim.time - began
+        if not released and t >= operator.release_at:
+            robot.move_gripper(config.gripper.release_width, config.gripper.speed)
+            released = True
+        command = _tick(sim, robot, teleop, sim.time, CLOSED, operator.device(t), constrain)
+        limited.update(part.split(":")[0] for part in command.reason.split("; ") if part)
+        if teach and not released and (not recorded or sim.time - recorded[-1][0] >= RECORD_PERIOD - 1e-9):
+            recorded.append((sim.time, command.pose, np.concatenate(robot.cartesian_pose())))
+    return limited, recorded
+
+
+def _judged(sim: ContactRecordingSim, setup: TrialSetup, gap_truth, before: dict) -> dict:
+    """The placement as the world judges it: success, the forces, the neighbours moved, the product in the gap."""
+    poses = sim.world.product_poses()
+    final = {name: pose for name, (pose, _) in poses.items()}
+    judged = placement.judge(sim.true_scene(), setup.product, poses[setup.product], before, final, setup.gap)
+    in_gap = gap_truth.frame.inverse().apply_point(poses[setup.product][0])
+    return {
+        "success": not judged.problems(setup.gap) and sim.world.grasped is None,
+        "peak_force_n": max(sim.peak_force.values()),
+        "peak_shelf_force_n": sim.peak_force["shelf"],
+        "peak_neighbour_force_n": sim.peak_force["neighbours"],
+        "neighbour_max_move_m": judged.neighbours_max_move_m,
+        "distance_m": judged.distance_m,
+        "depth_m": float(in_gap[0]),
+        "lateral_m": float(in_gap[1]),
+        "tilt_deg": judged.tilt_deg,
+    }
 
 
 def _skill(name: str, recorded, gui: GuiConfig, robot: SimRobot, gap: str, base: Transform) -> skill_file.Skill:
