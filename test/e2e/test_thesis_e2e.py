@@ -43,6 +43,21 @@ def test_runner_passes_and_prints_the_summary(run):
     assert summary["passed"] and summary["problems"] == []
 
 
+def test_live_output_tells_the_operators_steps_before_the_tree_steps_they_explain(run):
+    result, _ = run
+    lines = [line.split("s  ", 1)[1] for line in result.stdout.splitlines() if line.startswith("run_thesis: t =")]
+
+    def first(start):
+        return next(index for index, line in enumerate(lines) if line.startswith(start))
+
+    # Expect III-B's edit, III-C's teaching before DropItem releases what the teaching put in gap_1, III-E's
+    # insertion in the summary's words, and III-D's ellipsoid turned 45 degrees
+    assert first("operator: tree edit: removed PlaceItem") < first("operator: opened LOW-LEVEL")
+    assert first("operator: LOW-LEVEL teaching: recording stopped") < first("DropItem: done released product_pick_1")
+    assert first("operator: taught DemonstratedPlace_1") < first("operator: tree edit: inserted DemonstratedPlace_1 at")
+    assert any(line.endswith("ellipsoid turned -45 deg about Z") for line in lines), lines
+
+
 def test_tree_after_iii_b_and_iii_e_is_exactly_as_expected(run):
     _, folder = run
     initial = yaml.safe_load((ROOT / "config" / "tree.yaml").read_text())["root"]["children"][1]["children"]

@@ -41,7 +41,8 @@ def test_report_writes_three_figures_and_a_summary(session_bag, tmp_path, artifa
     assert [(edit.removed, edit.added) for edit in report.edits] == [(("PlaceItem",), ()), ((), ("PlaceItem_2",))]
     assert [round(edit.time, 2) for edit in report.edits] == [3.9, 9.5]
     summary = report.summary.read_text()
-    assert "removed PlaceItem" in summary and "added PlaceItem_2" in summary
+    # Expect the run summary's words: where the new node stands among its parent's children
+    assert "removed PlaceItem" in summary and "inserted PlaceItem_2 at index" in summary
     assert "| `/sigma7/pose` | geometry_msgs/PoseStamped | 2000 |" in summary
     assert "| Z | 2000.0 | 2000.0 |" in summary
     assert "Ellipsoid yaw (modulo 180 deg: an axis has no sign): 0.0 deg .. 45.0 deg." in summary
@@ -166,6 +167,7 @@ def test_tree_edits_name_removed_added_and_moved_nodes():
         (4, (), ("D",), ()),
     ]
     assert edits[0].describe() == "removed B"
+    assert edits[2].describe() == "inserted D at index 2"
 
 
 def test_tree_edits_name_a_converted_composite():

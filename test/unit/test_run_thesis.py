@@ -171,7 +171,7 @@ def test_run_summary_is_written_as_json_and_in_words():
     text = summary.to_markdown()
     assert text.startswith("# Thesis run: PASSED")
     assert "- skill taught: Taught_1 (skills/Taught_1.npz); run by the tree: succeeded" in text
-    placed = "- product product_pick_2: on the shelf in gap_2, upright, 0.4 cm from the nearest gap's centre, put there"
+    placed = "- product product_pick_2: on the shelf in gap_2, upright, 4.0 mm from the nearest gap's centre, put there"
     assert placed + " by Taught_1" in text
     assert "- help request: PickItem: product_pick_1 is not on the table" in text
     assert "- from the first help request to the tree going on: 42 s (ROS time)" in text
@@ -225,6 +225,7 @@ def test_tree_sequences_and_edits():
     assert changes == [initial, removed, inserted]
     assert outcome.describe_edit(initial, removed) == "removed PlaceItem"
     assert outcome.describe_edit(removed, inserted) == "inserted Taught_1 at index 3"
+    assert outcome.describe_edit(initial, inserted) == "removed PlaceItem; inserted Taught_1 at index 3"
 
 
 @pytest.mark.parametrize("name", SCENARIOS)

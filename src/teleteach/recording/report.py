@@ -17,7 +17,7 @@ Ellipse convention as in the thesis (footnote 2): semi-axis lengths are the prin
 import dataclasses
 import io
 import pathlib
-from typing import Dict, List, Optional, Tuple, Union
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -54,18 +54,30 @@ class TreeEdit:
     converted: Tuple[str, ...] = ()
 
     def describe(self) -> str:
-        """A short text such as 'removed PlaceItem; added PlaceItem_2'."""
-        parts = [
-            f"{verb} {', '.join(names)}"
-            for verb, names in (
-                ("removed", self.removed),
-                ("added", self.added),
-                ("moved", self.moved),
-                ("converted", self.converted),
-            )
-            if names
-        ]
-        return "; ".join(parts)
+        """A short text such as 'removed PlaceItem; inserted PlaceItem_2 at index 3' (the index in its parent)."""
+        inserted = [(name, _index_in_parent(self.after, name)) for name in self.added]
+        return describe_edit(self.removed, inserted, self.moved, self.converted)
+
+
+def _index_in_parent(tree: TreeSnapshot, name: str) -> Optional[int]:
+    """Where ``name`` stands among its parent's children; None for the root."""
+    return next((children.index(name) for children in tree.children.values() if name in children), None)
+
+
+def describe_edit(
+    removed: Sequence[str],
+    inserted: Sequence[Tuple[str, Optional[int]]],
+    moved: Sequence[str] = (),
+    converted: Sequence[str] = (),
+) -> str:
+    """An edit in the words the run's summary and live output use too: 'removed A; inserted B at index 8'.
+
+    ``inserted``: (name, index among its parent's children, None when unknown).
+    """
+    parts = [f"removed {', '.join(removed)}"] if removed else []
+    parts += [f"inserted {name}" + ("" if index is None else f" at index {index}") for name, index in inserted]
+    parts += [f"{verb} {', '.join(names)}" for verb, names in (("moved", moved), ("converted", converted)) if names]
+    return "; ".join(parts)
 
 
 def tree_edits(trees: List[TreeSnapshot]) -> List[TreeEdit]:

@@ -18,6 +18,7 @@ from teleteach.core.active_tab import Tab
 from teleteach.core.scene import Scene
 from teleteach.core.skill_file import Skill, SkillFileError
 from teleteach.core.skill_file import load as load_skill
+from teleteach.recording import report
 from teleteach.recording.session import Session
 
 # Phases of the demonstration trajectories [s from the start of the recording]: approach, alignment, insertion
@@ -182,11 +183,10 @@ def sequence_changes(sequences: Sequence[Tuple[str, ...]]) -> List[Tuple[str, ..
 
 
 def describe_edit(before: Sequence[str], after: Sequence[str]) -> str:
-    """One line: which leaves left or joined a sequence, and where."""
+    """One line: which leaves left or joined a sequence, and where, in the report's words (recording.report)."""
     removed = [name for name in before if name not in after]
-    added = [(after.index(name), name) for name in after if name not in before]
-    parts = [f"removed {name}" for name in removed] + [f"inserted {name} at index {index}" for index, name in added]
-    return ", ".join(parts) if parts else "reordered"
+    inserted = [(name, index) for index, name in enumerate(after) if name not in before]
+    return report.describe_edit(removed, inserted) or "reordered"
 
 
 def expected_sequences(initial: Sequence[str], removed: Optional[str], inserted: Optional[str], index: Optional[int]):
@@ -387,7 +387,7 @@ class RunSummary:
             where = f"in {entry['gap']}" if entry["gap"] else "in NO gap"
             upright = "upright" if entry["upright"] else "NOT upright"
             lines.append(
-                f"- product {entry['product']}: on the shelf {where}, {upright}, {100 * entry['distance_m']:.1f} cm "
+                f"- product {entry['product']}: on the shelf {where}, {upright}, {1000 * entry['distance_m']:.1f} mm "
                 f"from the nearest gap's centre, put there by {entry['by_skill'] or 'nobody known'}; its neighbours "
                 f"moved at most {1000 * entry['neighbours_max_move_m']:.1f} mm; judged from "
                 f"{entry.get('judged_from') or 'nothing'}{_uncertainty_met(entry)}"

@@ -30,8 +30,9 @@ from teleteach.core.paths import config_file, share_dir
 from teleteach.core.scene import SceneError, load_scene
 from teleteach.haptics.scenario import load_scenario
 from teleteach.recording.report import make_report
-from teleteach.recording.session import SessionError, read_session
+from teleteach.recording.session import SessionError, read_session, yaw_of
 from teleteach.run import outcome
+from teleteach.run.narration import Narration
 from teleteach.run.outcome import RunSummary
 from teleteach.run.pictures import background_colour, rviz_picture
 from teleteach.runtime.experiment import Experiment
@@ -123,11 +124,16 @@ def options_for(scenario: pathlib.Path, **overrides) -> Options:
 
 
 class Monitor:
-    """Subscribes to the tree, the library, the scene and the active tab (needs rospy initialised)."""
+    """Subscribes to the tree, the library, the scene, the active tab and what the operator does (needs rospy).
 
-    def __init__(self):
+    Args:
+        initial_children: the execution sequence of the tree file: the operator's first edit is told against it.
+    """
+
+    def __init__(self, initial_children: Tuple[str, ...]):
         import rospy
-        from std_msgs.msg import Int8, String
+        from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+        from std_msgs.msg import Bool, Int8, String
         from visualization_msgs.msg import MarkerArray
 
         from teleteach.msg import BehaviourTree, HelpRequest, SkillLibrary
@@ -143,6 +149,10 @@ class Monitor:
         self.help_requests: List[Tuple[float, str, str]] = []
         self.help_closed: List[float] = []  # when each help request closed (the tree went on)
         self.tabs: List[Tuple[float, int]] = []
+        self._narration = Narration(initial_children)
+        self._news: List[Tuple[float, str]] = []  # (ROS time, line) of the operator's steps not yet printed
+        self._stiffness: Optional[Tuple[np.ndarray, float]] = None  # the last /eigenvalues and yaw [deg]
+        self._eigenvalues: Optional[np.ndarray] = None
         self._subscribers = [
             rospy.Subscriber("behaviour_tree/log/tree", BehaviourTree, self._tree, queue_size=20),
             rospy.Subscriber("behaviour_tree/ascii/tree", String, self._ascii, queue_size=5),
@@ -150,6 +160,9 @@ class Monitor:
             rospy.Subscriber("behaviour_tree/help_request", HelpRequest, self._help, queue_size=5),
             rospy.Subscriber(TRUE_SCENE_TOPIC, MarkerArray, self._scene, queue_size=1),  # judged from the truth
             rospy.Subscriber("teleteach/active_tab", Int8, self._tab, queue_size=5),
+            rospy.Subscriber("teleteach/recording", Bool, self._recording, queue_size=5),
+            rospy.Subscriber("eigenvalues", Vector3Stamped, self._values, queue_size=1),
+            rospy.Subscriber("eigenvectors", QuaternionStamped, self._axes, queue_size=1),
         ]
         self._now = rospy.get_time
 
@@ -161,6 +174,7 @@ class Monitor:
             if execution is not None:
                 children = tuple(by_id[child].name for child in execution.child_ids if child in by_id)
                 self.children.append((self._now(), children))
+                self._tell(self._narration.tree(children))
             for behaviour in message.behaviours:
                 if not behaviour.child_ids:
                     self.leaves[behaviour.name] = (
@@ -179,11 +193,15 @@ class Monitor:
     def _library(self, message) -> None:
         with self._lock:
             self.library = message
+        taught = [name for name, _ in self.demonstrated()]
+        with self._lock:
+            self._tell(self._narration.taught(taught))
 
     def _help(self, message) -> None:
         with self._lock:
             if message.node_name:
                 self.help_requests.append((self._now(), message.node_name, message.reason))
+                self._tell(self._narration.help_request(message.node_name, message.reason))
             elif len(self.help_closed) < len(self.help_requests):
                 self.help_closed.append(self._now())
 
@@ -197,6 +215,38 @@ class Monitor:
     def _tab(self, message) -> None:
         with self._lock:
             self.tabs.append((self._now(), int(message.data)))
+            self._tell(self._narration.tab(int(message.data)))
+
+    def _recording(self, message) -> None:
+        with self._lock:
+            self._tell(self._narration.recording(bool(message.data)))
+
+    def _values(self, message) -> None:
+        with self._lock:
+            self._eigenvalues = np.array([message.vector.x, message.vector.y, message.vector.z])
+
+    def _axes(self, message) -> None:
+        q = message.quaternion
+        yaw = float(np.degrees(yaw_of(np.array([[q.x, q.y, q.z, q.w]]))[0]))
+        with self._lock:
+            if self._eigenvalues is not None:
+                self._stiffness = (self._eigenvalues, yaw)
+
+    def _tell(self, line: Optional[str]) -> None:
+        """Keep a line of the operator's steps for :meth:`news` (lock held)."""
+        if line:
+            self._news.append((self._now(), line))
+
+    def news(self) -> List[Tuple[float, str]]:
+        """The operator's steps since the last call, (ROS time, line), the stiffness set by hand among them.
+
+        Polled: the stiffness is told once it held since the previous poll (teleteach.run.narration).
+        """
+        with self._lock:
+            if self._stiffness is not None:
+                self._tell(self._narration.stiffness(*self._stiffness))
+            news, self._news = self._news, []
+        return news
 
     def tab_name(self) -> Optional[str]:
         """The GUI's open tab, lower case (``low_level``); None before the GUI said."""
@@ -287,7 +337,7 @@ class ThesisRun:
         experiment.join("run_thesis", anonymous=True)
         import rospy
 
-        monitor = Monitor()
+        monitor = Monitor(execution_children(load_tree(options.tree, SkillLibrary.load(options.skills))))
         shots = experiment.screenshots("gui", monitor.tab_name, delay=1.5, period=3.0)
         self._mark("master_up")
         try:
@@ -348,6 +398,8 @@ class ThesisRun:
                     return False, f"the ROS master stopped answering ({error}) while roslaunch still runs"
                 return self._ended_early()
             played = played_at is not None and now >= played_at + 1.0
+            for moment, line in monitor.news():
+                self.say(f"run_thesis: t = {moment:6.1f} s  {line}")
             for name, (status, message, _) in list(monitor.leaves.items()):
                 ended = status in (Status.SUCCESS, Status.FAILURE)
                 if ended and (name, status) not in reported and name != "PauseCondition":

@@ -313,7 +313,7 @@ class DropItem(PredefinedSkill):
             raise SkillError("no product in the gripper to drop")
         before = world.motion.robot.product_positions()
         result = release(world, product, before, progress=1.0)
-        return f"{product} is on the shelf in {result.gap}, {1000.0 * result.distance_m:.1f} mm from its centre"
+        return f"released {product} on the shelf in {result.gap}, {1000.0 * result.distance_m:.1f} mm from its centre"
 
 
 def release(
