@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from conftest import pump, pump_until
 from PyQt5.QtCore import QRect
+from PyQt5.QtWidgets import QLabel
 
 from teleteach.core.active_tab import Tab
 from teleteach.gui.device import DeviceSample
@@ -97,3 +98,6 @@ def test_the_task_plane_has_axes_in_metres_and_the_fitting_errors_say_something(
     assert "none yet" in tab.errors_label.text() and "(m/s)" in tab.errors_label.text()
     tab.on_state(SharedStatus(1, "wave", ("wave", "cycloid"), (0.0007, 0.008), 0.001, 0.02, (0.0, 0.0)))
     assert "wave: 0.0007" in tab.errors_label.text()
+    # Expect a picture of each pattern to draw, shown, and how the virtual device's keys draw one
+    assert set(tab.patterns.paths) == {"wave", "cycloid"} and tab.patterns.isVisible()
+    assert "key <b>1</b> draws a wave" in " ".join(label.text() for label in tab.findChildren(QLabel))

@@ -226,3 +226,18 @@ def test_enter_arrives_as_one_double_click_when_the_device_loop_stalls(applicati
     kinds = [classifier.click(stamp) for stamp in presses]
     assert len(presses) == 2, presses
     assert kinds == [None, ClickClassifier.DOUBLE]
+
+
+def test_keys_1_and_2_draw_shared_control_s_patterns_until_pressed_again_or_moved(window):
+    device = window.device
+    QTest.keyClick(window, QtCore.Qt.Key_1)
+    assert device.drawing == "wave" and "drawing a wave" in window.values.text()
+    QTest.keyClick(window, QtCore.Qt.Key_2)
+    assert device.drawing == "cycloid"
+    QTest.keyClick(window, QtCore.Qt.Key_2)
+    assert device.drawing is None
+    QTest.keyClick(window, QtCore.Qt.Key_1)
+    QTest.keyClick(window, QtCore.Qt.Key_Right)
+    # Expect: the arrow moves the handle by hand again
+    assert device.drawing is None
+    assert "1 draws a wave, 2 a cycloid" in " ".join(label.text() for label in window.findChildren(QtWidgets.QLabel))

@@ -3,7 +3,9 @@
 Keys: arrows (or a mouse drag) move x/y, Page Up/Down move z, Q/A W/S E/D turn roll/pitch/yaw, Space clicks (a
 scripted quick close-and-back of the gripper, detected like a real one), Enter double-clicks (two such flicks
 ``double_click_gap`` apart: a keyboard's two presses are too slow or too irregular for the GUI's double-click window),
-O held down opens the gripper fully, C held down keeps it closed (TELEOP's clutch).
+O held down opens the gripper fully, C held down keeps it closed (TELEOP's clutch), 1 draws a wave and 2 a cycloid
+(SHARED CONTROL's patterns: keys move in steps, which the shared controller cannot recognise as a pattern) until
+pressed again or the handle is moved.
 
 A key's gesture arrives whole on a busy machine too: a flick that a stalled device loop did not read is given to the
 loop's click detector afterwards (:meth:`VirtualDevice.missed_gripper`, as the scenario backend does), so a double
@@ -16,7 +18,7 @@ edits it from the Qt thread, under the device's lock.
 import functools
 import threading
 import time as wall_time
-from typing import Callable, List, Tuple
+from typing import Callable, List, Optional, Tuple
 
 import numpy as np
 from PyQt5 import QtCore, QtWidgets
@@ -30,6 +32,12 @@ OPEN_GRIPPER = 0.5  # [rad] fully open (the GUI's "back to START" gesture needs 
 CLOSED_GRIPPER = 0.0  # [rad] held closed (TELEOP's clutch engages after 0.6 s of it)
 POSITION_LIMIT = 0.1  # [m] per axis, about the Sigma.7 workspace
 ANGLE_LIMIT = 1.0  # [rad] per angle
+# The strokes keys 1 and 2 draw, on the device (full.launch's SHARED CONTROL moves the task twice as far: twist_scale):
+# a 2 cm wave and 2.5 cm cycloid loops, 20 per metre, at 5 cm/s on the task plane (the controller recognised a 3 cm
+# wave this steep in 64 % of its cycles, the 2 cm one in all: test/unit/test_virtual_device_patterns.py)
+STROKES = {"wave": (0.01, 40.0), "cycloid": (0.0125, 40.0)}  # amplitude or radius [m], spatial frequency [1/m]
+STROKE_SPEED = 0.025  # [m/s] along device x
+STROKE_REACH = 0.07  # [m] the stroke turns back at x = +-this (inside the workspace with the pattern's sway)
 
 
 class VirtualDevice(DeviceBackend):
@@ -63,13 +71,56 @@ class VirtualDevice(DeviceBackend):
         self._closed = False
         self._last_read = -float("inf")  # [s] the device clock's time of the last read
         self._missed: List[Tuple[float, float]] = []
+        self._stroke: Optional[Tuple[str, float, np.ndarray]] = None  # pattern, start time, handle position then
 
     flick_samples = 20  # per scripted flick, for the catch-up after a stall
 
     def move(self, dx: float = 0.0, dy: float = 0.0, dz: float = 0.0) -> None:
-        """Moves the end effector by [m], clamped to the workspace."""
+        """Moves the end effector by [m], clamped to the workspace; a stroke being drawn stops where it is."""
         with self._lock:
+            self._stop_stroke()
             self._position = np.clip(self._position + np.array([dx, dy, dz]), -POSITION_LIMIT, POSITION_LIMIT)
+
+    def draw(self, pattern: str) -> None:
+        """Starts drawing ``pattern`` (a key of STROKES) from where the handle is; the same pattern again stops it.
+
+        The handle travels along x at STROKE_SPEED, back and forth within STROKE_REACH, swaying across (wave) or
+        looping (cycloid) as the shared controller's skill models describe: a hand's smooth pattern, which single key
+        steps cannot make.
+        """
+        with self._lock:
+            drawing = self._stroke[0] if self._stroke else None
+            self._stop_stroke()
+            if pattern != drawing:
+                self._stroke = (pattern, self._clock(), self._position.copy())
+
+    @property
+    def drawing(self) -> Optional[str]:
+        """The pattern being drawn, None when none is."""
+        with self._lock:
+            return self._stroke[0] if self._stroke else None
+
+    def _stop_stroke(self) -> None:
+        """The handle stays where the stroke took it (lock held)."""
+        self._position = self._position_at(self._clock())
+        self._stroke = None
+
+    def _position_at(self, moment: float) -> np.ndarray:
+        """The handle's position [m] at ``moment``: where it was put, or along the stroke being drawn (lock held)."""
+        if self._stroke is None:
+            return self._position.copy()
+        pattern, started, origin = self._stroke
+        size, frequency = STROKES[pattern]
+        travelled = STROKE_SPEED * max(moment - started, 0.0)
+        lap = (np.clip(origin[0], -STROKE_REACH, STROKE_REACH) + STROKE_REACH + travelled) % (4.0 * STROKE_REACH)
+        along = -STROKE_REACH + (lap if lap <= 2.0 * STROKE_REACH else 4.0 * STROKE_REACH - lap)
+        angle = 2.0 * np.pi * frequency * travelled
+        if pattern == "wave":  # sigma = rho_0 sin(2 pi rho_1 s), across the path (omega = pi / 2)
+            sway = np.array([0.0, size * np.sin(angle)])
+        else:  # cycloid: sigma = rho_0 turning by omega = 2 pi rho_1 s, from the start point
+            sway = size * np.array([np.cos(angle) - 1.0, np.sin(angle)])
+        position = np.array([along + sway[0], origin[1] + sway[1], origin[2]])
+        return np.clip(position, -POSITION_LIMIT, POSITION_LIMIT)
 
     def rotate(self, droll: float = 0.0, dpitch: float = 0.0, dyaw: float = 0.0) -> None:
         """Turns roll/pitch/yaw by [rad], each clamped to +-ANGLE_LIMIT."""
@@ -110,7 +161,8 @@ class VirtualDevice(DeviceBackend):
     def state(self) -> Tuple[np.ndarray, np.ndarray, float]:
         """Position [m], roll/pitch/yaw [rad] and gripper angle [rad] now."""
         with self._lock:
-            return self._position.copy(), self._rpy.copy(), self._gripper_at(self._clock())
+            now = self._clock()
+            return self._position_at(now), self._rpy.copy(), self._gripper_at(now)
 
     def _gripper_at(self, moment: float) -> float:
         """The gripper angle [rad] at ``moment`` of the device clock (the held state, dipped by a flick)."""
@@ -124,7 +176,7 @@ class VirtualDevice(DeviceBackend):
             now = self._clock()
             self._missed = self._flicks_between(self._last_read, now, time)
             self._last_read = now
-            sample = DeviceSample(self._position.copy(), self._quaternion.copy(), self._gripper_at(now))
+            sample = DeviceSample(self._position_at(now), self._quaternion.copy(), self._gripper_at(now))
         return sample
 
     def missed_gripper(self) -> List[Tuple[float, float]]:
@@ -175,6 +227,8 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
         QtCore.Qt.Key_PageDown: (0, 0, -1),
     }
 
+    _PATTERN_KEYS = {QtCore.Qt.Key_1: "wave", QtCore.Qt.Key_2: "cycloid"}
+
     def __init__(self, device: VirtualDevice, refresh_hz: float = 30.0) -> None:
         super().__init__()
         self.device = device
@@ -195,7 +249,8 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
             "The device's keys go to this window: click it to type here.\n"
             "arrows / mouse drag: x, y    PgUp / PgDn: z\n"
             "Q/A roll   W/S pitch   E/D yaw\n"
-            "Space: click    Enter: double click    O (hold): gripper fully open    C (hold): gripper closed"
+            "Space: click    Enter: double click    O (hold): gripper fully open    C (hold): gripper closed\n"
+            "SHARED CONTROL: 1 draws a wave, 2 a cycloid (again: stop)"
         )
         layout = QtWidgets.QVBoxLayout(self)
         layout.addWidget(self.values)
@@ -223,7 +278,7 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
             f"x {position[0]:+.3f} m   roll  {rpy[0]:+.2f} rad\n"
             f"y {position[1]:+.3f} m   pitch {rpy[1]:+.2f} rad\n"
             f"z {position[2]:+.3f} m   yaw   {rpy[2]:+.2f} rad\n"
-            f"gripper {gripper:.2f} rad"
+            f"gripper {gripper:.2f} rad" + (f"   drawing a {self.device.drawing}" if self.device.drawing else "")
         )
 
     def keyPressEvent(self, event):  # noqa: N802 (Qt API)
@@ -233,6 +288,8 @@ class VirtualDeviceWindow(QtWidgets.QWidget):
             self.device.move(*(self.POSITION_STEP * step for step in self._MOVE_KEYS[key]))
         elif key in self._ROTATION_KEYS:
             self.device.rotate(*(self.ANGLE_STEP * step for step in self._ROTATION_KEYS[key]))
+        elif key in self._PATTERN_KEYS and not event.isAutoRepeat():
+            self.device.draw(self._PATTERN_KEYS[key])
         elif key == QtCore.Qt.Key_Space and not event.isAutoRepeat():
             self.device.click()
         elif key in (QtCore.Qt.Key_Return, QtCore.Qt.Key_Enter) and not event.isAutoRepeat():

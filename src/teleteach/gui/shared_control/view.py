@@ -2,7 +2,8 @@
 
 A 2D view of the task plane (QPainter) draws the boundary, the obstacle's straight edge, the executed trail, the arm's
 own trail (/cartesian_pose on the plane: where the robot really is) and the planned horizon; text gives the identified
-skill, the mode, the fitting error of each skill and the solve times. A double click starts/stops recording the MPC's
+skill, the mode, the fitting error of each skill and the solve times. A small drawing of each pattern the controller
+recognises, made from its own skill models, shows what to draw. A double click starts/stops recording the MPC's
 output as a ``shared_control`` skill (like LOW-LEVEL's recording). All data arrive as task-plane values through the
 worker's signals; this module has no ROS in it.
 """
@@ -13,6 +14,7 @@ import math
 import time
 from typing import Callable, List, Optional, Sequence, Tuple
 
+import casadi as ca
 import numpy as np
 from PyQt5.QtCore import QPointF, QRectF, Qt, pyqtSignal
 from PyQt5.QtGui import QColor, QPainter, QPen, QPolygonF
@@ -22,6 +24,7 @@ from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import ClickClassifier
 from teleteach.gui.widgets import restyle
 from teleteach.shared_control.loop import DIRECT, FALLBACK, MODE_NAMES, SHARED, UNKNOWN
+from teleteach.shared_control.models import SKILLS
 
 MODE_COLOURS = {DIRECT: "#1565c0", SHARED: "#2e7d32", FALLBACK: "#d22828", UNKNOWN: "#6a1b9a"}
 
@@ -207,6 +210,59 @@ class PlaneView(QWidget):
         self._polyline(painter, ends, "#d22828", 2.5)
 
 
+# rho of each pictured pattern (amplitude or radius [m], frequency [1/m], phase [m]): what the virtual device's keys 1
+# and 2 draw on the task plane (teleteach.haptics.virtual.STROKES, twice the device's size)
+PICTURED = {"wave": (0.02, 20.0, 0.0), "cycloid": (0.025, 20.0, 0.0)}
+PICTURED_LENGTH = 0.15  # [m] of the underlying straight path drawn
+PICTURE_WORDS = {"wave": "sway side to side", "cycloid": "loop as you go"}
+
+
+def pattern_points(skill: str, rho: Sequence[float], length: float = PICTURED_LENGTH, count: int = 200) -> np.ndarray:
+    """The ``count`` x 2 points [m] of a skill along a straight underlying path along x: x(s) = U + S_i U' (eq. 3)."""
+    model = SKILLS[skill]
+    points = []
+    for s in np.linspace(0.0, length, count):
+        offset = np.array(ca.DM(model.matrix(float(s), list(rho)))).reshape(2, 2)[:, 0]  # S_i U' with U' = (1, 0)
+        points.append((s + offset[0], offset[1]))
+    return np.array(points)
+
+
+class PatternPictures(QWidget):
+    """A drawing of each pattern the controller recognises, side by side, with its name: what the operator draws."""
+
+    def __init__(self, patterns=PICTURED):
+        super().__init__()
+        self.paths = {name: pattern_points(name, rho) for name, rho in patterns.items() if name in SKILLS}
+        self.setMinimumHeight(96)
+
+    def paintEvent(self, _event) -> None:  # noqa: N802 - Qt's name
+        """Each pattern in its own box, scaled alike, its name and how to move above it."""
+        painter = QPainter(self)
+        painter.setRenderHint(QPainter.Antialiasing)
+        width = self.width() / max(len(self.paths), 1)
+        metrics = painter.fontMetrics()
+        extents = [path.max(axis=0) - path.min(axis=0) for path in self.paths.values()]
+        span = np.max(extents, axis=0) if extents else np.ones(2)
+        for column, (name, path) in enumerate(self.paths.items()):
+            box = QRectF(column * width + 6, metrics.height() + 8, width - 12, self.height() - metrics.height() - 14)
+            painter.setPen(QColor("#212121"))
+            painter.drawText(
+                QRectF(box.left(), 2, box.width(), metrics.height()),
+                Qt.AlignCenter,
+                f"{name}: {PICTURE_WORDS.get(name, '')}",
+            )
+            painter.fillRect(box, QColor("#f3f6fb"))
+            scale = min(box.width() / span[0], box.height() / span[1])
+            centre = (path.max(axis=0) + path.min(axis=0)) / 2
+            points = [
+                QPointF(box.center().x() + (x - centre[0]) * scale, box.center().y() - (y - centre[1]) * scale)
+                for x, y in path
+            ]
+            painter.setPen(QPen(QColor("#1565c0"), 2.0))
+            painter.drawPolyline(QPolygonF(points))
+        painter.end()
+
+
 class SharedControlTab(QWidget):
     """SHARED CONTROL: the plane view and the MPC's status; double click records the MPC's output as a skill."""
 
@@ -240,8 +296,13 @@ class SharedControlTab(QWidget):
         panel.addWidget(self.message_label)
         panel.addWidget(self.teaching_label)
         panel.addWidget(self.recording_label)
+        panel.addWidget(QLabel("<b>Draw one of these</b> with the device, moving along steadily:"))
+        self.patterns = PatternPictures()
+        panel.addWidget(self.patterns)
         help_text = QLabel(
-            "Move the device: the MPC recognises the motion pattern and keeps it inside the boundary.<br>"
+            "Move the device: the MPC recognises the motion pattern and keeps it inside the boundary. "
+            "With the virtual device, key <b>1</b> draws a wave, <b>2</b> a cycloid (in its own window, "
+            "'teleteach: virtual Sigma.7'; again: stop); its arrow keys move in steps, which draw no pattern.<br>"
             f"<b>double click</b> (within {config.double_click_window:.1f} s): start / stop recording a skill<br>"
             "<b>wiping a surface: close the gripper</b> (hold it): the device shapes the stiffness (x, y, z: along the "
             "surface, across it, into it) while the controller keeps the pattern; open it halfway to lead the pattern "
