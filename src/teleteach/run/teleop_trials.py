@@ -18,7 +18,7 @@ from typing import Callable, Optional, Sequence, Tuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from teleteach.core import placement, skill_file
+from teleteach.core import skill_file
 from teleteach.core.frames import Transform
 from teleteach.core.gui_config import GuiConfig
 from teleteach.core.scene import Scene
@@ -31,6 +31,7 @@ from teleteach.run.trials import (
     bootstrap_median_interval,
     grasp_offset,
     hold_product,
+    judged_in_world,
     scene_around,
     success_figures,
 )
@@ -167,7 +168,7 @@ def run_teleop_trial(
         start, wall_start = sim.time, time.perf_counter()
         limited, recorded = _teleoperate(sim, robot, parameters, hand, operator, constrain, config, teach)
         wall = time.perf_counter() - wall_start
-        judged = _judged(sim, setup, trial_scene.gap(setup.gap), before)
+        judged = judged_in_world(sim, setup, trial_scene.gap(setup.gap), before)
         taught = _skill(teach, recorded, gui, robot, setup.gap, base) if teach else None
         return {
             "skill": taught,
@@ -236,25 +237,6 @@ def _teleoperate(
         if teach and not released and (not recorded or sim.time - recorded[-1][0] >= RECORD_PERIOD - 1e-9):
             recorded.append((sim.time, command.pose, np.concatenate(robot.cartesian_pose())))
     return limited, recorded
-
-
-def _judged(sim: ContactRecordingSim, setup: TrialSetup, gap_truth, before: dict) -> dict:
-    """The placement as the world judges it: success, the forces, the neighbours moved, the product in the gap."""
-    poses = sim.world.product_poses()
-    final = {name: pose for name, (pose, _) in poses.items()}
-    judged = placement.judge(sim.true_scene(), setup.product, poses[setup.product], before, final, setup.gap)
-    in_gap = gap_truth.frame.inverse().apply_point(poses[setup.product][0])
-    return {
-        "success": not judged.problems(setup.gap) and sim.world.grasped is None,
-        "peak_force_n": max(sim.peak_force.values()),
-        "peak_shelf_force_n": sim.peak_force["shelf"],
-        "peak_neighbour_force_n": sim.peak_force["neighbours"],
-        "neighbour_max_move_m": judged.neighbours_max_move_m,
-        "distance_m": judged.distance_m,
-        "depth_m": float(in_gap[0]),
-        "lateral_m": float(in_gap[1]),
-        "tilt_deg": judged.tilt_deg,
-    }
 
 
 def _skill(name: str, recorded, gui: GuiConfig, robot: SimRobot, gap: str, base: Transform) -> skill_file.Skill:

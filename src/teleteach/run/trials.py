@@ -181,37 +181,60 @@ def run_trial(
         gap_truth = trial_scene.gap(setup.gap)
         gap_seen = sim.perceived_scene().gap(setup.gap)
         sim.watch(setup.product)
-        sim_start, wall_start = sim.time, time.perf_counter()
-        parameters = f"{{data_file: '{skill_path}'" + (f", target: {target}" if target else "") + "}"
-        outcome = runner.execute(REPLAY_SKILL, parameters)
-        wall = time.perf_counter() - wall_start
-        poses = sim.world.product_poses()
-        final = {name: position for name, (position, _) in poses.items()}
-        judged = placement.judge(sim.true_scene(), setup.product, poses[setup.product], before, final, setup.gap)
-        in_gap = gap_truth.frame.inverse().apply_point(poses[setup.product][0])
-        perception_error = gap_truth.frame.inverse().apply_point(gap_seen.position)
+        sim_start = sim.time
+        outcome, wall = _timed_replay(runner, skill_path, target)
+        judged = judged_in_world(sim, setup, gap_truth, before)
         return {
             "seed": setup.seed,
-            "success": not judged.problems(setup.gap) and sim.world.grasped is None,
+            "success": judged.pop("success"),
             "skill_success": outcome.success,
             "message": outcome.message,
             "held_at_start": held_before == setup.product,
-            "peak_force_n": max(sim.peak_force.values()),
-            "peak_shelf_force_n": sim.peak_force["shelf"],
-            "peak_neighbour_force_n": sim.peak_force["neighbours"],
-            "neighbour_max_move_m": judged.neighbours_max_move_m,
-            "distance_m": judged.distance_m,
-            "depth_m": float(in_gap[0]),
-            "lateral_m": float(in_gap[1]),
-            "tilt_deg": judged.tilt_deg,
+            **judged,
             "base_error": sim.base_error.last.tolist(),
-            "gap_perception_error": [*perception_error.tolist(), gap_seen.yaw - gap_truth.yaw],
+            "gap_perception_error": _perception_error(gap_truth, gap_seen),
             "grasp_offset": offset.tolist(),
             "sim_s": sim.time - sim_start,
             "wall_s": wall,
         }
     finally:
         sim.close()
+
+
+def _timed_replay(runner: SkillRunner, skill_path: pathlib.Path, target: Optional[str]):
+    """ReplaySkill's outcome on the skill file, and the wall time it took [s] (what the trials' speed-up measures)."""
+    wall_start = time.perf_counter()
+    parameters = f"{{data_file: '{skill_path}'" + (f", target: {target}" if target else "") + "}"
+    outcome = runner.execute(REPLAY_SKILL, parameters)
+    return outcome, time.perf_counter() - wall_start
+
+
+def _perception_error(gap_truth, gap_seen) -> list:
+    """Where the robot saw the gap, in the true gap's frame [m], and its yaw error [rad]: what it placed against."""
+    seen_in_gap = gap_truth.frame.inverse().apply_point(gap_seen.position)
+    return [*seen_in_gap.tolist(), gap_seen.yaw - gap_truth.yaw]
+
+
+def judged_in_world(sim: ContactRecordingSim, setup: TrialSetup, gap_truth, before: dict) -> dict:
+    """The placement as the world judges it: success, the forces, the neighbours moved, the product in the gap.
+
+    ``before``: each product's pose when the trial began, to see which ones the placement moved.
+    """
+    poses = sim.world.product_poses()
+    final = {name: pose for name, (pose, _) in poses.items()}
+    judged = placement.judge(sim.true_scene(), setup.product, poses[setup.product], before, final, setup.gap)
+    in_gap = gap_truth.frame.inverse().apply_point(poses[setup.product][0])
+    return {
+        "success": not judged.problems(setup.gap) and sim.world.grasped is None,
+        "peak_force_n": max(sim.peak_force.values()),
+        "peak_shelf_force_n": sim.peak_force["shelf"],
+        "peak_neighbour_force_n": sim.peak_force["neighbours"],
+        "neighbour_max_move_m": judged.neighbours_max_move_m,
+        "distance_m": judged.distance_m,
+        "depth_m": float(in_gap[0]),
+        "lateral_m": float(in_gap[1]),
+        "tilt_deg": judged.tilt_deg,
+    }
 
 
 def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple:
