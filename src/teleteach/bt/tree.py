@@ -101,7 +101,21 @@ def _parse_history(data: typing.Any, source: str) -> typing.Optional[typing.Dict
     return history
 
 
+# The fields each node type takes besides its type and name.
+NODE_FIELDS = {
+    "selector": {"memory", "children"},
+    "sequence": {"memory", "children"},
+    "parallel": {"policy", "synchronise", "children"},
+    "retry": {"attempts", "children"},
+    "timeout": {"seconds", "children"},
+    "inverter": {"children"},
+    "pause": set(),
+    "skill": {"skill", "parameters"},
+}
+
+
 def _parse_node(data: typing.Any, library: SkillLibrary, names: typing.Dict[str, str], where: str) -> Spec:
+    """One node of a tree file and its subtree as a spec, each mistake named with its path in the tree."""
     if isinstance(data, str):
         data = {"type": "skill", "name": data}
     if not isinstance(data, dict):
@@ -117,35 +131,12 @@ def _parse_node(data: typing.Any, library: SkillLibrary, names: typing.Dict[str,
     if name in names:
         raise TreeSpecError(f"{where}: the name {name!r} is used twice; names in a tree are unique")
     names[name] = node_type
-    allowed = {"type", "name"} | {
-        "selector": {"memory", "children"},
-        "sequence": {"memory", "children"},
-        "parallel": {"policy", "synchronise", "children"},
-        "retry": {"attempts", "children"},
-        "timeout": {"seconds", "children"},
-        "inverter": {"children"},
-        "pause": set(),
-        "skill": {"skill", "parameters"},
-    }[node_type]
-    unknown = set(data) - allowed
+    unknown = set(data) - {"type", "name"} - NODE_FIELDS[node_type]
     if unknown:
         raise TreeSpecError(f"{where}: unknown fields {sorted(unknown)} for a {node_type}")
     spec: Spec = {"type": node_type, "name": name}
     if node_type == "skill":
-        skill = data.get("skill", name)
-        if skill not in library:
-            raise TreeSpecError(f"{where}: skill {skill!r} is not in the skill library")
-        spec["skill"] = skill
-        parameters = data.get("parameters", {})
-        if not isinstance(parameters, dict) or not all(
-            isinstance(key, str) and isinstance(value, str) for key, value in parameters.items()
-        ):
-            raise TreeSpecError(f"{where}: parameters must map names to names, e.g. {{base_pose: start}}")
-        if parameters and library.get(skill).demonstrated:
-            raise TreeSpecError(f"{where}: parameters are for predefined skills; {skill!r} is a demonstrated skill")
-        if parameters:
-            spec["parameters"] = dict(parameters)
-        return spec
+        return _skill_spec(spec, data, library, where)
     if node_type == "pause":
         return spec
     if node_type == "parallel":
@@ -164,6 +155,24 @@ def _parse_node(data: typing.Any, library: SkillLibrary, names: typing.Dict[str,
     if node_type in DECORATORS and len(children) != 1:
         raise TreeSpecError(f"{where}: a {node_type} decorates exactly one child, got {len(children)}")
     spec["children"] = [_parse_node(child, library, names, where) for child in children]
+    return spec
+
+
+def _skill_spec(spec: Spec, data: Spec, library: SkillLibrary, where: str) -> Spec:
+    """A skill leaf's spec: its skill, which the library must hold, and parameters only a predefined skill takes."""
+    skill = data.get("skill", spec["name"])
+    if skill not in library:
+        raise TreeSpecError(f"{where}: skill {skill!r} is not in the skill library")
+    spec["skill"] = skill
+    parameters = data.get("parameters", {})
+    if not isinstance(parameters, dict) or not all(
+        isinstance(key, str) and isinstance(value, str) for key, value in parameters.items()
+    ):
+        raise TreeSpecError(f"{where}: parameters must map names to names, e.g. {{base_pose: start}}")
+    if parameters and library.get(skill).demonstrated:
+        raise TreeSpecError(f"{where}: parameters are for predefined skills; {skill!r} is a demonstrated skill")
+    if parameters:
+        spec["parameters"] = dict(parameters)
     return spec
 
 
