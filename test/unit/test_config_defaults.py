@@ -221,6 +221,19 @@ def test_a_gui_parameter_missing_from_the_yaml_is_named_in_one_line():
         GuiConfig.from_mapping(values)
 
 
+def test_a_gui_key_left_empty_in_the_yaml_is_refused_by_name_unless_it_means_an_empty_list():
+    values = config("gui.yaml")
+    empty_lists = {"locked_axes"}  # config/gui.yaml: an empty locked_axes locks nothing
+    for name, value in values.items():
+        if isinstance(value, dict) or name in empty_lists:
+            continue
+        with pytest.raises(GuiConfigError, match=name):
+            GuiConfig.from_mapping({**values, name: None})
+    assert GuiConfig.from_mapping({**values, "locked_axes": None}).locked_axes == ()
+    with pytest.raises(GuiConfigError, match="guidance must be true or false, got 'yes'"):
+        GuiConfig.from_mapping({**values, "guidance": "yes"})
+
+
 def test_shared_control_config_comes_from_its_yaml_and_names_what_is_missing():
     values = config("shared_control.yaml")
     built = SharedControlConfig.from_parameters(values)

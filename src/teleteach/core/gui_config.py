@@ -21,6 +21,7 @@ POSITIVE = (
     "stiffness_per_pixel",
     "max_stiffness",
     "min_stiffness",
+    "initial_stiffness",
     "double_click_window",
     "gripper_open_threshold",
     "publish_rate",
@@ -62,6 +63,8 @@ NON_NEGATIVE = (
     "guidance_angle_click_stiffness",
 )
 """The GUI parameters that must be numbers >= 0."""
+TEXT = ("base_frame", "controllers", "trajectory", "data_dir", "skill_prefix", "shared_skill_prefix", "path_prefix")
+"""The GUI parameters that are text (a yaml key left empty, ``null``, is refused by name, not met later as None)."""
 
 
 class GuiConfigError(ValueError):
@@ -171,6 +174,11 @@ class GuiConfig:
 
     def _check_choices(self) -> None:
         """Names, lists and choices: locked axes, the first tab, prefixes, the dials' values, the controllers."""
+        for name in TEXT:
+            if not isinstance(getattr(self, name), str):
+                raise GuiConfigError(f"GUI parameter {name} must be text, got {getattr(self, name)!r}")
+        if not isinstance(self.guidance, bool):
+            raise GuiConfigError(f"GUI parameter guidance must be true or false, got {self.guidance!r}")
         unknown = [axis for axis in self.locked_axes if axis not in DEVICE_AXES]
         if unknown:
             raise GuiConfigError(f"locked_axes {unknown} unknown; allowed: {', '.join(DEVICE_AXES)}")
