@@ -164,14 +164,7 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
     Raises:
         ScenarioError: the text breaks the format (message names line, keyframe index and field).
     """
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        line = f":{mark.line + 1}" if mark is not None else ""
-        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
-        raise ScenarioError(f"{source}{line}: not valid YAML: {problem}") from None
+    root, data = _yaml_of(text, source)
     if not isinstance(data, dict):
         raise ScenarioError(f"{source}: a scenario is a mapping with a 'keyframes' list")
     top_lines = _field_lines(root)
@@ -200,6 +193,24 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
         raise ScenarioError(f"{source}:{top_lines.get('keyframes', 1)}: field 'keyframes' must be a non-empty list")
     item_nodes = _mapping_value(root, "keyframes").value
     keyframes = [_parse_keyframe(raw, item_nodes[index], index, source) for index, raw in enumerate(raw_keyframes)]
+    _check_times_increase(keyframes, source)
+    _check_clicks_apart(keyframes, click_duration, source)
+    return Scenario(tuple(keyframes), interpolation, float(click_duration), description, source)
+
+
+def _yaml_of(text: str, source: str):
+    """The text's YAML node tree (for line numbers) and its data; invalid YAML is an error naming its line."""
+    try:
+        return yaml.compose(text, Loader=yaml.SafeLoader), yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        line = f":{mark.line + 1}" if mark is not None else ""
+        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
+        raise ScenarioError(f"{source}{line}: not valid YAML: {problem}") from None
+
+
+def _check_times_increase(keyframes: List[Keyframe], source: str) -> None:
+    """Rejects keyframes out of time order: interpolating between them would run backwards."""
     for index in range(1, len(keyframes)):
         previous, current = keyframes[index - 1], keyframes[index]
         if current.time <= previous.time:
@@ -207,6 +218,10 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
                 f"{source}:{current.line}: keyframes[{index}].t: times must increase strictly, "
                 f"but t = {current.time} s is not after keyframes[{index - 1}].t = {previous.time} s"
             )
+
+
+def _check_clicks_apart(keyframes: List[Keyframe], click_duration: float, source: str) -> None:
+    """Rejects a click that starts before the previous one ended or ends after the last keyframe: it would be lost."""
     clicks = [(index, keyframe) for index, keyframe in enumerate(keyframes) if keyframe.click]
     for (index, keyframe), (next_index, following) in zip(clicks, clicks[1:]):
         if following.time < keyframe.time + click_duration:
@@ -220,7 +235,6 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
             f"{source}:{keyframe.line}: keyframes[{index}].click: the click ends after the last keyframe "
             f"({keyframe.time} s + click_duration {click_duration} s > {keyframes[-1].time} s); add a keyframe after it"
         )
-    return Scenario(tuple(keyframes), interpolation, float(click_duration), description, source)
 
 
 def check_clicks(scenario: Scenario, parameters: ClickParameters) -> None:
