@@ -165,52 +165,78 @@ def checks(phases: Dict[str, dict], config: WipingConfig) -> List[Dict[str, obje
 
     The wipe held under shared control and while taught; the learned skill wiping alone as its demonstration did.
     """
-    found = []
-
-    def check(name: str, passed: bool, seen: str) -> None:
-        found.append({"check": name, "passed": bool(passed), "seen": seen})
-
-    for name in ("wave", "cycloid", "teaching"):
-        phase = phases[name]
-        check(
-            f"{name}: in contact >= {config.min_contact:.0%}",
-            phase["contact_fraction"] >= config.min_contact,
-            f"{phase['contact_fraction']:.1%}, force {phase['force_mean_n']:.1f} +- {phase['force_spread_n']:.1f} N",
-        )
-        reference, tool = phase["reference_boundary_violations"], phase["boundary_violations"]
-        check(
-            f"{name}: the controller kept the tool's equilibrium inside the boundary",
-            reference["count"] == 0,
-            f"{reference['count']} samples past it (worst {1000 * reference['worst_m']:.1f} mm); the tool "
-            f"{tool['count']} samples past it by > {1000 * TOLERANCE:.0f} mm (worst {1000 * tool['worst_m']:.1f} mm)",
-        )
+    found = _held_wipe_checks(phases, config)
     for name in ("wave", "cycloid"):
         share = phases[name]["recognised_share"]
-        check(f"{name}: recognised", share >= RECOGNISED, f"in {share:.0%} of the cycles")
+        found.append(_check(f"{name}: recognised", share >= RECOGNISED, f"in {share:.0%} of the cycles"))
     obstacle = phases["cycloid"]["obstacle_violations"]
-    check(
-        "cycloid: the tool kept off the moving obstacle",
-        obstacle["count"] == 0,
-        f"{obstacle['count']} samples past it (worst {1000 * obstacle['worst_m']:.1f} mm)",
+    found.append(
+        _check(
+            "cycloid: the tool kept off the moving obstacle",
+            obstacle["count"] == 0,
+            f"{obstacle['count']} samples past it (worst {1000 * obstacle['worst_m']:.1f} mm)",
+        )
     )
     kept = phases["teaching"]["clutch_kept_share"]
-    check("teaching: the clutch kept the wave", kept >= RECOGNISED, f"in {kept:.0%} of the clutched cycles")
-    replay = phases["replay"]
-    check("replay: the tree's learned wipe succeeded", replay["status"] == "SUCCESS", replay["message"])
-    if "contact_fraction" not in replay:
-        check("replay: the learned skill pressed on the board", False, "its equilibrium never went below the face")
-    else:
-        check(
-            f"replay: in contact >= {config.min_contact:.0%}",
-            replay["contact_fraction"] >= config.min_contact,
-            f"{replay['contact_fraction']:.1%}, force {replay['force_mean_n']:.1f} +- {replay['force_spread_n']:.1f} N",
+    found.append(
+        _check("teaching: the clutch kept the wave", kept >= RECOGNISED, f"in {kept:.0%} of the clutched cycles")
+    )
+    return found + _replay_checks(phases["replay"], config)
+
+
+def _check(name: str, passed: bool, seen: str) -> Dict[str, object]:
+    """One line of the verdict: what was checked, whether it passed and what was seen, for the summary."""
+    return {"check": name, "passed": bool(passed), "seen": seen}
+
+
+def _contact_check(label: str, measures: dict, config: WipingConfig) -> Dict[str, object]:
+    """A wipe stayed in contact long enough, with the force it pressed with as what was seen."""
+    return _check(
+        f"{label}: in contact >= {config.min_contact:.0%}",
+        measures["contact_fraction"] >= config.min_contact,
+        f"{measures['contact_fraction']:.1%}, force {measures['force_mean_n']:.1f} +- "
+        f"{measures['force_spread_n']:.1f} N",
+    )
+
+
+def _held_wipe_checks(phases: Dict[str, dict], config: WipingConfig) -> List[Dict[str, object]]:
+    """The wipes under shared control and while taught kept contact and kept the equilibrium inside the boundary."""
+    found = []
+    for name in ("wave", "cycloid", "teaching"):
+        phase = phases[name]
+        found.append(_contact_check(name, phase, config))
+        reference, tool = phase["reference_boundary_violations"], phase["boundary_violations"]
+        found.append(
+            _check(
+                f"{name}: the controller kept the tool's equilibrium inside the boundary",
+                reference["count"] == 0,
+                f"{reference['count']} samples past it (worst {1000 * reference['worst_m']:.1f} mm); the tool "
+                f"{tool['count']} samples past it by > {1000 * TOLERANCE:.0f} mm "
+                f"(worst {1000 * tool['worst_m']:.1f} mm)",
+            )
         )
-        check(
+    return found
+
+
+def _replay_checks(replay: dict, config: WipingConfig) -> List[Dict[str, object]]:
+    """The learned skill, replayed alone by the tree, succeeded, pressed on the board and swept what its demo swept."""
+    found = [_check("replay: the tree's learned wipe succeeded", replay["status"] == "SUCCESS", replay["message"])]
+    if "contact_fraction" not in replay:
+        return [
+            *found,
+            _check(
+                "replay: the learned skill pressed on the board", False, "its equilibrium never went below the face"
+            ),
+        ]
+    return [
+        *found,
+        _contact_check("replay", replay, config),
+        _check(
             f"replay: swept >= {config.min_coverage:.0%} of what the demonstration swept",
             replay["coverage_of_demonstration"] >= config.min_coverage,
             f"{replay['coverage_of_demonstration']:.1%}",
-        )
-    return found
+        ),
+    ]
 
 
 def summary_markdown(summary: dict) -> str:
