@@ -60,6 +60,20 @@ def principal_stiffness(times, angle: float, rng) -> Tuple[np.ndarray, np.ndarra
     return np.column_stack([kx, ky, np.full_like(times, VERTICAL)]), yaw
 
 
+def _as_published(
+    truth: np.ndarray, times: np.ndarray, duration: float, gui_rate: float, gui_lag: float, rng: np.random.Generator
+) -> np.ndarray:
+    """The stiffness the recorder saw at ``times``: the GUI's last publication, late and at a jittered rate."""
+    publish_times = [0.0]
+    while publish_times[-1] < duration:
+        publish_times.append(publish_times[-1] + rng.uniform(0.7, 1.3) / gui_rate)
+    publish_times = np.array(publish_times)
+    shown = np.interp(publish_times - gui_lag, times, np.arange(times.size))
+    shown_index = np.clip(np.round(shown).astype(int), 0, times.size - 1)
+    latest = np.clip(np.searchsorted(publish_times, times, side="right") - 1, 0, None)
+    return truth[shown_index[latest]]
+
+
 def placement_demo(
     angle: float = 45.0,
     duration: float = 102.0,
@@ -86,17 +100,7 @@ def placement_demo(
     times = np.arange(0.0, duration + 0.5 / pose_rate, 1.0 / pose_rate)
     principal, yaw = principal_stiffness(times, angle, rng)
     truth = translational_stiffnesses(principal, yaw_rotation(yaw))
-    if gui_rate and gui_rate > 0:
-        publish_times = [0.0]
-        while publish_times[-1] < duration:
-            publish_times.append(publish_times[-1] + rng.uniform(0.7, 1.3) / gui_rate)
-        publish_times = np.array(publish_times)
-        shown = np.interp(publish_times - gui_lag, times, np.arange(times.size))
-        shown_index = np.clip(np.round(shown).astype(int), 0, times.size - 1)
-        latest = np.clip(np.searchsorted(publish_times, times, side="right") - 1, 0, None)
-        recorded = truth[shown_index[latest]]
-    else:
-        recorded = truth
+    recorded = _as_published(truth, times, duration, gui_rate, gui_lag, rng) if gui_rate and gui_rate > 0 else truth
     waypoints_t = np.array([0.0, 0.3, 0.55, 0.8, 1.0]) * duration
     waypoints = np.array([[0.35, 0.0, 0.55], [0.5, 0.05, 0.5], [0.6, 0.1, 0.48], [0.68, 0.12, 0.48], [0.7, 0.12, 0.48]])
     equilibrium = np.column_stack([np.interp(times, waypoints_t, waypoints[:, axis]) for axis in range(3)])
