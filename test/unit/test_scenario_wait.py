@@ -9,6 +9,7 @@ import yaml
 from teleteach.haptics.click import ClickDetector, ClickParameters
 from teleteach.haptics.loop import DeviceLoop
 from teleteach.haptics.scenario import (
+    TABS,
     ScenarioBackend,
     ScenarioError,
     SystemState,
@@ -198,3 +199,19 @@ def test_a_stall_between_clicks_presses_nothing_extra():
     backend = ScenarioBackend(scenario, start_time=0.0)
     backend.read(0.98)
     assert backend.read(1.5).position[1] == pytest.approx(0.025)
+
+
+def test_every_scenario_going_back_to_start_holds_the_gripper_open_until_start_shows():
+    """A gripper opened only for a moment can fall between two reads of a stalled device loop (the player catches up
+    on missed clicks, not on the gripper's level): START never comes, and the scenario's wait runs out."""
+    threshold = yaml.safe_load((CONFIG / "gui.yaml").read_text())["gripper_open_threshold"]
+    checked = 0
+    for path in sorted((CONFIG / "scenarios").glob("*.yaml")):
+        text = path.read_text()
+        if "keyframes:" not in text:
+            continue
+        for keyframe in parse_scenario(text, str(path)).keyframes:
+            if keyframe.wait is not None and keyframe.wait.tab == TABS.index("START"):
+                assert keyframe.gripper >= threshold, f"{path.name}:{keyframe.line}: START waited for, gripper closed"
+                checked += 1
+    assert checked >= 3
