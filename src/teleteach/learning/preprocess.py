@@ -165,6 +165,30 @@ def resample_poses(times, poses, grid) -> np.ndarray:
     return np.hstack([positions, orientations])
 
 
+def _checked_pose_streams(poses: Dict[str, Tuple[np.ndarray, np.ndarray]]) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+    """Each pose stream's times and poses as checked arrays, one pose per time, so they can be resampled."""
+    streams = {}
+    for name, (times, values) in poses.items():
+        times = check_times(times, name)
+        values = check_poses(values, name)
+        if values.shape[0] != times.size:
+            raise LearningError(f"{name} has {values.shape[0]} samples but {times.size} times")
+        streams[name] = (times, values)
+    return streams
+
+
+def _shared_window(stiffness_times: np.ndarray, streams, shortest: float) -> Tuple[float, float]:
+    """The time every stream covers (start, end) [s]: only there is the demonstration known; at least ``shortest``."""
+    start = max([stiffness_times[0], *(times[0] for times, _ in streams.values())])
+    end = min([stiffness_times[-1], *(times[-1] for times, _ in streams.values())])
+    if end - start < shortest:
+        raise LearningError(
+            f"the streams share only {max(end - start, 0.0):.3f} s of time (need {shortest:.3f} s): "
+            "stiffness and poses were not recorded together"
+        )
+    return start, end
+
+
 def prepare(
     stiffness_times,
     stiffness,
@@ -193,22 +217,9 @@ def prepare(
     stiffness = check_stiffness(stiffness)
     if stiffness.shape[0] != stiffness_times.size:
         raise LearningError(f"stiffness has {stiffness.shape[0]} samples but {stiffness_times.size} times")
-    streams = {}
-    for name, (times, values) in poses.items():
-        times = check_times(times, name)
-        values = check_poses(values, name)
-        if values.shape[0] != times.size:
-            raise LearningError(f"{name} has {values.shape[0]} samples but {times.size} times")
-        streams[name] = (times, values)
-    start = max([stiffness_times[0], *(times[0] for times, _ in streams.values())])
-    end = min([stiffness_times[-1], *(times[-1] for times, _ in streams.values())])
+    streams = _checked_pose_streams(poses)
     step = 1.0 / rate
-    shortest = 4 * step if min_duration is None else min_duration
-    if end - start < shortest:
-        raise LearningError(
-            f"the streams share only {max(end - start, 0.0):.3f} s of time (need {shortest:.3f} s): "
-            "stiffness and poses were not recorded together"
-        )
+    start, end = _shared_window(stiffness_times, streams, 4 * step if min_duration is None else min_duration)
     # the grid's own times from 0: start + k step - start loses the uniform step to rounding at epoch-sized stamps
     offsets = np.arange(int(np.floor((end - start) / step + 1e-9)) + 1) * step
     grid = start + offsets
