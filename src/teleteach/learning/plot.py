@@ -78,6 +78,15 @@ def figure_c1(sample_times, samples, times, reproduction, title: str = "", count
         axes.set_ylabel(label, fontsize=8)
         axes.set_xlabel("time [s]")
     entries = figure.add_subplot(grid[2])
+    _plot_entries(entries, sample_times, samples, times, reproduction)
+    if title:
+        figure.suptitle(title)
+    legends_beside(figure, [(entries,)], fontsize=7)
+    return figure
+
+
+def _plot_entries(entries, sample_times, samples, times, reproduction) -> None:
+    """K_xx, K_yy and K_xy over time, recorded as steps and reproduced as lines, to compare their values."""
     for (row, column), label, colour in (
         ((0, 0), "K_xx", "tab:red"),
         ((1, 1), "K_yy", "tab:green"),
@@ -95,7 +104,3 @@ def figure_c1(sample_times, samples, times, reproduction, title: str = "", count
     entries.set_xlabel("time [s]")
     entries.set_ylabel("stiffness [N/m]")
     entries.grid(alpha=0.3)
-    if title:
-        figure.suptitle(title)
-    legends_beside(figure, [(entries,)], fontsize=7)
-    return figure
