@@ -14,8 +14,9 @@ from teleteach.run import outcome
 
 STIFFNESS_CHANGE = 0.2  # a principal stiffness said again once it changed by this share of the last said value [-]
 YAW_CHANGE = 10.0  # the ellipsoid's yaw said again once it turned this far from the last said yaw [deg]
-STEADY_STIFFNESS = 0.02  # ... and only when it held within this share since the previous poll (the handle stopped)
-STEADY_YAW = 1.0  # [deg] ... and within this
+STEADY_STIFFNESS = 0.02  # ... and only once it held within this share (the handle stopped) [-]
+STEADY_YAW = 1.0  # ... and within this [deg]
+HOLD = 0.5  # ... for this long in ROS time: late messages on a loaded machine do not make a moving handle still [s]
 
 
 def _axes_difference(first: float, second: float) -> float:
@@ -36,14 +37,14 @@ class Narration:
         self._recording = False
         self._taught: Tuple[str, ...] = ()
         self._said_stiffness: Optional[Tuple[Tuple[float, ...], float]] = None
-        self._last_stiffness: Optional[Tuple[Tuple[float, ...], float]] = None
+        self._holding: Optional[Tuple[Tuple[Tuple[float, ...], float], float]] = None  # (stiffness, since [s])
 
     def tab(self, tab: int) -> Optional[str]:
         """The tab the operator opened (/teleteach/active_tab)."""
         previous, self._tab = self._tab, tab
         if tab == previous or (previous is None and tab == Tab.START):  # the GUI opens in START by itself
             return None
-        self._said_stiffness = self._last_stiffness = None  # each LOW-LEVEL visit says its stiffness afresh
+        self._said_stiffness = self._holding = None  # each LOW-LEVEL visit says its stiffness afresh
         name = Tab(tab).title if tab in list(Tab) else str(tab)
         return f"operator: opened {name}"
 
@@ -76,18 +77,19 @@ class Narration:
         """A leaf asking the operator for help (/behaviour_tree/help_request), as the summary lists it."""
         return f"help request: {node}: {reason}"
 
-    def stiffness(self, values: Sequence[float], yaw_deg: float) -> Optional[str]:
-        """The ellipsoid set by hand in LOW-LEVEL: its principal stiffnesses [N/m] and yaw [deg], once they hold.
+    def stiffness(self, time: float, values: Sequence[float], yaw_deg: float) -> Optional[str]:
+        """The ellipsoid set by hand in LOW-LEVEL at ``time`` [s]: principal stiffnesses [N/m], yaw [deg].
 
-        Said when a value changed by STIFFNESS_CHANGE or the yaw by YAW_CHANGE since last said, and the handle has
-        stopped (the same values as at the previous poll): the teaching's phases and the turned ellipsoid, not every
-        step of the handle on its way.
+        Said when a value changed by STIFFNESS_CHANGE or the yaw by YAW_CHANGE since last said, once the handle has
+        held it for HOLD: the teaching's phases and the turned ellipsoid, not every step of the handle on its way.
         """
         if self._tab != Tab.LOW_LEVEL or not all(math.isfinite(value) for value in (*values, yaw_deg)):
             return None
         now = (tuple(float(value) for value in values), (float(yaw_deg) + 90.0) % 180.0 - 90.0)  # an axis: no sign
-        previous, self._last_stiffness = self._last_stiffness, now
-        if previous is None or not _close(now, previous, STEADY_STIFFNESS, STEADY_YAW):
+        if self._holding is None or not _close(now, self._holding[0], STEADY_STIFFNESS, STEADY_YAW):
+            self._holding = (now, time)
+            return None
+        if time - self._holding[1] < HOLD:
             return None
         if self._said_stiffness is not None and _close(now, self._said_stiffness, STIFFNESS_CHANGE, YAW_CHANGE):
             return None

@@ -151,8 +151,7 @@ class Monitor:
         self.tabs: List[Tuple[float, int]] = []
         self._narration = Narration(initial_children)
         self._news: List[Tuple[float, str]] = []  # (ROS time, line) of the operator's steps not yet printed
-        self._stiffness: Optional[Tuple[np.ndarray, float]] = None  # the last /eigenvalues and yaw [deg]
-        self._eigenvalues: Optional[np.ndarray] = None
+        self._eigenvalues: Optional[np.ndarray] = None  # the last /eigenvalues [N/m]
         self._subscribers = [
             rospy.Subscriber("behaviour_tree/log/tree", BehaviourTree, self._tree, queue_size=20),
             rospy.Subscriber("behaviour_tree/ascii/tree", String, self._ascii, queue_size=5),
@@ -230,7 +229,7 @@ class Monitor:
         yaw = float(np.degrees(yaw_of(np.array([[q.x, q.y, q.z, q.w]]))[0]))
         with self._lock:
             if self._eigenvalues is not None:
-                self._stiffness = (self._eigenvalues, yaw)
+                self._tell(self._narration.stiffness(self._now(), self._eigenvalues, yaw))
 
     def _tell(self, line: Optional[str]) -> None:
         """Keep a line of the operator's steps for :meth:`news` (lock held)."""
@@ -238,13 +237,8 @@ class Monitor:
             self._news.append((self._now(), line))
 
     def news(self) -> List[Tuple[float, str]]:
-        """The operator's steps since the last call, (ROS time, line), the stiffness set by hand among them.
-
-        Polled: the stiffness is told once it held since the previous poll (teleteach.run.narration).
-        """
+        """The operator's steps since the last call: (ROS time, line)."""
         with self._lock:
-            if self._stiffness is not None:
-                self._tell(self._narration.stiffness(*self._stiffness))
             news, self._news = self._news, []
         return news
 
