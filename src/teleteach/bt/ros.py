@@ -344,20 +344,8 @@ class BehaviourTreeNode:
         data_root = datadir.data_dir(config.data_dir)
         # a tree in a namespace (one of two robots on a master) keeps its own files: trees/<namespace>/
         store = TreeStore(data_root / "trees" / rospy.get_namespace().strip("/"))
-        restarted = server_value(RUNNING_PARAM, False)
-        if restarted:
-            rospy.logwarn("behaviour_tree: the previous behaviour_tree died without stopping: resuming what it saved")
-        rospy.set_param(RUNNING_PARAM, True)
-        rospy.on_shutdown(_clear_running_flag)
-        if restarted or config.resume:
-            spec, library, problems = store.restore(spec, library)
-            if problems:
-                rospy.logwarn("behaviour_tree: could not resume everything saved in %s: %s", store.directory, problems)
-            else:
-                rospy.loginfo("behaviour_tree: resumed the tree and library saved in %s", store.directory)
-            unavailable = [f"{entry.name} ({entry.problem})" for entry in library if not entry.available]
-            if unavailable:
-                rospy.logwarn("behaviour_tree: unavailable skills (shown, not run): %s", "; ".join(unavailable))
+        if _claim_running_flag() or config.resume:
+            spec, library = _resumed(store, spec, library)
         clients = ActionClients(config.skill_namespace)
         for server in [entry.name for entry in library if not entry.demonstrated] + [REPLAY_SKILL]:
             clients.get(server)  # connect early: the first goal of each skill leaves without waiting
@@ -436,21 +424,37 @@ class BehaviourTreeNode:
 
     def publish(self, changed: bool) -> None:
         """Publish the topics whose content changed (heavy renderings only for subscribers)."""
-        tree = self.tree
-        revision = tree.revision
+        revision = self.tree.revision
         if changed:
-            records, tip = tree.records()
-            self._fresh_messages = {}
-            stamp = rospy.Time.now()
-            message = PreserializedTree([self._bytes_of(record) for record in records])
-            message.header.stamp = stamp
-            self._messages = self._fresh_messages
-            self.log_publisher.publish(message)
-            self.tip_publisher.publish(_behaviour(tip) if tip is not None else Behaviour())
-            self._snapshot_dirty = True
+            self._publish_tree_log()
         if self._snapshot_dirty and self.snapshot_publisher.get_num_connections() > 0:
             self.snapshot_publisher.publish(String(data=self._render_snapshot()))
             self._snapshot_dirty = False
+        self._publish_structure(revision)
+        if self.tree.library_revision != self._published_library:
+            self._publish_library()
+        execution = self.tree.execution_state()
+        if execution != self._published_execution:
+            self._publish_execution(execution)
+        help_request = self.tree.help_request
+        if help_request != self._published_help:
+            self._publish_help(help_request)
+
+    def _publish_tree_log(self) -> None:
+        """Publish every node and the tip after a tick that changed them, and mark the snapshot as stale."""
+        records, tip = self.tree.records()
+        self._fresh_messages = {}
+        stamp = rospy.Time.now()
+        message = PreserializedTree([self._bytes_of(record) for record in records])
+        message.header.stamp = stamp
+        self._messages = self._fresh_messages
+        self.log_publisher.publish(message)
+        self.tip_publisher.publish(_behaviour(tip) if tip is not None else Behaviour())
+        self._snapshot_dirty = True
+
+    def _publish_structure(self, revision: int) -> None:
+        """Render the ascii and dot trees of ``revision`` only for subscribers that lack it: rendering is slow."""
+        tree = self.tree
         for publisher, render in (
             (self.ascii_tree_publisher, lambda: py_trees.display.ascii_tree(tree.root)),
             (self.dot_publisher, lambda: py_trees.display.dot_tree(tree.root).to_string()),
@@ -460,39 +464,43 @@ class BehaviourTreeNode:
                     text = render()
                 publisher.publish(String(data=text))
                 self._structure_rendered[publisher] = revision
-        if tree.library_revision != self._published_library:
-            self._published_library = tree.library_revision
-            entries = tree.library_entries()
-            library = SkillLibraryMsg(
-                names=[entry.name for entry in entries],
-                kinds=[entry.kind for entry in entries],
-                data_files=[entry.data_file for entry in entries],
-                problems=[entry.problem for entry in entries],
+
+    def _publish_library(self) -> None:
+        """Publish the skill library, so the GUI and the skill servers know the skills the tree has now."""
+        self._published_library = self.tree.library_revision
+        entries = self.tree.library_entries()
+        library = SkillLibraryMsg(
+            names=[entry.name for entry in entries],
+            kinds=[entry.kind for entry in entries],
+            data_files=[entry.data_file for entry in entries],
+            problems=[entry.problem for entry in entries],
+        )
+        library.header.stamp = rospy.Time.now()
+        self.library_publisher.publish(library)
+
+    def _publish_execution(self, execution: Execution) -> None:
+        """Publish whether the tree runs, waits, pauses or is done, so the operator knows when the arm is free."""
+        self._published_execution = execution
+        state = TreeExecution(state=int(execution.state), skill=execution.skill, message=execution.message)
+        state.header.stamp = rospy.Time.now()
+        self.execution_publisher.publish(state)
+
+    def _publish_help(self, help_request: typing.Any) -> None:
+        """Publish the failure the operator is asked to repair (empty once answered), and log it."""
+        self._published_help = help_request
+        message = HelpRequest()
+        message.header.stamp = rospy.Time.now()
+        if help_request is not None:
+            message.node_name, message.reason = help_request.node_name, help_request.reason
+            message.suggestion = [request.describe() for request in help_request.suggestion]
+            remembered = f"; it suggests the remembered repair: {', '.join(message.suggestion)}"
+            rospy.logwarn(
+                "behaviour_tree: '%s' failed (%s); paused, asking the operator%s",
+                message.node_name,
+                message.reason,
+                remembered if message.suggestion else "",
             )
-            library.header.stamp = rospy.Time.now()
-            self.library_publisher.publish(library)
-        execution = tree.execution_state()
-        if execution != self._published_execution:
-            self._published_execution = execution
-            state = TreeExecution(state=int(execution.state), skill=execution.skill, message=execution.message)
-            state.header.stamp = rospy.Time.now()
-            self.execution_publisher.publish(state)
-        help_request = tree.help_request
-        if help_request != self._published_help:
-            self._published_help = help_request
-            message = HelpRequest()
-            message.header.stamp = rospy.Time.now()
-            if help_request is not None:
-                message.node_name, message.reason = help_request.node_name, help_request.reason
-                message.suggestion = [request.describe() for request in help_request.suggestion]
-                remembered = f"; it suggests the remembered repair: {', '.join(message.suggestion)}"
-                rospy.logwarn(
-                    "behaviour_tree: '%s' failed (%s); paused, asking the operator%s",
-                    message.node_name,
-                    message.reason,
-                    remembered if message.suggestion else "",
-                )
-            self.help_publisher.publish(message)
+        self.help_publisher.publish(message)
 
     def _bytes_of(self, record: NodeRecord) -> bytes:
         """The serialised Behaviour of a record, reused while the record is the same object (unchanged node)."""
@@ -549,6 +557,29 @@ def _behaviour(record: NodeRecord) -> Behaviour:
         message=record.message,
         is_active=record.is_active,
     )
+
+
+def _claim_running_flag() -> bool:
+    """Set ``~running`` for this process (cleared on shutdown); True if it was set already: a crashed node's restart."""
+    restarted = server_value(RUNNING_PARAM, False)
+    if restarted:
+        rospy.logwarn("behaviour_tree: the previous behaviour_tree died without stopping: resuming what it saved")
+    rospy.set_param(RUNNING_PARAM, True)
+    rospy.on_shutdown(_clear_running_flag)
+    return restarted
+
+
+def _resumed(store: TreeStore, spec, library: SkillLibrary):
+    """The tree and library saved in ``store`` (else the given ones), logging what could not be resumed."""
+    spec, library, problems = store.restore(spec, library)
+    if problems:
+        rospy.logwarn("behaviour_tree: could not resume everything saved in %s: %s", store.directory, problems)
+    else:
+        rospy.loginfo("behaviour_tree: resumed the tree and library saved in %s", store.directory)
+    unavailable = [f"{entry.name} ({entry.problem})" for entry in library if not entry.available]
+    if unavailable:
+        rospy.logwarn("behaviour_tree: unavailable skills (shown, not run): %s", "; ".join(unavailable))
+    return spec, library
 
 
 def _clear_running_flag() -> None:
