@@ -98,11 +98,27 @@ class SupermarketWorld:
         self.finger_speed = finger_speed
         self.base_speed = base_speed
         self.base_turn_rate = base_turn_rate
+        self._connect(gui, time_step, solver_residual_threshold)
+        self._add_fixtures(scene)
+        self._add_products(scene)
+        self._add_robot(scene, pad_friction, pad_spinning_friction)
+        self.tool = None
+        self._arm_mode = None
+        self._tcp_world = (0.0, 0.0, 0.0)
+        self._pending_force = None
+        self.ticks = 0
+        self.time = 0.0
+
+    def _connect(self, gui: bool, time_step: float, solver_residual_threshold: float) -> None:
+        """Start this world's own pybullet server (a window or headless) with its gravity, step and contact solver."""
         self.client = pybullet.connect(pybullet.GUI if gui else pybullet.DIRECT)
         self._call = {"physicsClientId": self.client}
         pybullet.setGravity(0.0, 0.0, -GRAVITY, **self._call)
         pybullet.setTimeStep(time_step, **self._call)
         pybullet.setPhysicsEngineParameter(solverResidualThreshold=solver_residual_threshold, **self._call)
+
+    def _add_fixtures(self, scene: Scene) -> None:
+        """Add what never moves: the floor, the shelf, the pick table and the surfaces to wipe."""
         self.floor = pybullet.loadURDF(str(pybullet_data.getDataPath()) + "/plane.urdf", **self._call)
         pybullet.changeDynamics(self.floor, -1, lateralFriction=scene.floor_friction, **self._call)
         self.static_bodies = {
@@ -113,6 +129,9 @@ class SupermarketWorld:
         self.static_bodies[table.name] = self._add_box(table.center, table.size, 0.0, table.friction, TABLE_COLOUR)
         for surface in scene.surfaces.values():
             self._add_surface(surface)
+
+    def _add_products(self, scene: Scene) -> None:
+        """Add the products on the shelf, keeping their bodies and sizes by name."""
         self.products = {
             product.name: self._add_box(
                 product.position,
@@ -126,6 +145,9 @@ class SupermarketWorld:
             for product in scene.products
         }
         self.product_sizes = {product.name: product.size for product in scene.products}
+
+    def _add_robot(self, scene: Scene, pad_friction: float, pad_spinning_friction: float) -> None:
+        """Add the mobile base at its start pose and the Panda on it, arm ready, gripper at its start width."""
         start = scene.base_poses["start"]
         self.base_pose = np.array([start.x, start.y, start.yaw])
         self.base_goal = self.base_pose.copy()
@@ -143,12 +165,6 @@ class SupermarketWorld:
         for index in panda.FINGER_INDICES:
             pybullet.resetJointState(self.robot, index, self.gripper_width / 2.0, **self._call)
         self.set_gripper_width(self.gripper_width)
-        self.tool = None
-        self._arm_mode = None
-        self._tcp_world = (0.0, 0.0, 0.0)
-        self._pending_force = None
-        self.ticks = 0
-        self.time = 0.0
 
     def close(self):
         """Disconnect pybullet."""
