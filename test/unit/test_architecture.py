@@ -378,7 +378,6 @@ STILL_TOO_LONG = {
     "shared_control/ros.py: SharedControlNode.__init__",
     "shared_control/ros.py: SharedControlNode._cycle",
     "sim/ros.py: RobotSimNode.__init__",
-    "skills/replay.py: StiffnessReplay.run",
     "study/runner.py: StudyRunner._trial",
     "study/runner.py: main",
 }

@@ -192,48 +192,16 @@ class StiffnessReplay:
 
     def run(self, world: WorldView, request: ReplayRequest, skill: skill_file.Skill) -> str:
         """Replay ``skill`` (what ``request`` loaded); returns the success message saying where the product ended."""
-        if skill.target is not None and skill.target.kind != skill_file.GAP:
-            raise SkillError(f"{skill.name} was taught on a {skill.target.kind}, not at a gap: it places nothing")
-        distance = 0.0
-        if skill.frame == skill_file.TARGET_FRAME:
-            gap = replay_target(world, skill, request.target)
-            where = f"relative to {gap.name} (taught at {skill.target.name})"
-            target = gap_in_base(world, gap)
-            distance = authority.target_distance(skill, target)
-            skill = skill.in_base(target)
-        elif request.target is not None:
-            raise SkillError(f"{skill.name} is a base_link skill (no target frame): it cannot be replayed at a target")
-        else:
-            where = "in base_link where it was recorded (a skill without a target frame)"
-        product, _ = world.product_in_hand()
-        if product is None:
-            width = world.motion.robot.gripper_width()
-            nearest, distance = world.nearest_to_hold()
-            seen = "no product in the scene"
-            if nearest is not None:
-                seen = f"{nearest} {100 * distance:.1f} cm from the hand's hold"
-            raise SkillError(
-                f"{skill.name} places a product, but there is none in the hand: pick one first "
-                f"({seen}, the gripper {1000 * width:.0f} mm open)"
-            )
+        skill, where, distance = self._in_base(world, request, skill)
+        product = self._product_in_hand(world, skill.name)
         motion = world.motion
         config = motion.config
         plan = plan_replay(skill, config.replay.rate)
         spread = authority.spread_along(skill, plan.times, config.authority)
         confidence = np.array([authority.confidence(value, distance, config.authority) for value in spread])
-        start_position = plan.positions[0]
-        start_orientation = Rotation.from_quat(plan.orientations[0])
         before = motion.robot.product_positions()
-        motion.ensure_position_control()
-        motion.execution.phase("approach the start", 0.1)
-        if np.linalg.norm(motion.tcp_pose()[0] - start_position) > config.replay.approach_tolerance:
-            motion.move_to_pose(start_position, start_orientation)
-        motion.execution.phase("switch to impedance control", 0.05)
+        self._start_in_impedance(motion, plan)
         robot = motion.robot
-        now = robot.now()
-        robot.command_stiffness(plan.eigenvalues[0], plan.eigenvectors[0], now)
-        robot.command_equilibrium(*robot.cartesian_pose(), now)
-        robot.switch_controllers([config.impedance_controller], [config.position_controller])
         try:
             corrected = self._play(motion, plan, spread, confidence, distance)
         except BaseException:
@@ -252,6 +220,57 @@ class StiffnessReplay:
             f"end; {product} released upright in {placed.gap}, "
             f"{1000.0 * placed.distance_m:.1f} mm from its centre"
         )
+
+    @staticmethod
+    def _in_base(world: WorldView, request: ReplayRequest, skill: skill_file.Skill):
+        """The skill in base_link, where it replays (for the message) and its target's distance from the taught one.
+
+        The distance lowers the replay's confidence: the further from where it was taught, the more the operator may
+        correct.
+        """
+        if skill.target is not None and skill.target.kind != skill_file.GAP:
+            raise SkillError(f"{skill.name} was taught on a {skill.target.kind}, not at a gap: it places nothing")
+        if skill.frame == skill_file.TARGET_FRAME:
+            gap = replay_target(world, skill, request.target)
+            where = f"relative to {gap.name} (taught at {skill.target.name})"
+            target = gap_in_base(world, gap)
+            return skill.in_base(target), where, authority.target_distance(skill, target)
+        if request.target is not None:
+            raise SkillError(f"{skill.name} is a base_link skill (no target frame): it cannot be replayed at a target")
+        return skill, "in base_link where it was recorded (a skill without a target frame)", 0.0
+
+    @staticmethod
+    def _product_in_hand(world: WorldView, skill_name: str) -> str:
+        """The product the hand holds; without one the replay would place nothing, so it fails saying what is near."""
+        product, _ = world.product_in_hand()
+        if product is None:
+            width = world.motion.robot.gripper_width()
+            nearest, distance = world.nearest_to_hold()
+            seen = "no product in the scene"
+            if nearest is not None:
+                seen = f"{nearest} {100 * distance:.1f} cm from the hand's hold"
+            raise SkillError(
+                f"{skill_name} places a product, but there is none in the hand: pick one first "
+                f"({seen}, the gripper {1000 * width:.0f} mm open)"
+            )
+        return product
+
+    @staticmethod
+    def _start_in_impedance(motion: Motion, plan: ReplayPlan) -> None:
+        """Move to the plan's start if away from it, then hand over to impedance control holding the arm where it is."""
+        config = motion.config
+        start_position = plan.positions[0]
+        start_orientation = Rotation.from_quat(plan.orientations[0])
+        motion.ensure_position_control()
+        motion.execution.phase("approach the start", 0.1)
+        if np.linalg.norm(motion.tcp_pose()[0] - start_position) > config.replay.approach_tolerance:
+            motion.move_to_pose(start_position, start_orientation)
+        motion.execution.phase("switch to impedance control", 0.05)
+        robot = motion.robot
+        now = robot.now()
+        robot.command_stiffness(plan.eigenvalues[0], plan.eigenvectors[0], now)
+        robot.command_equilibrium(*robot.cartesian_pose(), now)
+        robot.switch_controllers([config.impedance_controller], [config.position_controller])
 
     @staticmethod
     def _play(motion: Motion, plan: ReplayPlan, spread, confidence, distance: float) -> np.ndarray:
