@@ -274,10 +274,11 @@ def read_session(path: Union[str, pathlib.Path]) -> Session:
         return _read(reader, pathlib.Path(path).expanduser())
 
 
-def _read(reader, path: pathlib.Path) -> Session:
-    start = reader.start_time if reader.message_count else 0
-    duration = (reader.end_time - reader.start_time) / 1e9 if reader.message_count else 0.0
-    topics = {topic: TopicInfo(info.msgtype or "", info.msgcount) for topic, info in reader.topics.items()}
+def _read_messages(reader, start: int):
+    """Deserialise the messages of the topics read (times [s] from ``start`` [ns]); the others are never unpacked.
+
+    Returns the times and rows of each topic of ``_READ``, the tree snapshots, and the perceived and true scenes.
+    """
     wanted = [
         connection
         for connection in reader.connections
@@ -299,6 +300,11 @@ def _read(reader, path: pathlib.Path) -> Session:
         else:
             times[connection.topic].append(time)
             rows[connection.topic].append(_row(connection.topic, message))
+    return times, rows, trees, scenes
+
+
+def _stiffness_series(times: Dict[str, List[float]], rows: Dict[str, List[tuple]]):
+    """The eigenvalues and eigenvectors the controller accepts (None if none), and how many of each it rejects."""
     rejected = {}
     eigenvalues = _series(times["/eigenvalues"], rows["/eigenvalues"])
     eigenvectors = _series(times["/eigenvectors"], rows["/eigenvectors"])
@@ -308,6 +314,15 @@ def _read(reader, path: pathlib.Path) -> Session:
         )
         eigenvalues = eigenvalues if len(eigenvalues) else None
         eigenvectors = eigenvectors if len(eigenvectors) else None
+    return eigenvalues, eigenvectors, rejected
+
+
+def _read(reader, path: pathlib.Path) -> Session:
+    start = reader.start_time if reader.message_count else 0
+    duration = (reader.end_time - reader.start_time) / 1e9 if reader.message_count else 0.0
+    topics = {topic: TopicInfo(info.msgtype or "", info.msgcount) for topic, info in reader.topics.items()}
+    times, rows, trees, scenes = _read_messages(reader, start)
+    eigenvalues, eigenvectors, rejected = _stiffness_series(times, rows)
     truth, perceived = scenes[f"/{TRUE_SCENE_TOPIC}"], scenes[f"/{SCENE_TOPIC}"]
     judged = truth if truth.products else perceived
     device = _series(times["/sigma7/pose"], rows["/sigma7/pose"])
