@@ -376,7 +376,6 @@ STILL_TOO_LONG = {
     "shared_control/problems.py: TrajectoryOptimisation.__init__",
     "shared_control/ros.py: SharedControlNode.__init__",
     "shared_control/ros.py: SharedControlNode._cycle",
-    "sim/ros.py: RobotSimNode.__init__",
     "study/runner.py: StudyRunner._trial",
     "study/runner.py: main",
 }

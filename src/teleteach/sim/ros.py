@@ -173,6 +173,19 @@ class RobotSimNode:
         self._steps = 0
         self._rejected = 0
         rospy.set_param("robot_description", robot_description(sim.scene.robot.mount_height, sim.scene.robot.base_size))
+        self._advertise(follow_clock)
+        self._subscribers = self._subscribe()
+        self._services = [
+            rospy.Service("controller_manager/switch_controller", SwitchController, self._on_switch),
+            rospy.Service("controller_manager/list_controllers", ListControllers, self._on_list),
+        ]
+        self._action_servers = self._gripper_and_base_servers()
+        for server in self._action_servers:
+            server.start()
+        self._status = WallStatusTimer(self._action_servers, status_rate)
+
+    def _advertise(self, follow_clock: bool) -> None:
+        """Open the topics the simulation publishes (no /clock when it follows another robot_sim's)."""
         self._clock = None if follow_clock else _synchronous_publisher("/clock", Clock)  # /clock: global by design
         self._joint_states = _synchronous_publisher("joint_states", JointState)
         self._cartesian_pose = _synchronous_publisher("cartesian_pose", PoseStamped)
@@ -183,7 +196,10 @@ class RobotSimNode:
         self._diagnostics = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=1)
         self._rejections = rospy.Publisher("~rejected", String, queue_size=10)
         self._base_error = rospy.Publisher("~base_error", PoseStamped, queue_size=5, latch=True)
-        self._subscribers = [
+
+    def _subscribe(self):
+        """The subscribers to the controllers' commands, each guarded so a bad message is rejected, not applied."""
+        return [
             rospy.Subscriber("eigenvalues", Vector3Stamped, self._guard("eigenvalues", self._on_eigenvalues)),
             rospy.Subscriber("eigenvectors", QuaternionStamped, self._guard("eigenvectors", self._on_eigenvectors)),
             rospy.Subscriber("equilibrium_pose", PoseStamped, self._guard("equilibrium_pose", self._on_equilibrium)),
@@ -196,12 +212,11 @@ class RobotSimNode:
                 self._guard("position_joint_trajectory_controller/command", self._on_trajectory),
             ),
         ]
-        self._services = [
-            rospy.Service("controller_manager/switch_controller", SwitchController, self._on_switch),
-            rospy.Service("controller_manager/list_controllers", ListControllers, self._on_list),
-        ]
+
+    def _gripper_and_base_servers(self):
+        """The franka_gripper and move_base action servers, built but not started: the caller starts them all."""
         gripper = self.sim.gripper
-        self._action_servers = [
+        return [
             self._gripper_server(
                 "franka_gripper/move",
                 MoveAction,
@@ -224,9 +239,6 @@ class RobotSimNode:
             ),
             OneGoalActionServer("move_base", MoveBaseAction, execute_cb=self._move_base),
         ]
-        for server in self._action_servers:
-            server.start()
-        self._status = WallStatusTimer(self._action_servers, status_rate)
 
     @classmethod
     def from_params(cls):
