@@ -295,36 +295,44 @@ class SharedControlNode:
 
     def __init__(self, config: SharedControlNodeConfig, surface: Optional[SurfaceWipe] = None):
         import rospy
-        from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped
-        from nav_msgs.msg import Path
-        from std_msgs.msg import Bool
-
-        from teleteach.msg import SharedControlState, SharedControlTask
 
         self._rospy = rospy
-        self._task_type = SharedControlTask
-        self._state_type = SharedControlState
-        self._pose_type = PoseStamped
-        self._path_type = Path
-        self._twist_type = TwistStamped
+        self._keep_settings(config)
+        self._lock = threading.Lock()
+        self._commands = CommandTimeline(config.command_timeout)
+        self._obstacle: Optional[StraightEdge] = None
+        self._obstacle_stamp = -math.inf
+        self._start_cycle_state()
+        self.controller = self._build(config.mpc, self.box, self.initial_state)
+        self._advertise()
+        self._publish_boundary()
+        self._surface = PerceivedSurface(rospy, surface) if surface is not None else None
+        self.task_publisher = rospy.Publisher("shared_control/task", self._task_type, queue_size=1, latch=True)
+        self._publish_task()
+        self._subscribe(config)
+        self._stopping = False
+        self._thread = threading.Thread(target=self._run, name="shared_control_cycles", daemon=True)
+        self._thread.start()
+
+    def _keep_settings(self, config: SharedControlNodeConfig) -> None:
+        """Keep the parameters the cycles read, so they need not carry the whole config."""
         self.plane = config.plane
         self.frame_id = config.frame_id
         self.command_timeout = config.command_timeout
         self.command_delay = config.command_delay
         self.obstacle_timeout = config.obstacle_timeout
-        self._lock = threading.Lock()
-        self._commands = CommandTimeline(config.command_timeout)
-        self._obstacle: Optional[StraightEdge] = None
-        self._obstacle_stamp = -math.inf
         self.initial_state = tuple(config.initial_state)
         self.box = config.box
         self.margin = config.mpc.margin
         self.dt = config.mpc.dt
         self.enabled = config.enabled
         self.approach_limits = (config.approach_speed, config.approach_turn_rate)
+        self.state_from_arm = config.state_from_arm
+
+    def _start_cycle_state(self) -> None:
+        """The state the cycles carry from one to the next, as before any message or approach."""
         self._arm: Optional[Tuple[np.ndarray, np.ndarray]] = None  # the arm's position and orientation, base_link
         self._arm_time = -math.inf  # when the last /cartesian_pose came [s]
-        self.state_from_arm = config.state_from_arm
         self._rejected = ""  # why the newest bad message since the last cycle was rejected
         self._coasts = 0  # cycles coasted in a row
         self._approach: Optional[Tuple[Approach, float]] = None  # (the move, its time so far [s]) while it runs
@@ -332,17 +340,33 @@ class SharedControlNode:
         self._retracting = False  # the wipe ended: the tool goes off the surface, then the node disables itself
         self._disable = False  # the retract has arrived: the loop disables the node after this cycle
         self._clutch_until = -math.inf  # [s, ROS time] the clutch holds until then (renewed by each true message)
-        self.controller = self._build(config.mpc, self.box, self.initial_state)
+
+    def _advertise(self) -> None:
+        """Open the equilibrium, state, plan and boundary topics, keeping the message types the cycles fill."""
+        from geometry_msgs.msg import Point32, PolygonStamped, PoseStamped, TwistStamped
+        from nav_msgs.msg import Path
+
+        from teleteach.msg import SharedControlState, SharedControlTask
+
+        rospy = self._rospy
+        self._task_type = SharedControlTask
+        self._state_type = SharedControlState
+        self._pose_type = PoseStamped
+        self._path_type = Path
+        self._twist_type = TwistStamped
+        self._polygon_types = (PolygonStamped, Point32)
         self.pose_publisher = rospy.Publisher("equilibrium_pose", PoseStamped, queue_size=1)
         self.twist_publisher = rospy.Publisher("equilibrium_twist", TwistStamped, queue_size=1)
         self.state_publisher = rospy.Publisher("shared_control/state", SharedControlState, queue_size=10)
         self.plan_publisher = rospy.Publisher("shared_control/plan", Path, queue_size=1)
         self.boundary_publisher = rospy.Publisher("shared_control/boundary", PolygonStamped, queue_size=1, latch=True)
-        self._polygon_types = (PolygonStamped, Point32)
-        self._publish_boundary()
-        self._surface = PerceivedSurface(rospy, surface) if surface is not None else None
-        self.task_publisher = rospy.Publisher("shared_control/task", SharedControlTask, queue_size=1, latch=True)
-        self._publish_task()
+
+    def _subscribe(self, config: SharedControlNodeConfig) -> None:
+        """Listen to the obstacle, enable and clutch topics; to the operator and the arm only while enabled."""
+        from geometry_msgs.msg import PoseStamped
+        from std_msgs.msg import Bool
+
+        rospy = self._rospy
         self._input = self._operator_input(config)
         self._enabled_subscribers = []
         self._enabled = threading.Event()
@@ -358,9 +382,6 @@ class SharedControlNode:
             rospy.Subscriber("shared_control/enable", Bool, lambda message: self.set_enabled(message.data)),
             rospy.Subscriber("shared_control/clutch", Bool, self._on_clutch, queue_size=1),
         ]
-        self._stopping = False
-        self._thread = threading.Thread(target=self._run, name="shared_control_cycles", daemon=True)
-        self._thread.start()
 
     def _operator_input(self, config: SharedControlNodeConfig):
         """(topic, message type, callback) of the operator's command, as ``config.input`` says."""
@@ -610,44 +631,15 @@ class SharedControlNode:
         now = self._rospy.get_time()
         cycle_time = schedule.next_time()
         if self._approach is not None:
-            # One period of the move per cycle, not the clock's time: a stalled loop slows the move down instead of
-            # making the equilibrium jump (a 0.3 s stall at approach_speed was a 3 cm step).
-            approach, elapsed = self._approach
-            elapsed += self.dt
-            self._publish_reference(self._rospy.Time.now(), *approach.at(elapsed))
-            self._approach = None if approach.done(elapsed) else (approach, elapsed)
-            self._disable = self._approach is None and self._retracting
+            self._approach_step()
             schedule.finish(self._rospy.get_time())
             return None
-        if self._surface is not None:
-            silence = now - self._last_input
-            try:
-                if math.isfinite(self._last_input) and silence > self._surface.wipe.settings.input_loss_time:
-                    raise SurfaceError(f"no operator input for {silence:.1f} s")
-                self.plane = self._surface.plane()  # the pressing depth follows the stiffness being taught
-            except SurfaceError as error:
-                self._end_wipe(str(error))
-                schedule.finish(self._rospy.get_time())
-                return None
+        if self._surface is not None and not self._follow_surface(now):
+            schedule.finish(self._rospy.get_time())
+            return None
         command = self._commands.sample(cycle_time - self.command_delay)
-        obstacle = self._obstacle
-        if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
-            obstacle = None
-        self.controller.set_obstacle(obstacle)
-        if self.state_from_arm and self._arm is not None and now - self._arm_time <= self.command_timeout:
-            self.controller.measure(self.plane.to_plane(self._arm[0]))
-        # Catch up by coasting on the plan, but solve at least every MAX_COASTS + 1 cycles and whenever there is no
-        # plan to follow: a machine that never lets the loop catch up must not freeze the identification.
-        if now <= self._clutch_until:
-            # The operator's hand shapes the stiffness (the GUI's wipe teaching): the controller keeps the pattern.
-            record = self.controller.keep()
-            self._coasts = 0
-        elif schedule.behind(now) and self.controller.skill is not None and self._coasts < MAX_COASTS:
-            record = self.controller.coast(command)
-            self._coasts += 1
-        else:
-            record = self.controller.step(command)
-            self._coasts = 0
+        self._update_surroundings(now)
+        record = self._control(schedule, now, command)
         late = schedule.finish(self._rospy.get_time())
         record.cycle, record.late_cycles = schedule.cycles, schedule.late
         if self._rejected:
@@ -658,6 +650,57 @@ class SharedControlNode:
         )
         if line:
             self._rospy.loginfo(f"shared_control: {line}")
+        return record
+
+    def _approach_step(self) -> None:
+        """Publish the approach's next reference; after a retract's last one, ask the loop to disable the node.
+
+        One period of the move per cycle, not the clock's time: a stalled loop slows the move down instead of making
+        the equilibrium jump (a 0.3 s stall at approach_speed was a 3 cm step).
+        """
+        approach, elapsed = self._approach
+        elapsed += self.dt
+        self._publish_reference(self._rospy.Time.now(), *approach.at(elapsed))
+        self._approach = None if approach.done(elapsed) else (approach, elapsed)
+        self._disable = self._approach is None and self._retracting
+
+    def _follow_surface(self, now: float) -> bool:
+        """Move the plane to the taught stiffness' pressing depth; False (the wipe ends) if input or surface is lost."""
+        silence = now - self._last_input
+        try:
+            if math.isfinite(self._last_input) and silence > self._surface.wipe.settings.input_loss_time:
+                raise SurfaceError(f"no operator input for {silence:.1f} s")
+            self.plane = self._surface.plane()  # the pressing depth follows the stiffness being taught
+        except SurfaceError as error:
+            self._end_wipe(str(error))
+            return False
+        return True
+
+    def _update_surroundings(self, now: float) -> None:
+        """Give the controller the obstacle (none once stale) and, if asked for, the arm's fresh position."""
+        obstacle = self._obstacle
+        if self.obstacle_timeout > 0 and now - self._obstacle_stamp > self.obstacle_timeout:
+            obstacle = None
+        self.controller.set_obstacle(obstacle)
+        if self.state_from_arm and self._arm is not None and now - self._arm_time <= self.command_timeout:
+            self.controller.measure(self.plane.to_plane(self._arm[0]))
+
+    def _control(self, schedule: CycleSchedule, now: float, command: np.ndarray) -> SharedControlRecord:
+        """Keep the pattern under the clutch, coast on the plan to catch up, or solve: the cycle's record.
+
+        Catch up by coasting on the plan, but solve at least every MAX_COASTS + 1 cycles and whenever there is no
+        plan to follow: a machine that never lets the loop catch up must not freeze the identification.
+        """
+        if now <= self._clutch_until:
+            # The operator's hand shapes the stiffness (the GUI's wipe teaching): the controller keeps the pattern.
+            record = self.controller.keep()
+            self._coasts = 0
+        elif schedule.behind(now) and self.controller.skill is not None and self._coasts < MAX_COASTS:
+            record = self.controller.coast(command)
+            self._coasts += 1
+        else:
+            record = self.controller.step(command)
+            self._coasts = 0
         return record
 
     def _end_wipe(self, reason: str) -> None:
