@@ -349,6 +349,30 @@ class SkillEstimation:
         return np.asarray(mapped(scaled, np.asarray(commands, dtype=float).T), dtype=float).ravel()
 
 
+def _kept_inside(future: ca.SX, box: ca.SX, obstacle: ca.SX, margin: ca.SX) -> ca.SX:
+    """g_j >= 0 for each future state: inside the box shrunk by ``margin`` and on the edge's free side if active."""
+    normal = ca.vertcat(ca.cos(obstacle[2]), ca.sin(obstacle[2]))
+    distance = normal.T @ (future - obstacle[0:2])
+    return ca.vertcat(
+        ca.vec(future - box[0:2] - margin),
+        ca.vec(box[2:4] - future - margin),
+        ca.vec(obstacle[3] * (distance - margin)),
+    )
+
+
+def _objective_hessian(name: str, variables: ca.SX, p: ca.SX, weights: ca.SX, n_constraints: int) -> ca.Function:
+    """The objective's Hessian only (constraint curvature left out): every QP is convex and qpOASES is reliable."""
+    lam_f = ca.SX.sym("lam_f")
+    lam_g = ca.SX.sym("lam_g", n_constraints)
+    return ca.Function(
+        f"{name}_hessian",
+        [variables, p, lam_f, lam_g],
+        [2 * lam_f * ca.diag(ca.vertcat(weights, 1)) + 1e-8 * ca.SX.eye(variables.numel()) + 0 * ca.sum1(lam_g)],
+        ["x", "p", "lam_f", "lam_g"],
+        ["hess_gamma_x_x"],
+    )
+
+
 class TrajectoryOptimisation:
     """Trajectory optimisation for one skill (eqs 9-10) over a horizon of n_horizon cycles, with soft constraints.
 
@@ -404,14 +428,7 @@ class TrajectoryOptimisation:
         self.plan = ca.Function(f"{name}_plan", [z, x_c], [states, headings], ["z", "x_c"], ["x", "alpha"])
         if solver == "compiled":
             self.plan = cache.compiled_function(self.plan, cache_dir)
-        future = states[:, 1:]
-        normal = ca.vertcat(ca.cos(obstacle[2]), ca.sin(obstacle[2]))
-        distance = normal.T @ (future - obstacle[0:2])
-        hard = ca.vertcat(
-            ca.vec(future - box[0:2] - margin),
-            ca.vec(box[2:4] - future - margin),
-            ca.vec(obstacle[3] * (distance - margin)),
-        )
+        hard = _kept_inside(states[:, 1:], box, obstacle, margin)
         self.violation = ca.Function(f"{name}_violation", [z, x_c, box, obstacle, margin], [ca.fmax(-ca.mmin(hard), 0)])
         if solver == "compiled":
             self.violation = cache.compiled_function(self.violation, cache_dir)
@@ -422,16 +439,7 @@ class TrajectoryOptimisation:
         self.n_constraints = constraints.numel()
         variables = ca.vertcat(z, slack)
         nlp = {"x": variables, "p": p, "f": objective, "g": constraints}
-        # Hessian of the objective only (constraint curvature left out): every QP is convex and qpOASES is reliable.
-        lam_f = ca.SX.sym("lam_f")
-        lam_g = ca.SX.sym("lam_g", self.n_constraints)
-        hessian = ca.Function(
-            f"{name}_hessian",
-            [variables, p, lam_f, lam_g],
-            [2 * lam_f * ca.diag(ca.vertcat(weights, 1)) + 1e-8 * ca.SX.eye(n + 1) + 0 * ca.sum1(lam_g)],
-            ["x", "p", "lam_f", "lam_g"],
-            ["hess_gamma_x_x"],
-        )
+        hessian = _objective_hessian(name, variables, p, weights, self.n_constraints)
         self.solver = _make_solver(name, nlp, solver, max_iter, cache_dir, hessian)
 
     def solve(
