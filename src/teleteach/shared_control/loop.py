@@ -12,7 +12,7 @@ import enum
 import itertools
 import math
 import time
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Deque, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import yaml
@@ -98,6 +98,12 @@ class SharedControlConfig:
         reseed_period: every this long, each skill's warm-started estimate is compared with a fresh grid seed and
             restarted from it when the seed fits better: after the operator changes pattern, the estimate of the
             new pattern's skill can sit in a local minimum fitted to the old one (0: never) [s].
+        unknown_memory: how far back the identification looks for a pattern outside every skill (``_outside``) [s].
+        unknown_switches: this many changes of the leading skill (the best fit, by ``switch_confidence``) within
+            ``unknown_memory`` name the pattern UNKNOWN, the skill held, until the lead has stayed put that long: a
+            pattern that is neither skill is fitted best by each in turn (0: never) [-].
+        unknown_turn: the followed skill's underlying path turning more than this within ``unknown_memory`` names
+            the pattern UNKNOWN: it loops on the spot, where every skill's pattern goes along a path (0: never) [rad].
     """
 
     dt: float
@@ -131,6 +137,9 @@ class SharedControlConfig:
     blend_authority: bool
     authority_confidence: float
     authority_residual: Tuple[float, float]
+    unknown_memory: float
+    unknown_switches: int
+    unknown_turn: float
     cache_dir: Optional[str] = None
 
     @classmethod
@@ -374,6 +383,10 @@ class SharedControl:
         self.identified: Optional[str] = None
         self._candidate: Optional[str] = None
         self._candidate_cycles = 0
+        self._leader: Optional[str] = None
+        self._lead_changes: Deque[int] = collections.deque()  # estimation cycles at which the leading skill changed
+        self._headings: Deque[float] = collections.deque()  # alpha_c of the recent cycles, unwrapped [rad]
+        self._was_outside = False  # the last cycle's pattern was outside every skill
 
     def measure(self, state: Sequence[float]) -> None:
         """Take the robot's measured state [m] as x_c of the next cycle (ignored, not raised, when not finite)."""
@@ -545,7 +558,9 @@ class SharedControl:
         confidence = identification_confidence(errors)
         if self._switch_pending(self.skills[best], confidence):
             best, confidence = self._reseed_identified(commands, results, errors, report)
-        skill = self._identify(self.skills[best], confidence, errors)
+        outside = self._outside(self.skills[best], confidence)
+        held = outside and self.identified  # a pattern outside every skill switches no skill
+        skill = self.identified if held else self._identify(self.skills[best], confidence, errors)
         result = self._optimise(skill, results[skill].theta)
         report.skill, report.parameters, report.confidence = skill, result.theta.tolist(), confidence
         report.optimisation_time, report.iterations = result.time, (report.iterations[0], result.iterations)
@@ -566,7 +581,7 @@ class SharedControl:
         if stopped:
             message += "; step stopped at the constraint"
         self.skill, self.theta_star, self.lam = skill, result.theta, (result.lam_x, result.lam_g)
-        authority = self._authority(errors[self.skills.index(skill)], confidence, commands)
+        authority = 0.0 if outside else self._authority(errors[self.skills.index(skill)], confidence, commands)
         state, velocity = self._blend(planned, planned_velocity, command, authority)
         state, velocity, paced = self._paced(state, velocity)
         if paced:
@@ -576,7 +591,9 @@ class SharedControl:
         self.state = state
         self._advance(results, result.theta)
         mode = SHARED if authority > 0.0 else UNKNOWN
-        if authority < 1.0:
+        if outside:
+            message += f"; {outside}: unknown pattern, operator's step"
+        elif authority < 1.0:
             message += f"; authority {authority:.2f}" if authority > 0.0 else "; unknown pattern: operator's step"
         return self._record(mode, report, "; ".join([*notes, message]), plan, velocity, authority)
 
@@ -707,6 +724,38 @@ class SharedControl:
             state = np.array(planned, dtype=float) if safe is None else safe
             velocity = (state - self.state) / dt
         return state, velocity
+
+    def _outside(self, best: str, confidence: float) -> str:
+        """Why the pattern is outside every skill ("" when it is not), from the identification's recent history.
+
+        Each skill's fit explains one window; a pattern no skill has is still fitted best by one of them, so the
+        window alone names a skill. Over successive windows it shows: a figure-eight or a zig-zag is fitted best by
+        each skill in turn (``unknown_switches`` changes of the lead within ``unknown_memory``), a circle or a spiral
+        drawn on the spot by a skill whose underlying path goes round (turning more than ``unknown_turn``). Both look
+        back ``unknown_memory``, so the pattern stays UNKNOWN until neither has been seen for that long.
+        """
+        cfg = self.config
+        cycle, memory = self._estimation_cycles, int(round(cfg.unknown_memory / cfg.dt))
+        if best != self._leader and (self._leader is None or confidence >= cfg.switch_confidence):
+            if self._leader is not None:
+                self._lead_changes.append(cycle)
+            self._leader = best
+        while self._lead_changes and self._lead_changes[0] <= cycle - memory:
+            self._lead_changes.popleft()
+        if self.alpha_c is not None:
+            last = self._headings[-1] if self._headings else self.alpha_c
+            self._headings.append(last + math.remainder(self.alpha_c - last, 2 * math.pi))
+        while len(self._headings) > memory:
+            self._headings.popleft()
+        reason = ""
+        if cfg.unknown_switches > 0 and len(self._lead_changes) >= cfg.unknown_switches:
+            reason = f"{len(self._lead_changes)} changes of the best-fitting skill in {cfg.unknown_memory:.3g} s"
+        elif cfg.unknown_turn > 0 and self._headings and np.ptp(self._headings) > cfg.unknown_turn:
+            reason = f"underlying path turned {np.ptp(self._headings):.1f} rad in {cfg.unknown_memory:.3g} s"
+        if reason and not self._was_outside:  # from here the skill is held: the one leading now
+            self.identified, self._candidate, self._candidate_cycles = self._leader, None, 0
+        self._was_outside = bool(reason)
+        return reason
 
     def _switch_pending(self, best: str, confidence: float) -> bool:
         """True when ``best`` would count towards leaving the identified skill this cycle."""
