@@ -1,6 +1,7 @@
 """LOW-LEVEL teaching with the real GUI (thesis II-C, III-C/D): the ellipsoid commanded by the device, over ROS."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -319,7 +320,9 @@ def test_two_clicks_too_far_apart_for_a_double_click_are_named(qapp, device, mak
     pump(qapp, 0.8)
     device.click()
     pump_until(qapp, lambda: hints, 5, "the hint")
-    # Expect the gap and the window named, in the status bar
-    assert hints[0].startswith("two single clicks 0.") and hints[0].endswith("a double click needs both within 0.6 s")
+    # Expect the gap (0.8 s pumped, more on a loaded machine: 1.02 s on a fresh one) and the window named, in the
+    # status bar
+    said = re.fullmatch(r"two single clicks (\d+\.\d\d) s apart: a double click needs both within 0.6 s", hints[0])
+    assert said and 0.6 < float(said.group(1)) < 3.0, hints[0]
     assert window.statusBar().currentMessage() == hints[0]
     assert window.session.recording is None
