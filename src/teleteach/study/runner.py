@@ -181,29 +181,9 @@ class StudyRunner:
     # a trial ------------------------------------------------------------------------------------------------
     def _trial(self, step: Step, questionnaire: Optional[Step]) -> None:
         """Run ``step`` on a fresh system; then ``questionnaire`` on the same one (the GUI is up)."""
-        from teleteach.study.ros import clear_parameters
-
         task = self.study.task(step.task)
         folder = self.store.begin_trial(step)
-        self.say(f"study: trial {step.trial} ({step.key}): {task.title}, condition {step.condition}")
-        self._flow.preparing(step)
-        self._ros.publish()
-        clear_parameters(KEEP_PARAMETERS)
-        parameters = self._parameters(step)
-        atomic_write_text(folder / "parameters.yaml", parameters_file(parameters))
-        scripted = None
-        if self.options.device == "scenario":
-            scripted = compose(
-                self.study,
-                self.participant,
-                step,
-                questionnaire is not None,
-                self.gui.device_range,
-                self.settings.prepare_timeout,
-            )
-            atomic_write_text(folder / "scenario.yaml", scripted.scenario)
-            if scripted.answers is not None:
-                atomic_write_text(folder / "scripted_answers.json", json.dumps(scripted.answers, indent=2) + "\n")
+        parameters = self._prepare(step, questionnaire, folder)
         metrics = TrialMetrics(task.intended, self.settings.contact_threshold)
         self._ros.begin_trial(task.goal, self.scene, metrics)
         self._ros.pause_tree(task.pause_tree != "never")
@@ -228,27 +208,7 @@ class StudyRunner:
             bag = self._stop_recorder(recorder, folder)
             recorder = None
             atomic_write_text(folder / "stiffness.csv", metrics.stiffness_csv())
-            result = {
-                "study": self.study.name,
-                "participant": self.participant,
-                "step": step.key,
-                "position": step.position,
-                "trial": step.trial,
-                "condition": step.condition,
-                "task": step.task,
-                "repetition": step.repetition,
-                "success": success,
-                "outcome": "goal met" if success else "time up",
-                "status": status,
-                "task_time_s": round(task_time, 3),
-                "timeout_s": task.timeout,
-                "device": self.options.device,
-                "parameters": parameters,
-                "parameters_seen": seen,
-                "bag": bag.name if bag else None,
-                "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
-                **metrics.summary(),
-            }
+            result = self._result(step, (success, task_time, status), parameters, seen, bag, metrics)
             self.store.finish_trial(step, result)
             if questionnaire is not None:
                 self._ask(questionnaire)
@@ -259,6 +219,58 @@ class StudyRunner:
                 self.experiment.stop(recorder, grace=10.0)
             self.experiment.stop(launch, grace=self.settings.stop_grace)
             self._ros.end_trial()
+
+    def _prepare(self, step: Step, questionnaire: Optional[Step], folder: pathlib.Path) -> Dict[str, Any]:
+        """Announce the trial, leave on the master only what outlives it and write its parameters (and script).
+
+        Returns the trial's parameters: the nodes of its fresh system read them when they start.
+        """
+        from teleteach.study.ros import clear_parameters
+
+        task = self.study.task(step.task)
+        self.say(f"study: trial {step.trial} ({step.key}): {task.title}, condition {step.condition}")
+        self._flow.preparing(step)
+        self._ros.publish()
+        clear_parameters(KEEP_PARAMETERS)
+        parameters = self._parameters(step)
+        atomic_write_text(folder / "parameters.yaml", parameters_file(parameters))
+        if self.options.device == "scenario":
+            self._write_script(step, questionnaire is not None, folder)
+        return parameters
+
+    def _write_script(self, step: Step, asks: bool, folder: pathlib.Path) -> None:
+        """The scripted participant's scenario (and questionnaire answers if ``asks``) into the trial's folder."""
+        scripted = compose(
+            self.study, self.participant, step, asks, self.gui.device_range, self.settings.prepare_timeout
+        )
+        atomic_write_text(folder / "scenario.yaml", scripted.scenario)
+        if scripted.answers is not None:
+            atomic_write_text(folder / "scripted_answers.json", json.dumps(scripted.answers, indent=2) + "\n")
+
+    def _result(self, step: Step, outcome, parameters, seen, bag: Optional[pathlib.Path], metrics) -> Dict[str, Any]:
+        """The trial's stored result: the step, its outcome (success, time [s], status), the parameters, the metrics."""
+        success, task_time, status = outcome
+        return {
+            "study": self.study.name,
+            "participant": self.participant,
+            "step": step.key,
+            "position": step.position,
+            "trial": step.trial,
+            "condition": step.condition,
+            "task": step.task,
+            "repetition": step.repetition,
+            "success": success,
+            "outcome": "goal met" if success else "time up",
+            "status": status,
+            "task_time_s": round(task_time, 3),
+            "timeout_s": self.study.task(step.task).timeout,
+            "device": self.options.device,
+            "parameters": parameters,
+            "parameters_seen": seen,
+            "bag": bag.name if bag else None,
+            "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
+            **metrics.summary(),
+        }
 
     def _parameters(self, step: Step) -> Dict[str, Any]:
         """The node parameters of the trial: the scripted participant's (with its seed), then the condition's."""
@@ -458,7 +470,6 @@ class StudyRunner:
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Command line of ``rosrun teleteach study``; exit 0 complete, 1 a trial failed (resumable), 2 refused."""
-    import argparse
     import sys
 
     from teleteach.study.ordering import ParticipantError
@@ -466,19 +477,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     from teleteach.study.scripted import ScriptError
     from teleteach.study.storage import SessionRefusedError
 
-    parser = argparse.ArgumentParser(
-        prog="study", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    parser.add_argument("study_file", help="the study file (config/studies/<name>.yaml)")
-    parser.add_argument("--participant", required=True, help="the participant's id, e.g. P07")
-    parser.add_argument("--resume", action="store_true", help="continue this participant at the next unfinished step")
-    parser.add_argument(
-        "--device", default="virtual", choices=DEVICES, help="dhd (Sigma.7), virtual, scenario (scripted participant)"
-    )
-    parser.add_argument("--data-dir", default=None, help="data directory (default $TELETEACH_DATA or ~/.ros/teleteach)")
-    parser.add_argument("--headless", action="store_true", help="no RViz, GUI repaints capped")
-    parser.add_argument("--screenshots", action="store_true", help="picture each phase of each trial into its folder")
-    parser.add_argument("--use-master", action="store_true", help="use the running ROS master (full.launch study:=)")
+    parser = _parser()
     if argv is None:
         import rosgraph
 
@@ -508,3 +507,23 @@ def main(argv: Optional[List[str]] = None) -> int:
     except KeyboardInterrupt:
         print("study: interrupted; the step that ran is not stored: continue with --resume", flush=True)
         return 1
+
+
+def _parser():
+    """The command line's options, each with the help ``rosrun teleteach study --help`` shows."""
+    import argparse
+
+    parser = argparse.ArgumentParser(
+        prog="study", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("study_file", help="the study file (config/studies/<name>.yaml)")
+    parser.add_argument("--participant", required=True, help="the participant's id, e.g. P07")
+    parser.add_argument("--resume", action="store_true", help="continue this participant at the next unfinished step")
+    parser.add_argument(
+        "--device", default="virtual", choices=DEVICES, help="dhd (Sigma.7), virtual, scenario (scripted participant)"
+    )
+    parser.add_argument("--data-dir", default=None, help="data directory (default $TELETEACH_DATA or ~/.ros/teleteach)")
+    parser.add_argument("--headless", action="store_true", help="no RViz, GUI repaints capped")
+    parser.add_argument("--screenshots", action="store_true", help="picture each phase of each trial into its folder")
+    parser.add_argument("--use-master", action="store_true", help="use the running ROS master (full.launch study:=)")
+    return parser
