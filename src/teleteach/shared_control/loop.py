@@ -19,6 +19,7 @@ import yaml
 
 from teleteach.core.parameters import from_mapping
 from teleteach.core.paths import config_file
+from teleteach.core.rotations import wrap_angle
 from teleteach.shared_control import constraints
 from teleteach.shared_control.constraints import Box, StraightEdge
 from teleteach.shared_control.models import SKILLS, ClothoidPath, ParameterLayout, control_function, skill_names
@@ -558,9 +559,7 @@ class SharedControl:
         confidence = identification_confidence(errors)
         if self._switch_pending(self.skills[best], confidence):
             best, confidence = self._reseed_identified(commands, results, errors, report)
-        outside = self._outside(self.skills[best], confidence)
-        held = outside and self.identified  # a pattern outside every skill switches no skill
-        skill = self.identified if held else self._identify(self.skills[best], confidence, errors)
+        skill, outside = self._chosen_skill(self.skills[best], confidence, errors)
         result = self._optimise(skill, results[skill].theta)
         report.skill, report.parameters, report.confidence = skill, result.theta.tolist(), confidence
         report.optimisation_time, report.iterations = result.time, (report.iterations[0], result.iterations)
@@ -725,6 +724,16 @@ class SharedControl:
             velocity = (state - self.state) / dt
         return state, velocity
 
+    def _chosen_skill(self, best: str, confidence: float, errors) -> Tuple[str, str]:
+        """The skill to plan this cycle, and why the pattern is outside every skill ("" if it is not).
+
+        A pattern outside every skill switches no skill: the one identified is held.
+        """
+        outside = self._outside(best, confidence)
+        if outside and self.identified:
+            return self.identified, outside
+        return self._identify(best, confidence, errors), outside
+
     def _outside(self, best: str, confidence: float) -> str:
         """Why the pattern is outside every skill ("" when it is not), from the identification's recent history.
 
@@ -744,7 +753,7 @@ class SharedControl:
             self._lead_changes.popleft()
         if self.alpha_c is not None:
             last = self._headings[-1] if self._headings else self.alpha_c
-            self._headings.append(last + math.remainder(self.alpha_c - last, 2 * math.pi))
+            self._headings.append(last + wrap_angle(self.alpha_c - last))
         while len(self._headings) > memory:
             self._headings.popleft()
         reason = ""
