@@ -58,7 +58,8 @@ def test_every_module_of_the_issue_is_configured_with_existing_tests(mutation):
     # shared_control/constraints.py: what keeps the MPC's states and plans inside the boundary;
     # runtime/experiment.py: what every experiment on a ROS system runs on; core/teleoperation.py: what moves the arm
     # from the device in TELEOP; shared_control/placement.py: what keeps the held product out of the neighbours;
-    # skills/authority.py: how much of the operator's correction moves a replayed skill)
+    # skills/authority.py: how much of the operator's correction moves a replayed skill; shared_control/surface.py: the
+    # wipe's plane, pressing depth, boundary and the stiffness range it takes)
     added = {
         "core/parameters.py",
         "shared_control/constraints.py",
@@ -66,6 +67,7 @@ def test_every_module_of_the_issue_is_configured_with_existing_tests(mutation):
         "core/teleoperation.py",
         "shared_control/placement.py",
         "skills/authority.py",
+        "shared_control/surface.py",
     }
     assert set(modules) == expected | added
     for module, entry in modules.items():
