@@ -490,35 +490,10 @@ class ThesisRun:
         )
         # one check per experiment
         problems += outcome.check_iii_b(changes, after_removal, options.removed)
-        taught_file = taught[0][1] if taught else None
-        phases = options.phases or options.trajectory
-        problems_c, seen = outcome.check_iii_c(taught_file, phases, options.stiffer_insertion)
-        problems += problems_c
-        problems += outcome.check_iii_d(seen["alignment_axis_yaw_deg"], options.alignment_yaw)
-        ran_by = options.taught_used_by or taught_name
-        status, message, _ = monitor.leaves.get(ran_by, (None, "", "")) if taught_name else (None, "", "")
-        inserted = options.insert_index is not None
-        problems += outcome.check_iii_e(final_children, after_insertion, taught_name, status, message, inserted)
-        problems += outcome.check_taught_used(taught_name, options.taught_used_by, status, message)
-        placements: List[dict] = []
-        figures: List[str] = []
-        if bag is not None:
-            expected = {
-                product: (gap, taught_name if setter == outcome.TAUGHT_SKILL else setter)
-                for product, gap, setter in options.placements
-            }
-            session = None
-            try:
-                session = read_session(bag)  # read once: the placements and the report
-                problems_p, placements = outcome.check_placements(session, load_scene(), expected)
-                problems += problems_p
-            except (SessionError, SceneError) as error:
-                problems.append(f"placements unreadable: {error}")
-            try:
-                report = make_report(bag, folder / "report", session=session)
-                figures = sorted(str(path.relative_to(folder)) for path in report.figures.values())
-            except (SessionError, OSError) as error:
-                problems.append(f"report failed: {error}")
+        problems_cd, seen = self._taught_profile_checks(taught[0][1] if taught else None)
+        problems_e, status, message = self._taught_skill_checks(monitor, final_children, after_insertion, taught_name)
+        problems_p, placements, figures = self._placements_and_report(bag, taught_name)
+        problems += problems_cd + problems_e + problems_p
         self._mark("report_done")
         summary = RunSummary(
             folder=str(folder),
@@ -546,6 +521,53 @@ class ThesisRun:
         atomic_write_text(folder / "summary.json", summary.to_json())
         atomic_write_text(folder / "summary.md", summary.to_markdown())
         return summary
+
+    def _taught_skill_checks(
+        self,
+        monitor: Monitor,
+        final_children: Tuple[str, ...],
+        after_insertion: Tuple[str, ...],
+        taught_name: Optional[str],
+    ) -> Tuple[List[str], Optional[Status], str]:
+        """III-E (the taught skill inserted and run by the tree) and the node meant to use it: problems, its result."""
+        options = self.options
+        ran_by = options.taught_used_by or taught_name
+        status, message, _ = monitor.leaves.get(ran_by, (None, "", "")) if taught_name else (None, "", "")
+        inserted = options.insert_index is not None
+        problems = outcome.check_iii_e(final_children, after_insertion, taught_name, status, message, inserted)
+        problems += outcome.check_taught_used(taught_name, options.taught_used_by, status, message)
+        return problems, status, message
+
+    def _taught_profile_checks(self, taught_file: Optional[str]) -> Tuple[List[str], dict]:
+        """III-C (the taught stiffness, phase by phase) and III-D (its alignment axis' yaw): problems, figures."""
+        options = self.options
+        phases = options.phases or options.trajectory
+        problems, seen = outcome.check_iii_c(taught_file, phases, options.stiffer_insertion)
+        return problems + outcome.check_iii_d(seen["alignment_axis_yaw_deg"], options.alignment_yaw), seen
+
+    def _placements_and_report(
+        self, bag: Optional[pathlib.Path], taught_name: Optional[str]
+    ) -> Tuple[List[str], List[dict], List[str]]:
+        """The placements judged from the bag's true scene and the report's figures: problems, placements, figures."""
+        problems: List[str] = []
+        if bag is None:
+            return problems, [], []
+        expected = {
+            product: (gap, taught_name if setter == outcome.TAUGHT_SKILL else setter)
+            for product, gap, setter in self.options.placements
+        }
+        session, placements, figures = None, [], []
+        try:
+            session = read_session(bag)  # read once: the placements and the report
+            problems, placements = outcome.check_placements(session, load_scene(), expected)
+        except (SessionError, SceneError) as error:
+            problems.append(f"placements unreadable: {error}")
+        try:
+            report = make_report(bag, self.folder / "report", session=session)
+            figures = sorted(str(path.relative_to(self.folder)) for path in report.figures.values())
+        except (SessionError, OSError) as error:
+            problems.append(f"report failed: {error}")
+        return problems, placements, figures
 
     def _save_trees(self, monitor: Monitor, final_children: Tuple[str, ...]) -> None:
         """The tree before and after, as yaml and as the tree node's ascii view, and the node's own saved tree."""
