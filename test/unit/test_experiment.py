@@ -155,6 +155,25 @@ with Experiment(pathlib.Path({str(tmp_path)!r})) as experiment:
 
 
 @pytest.mark.system
+def test_a_node_on_the_launch_s_clock_joins_once_the_launch_set_use_sim_time(tmp_path):
+    code = f"""
+import pathlib, subprocess, threading, time, rospy
+from teleteach.runtime.experiment import Experiment
+with Experiment(pathlib.Path({str(tmp_path)!r})) as experiment:
+    uri = experiment.own_roscore()
+    late = threading.Timer(2.0, subprocess.run, (["rosparam", "set", "/use_sim_time", "true"],))
+    late.start()  # a launch that sets its parameters late
+    started = time.monotonic()
+    experiment.join("joined", anonymous=True, sim_time=True)
+    print(time.monotonic() - started > 1.5, rospy.get_time() < 1e6)  # no /clock yet: simulated time 0, not the wall's
+    rospy.signal_shutdown("probe done")
+"""
+    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "ros"))
+    waited, on_sim_time = probe(tmp_path, code, env)
+    assert waited == "True" and on_sim_time == "True"
+
+
+@pytest.mark.system
 def test_what_it_started_stops_when_its_process_dies_however_it_dies(tmp_path):
     code = f"""
 import os, pathlib, sys, time

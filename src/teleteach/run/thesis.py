@@ -328,7 +328,7 @@ class ThesisRun:
         arguments = self.launch_arguments()
         launch = experiment.own_launch(lambda port: full_launch(arguments, port), self.folder / "launch.log")
         self.say(f"run_thesis: launched full.launch (master {experiment.master_uri}), log {self.folder / 'launch.log'}")
-        experiment.join("run_thesis", anonymous=True)
+        experiment.join("run_thesis", anonymous=True, sim_time=True)
         import rospy
 
         monitor = Monitor(execution_children(load_tree(options.tree, SkillLibrary.load(options.skills))))

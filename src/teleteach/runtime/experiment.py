@@ -33,6 +33,7 @@ from teleteach.runtime.processes import (
 )
 
 POLL = 0.2  # [s] how often a wait looks at its condition and at the watched processes
+SIM_TIME_WAIT = 60.0  # [s] for a launch to set /use_sim_time (roslaunch sets parameters before it starts nodes)
 
 
 class SystemEndedError(RuntimeError):
@@ -99,12 +100,22 @@ class Experiment:
         """The environment of the experiment's processes: its master, its display, a data directory."""
         return ros_environment(master_uri or self.master_uri, self.display, data_root or self.data_root)
 
-    def join(self, name: str, anonymous: bool = False) -> None:
-        """This process as a rospy node on the experiment's master (to watch topics, call services, publish)."""
+    def join(self, name: str, anonymous: bool = False, sim_time: bool = False) -> None:
+        """This process as a rospy node on the experiment's master (to watch topics, call services, publish).
+
+        ``sim_time``: the launch sets /use_sim_time, and the node must be on its clock: it joins once the parameter
+        is there (rospy reads it once, at init), else its times would be the wall's, racing the launch.
+        """
         os.environ["ROS_MASTER_URI"] = self.master_uri
         os.environ["TELETEACH_DATA"] = str(self.data_root)
         if not os.environ.get("ROS_IP") and not os.environ.get("ROS_HOSTNAME"):
             os.environ["ROS_IP"] = "127.0.0.1"
+        if sim_time:
+            import rosgraph
+
+            master = rosgraph.Master(f"/{name}")
+            if not self.wait_until(lambda: master.hasParam("/use_sim_time"), SIM_TIME_WAIT):
+                raise TimeoutError(f"the launch set no /use_sim_time within {SIM_TIME_WAIT:g} s")
         from teleteach.runtime.node import init_node
 
         init_node(name, anonymous=anonymous, disable_signals=True)

@@ -142,7 +142,7 @@ class WipeScenario:
         command = ["roslaunch", "teleteach", "wipe.launch", f"data_dir:={self.root}", f"record_prefix:={self.prefix}"]
         command.append(f"input:={self.hand}")
         experiment.own_launch(lambda port: command[:1] + ["-p", str(port)] + command[1:], self.folder / "launch.log")
-        experiment.join("run_wipe", anonymous=True)
+        experiment.join("run_wipe", anonymous=True, sim_time=True)
         self.say(f"launched wipe.launch (master {experiment.master_uri}), log {self.folder / 'launch.log'}")
         record, tree = WorldRecord(), TreeWatch(self.learned)
         if not experiment.wait_until(lambda: record.poses, self.left()):
