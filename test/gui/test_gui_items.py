@@ -63,6 +63,18 @@ def test_every_row_of_buttons_is_whole_at_the_default_window_size(qapp, bt_node,
     assert tab.button_scroll.verticalScrollBar().maximum() == 0  # the thesis' tree and library fit as they are
 
 
+def test_the_window_opens_at_its_size_and_no_tab_asks_for_more(qapp, make_window):
+    window = make_window()
+    pump(qapp, 0.5)
+    # Expect 1180 x 880 (gui/app.py), a tab's needs within it: SHARED CONTROL's wait for its first state was one
+    # unwrapped line and made the window 1811 px wide, the panel beyond a 1400 px screen
+    tabs = window.tabs
+    needs = {tabs.tabText(i): tabs.widget(i).minimumSizeHint().width() for i in range(tabs.count())}
+    assert (window.width(), window.height()) == (1180, 880), needs
+    assert max(needs.values()) < 1180, needs
+    assert window.shared_control.message_label.text().startswith("waiting for /shared_control/state")
+
+
 def test_axis_labels_are_readable_on_the_ellipsoid(qapp, make_window, artifacts_dir):
     window = make_window(initial_tab=Tab.LOW_LEVEL)
     window.command.device(DeviceSample(0.0, 0.0, 0.0, 0.0, 0.0, 0.0))  # a centred handle takes the ellipsoid over

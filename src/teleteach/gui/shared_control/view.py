@@ -359,9 +359,10 @@ class SharedControlTab(QWidget):
         """Refresh the text panel."""
         self.status = status
         if status is None:
-            self.skill_label.setText(
-                "skill: - (waiting for /shared_control/state: the shared controller needs a few seconds to start;"
-                " if none comes, is shared_control running?)"
+            self.skill_label.setText("skill: -")
+            self.message_label.setText(
+                "waiting for /shared_control/state: the shared controller needs a few seconds to start;"
+                " if none comes, is shared_control running?"
             )
             self.mode_label.setText("mode: -")
             self.errors_label.setText("fitting errors: - (no state yet)")
