@@ -41,8 +41,9 @@ class WipeUnderSharedControl(unittest.TestCase):
             rospy.sleep(0.05)
         self.fail(f"timed out waiting for {what}")
 
-    def test_the_taught_stiffness_keeps_the_tool_on_the_board_along_a_wave_inside_the_marked_area(self):
-        scene = load_scene()
+    def start_wipe(self):
+        """At the counter, the taught stiffness sent and shared control enabled: the record, the operator and the
+        board in base_link as perceived and as it is, once the approach has reached the board."""
         record = WorldRecord()
         self.assertTrue(drive_to(), "the base did not arrive at the counter")
         seen_in_base, true_in_base = board_in_base()
@@ -51,6 +52,11 @@ class WipeUnderSharedControl(unittest.TestCase):
         rospy.sleep(0.5)
         operator.enable()
         self.wait_for(lambda: record.states, "the approach to the board (then /shared_control/state)", 90.0)
+        return record, operator, seen_in_base, true_in_base
+
+    def test_the_taught_stiffness_keeps_the_tool_on_the_board_along_a_wave_inside_the_marked_area(self):
+        scene = load_scene()
+        record, operator, seen_in_base, true_in_base = self.start_wipe()
         _, (_, located) = task_of(rospy.wait_for_message("/shared_control/task", SharedControlTask, timeout=30.0))
 
         bad = rospy.Publisher("/eigenvalues", Vector3Stamped, queue_size=1)  # a bad message mid-wipe changes nothing
@@ -148,14 +154,7 @@ class WipeUnderSharedControl(unittest.TestCase):
 
         lines = []
         rospy.Subscriber("/rosout", Log, lambda message: lines.append(message.msg), queue_size=100)
-        record = WorldRecord()
-        self.assertTrue(drive_to(), "the base did not arrive at the counter")
-        seen_in_base, true_in_base = board_in_base()
-        operator = ScriptedWipe()
-        operator.press_with(seen_in_base)
-        rospy.sleep(0.5)
-        operator.enable()
-        self.wait_for(lambda: record.states, "the approach to the board (then /shared_control/state)", 90.0)
+        record, operator, seen_in_base, true_in_base = self.start_wipe()
         sent = []
 
         def too_stiff_midway(k, stamp):

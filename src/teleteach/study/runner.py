@@ -225,15 +225,9 @@ class StudyRunner:
 
         Returns the trial's parameters: the nodes of its fresh system read them when they start.
         """
-        from teleteach.study.ros import clear_parameters
-
         task = self.study.task(step.task)
         self.say(f"study: trial {step.trial} ({step.key}): {task.title}, condition {step.condition}")
-        self._flow.preparing(step)
-        self._ros.publish()
-        clear_parameters(KEEP_PARAMETERS)
-        parameters = self._parameters(step)
-        atomic_write_text(folder / "parameters.yaml", parameters_file(parameters))
+        parameters = self._fresh_parameters(step, folder)
         if self.options.device == "scenario":
             self._write_script(step, questionnaire is not None, folder)
         return parameters
@@ -412,17 +406,27 @@ class StudyRunner:
             self._flow.preparing(step)
             self._ros.publish()
 
+    def _fresh_parameters(self, step: Step, folder: pathlib.Path) -> dict:
+        """The parameters of ``step``'s fresh system, stored in ``folder`` (parameters.yaml).
+
+        The study's state is told and the last system's parameters cleared first.
+        """
+        from teleteach.study.ros import clear_parameters
+
+        self._flow.preparing(step)
+        self._ros.publish()
+        clear_parameters(KEEP_PARAMETERS)
+        parameters = self._parameters(step)
+        atomic_write_text(folder / "parameters.yaml", parameters_file(parameters))
+        return parameters
+
     def _questionnaire_alone(self, step: Step) -> None:
         """A questionnaire whose trials were done before a crash: a system for the GUI and the device only."""
         folder = self.store.folder / "questionnaires" / f"{step.key}_system"
         folder.mkdir(parents=True, exist_ok=True)
-        self._flow.preparing(step)
-        self._ros.publish()
-        from teleteach.study.ros import clear_parameters, gui_listens
+        from teleteach.study.ros import gui_listens
 
-        clear_parameters(KEEP_PARAMETERS)
-        parameters = self._parameters(step)
-        atomic_write_text(folder / "parameters.yaml", parameters_file(parameters))
+        self._fresh_parameters(step, folder)
         if self.options.device == "scenario":
             atomic_write_text(folder / "scenario.yaml", self._questionnaire_scenario(step))
         arguments = {
