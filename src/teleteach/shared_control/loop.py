@@ -744,6 +744,8 @@ class SharedControl:
         back ``unknown_memory``, so the pattern stays UNKNOWN until neither has been seen for that long.
         """
         cfg = self.config
+        if cfg.unknown_switches <= 0 and cfg.unknown_turn <= 0:
+            return ""  # the rule is off (the default): no history kept on the 50 Hz path
         cycle, memory = self._estimation_cycles, int(round(cfg.unknown_memory / cfg.dt))
         if best != self._leader and (self._leader is None or confidence >= cfg.switch_confidence):
             if self._leader is not None:
