@@ -158,14 +158,14 @@ class WipeUnderSharedControl(unittest.TestCase):
         sent = []
 
         def too_stiff_midway(k, stamp):
-            if k == 50:  # 1 s into the wave the normal goes stiffer than the arm's controller takes (it would clamp)
+            if k == 100:  # 2 s into the wave the normal goes stiffer than the arm's controller takes (it would clamp)
                 operator.press_with(seen_in_base, TOO_STIFF)
                 sent.append(stamp)
 
-        start, end = operator.pattern("wave", 4.0, math.pi, np.random.default_rng(51), too_stiff_midway)
+        start, end = operator.pattern("wave", 5.0, math.pi, np.random.default_rng(51), too_stiff_midway)
         rospy.sleep(1.0)
         reach, normal = load_scene().wiping_tool.reach, true_in_base.rotation.apply([0.0, 0.0, 1.0])
-        before = record.between("forces", start + 0.5, sent[0]) @ normal
+        before = record.between("forces", start + 1.0, sent[0]) @ normal  # settled, as in the first test
         lifted = record.between("forces", end - 0.5, end) @ normal
         last_face = true_in_base.inverse().apply_point(record.between("poses", end - 0.5, end)[-1])[2] - reach
         with record.lock:
@@ -177,7 +177,8 @@ class WipeUnderSharedControl(unittest.TestCase):
             f"control {'stopped' if stopped else 'still running'}; the log: {said}",
             flush=True,
         )
-        self.assertGreaterEqual(float(np.mean(before >= CONTACT)), 0.9, "the wipe was not in contact before")
+        in_contact = float(np.mean(before >= CONTACT))
+        self.assertGreaterEqual(in_contact, 0.9, f"the wipe was in contact {in_contact:.0%} of {len(before)} before")
         self.assertLess(float(np.max(lifted)), CONTACT, "the tool still pressed with a stiffness the arm clamps")
         self.assertGreater(last_face, 0.015, "the tool did not retract off the board")
         self.assertTrue(stopped, "shared control went on with a stiffness the arm clamps")
