@@ -21,6 +21,7 @@ often it asks. Writes bench/results/tree_policy.json.
 """
 
 import argparse
+import dataclasses
 import json
 import pathlib
 import time
@@ -120,7 +121,7 @@ def main() -> None:
     candidates = {}
     for model in MODELS:
         for calibration in CALIBRATIONS:
-            config = PolicyConfig(model, calibration, base.novelty_margin, base.act_confidence)
+            config = dataclasses.replace(base, model=model, calibration=calibration)
             counts = evaluate(
                 world,
                 config,
@@ -134,7 +135,7 @@ def main() -> None:
             print(f"development {model}/{calibration}: {rates(counts)['proposal_accuracy']['rate']:.3f}", flush=True)
     chosen = max(candidates, key=lambda name: score(candidates[name]))
     model, calibration = chosen.split("/")
-    config = PolicyConfig(model, calibration, base.novelty_margin, base.act_confidence)
+    config = dataclasses.replace(base, model=model, calibration=calibration)
     counts = evaluate(
         world,
         config,

@@ -2,6 +2,8 @@
 of scripted demonstrations and proposed where it was not shown, "I don't know" far from every demonstration, and a
 saved policy that is corrupt or from another feature set set aside with one line."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import yaml
@@ -21,7 +23,7 @@ from teleteach.bt.tree_policy import (
 )
 
 CONFIG = PolicyConfig.from_yaml()
-QUICK = PolicyConfig("logistic_regression", "none", CONFIG.novelty_margin, CONFIG.act_confidence)  # fits in ms
+QUICK = dataclasses.replace(CONFIG, model="logistic_regression", calibration="none")  # fits in ms
 
 
 @pytest.fixture(scope="module")
@@ -126,9 +128,11 @@ def test_the_deciding_features_are_features_of_the_situations(policy):
 
 def test_a_bad_configuration_is_refused():
     with pytest.raises(ValueError, match="unknown model 'oracle'"):
-        PolicyConfig("oracle", "none", 3.0, 0.9)
+        PolicyConfig("oracle", "none", 3.0, 0.9, 5.0)
     with pytest.raises(ValueError, match="act_confidence"):
-        PolicyConfig("random_forest", "none", 3.0, 1.5)
+        PolicyConfig("random_forest", "none", 3.0, 1.5, 5.0)
+    with pytest.raises(ValueError, match="veto_window"):
+        PolicyConfig("random_forest", "none", 3.0, 0.9, -1.0)
 
 
 def test_a_saved_policy_proposes_as_the_one_it_was_saved_from(tmp_path, world, policy):

@@ -13,7 +13,12 @@ operator unpauses. What happens then depends on the operator's edits while pause
 - a node was inserted right in front of the failed leaf: that node runs first, then the failed skill is retried.
 
 The edits that answered a help request are remembered (:mod:`teleteach.bt.repairs`): the next help request for the
-same node and reason suggests them, and ``repair`` applies them as one edit.
+same node and reason suggests them, and ``repair`` applies them as one edit. With a tree policy
+(:mod:`teleteach.bt.tree_policy`) the failure is also described as a situation and the policy asked
+(:mod:`teleteach.bt.decisions` says who acts): confident, the tree applies the proposal itself right after the tick
+(never during one), stays paused for the veto window and then goes on by itself; an undo within the window is a veto
+(the tree is restored and asks). Unsure, the proposal is the help request's suggestion. The operator's answer (their
+accepted edits, a confirmed proposal included) becomes a demonstration and the policy is saved.
 
 Pausing and the arm (:meth:`TeachingTree.execution_state`): a pause suspends the running skill with its goal out, so
 that it finishes what it was doing (the thesis: the tree pauses after its running skill); after ``preempt_after``
@@ -37,10 +42,13 @@ import yaml
 from py_trees.common import Status
 
 from teleteach.bt.behaviours import PAUSE_KEY, SkillLeaf
+from teleteach.bt.decisions import MEMORY, Advice, advise
 from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairError, RepairMemory
+from teleteach.bt.situations import Situation, describe
 from teleteach.bt.tree import LeafFactory, TreeSpec, TreeSpecError, create_root, dump_live_yaml, load_tree, node_type
+from teleteach.bt.tree import describe as describe_tree
 from teleteach.bt.tree_policy import PolicyConfig, TreePolicy, policy_yaml
 from teleteach.core.datadir import temporary_beside
 
@@ -53,11 +61,16 @@ CORRUPT = "corrupt"  # current_tree.yaml -> current_tree.corrupt-<time>.yaml: a 
 
 
 class HelpRequest(typing.NamedTuple):
-    """The robot asks the operator for a contingency plan."""
+    """The robot asks the operator for a contingency plan (or says what it did itself: ``applied``)."""
 
     node_name: str
     reason: str
-    suggestion: typing.Tuple[EditRequest, ...] = ()  # how the operator repaired the same failure before
+    suggestion: typing.Tuple[EditRequest, ...] = ()  # the remembered repair or the policy's proposal
+    source: str = ""  # of the suggestion: "" none, "memory", "policy" (teleteach.bt.decisions)
+    confidence: float = 0.0  # the policy's confidence in the suggestion (0..1)
+    why: str = ""  # the policy's reason, or why it did not act, in words
+    applied: bool = False  # the robot applied the suggestion itself
+    veto_window: float = 0.0  # [s] while > 0, an undo vetoes the applied suggestion (0: no window open)
 
 
 class ExecutionState(enum.IntEnum):
@@ -346,6 +359,7 @@ class TeachingTree:
         store: where to save the tree and library after each change (None: nowhere)
         data_root: the data directory, for relative skill file paths
         repairs: the repairs remembered so far (saved in ``store`` when one is added)
+        policy: the tree policy asked at each help request (None: only the remembered repairs are suggested)
         start_paused: wait, paused, for :meth:`start` before running anything
         preempt_after: [s] of pause after which a skill goal still out is cancelled (inf: never)
         clock: [s] monotonic time for ``preempt_after``
@@ -362,6 +376,7 @@ class TeachingTree:
         store: typing.Optional[TreeStore] = None,
         data_root: typing.Optional[pathlib.Path] = None,
         repairs: typing.Optional[RepairMemory] = None,
+        policy: typing.Optional[TreePolicy] = None,
         start_paused: bool = False,
         preempt_after: float = math.inf,
         clock: typing.Callable[[], float] = time.monotonic,
@@ -372,6 +387,11 @@ class TeachingTree:
         self._clock = clock
         self._paused_at = clock() if start_paused else math.inf
         self.repairs = repairs or RepairMemory()
+        self.policy = policy
+        self._situation: typing.Optional[Situation] = None  # the open help request's, as the policy sees it
+        self._acting = False  # the open help request's proposal is to be applied after this tick
+        self._veto_deadline = math.inf  # [s] on ``clock``: until then an undo vetoes the applied proposal
+        self._operator_answered = False  # the operator edited the tree since the help request
         self._answer: typing.List[typing.Tuple[EditRequest, ...]] = []  # the open help request's edits, by change
         self._undone_answer: typing.List[typing.Tuple[EditRequest, ...]] = []
         self.library = library
@@ -418,13 +438,64 @@ class TeachingTree:
         self._ask(leaf.name, reason)
 
     def _ask(self, node_name: str, reason: str) -> None:
-        """Pause and ask the operator, with the remembered repair of this failure if there is one."""
+        """Pause and ask the operator, suggesting the policy's proposal or the remembered repair (or act on it)."""
         if not self.paused:
             self._paused_at = self._clock()
         self.blackboard.set(PAUSE_KEY, True)
-        self.help_request = HelpRequest(node_name, reason, self.repairs.suggestion(node_name, reason))
-        self._answer, self._undone_answer = [], []
+        self._situation = self._describe(node_name, reason)
+        advice: Advice = advise(self.policy, self._situation, self.repairs.suggestion(node_name, reason))
+        self.help_request = HelpRequest(
+            node_name, reason, advice.suggestion, advice.source, advice.confidence, advice.why
+        )
+        self._acting, self._veto_deadline = advice.acts, math.inf
+        self._answer, self._undone_answer, self._operator_answered = [], [], False
         self.revision += 1
+
+    def _describe(self, node_name: str, reason: str) -> typing.Optional[Situation]:
+        """The failure as the policy sees it; None without a policy or a node the description cannot place."""
+        if self.policy is None:
+            return None
+        library = [(entry.name, entry.kind) for entry in self.library]
+        try:
+            return describe(describe_tree(self.root), self.execution.name, node_name, reason, library)
+        except KeyError:
+            return None
+
+    def _apply_proposal(self) -> None:
+        """Apply the help request's proposal as one edit and open the veto window; a refused one is only suggested."""
+        self._acting, help_request = False, self.help_request
+        result = self.editor.apply_requests(help_request.suggestion)
+        if not result.success:
+            why = f"{help_request.why}; not applied, the tree refused it ({result.message}): asking the operator"
+            self.help_request = help_request._replace(why=why)
+            self.revision += 1
+            return
+        window = self.policy.config.veto_window
+        self._answer.append(help_request.suggestion)
+        self._veto_deadline = self._clock() + window
+        self.help_request = help_request._replace(applied=True, veto_window=window)
+        self.revision += 1
+        self._save(self.revision, self.tree_yaml())
+
+    def _go_on_after_the_veto_window(self) -> None:
+        """Nobody vetoed the applied proposal in time: close the help request and run (nothing is learned)."""
+        if self._clock() >= self._veto_deadline:
+            self._veto_deadline = math.inf
+            self.set_pause(False)
+
+    def _follow_the_veto_window(self, request: EditRequest) -> None:
+        """An edit inside the veto window closes it; the tree then waits for the operator to resume it.
+
+        An undo (of the applied proposal: the only edit yet) is a veto; any other edit is the operator taking over.
+        """
+        if self._veto_deadline == math.inf:
+            return
+        self._veto_deadline = math.inf
+        help_request = self.help_request._replace(veto_window=0.0)
+        if request.operation == "undo":
+            why = f"vetoed by the operator (the tree is as before): {help_request.why}"
+            help_request = help_request._replace(applied=False, why=why)
+        self.help_request = help_request
 
     def _request_help_for_failed_execution(self) -> None:
         """A failure no leaf asked about reached the execution composite (e.g. a timeout decorator fired): ask."""
@@ -453,6 +524,7 @@ class TeachingTree:
             if not paused:
                 self._remember_answer()
                 self.help_request = None
+                self._veto_deadline = math.inf
             self.revision += 1
 
     def start(self) -> typing.Tuple[bool, str]:
@@ -493,6 +565,9 @@ class TeachingTree:
                 else:
                     message = f"paused: {leaf.skill} finishes its goal (preempted after {self.preempt_after:g} s)"
                 return Execution(ExecutionState.PAUSING, leaf.skill, message)
+            if self.help_request is not None and self.help_request.veto_window > 0.0:
+                message = f"paused: applied its proposal for {self.help_request.node_name}; an undo vetoes it"
+                return Execution(ExecutionState.PAUSED, "", message)
             if self.help_request is not None:
                 return Execution(ExecutionState.PAUSED, "", f"paused: asking for help ({self.help_request.node_name})")
             return Execution(ExecutionState.PAUSED, "", "paused: no skill runs")
@@ -511,11 +586,15 @@ class TeachingTree:
                 self.revision += 1
 
     def _remember_answer(self) -> None:
+        """The operator's answer becomes the failure's remembered repair and a demonstration of the policy."""
         help_request, edits = self.help_request, [request for change in self._answer for request in change]
-        if help_request is None or not self.repairs.remember(help_request.node_name, help_request.reason, edits):
+        if help_request is None or not self._operator_answered:
             return
-        if self.store is not None:
+        if self.repairs.remember(help_request.node_name, help_request.reason, edits) and self.store is not None:
             self.store.save_repairs(self.repairs)
+        learned = self.policy is not None and self._situation is not None and self.policy.learn(self._situation, edits)
+        if learned and self.store is not None:
+            self.store.save_policy(self.policy)
 
     def _note_answer(self, request: EditRequest) -> None:
         """Follow the open help request's answer: its edits, less the undone ones."""
@@ -539,6 +618,9 @@ class TeachingTree:
                 self.completed = self.execution.status == Status.SUCCESS
                 if self.execution.status == Status.FAILURE and self.help_request is None:
                     self._request_help_for_failed_execution()
+            if self._acting:
+                self._apply_proposal()
+            self._go_on_after_the_veto_window()
             touched = {**self.snapshot_visitor.previous_nodes, **self.snapshot_visitor.nodes}
             states = tuple((key, node.status, node.feedback_message) for key, node in touched.items())
             signature = (self.revision, self.completed, states)
@@ -561,13 +643,16 @@ class TeachingTree:
             if operation == "repair" and self.help_request is not None and self.help_request.suggestion:
                 result = self.editor.apply_requests(self.help_request.suggestion)
                 if not result.success:
-                    result = result._replace(message=f"the remembered repair cannot be applied: {result.message}")
+                    source = "remembered repair" if self.help_request.source == MEMORY else "proposal"
+                    result = result._replace(message=f"the {source} cannot be applied: {result.message}")
             else:
                 result = self.editor.change(*request)
             if not result.success:
                 return result
             if self.help_request is not None:
                 self._note_answer(request)
+                self._follow_the_veto_window(request)
+                self._operator_answered = True
             self.revision += 1
             revision, text = self.revision, self.tree_yaml()
         self._save(revision, text)

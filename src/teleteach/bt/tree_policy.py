@@ -49,12 +49,14 @@ class PolicyConfig:
             demonstrations, when each repair has at least two.
         novelty_margin: [scales] how far beyond the demonstrated values a situation may lie and still be known.
         act_confidence: [-] the confidence from which the robot applies its proposal without asking.
+        veto_window: [s] how long the operator may veto (undo) a proposal the robot applied alone before it goes on.
     """
 
     model: str
     calibration: str
     novelty_margin: float
     act_confidence: float
+    veto_window: float
 
     def __post_init__(self):
         if self.model not in MODELS:
@@ -63,10 +65,10 @@ class PolicyConfig:
             raise ValueError(
                 f"tree policy: unknown calibration '{self.calibration}'; expected one of {', '.join(CALIBRATIONS)}"
             )
-        if not self.novelty_margin >= 0.0 or not 0.0 <= self.act_confidence <= 1.0:
+        if not self.novelty_margin >= 0.0 or not 0.0 <= self.act_confidence <= 1.0 or not self.veto_window >= 0.0:
             raise ValueError(
-                f"tree policy: novelty_margin must be >= 0 and act_confidence in [0, 1], got {self.novelty_margin} "
-                f"and {self.act_confidence}"
+                f"tree policy: novelty_margin and veto_window must be >= 0 and act_confidence in [0, 1], got "
+                f"{self.novelty_margin}, {self.veto_window} and {self.act_confidence}"
             )
 
     @classmethod

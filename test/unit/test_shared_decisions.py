@@ -1,0 +1,167 @@
+"""Shared control of high-level decisions (teleteach.bt.decisions in the teaching tree, without ROS): unsure, the help
+request carries the policy's proposal and a confirmed one is learned and saved; confident, the tree applies it after
+the tick and goes on after the veto window; an undo in the window restores the tree; a refused proposal or answer
+changes nothing and teaches nothing."""
+
+import dataclasses
+
+import py_trees
+import yaml
+from bt_support import SkillWorld, thesis_tree
+from test_bt_tree import tick_until
+
+from teleteach.bt.decisions import MEMORY, POLICY, advise
+from teleteach.bt.editor import EditRequest
+from teleteach.bt.situations import describe
+from teleteach.bt.teaching import TreeStore
+from teleteach.bt.tree import describe as describe_tree
+from teleteach.bt.tree_policy import PolicyConfig, TreePolicy
+
+MISSING = "product_pick_1 is not on the table"
+BASE = "the base did not reach (1.00, 0.00, 0.00) within 30 s: 0.300 m, 0.100 rad away"
+MISSED = "product_pick_1 ended 3.0 cm from gap_1 (0.2 cm in height)"
+WINDOW = 5.0  # [s]
+
+
+class Clock:
+    """The tree's monotonic clock, moved by the test."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+
+def policy_tree(world, store=None, act_confidence=0.8, clock=None):
+    config = dataclasses.replace(PolicyConfig.from_yaml(), act_confidence=act_confidence, veto_window=WINDOW)
+    return thesis_tree(world, store=store, policy=TreePolicy(config), clock=clock or Clock())
+
+
+def asked(tree):
+    """Tick until the tree asks; one more tick (a confident proposal is applied after the tick that asked)."""
+    tick_until(tree, lambda: tree.help_request is not None)
+    tree.tick()
+    return tree.help_request
+
+
+def taught_three_repairs(tree):
+    """The operator removes a missing product's pick, confirms the proposal to remove the failed drive, and replaces
+    the failed placement by a look: two kinds of repair, three demonstrations (the sequence of the rostest)."""
+    assert asked(tree).suggestion == ()
+    assert tree.change("PickItem", "remove").success
+    tree.set_pause(False)
+    proposal = asked(tree)
+    assert tree.change("MoveBase", "repair").success
+    tree.set_pause(False)
+    asked(tree)
+    assert tree.change("LookToShelf", "insert", 1).success and tree.change("PlaceItem", "remove").success
+    tree.set_pause(False)
+    tick_until(tree, lambda: tree.completed, 400)
+    return proposal
+
+
+def failing_again(tree):
+    """The pick put back where it was and the tree run again: the same failure comes at a node the policy knows."""
+    assert tree.change("PickItem", "insert", 1).success
+    assert tree.start()[0]
+    return asked(tree)
+
+
+def test_unsure_it_asks_with_its_proposal_and_the_confirmed_proposal_is_learned_and_saved(tmp_path):
+    world = SkillWorld(ticks=1, failures={"PickItem": [MISSING], "MoveBase": [BASE], "PlaceItem": [MISSED]})
+    store = TreeStore(tmp_path)
+    tree = policy_tree(world, store)
+    proposal = taught_three_repairs(tree)
+    # Expect: the drive's failure was never demonstrated, so the proposal was suggested with confidence 0, not applied
+    assert proposal.suggestion == (EditRequest("MoveBase", "remove"),) and proposal.source == POLICY
+    assert proposal.confidence == 0.0 and not proposal.applied and "base_not_reached" in proposal.why
+    # Expect: the confirmed proposal removed the drive; three demonstrations learned and saved
+    assert "MoveBase" not in tree.editor.nodes and len(tree.policy) == 3
+    saved = yaml.safe_load(store.policy_path.read_text())["demonstrations"]
+    assert [entry["edits"][-1]["node_name"] for entry in saved] == ["PickItem", "MoveBase", "PlaceItem"]
+
+
+def test_confident_it_applies_the_proposal_waits_out_the_veto_window_and_goes_on():
+    clock = Clock()
+    world = SkillWorld(ticks=1, failures={"PickItem": [MISSING] * 2, "MoveBase": [BASE], "PlaceItem": [MISSED]})
+    tree = policy_tree(world, clock=clock)
+    taught_three_repairs(tree)
+    applied = failing_again(tree)
+    # Expect: the pick removed by the robot, announced with its confidence, the tree paused for the window
+    assert applied.applied and applied.source == POLICY and applied.confidence >= 0.8
+    assert applied.veto_window == WINDOW and "PickItem" not in tree.editor.nodes and tree.paused
+    assert "an undo vetoes it" in tree.execution_state().message
+    clock.now += WINDOW - 0.1
+    tree.tick()
+    assert tree.paused and tree.help_request == applied
+    clock.now += 0.2
+    tree.tick()
+    # Expect: nobody vetoed: the tree goes on by itself and completes; the robot's own edit is no demonstration
+    assert not tree.paused and tree.help_request is None
+    tick_until(tree, lambda: tree.completed, 400)
+    assert len(tree.policy) == 3
+
+
+def test_an_undo_in_the_veto_window_restores_the_tree_and_the_operators_answer_is_learned():
+    clock = Clock()
+    world = SkillWorld(ticks=1, failures={"PickItem": [MISSING] * 2, "MoveBase": [BASE], "PlaceItem": [MISSED]})
+    tree = policy_tree(world, clock=clock)
+    taught_three_repairs(tree)
+    tree.change("PickItem", "insert", 1)
+    before = describe_tree(tree.root)
+    tree.start()
+    assert asked(tree).applied
+    clock.now += 1.0
+    assert tree.change("", "undo").success
+    # Expect: the tree as before the proposal, the help request open again, asking, the window closed
+    assert describe_tree(tree.root) == before and tree.paused
+    vetoed = tree.help_request
+    assert not vetoed.applied and vetoed.veto_window == 0.0 and vetoed.why.startswith("vetoed by the operator")
+    clock.now += 2 * WINDOW
+    tree.tick()
+    assert tree.paused and tree.help_request == vetoed
+    # Expect: the operator's own answer (a look instead of the pick) becomes the fourth demonstration
+    assert tree.change("LookToShelf", "insert", 1).success and tree.change("PickItem", "remove").success
+    tree.set_pause(False)
+    assert len(tree.policy) == 4 and tree.policy.demonstrations[-1].edits[0].operation == "insert"
+
+
+def test_a_proposal_naming_a_node_no_longer_in_the_tree_changes_nothing_and_is_only_suggested():
+    world = SkillWorld(ticks=1, failures={"PickItem": [MISSING]})
+    tree = policy_tree(world, act_confidence=0.0)
+    library = [(entry.name, entry.kind) for entry in tree.library]
+    situation = describe(describe_tree(tree.root), tree.execution.name, "PickItem", MISSING, library)
+    tree.policy.learn(situation, [EditRequest("MoveBase", "remove")])  # an edit of another node: kept by name
+    assert tree.change("MoveBase", "remove").success
+    before = describe_tree(tree.root)
+    asked_now = asked(tree)
+    # Expect: the proposal refused by the tree, nothing changed, the operator asked with the reason
+    assert describe_tree(tree.root) == before and tree.paused and not asked_now.applied
+    assert "not applied, the tree refused it" in asked_now.why and "no node named 'MoveBase'" in asked_now.why
+    result = tree.change("PickItem", "repair")
+    assert not result.success and result.message.startswith("the proposal cannot be applied")
+    assert describe_tree(tree.root) == before
+
+
+def test_an_edit_the_tree_refused_is_not_learned(tmp_path):
+    world = SkillWorld(ticks=1, failures={"PickItem": [MISSING]})
+    store = TreeStore(tmp_path)
+    tree = policy_tree(world, store)
+    asked(tree)
+    assert not tree.change("NoSuchSkill", "insert", 1).success
+    tree.set_pause(False)
+    # Expect: no demonstration, no saved policy
+    assert len(tree.policy) == 0 and not store.policy_path.exists()
+
+
+def test_a_remembered_repair_is_suggested_before_an_unsure_proposal_and_without_a_policy():
+    py_trees.blackboard.Blackboard.clear()
+    tree = policy_tree(SkillWorld())
+    library = [(entry.name, entry.kind) for entry in tree.library]
+    situation = describe(describe_tree(tree.root), tree.execution.name, "PickItem", MISSING, library)
+    remembered = (EditRequest("PickItem", "wrap", node_type="retry", parameter=2.0),)
+    # Expect: nothing demonstrated: the remembered repair, from memory; no policy: the same
+    assert advise(tree.policy, situation, remembered)[:2] == (remembered, MEMORY)
+    assert advise(None, situation, remembered)[:2] == (remembered, MEMORY)
+    assert advise(None, situation, ()).suggestion == ()
