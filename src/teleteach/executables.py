@@ -35,7 +35,7 @@ def behaviour_tree(description: str) -> ExitStatus:
     # Publishing a 1000-node log/tree after an edit is ~2 ms of pure Python; a short GIL switch interval keeps
     # /change_tree answers from waiting behind it (5 ms slices by default). Process-wide, so set here.
     sys.setswitchinterval(0.0005)
-    BehaviourTreeNode.from_params().spin()
+    exit_on_bad_parameter("behaviour_tree", BehaviourTreeNode.from_params).spin()
     return 0
 
 

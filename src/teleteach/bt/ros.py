@@ -26,6 +26,7 @@ from teleteach.bt.behaviours import SkillLeaf
 from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.teaching import Execution, NodeRecord, TeachingTree, TreeStore
 from teleteach.bt.tree import load_tree
+from teleteach.bt.tree_policy import PolicyConfig, TreePolicy
 from teleteach.core import datadir
 from teleteach.core.parameters import from_mapping
 from teleteach.core.paths import config_file
@@ -291,8 +292,10 @@ class BehaviourTreeNode:
         * **/behaviour_tree/ascii/tree**, **/behaviour_tree/ascii/snapshot**, **/behaviour_tree/dot/tree**
           (std_msgs/String): py_trees.display renderings (made only while somebody subscribes)
         * **/behaviour_tree/skill_library** (teleteach/SkillLibrary)
-        * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered; a remembered
-          repair of the same failure in ``suggestion``
+        * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered; in
+          ``suggestion`` the tree policy's proposal or the same failure's remembered repair (``source``), with the
+          policy's ``confidence`` and ``why``; ``applied`` when the robot applied it alone, an undo vetoing it within
+          ``veto_window`` seconds
         * **/behaviour_tree/execution** (teleteach/TreeExecution): running, waiting to start, pausing (a goal still
           out), paused (the arm is free) or completed
 
@@ -363,6 +366,7 @@ class BehaviourTreeNode:
             store=store,
             data_root=data_root,
             repairs=repairs,
+            policy=_restored_policy(store),
             start_paused=config.start_paused,
             preempt_after=config.pause_preempt_after,
         )
@@ -487,19 +491,21 @@ class BehaviourTreeNode:
 
     def _publish_help(self, help_request: typing.Any) -> None:
         """Publish the failure the operator is asked to repair (empty once answered), and log it."""
+        if help_request is None and getattr(self._published_help, "veto_window", 0.0) > 0.0:
+            rospy.loginfo("behaviour_tree: no veto within the window: the tree goes on with its proposal applied")
         self._published_help = help_request
         message = HelpRequest()
         message.header.stamp = rospy.Time.now()
         if help_request is not None:
             message.node_name, message.reason = help_request.node_name, help_request.reason
             message.suggestion = [request.describe() for request in help_request.suggestion]
-            remembered = f"; it suggests the remembered repair: {', '.join(message.suggestion)}"
-            rospy.logwarn(
-                "behaviour_tree: '%s' failed (%s); paused, asking the operator%s",
-                message.node_name,
-                message.reason,
-                remembered if message.suggestion else "",
+            message.source, message.confidence, message.why = (
+                help_request.source,
+                help_request.confidence,
+                help_request.why,
             )
+            message.applied, message.veto_window = help_request.applied, help_request.veto_window
+            rospy.logwarn("behaviour_tree: '%s' failed (%s); %s", message.node_name, message.reason, _decision(message))
         self.help_publisher.publish(message)
 
     def _bytes_of(self, record: NodeRecord) -> bytes:
@@ -542,6 +548,33 @@ class BehaviourTreeNode:
         success, message = self.tree.add_skill(request.name, request.kind, request.data_file)
         (rospy.loginfo if success else rospy.logwarn)("behaviour_tree: add_skill %s: %s", request.name, message)
         return AddSkillResponse(success=success, message=message)
+
+
+def _decision(message: HelpRequest) -> str:
+    """What the tree does about a failure, in words for the log."""
+    edits = "; ".join(message.suggestion)
+    if message.applied and message.veto_window > 0.0:
+        return (
+            f"applied its proposal alone ({edits}: {message.why}); paused for {message.veto_window:g} s, a"
+            " /change_tree undo vetoes it"
+        )
+    if message.applied:
+        return f"its applied proposal ({edits}) stays; the operator took over, paused until they resume"
+    if message.source == "memory":
+        return f"paused, asking the operator; it suggests the remembered repair: {edits}"
+    if message.source == "policy":
+        return f"paused, asking the operator; it proposes {edits} ({message.confidence:.0%}: {message.why})"
+    return "paused, asking the operator"
+
+
+def _restored_policy(store: TreeStore) -> TreePolicy:
+    """The tree policy saved in ``store`` (its parameters: config/tree_policy.yaml, or the node's private ones)."""
+    policy, problems = store.restore_policy(PolicyConfig(**node_parameters("tree_policy.yaml")))
+    if problems:
+        rospy.logwarn("behaviour_tree: the tree policy was set aside, the tree asks as without one: %s", problems)
+    elif len(policy):
+        rospy.loginfo("behaviour_tree: the tree policy resumed with %d demonstrations", len(policy))
+    return policy
 
 
 def _behaviour(record: NodeRecord) -> Behaviour:
