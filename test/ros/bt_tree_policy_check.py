@@ -57,16 +57,17 @@ class TreePolicyOverRos(unittest.TestCase):
     def answer_the_first_three_failures(self):
         view = self.view
         asked = self.wait_help("PickItem")
-        self.assertEqual((list(asked.suggestion), asked.source), ([], ""))  # nothing demonstrated yet
+        self.assertEqual((list(asked.suggestion), list(asked.proposal)), ([], []))  # nothing demonstrated yet
         self.edit("PickItem", "remove")
         view.pause(False)
         # Expect (a): the drive's failure was never demonstrated: it asks, its proposal attached, confidence 0
         asked = self.wait_help("MoveBase")
-        self.assertEqual((list(asked.suggestion), asked.source, asked.applied), (["remove MoveBase"], "policy", False))
+        self.assertEqual((list(asked.proposal), asked.applied), (["remove MoveBase"], False))
+        self.assertEqual(list(asked.suggestion), [])  # nothing remembered of this failure
         self.assertEqual(asked.confidence, 0.0)
         self.assertIn("base_not_reached", asked.why)
         self.assertIn("MoveBase", view.children("BehaviorExecution"))
-        self.edit("MoveBase", "repair")  # the operator confirms with one click
+        self.edit("MoveBase", "repair")  # the operator confirms with one click (nothing remembered: the proposal)
         view.wait_for(lambda: "MoveBase" not in view.children("BehaviorExecution"), 5, "the tree edited")
         view.pause(False)
         self.wait_demonstrations(2)
@@ -84,7 +85,7 @@ class TreePolicyOverRos(unittest.TestCase):
         self.assertTrue(self.start_tree().success)
         # Expect (b): applied alone (the pick removed), announced with its confidence and the veto window, paused
         applied = self.wait_help("PickItem", lambda message: message.applied)
-        self.assertEqual((list(applied.suggestion), applied.source), (["remove PickItem"], "policy"))
+        self.assertEqual(list(applied.proposal), ["remove PickItem"])
         self.assertGreaterEqual(applied.confidence, ACT)
         self.assertAlmostEqual(applied.veto_window, WINDOW, places=3)
         view.wait_for(lambda: "PickItem" not in view.children("BehaviorExecution"), 5, "the proposal applied")

@@ -5,12 +5,11 @@ changes nothing and teaches nothing."""
 
 import dataclasses
 
-import py_trees
 import yaml
 from bt_support import SkillWorld, thesis_tree
 from test_bt_tree import tick_until
 
-from teleteach.bt.decisions import MEMORY, POLICY, advise
+from teleteach.bt.decisions import advise
 from teleteach.bt.editor import EditRequest
 from teleteach.bt.situations import describe
 from teleteach.bt.teaching import TreeStore
@@ -48,7 +47,7 @@ def asked(tree):
 def taught_three_repairs(tree):
     """The operator removes a missing product's pick, confirms the proposal to remove the failed drive, and replaces
     the failed placement by a look: two kinds of repair, three demonstrations (the sequence of the rostest)."""
-    assert asked(tree).suggestion == ()
+    assert asked(tree).proposal == ()
     assert tree.change("PickItem", "remove").success
     tree.set_pause(False)
     proposal = asked(tree)
@@ -74,7 +73,7 @@ def test_unsure_it_asks_with_its_proposal_and_the_confirmed_proposal_is_learned_
     tree = policy_tree(world, store)
     proposal = taught_three_repairs(tree)
     # Expect: the drive's failure was never demonstrated, so the proposal was suggested with confidence 0, not applied
-    assert proposal.suggestion == (EditRequest("MoveBase", "remove"),) and proposal.source == POLICY
+    assert proposal.proposal == (EditRequest("MoveBase", "remove"),) and proposal.suggestion == ()
     assert proposal.confidence == 0.0 and not proposal.applied and "base_not_reached" in proposal.why
     # Expect: the confirmed proposal removed the drive; three demonstrations learned and saved
     assert "MoveBase" not in tree.editor.nodes and len(tree.policy) == 3
@@ -89,7 +88,7 @@ def test_confident_it_applies_the_proposal_waits_out_the_veto_window_and_goes_on
     taught_three_repairs(tree)
     applied = failing_again(tree)
     # Expect: the pick removed by the robot, announced with its confidence, the tree paused for the window
-    assert applied.applied and applied.source == POLICY and applied.confidence >= 0.8
+    assert applied.applied and applied.proposal == (EditRequest("PickItem", "remove"),) and applied.confidence >= 0.8
     assert applied.veto_window == WINDOW and "PickItem" not in tree.editor.nodes and tree.paused
     assert "an undo vetoes it" in tree.execution_state().message
     clock.now += WINDOW - 0.1
@@ -155,13 +154,16 @@ def test_an_edit_the_tree_refused_is_not_learned(tmp_path):
     assert len(tree.policy) == 0 and not store.policy_path.exists()
 
 
-def test_a_remembered_repair_is_suggested_before_an_unsure_proposal_and_without_a_policy():
-    py_trees.blackboard.Blackboard.clear()
-    tree = policy_tree(SkillWorld())
-    library = [(entry.name, entry.kind) for entry in tree.library]
-    situation = describe(describe_tree(tree.root), tree.execution.name, "PickItem", MISSING, library)
-    remembered = (EditRequest("PickItem", "wrap", node_type="retry", parameter=2.0),)
-    # Expect: nothing demonstrated: the remembered repair, from memory; no policy: the same
-    assert advise(tree.policy, situation, remembered)[:2] == (remembered, MEMORY)
-    assert advise(None, situation, remembered)[:2] == (remembered, MEMORY)
-    assert advise(None, situation, ()).suggestion == ()
+def test_a_remembered_repair_stays_the_suggestion_beside_the_proposal_and_repair_applies_it_first():
+    world = SkillWorld(ticks=1, failures={"PickItem": [MISSING, MISSING]})
+    tree = policy_tree(world)
+    asked(tree)
+    look = EditRequest("LookToShelf", "insert", 1)
+    assert tree.change(*look).success  # a look in front of the pick, which then runs again
+    tree.set_pause(False)
+    again = asked(tree)
+    # Expect: the remembered look as the suggestion, the policy's proposal beside it, unsure; repair applies the look
+    assert again.suggestion == (look,) and again.proposal and again.confidence == 0.0 and not again.applied
+    assert again.repair == again.suggestion
+    assert tree.change("PickItem", "repair").success and tree.execution.children[1].name == "LookToShelf_3"
+    assert advise(None, None).proposal == ()

@@ -292,10 +292,9 @@ class BehaviourTreeNode:
         * **/behaviour_tree/ascii/tree**, **/behaviour_tree/ascii/snapshot**, **/behaviour_tree/dot/tree**
           (std_msgs/String): py_trees.display renderings (made only while somebody subscribes)
         * **/behaviour_tree/skill_library** (teleteach/SkillLibrary)
-        * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered; in
-          ``suggestion`` the tree policy's proposal or the same failure's remembered repair (``source``), with the
-          policy's ``confidence`` and ``why``; ``applied`` when the robot applied it alone, an undo vetoing it within
-          ``veto_window`` seconds
+        * **/behaviour_tree/help_request** (teleteach/HelpRequest): empty node_name once answered; a remembered
+          repair of the same failure in ``suggestion``; the tree policy's ``proposal`` with its ``confidence`` and
+          ``why``, ``applied`` when the robot applied it alone (an undo vetoes it within ``veto_window`` seconds)
         * **/behaviour_tree/execution** (teleteach/TreeExecution): running, waiting to start, pausing (a goal still
           out), paused (the arm is free) or completed
 
@@ -499,11 +498,8 @@ class BehaviourTreeNode:
         if help_request is not None:
             message.node_name, message.reason = help_request.node_name, help_request.reason
             message.suggestion = [request.describe() for request in help_request.suggestion]
-            message.source, message.confidence, message.why = (
-                help_request.source,
-                help_request.confidence,
-                help_request.why,
-            )
+            message.proposal = [request.describe() for request in help_request.proposal]
+            message.confidence, message.why = help_request.confidence, help_request.why
             message.applied, message.veto_window = help_request.applied, help_request.veto_window
             rospy.logwarn("behaviour_tree: '%s' failed (%s); %s", message.node_name, message.reason, _decision(message))
         self.help_publisher.publish(message)
@@ -552,19 +548,20 @@ class BehaviourTreeNode:
 
 def _decision(message: HelpRequest) -> str:
     """What the tree does about a failure, in words for the log."""
-    edits = "; ".join(message.suggestion)
+    proposal = "; ".join(message.proposal)
     if message.applied and message.veto_window > 0.0:
         return (
-            f"applied its proposal alone ({edits}: {message.why}); paused for {message.veto_window:g} s, a"
+            f"applied its proposal alone ({proposal}: {message.why}); paused for {message.veto_window:g} s, a"
             " /change_tree undo vetoes it"
         )
     if message.applied:
-        return f"its applied proposal ({edits}) stays; the operator took over, paused until they resume"
-    if message.source == "memory":
-        return f"paused, asking the operator; it suggests the remembered repair: {edits}"
-    if message.source == "policy":
-        return f"paused, asking the operator; it proposes {edits} ({message.confidence:.0%}: {message.why})"
-    return "paused, asking the operator"
+        return f"its applied proposal ({proposal}) stays; the operator took over, paused until they resume"
+    said = ["paused, asking the operator"]
+    if message.suggestion:
+        said.append(f"it suggests the remembered repair: {', '.join(message.suggestion)}")
+    if message.proposal:
+        said.append(f"it proposes {proposal} ({message.confidence:.0%}: {message.why})")
+    return "; ".join(said)
 
 
 def _restored_policy(store: TreeStore) -> TreePolicy:

@@ -17,7 +17,8 @@ same node and reason suggests them, and ``repair`` applies them as one edit. Wit
 (:mod:`teleteach.bt.tree_policy`) the failure is also described as a situation and the policy asked
 (:mod:`teleteach.bt.decisions` says who acts): confident, the tree applies the proposal itself right after the tick
 (never during one), stays paused for the veto window and then goes on by itself; an undo within the window is a veto
-(the tree is restored and asks). Unsure, the proposal is the help request's suggestion. The operator's answer (their
+(the tree is restored and asks). Unsure, the help request carries the proposal, and ``repair`` applies it when no
+repair is remembered. The operator's answer (their
 accepted edits, a confirmed proposal included) becomes a demonstration and the policy is saved.
 
 Pausing and the arm (:meth:`TeachingTree.execution_state`): a pause suspends the running skill with its goal out, so
@@ -42,7 +43,7 @@ import yaml
 from py_trees.common import Status
 
 from teleteach.bt.behaviours import PAUSE_KEY, SkillLeaf
-from teleteach.bt.decisions import MEMORY, Advice, advise
+from teleteach.bt.decisions import advise
 from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairError, RepairMemory
@@ -65,12 +66,17 @@ class HelpRequest(typing.NamedTuple):
 
     node_name: str
     reason: str
-    suggestion: typing.Tuple[EditRequest, ...] = ()  # the remembered repair or the policy's proposal
-    source: str = ""  # of the suggestion: "" none, "memory", "policy" (teleteach.bt.decisions)
-    confidence: float = 0.0  # the policy's confidence in the suggestion (0..1)
-    why: str = ""  # the policy's reason, or why it did not act, in words
-    applied: bool = False  # the robot applied the suggestion itself
-    veto_window: float = 0.0  # [s] while > 0, an undo vetoes the applied suggestion (0: no window open)
+    suggestion: typing.Tuple[EditRequest, ...] = ()  # how the operator repaired the same failure before
+    proposal: typing.Tuple[EditRequest, ...] = ()  # the tree policy's edits (teleteach.bt.decisions)
+    confidence: float = 0.0  # the policy's confidence in its proposal (0..1)
+    why: str = ""  # the policy's reason, or why it does not know, or that it was refused or vetoed, in words
+    applied: bool = False  # the robot applied the proposal itself
+    veto_window: float = 0.0  # [s] while > 0, an undo vetoes the applied proposal (0: no window open)
+
+    @property
+    def repair(self) -> typing.Tuple[EditRequest, ...]:
+        """What /change_tree's ``repair`` applies: the remembered repair, else the policy's proposal."""
+        return self.suggestion or self.proposal
 
 
 class ExecutionState(enum.IntEnum):
@@ -443,10 +449,9 @@ class TeachingTree:
             self._paused_at = self._clock()
         self.blackboard.set(PAUSE_KEY, True)
         self._situation = self._describe(node_name, reason)
-        advice: Advice = advise(self.policy, self._situation, self.repairs.suggestion(node_name, reason))
-        self.help_request = HelpRequest(
-            node_name, reason, advice.suggestion, advice.source, advice.confidence, advice.why
-        )
+        advice = advise(self.policy, self._situation)
+        remembered = self.repairs.suggestion(node_name, reason)
+        self.help_request = HelpRequest(node_name, reason, remembered, advice.proposal, advice.confidence, advice.why)
         self._acting, self._veto_deadline = advice.acts, math.inf
         self._answer, self._undone_answer, self._operator_answered = [], [], False
         self.revision += 1
@@ -464,14 +469,14 @@ class TeachingTree:
     def _apply_proposal(self) -> None:
         """Apply the help request's proposal as one edit and open the veto window; a refused one is only suggested."""
         self._acting, help_request = False, self.help_request
-        result = self.editor.apply_requests(help_request.suggestion)
+        result = self.editor.apply_requests(help_request.proposal)
         if not result.success:
             why = f"{help_request.why}; not applied, the tree refused it ({result.message}): asking the operator"
             self.help_request = help_request._replace(why=why)
             self.revision += 1
             return
         window = self.policy.config.veto_window
-        self._answer.append(help_request.suggestion)
+        self._answer.append(help_request.proposal)
         self._veto_deadline = self._clock() + window
         self.help_request = help_request._replace(applied=True, veto_window=window)
         self.revision += 1
@@ -605,7 +610,7 @@ class TeachingTree:
             if self._undone_answer:
                 self._answer.append(self._undone_answer.pop())
         else:
-            self._answer.append(self.help_request.suggestion if request.operation == "repair" else (request,))
+            self._answer.append(self.help_request.repair if request.operation == "repair" else (request,))
             self._undone_answer = []
 
     def tick(self) -> bool:
@@ -640,10 +645,10 @@ class TeachingTree:
         """Apply a /change_tree request between two ticks; save the tree (and its edit history) if it changed."""
         with self.lock:
             request = EditRequest(node_name, operation, index, parent, node_type, parameter)
-            if operation == "repair" and self.help_request is not None and self.help_request.suggestion:
-                result = self.editor.apply_requests(self.help_request.suggestion)
+            if operation == "repair" and self.help_request is not None and self.help_request.repair:
+                result = self.editor.apply_requests(self.help_request.repair)
                 if not result.success:
-                    source = "remembered repair" if self.help_request.source == MEMORY else "proposal"
+                    source = "remembered repair" if self.help_request.suggestion else "proposal"
                     result = result._replace(message=f"the {source} cannot be applied: {result.message}")
             else:
                 result = self.editor.change(*request)
