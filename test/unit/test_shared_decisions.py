@@ -1,7 +1,7 @@
 """Shared control of high-level decisions (teleteach.bt.decisions in the teaching tree, without ROS): unsure, the help
 request carries the policy's proposal and a confirmed one is learned and saved; confident, the tree applies it after
 the tick and goes on after the veto window; an undo in the window restores the tree; a refused proposal or answer
-changes nothing and teaches nothing."""
+changes nothing and teaches nothing; the task around a failure (product, gap, base) from the configured scene."""
 
 import dataclasses
 
@@ -9,12 +9,14 @@ import yaml
 from bt_support import SkillWorld, thesis_tree
 from test_bt_tree import tick_until
 
-from teleteach.bt.decisions import advise
+from teleteach.bt.decisions import TaskKnowledge, advise
 from teleteach.bt.editor import EditRequest
-from teleteach.bt.situations import describe
+from teleteach.bt.situations import describe, product_features, target_features
 from teleteach.bt.teaching import TreeStore
 from teleteach.bt.tree import describe as describe_tree
 from teleteach.bt.tree_policy import PolicyConfig, TreePolicy
+from teleteach.core.paths import config_values
+from teleteach.core.scene import load_scene
 
 MISSING = "product_pick_1 is not on the table"
 BASE = "the base did not reach (1.00, 0.00, 0.00) within 30 s: 0.300 m, 0.100 rad away"
@@ -167,3 +169,40 @@ def test_a_remembered_repair_stays_the_suggestion_beside_the_proposal_and_repair
     assert again.repair == again.suggestion
     assert tree.change("PickItem", "repair").success and tree.execution.children[1].name == "LookToShelf_3"
     assert advise(None, None).proposal == ()
+
+
+def knowledge():
+    return TaskKnowledge(load_scene(), config_values("skills_motion.yaml", "skills"))
+
+
+def thesis_description(tree):
+    return describe_tree(tree.root), tree.execution.name, [(entry.name, entry.kind) for entry in tree.library]
+
+
+def test_the_task_around_a_failed_placement_is_the_product_picked_before_its_gap_and_the_drive_there():
+    tree = thesis_tree(SkillWorld())
+    root, execution, library = thesis_description(tree)
+    scene = load_scene()
+    situation = knowledge().situation(root, execution, "PlaceItem", MISSED, library)
+    # Expect: product_pick_1 (PickItem's), gap_1 (PlaceItem's), met from place_perpendicular (MoveBase's)
+    assert situation.product == product_features(scene.product("product_pick_1"))
+    gap, base = scene.gap("gap_1"), scene.base_poses["place_perpendicular"]
+    assert situation.target == target_features(gap, situation.product.width_m, base)
+    # Expect: a drive's own pose and the next placement's gap; the second pick's own product, and no gap after it
+    assert knowledge().situation(root, execution, "MoveBase", BASE, library).target == situation.target
+    second = knowledge().situation(root, execution, "PickItem2", MISSING, library)
+    assert second.product.name == "product_pick_2" and second.target is None
+
+
+def test_a_leaf_s_parameters_override_its_skill_s_and_names_the_scene_lacks_are_left_out():
+    tree = thesis_tree(SkillWorld())
+    root, execution, library = thesis_description(tree)
+    place = next(child for child in root["children"][1]["children"] if child["name"] == "PlaceItem")
+    place["parameters"] = {"gap": "gap_2"}
+    assert knowledge().situation(root, execution, "PlaceItem", MISSED, library).target.name == "gap_2"
+    place["parameters"] = {"gap": "no_such_gap"}
+    situation = knowledge().situation(root, execution, "PlaceItem", MISSED, library)
+    assert situation.target is None and situation.product.name == "product_pick_1"
+    # Expect: a failed composite has no product or gap of its own
+    composite = knowledge().situation(root, execution, "BehaviorExecution", "failed", library)
+    assert composite.product is None and composite.target is None

@@ -23,13 +23,15 @@ from std_msgs.msg import Bool, String
 from std_srvs.srv import Trigger, TriggerResponse
 
 from teleteach.bt.behaviours import SkillLeaf
+from teleteach.bt.decisions import TaskKnowledge
 from teleteach.bt.library import SkillEntry, SkillLibrary
 from teleteach.bt.teaching import Execution, NodeRecord, TeachingTree, TreeStore
 from teleteach.bt.tree import load_tree
 from teleteach.bt.tree_policy import PolicyConfig, TreePolicy
 from teleteach.core import datadir
 from teleteach.core.parameters import from_mapping
-from teleteach.core.paths import config_file
+from teleteach.core.paths import config_file, config_values
+from teleteach.core.scene import load_scene
 from teleteach.msg import (
     Behaviour,
     BehaviourTree,
@@ -366,6 +368,7 @@ class BehaviourTreeNode:
             data_root=data_root,
             repairs=repairs,
             policy=_restored_policy(store),
+            task=TaskKnowledge(load_scene(), config_values("skills_motion.yaml", "skills")),
             start_paused=config.start_paused,
             preempt_after=config.pause_preempt_after,
         )

@@ -43,7 +43,7 @@ import yaml
 from py_trees.common import Status
 
 from teleteach.bt.behaviours import PAUSE_KEY, SkillLeaf
-from teleteach.bt.decisions import advise
+from teleteach.bt.decisions import TaskKnowledge, advise
 from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairError, RepairMemory
@@ -366,6 +366,7 @@ class TeachingTree:
         data_root: the data directory, for relative skill file paths
         repairs: the repairs remembered so far (saved in ``store`` when one is added)
         policy: the tree policy asked at each help request (None: only the remembered repairs are suggested)
+        task: what the tree knows of the task, to describe a failure's product, gap and base (None: left out)
         start_paused: wait, paused, for :meth:`start` before running anything
         preempt_after: [s] of pause after which a skill goal still out is cancelled (inf: never)
         clock: [s] monotonic time for ``preempt_after``
@@ -383,6 +384,7 @@ class TeachingTree:
         data_root: typing.Optional[pathlib.Path] = None,
         repairs: typing.Optional[RepairMemory] = None,
         policy: typing.Optional[TreePolicy] = None,
+        task: typing.Optional[TaskKnowledge] = None,
         start_paused: bool = False,
         preempt_after: float = math.inf,
         clock: typing.Callable[[], float] = time.monotonic,
@@ -394,6 +396,7 @@ class TeachingTree:
         self._paused_at = clock() if start_paused else math.inf
         self.repairs = repairs or RepairMemory()
         self.policy = policy
+        self.task = task
         self._situation: typing.Optional[Situation] = None  # the open help request's, as the policy sees it
         self._acting = False  # the open help request's proposal is to be applied after this tick
         self._veto_deadline = math.inf  # [s] on ``clock``: until then an undo vetoes the applied proposal
@@ -461,8 +464,9 @@ class TeachingTree:
         if self.policy is None:
             return None
         library = [(entry.name, entry.kind) for entry in self.library]
+        situation = self.task.situation if self.task is not None else describe
         try:
-            return describe(describe_tree(self.root), self.execution.name, node_name, reason, library)
+            return situation(describe_tree(self.root), self.execution.name, node_name, reason, library)
         except KeyError:
             return None
 
