@@ -206,3 +206,18 @@ def test_a_leaf_s_parameters_override_its_skill_s_and_names_the_scene_lacks_are_
     # Expect: a failed composite has no product or gap of its own
     composite = knowledge().situation(root, execution, "BehaviorExecution", "failed", library)
     assert composite.product is None and composite.target is None
+
+
+def test_a_pause_in_the_veto_window_keeps_the_tree_paused_and_a_later_undo_is_still_a_veto():
+    clock = Clock()
+    world = SkillWorld(ticks=1, failures={"PickItem": [MISSING] * 2, "MoveBase": [BASE], "PlaceItem": [MISSED]})
+    tree = policy_tree(world, clock=clock)
+    taught_three_repairs(tree)
+    assert failing_again(tree).applied
+    tree.set_pause(True)  # e.g. the operator enters LOW-LEVEL: the GUI pauses the tree
+    clock.now += 2 * WINDOW
+    tree.tick()
+    # Expect: the window closed, no going on by itself; an undo still restores the pick and is a veto
+    assert tree.paused and tree.help_request.applied and tree.help_request.veto_window == 0.0
+    assert tree.change("", "undo").success and "PickItem" in tree.editor.nodes
+    assert not tree.help_request.applied and tree.help_request.why.startswith("vetoed")

@@ -492,19 +492,24 @@ class TeachingTree:
             self._veto_deadline = math.inf
             self.set_pause(False)
 
-    def _follow_the_veto_window(self, request: EditRequest) -> None:
-        """An edit inside the veto window closes it; the tree then waits for the operator to resume it.
+    def _follow_the_operator(self, request: EditRequest) -> None:
+        """An edit after the robot applied its proposal: the operator decides now, the tree waits for them to resume.
 
-        An undo (of the applied proposal: the only edit yet) is a veto; any other edit is the operator taking over.
+        An undo that leaves no edit of the answer reverted the proposal (always its first edit): a veto.
         """
-        if self._veto_deadline == math.inf:
+        if not self.help_request.applied:
             return
+        self._close_veto_window()
+        if request.operation == "undo" and not self._answer:
+            why = f"vetoed by the operator (the tree is as before): {self.help_request.why}"
+            self.help_request = self.help_request._replace(applied=False, why=why)
+
+    def _close_veto_window(self) -> None:
+        """No going on by itself: the operator took over (an edit, or a pause such as entering a teaching tab)."""
         self._veto_deadline = math.inf
-        help_request = self.help_request._replace(veto_window=0.0)
-        if request.operation == "undo":
-            why = f"vetoed by the operator (the tree is as before): {help_request.why}"
-            help_request = help_request._replace(applied=False, why=why)
-        self.help_request = help_request
+        if self.help_request is not None and self.help_request.veto_window > 0.0:
+            self.help_request = self.help_request._replace(veto_window=0.0)
+            self.revision += 1
 
     def _request_help_for_failed_execution(self) -> None:
         """A failure no leaf asked about reached the execution composite (e.g. a timeout decorator fired): ask."""
@@ -526,6 +531,8 @@ class TeachingTree:
         before this tree was started again, would otherwise run the robot without the operator); see :meth:`start`.
         """
         with self.lock:
+            if paused:
+                self._close_veto_window()
             if paused == self.paused or not self.started:
                 return
             self.blackboard.set(PAUSE_KEY, paused)
@@ -660,7 +667,7 @@ class TeachingTree:
                 return result
             if self.help_request is not None:
                 self._note_answer(request)
-                self._follow_the_veto_window(request)
+                self._follow_the_operator(request)
                 self._operator_answered = True
             self.revision += 1
             revision, text = self.revision, self.tree_yaml()
