@@ -221,3 +221,15 @@ def test_a_pause_in_the_veto_window_keeps_the_tree_paused_and_a_later_undo_is_st
     assert tree.paused and tree.help_request.applied and tree.help_request.veto_window == 0.0
     assert tree.change("", "undo").success and "PickItem" in tree.editor.nodes
     assert not tree.help_request.applied and tree.help_request.why.startswith("vetoed")
+
+
+def test_a_corrupt_policy_file_is_set_aside_in_one_line_and_the_tree_asks_as_without_a_policy(tmp_path):
+    store = TreeStore(tmp_path)
+    store.policy_path.write_text("demonstrations: [{situation: {node: 3}, edits: []}]\n")
+    policy, problems = store.restore_policy(dataclasses.replace(PolicyConfig.from_yaml(), act_confidence=0.0))
+    # Expect: one line naming the file and where it was moved; an empty policy; the tree asks with nothing proposed
+    assert "\n" not in problems and str(store.policy_path) in problems and "moved to tree_policy.corrupt-" in problems
+    assert len(policy) == 0 and not store.policy_path.exists()
+    tree = thesis_tree(SkillWorld(ticks=1, failures={"PickItem": [MISSING]}), store=store, policy=policy)
+    asking = asked(tree)
+    assert (asking.proposal, asking.applied, tree.paused) == ((), False, True)
