@@ -29,7 +29,7 @@ def _one_blas_thread() -> None:
 
 def behaviour_tree(description: str) -> ExitStatus:
     """Tick the teaching tree and serve its edits until shutdown."""
-    start("behaviour_tree", description, "behaviour_tree.yaml")
+    start("behaviour_tree", description, ("behaviour_tree.yaml", "tree_policy.yaml"))
     from teleteach.bt.ros import BehaviourTreeNode
 
     # Publishing a 1000-node log/tree after an edit is ~2 ms of pure Python; a short GIL switch interval keeps

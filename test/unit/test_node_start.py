@@ -94,6 +94,13 @@ def test_the_yaml_defaults_are_the_node_defaults_in_the_help():
     assert f"~rate (default {device['rate']})" in parameters_help("device.yaml")
 
 
+def test_a_node_with_two_yamls_lists_both_in_its_help():
+    # Expect the behaviour tree's own parameters and its tree policy's (the thresholds a study varies), both named
+    text = parameters_help(("behaviour_tree.yaml", "tree_policy.yaml"))
+    assert "~tick_rate (default 10.0)" in text and "~veto_window (default 5.0)" in text
+    assert "defaults from config/behaviour_tree.yaml, config/tree_policy.yaml" in text
+
+
 def test_shared_control_without_a_launch_file_runs_on_its_yaml(roscore, tmp_path):
     """rosrun teleteach shared_control died with KeyError: '~'; its parameters now come from its yaml.
 

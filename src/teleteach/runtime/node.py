@@ -28,7 +28,7 @@ class Parameter:
 def start(
     name: str,
     description: str,
-    parameters_file: str = "",
+    parameters_file: typing.Union[str, typing.Sequence[str]] = "",
     parser: typing.Optional[argparse.ArgumentParser] = None,
     init: bool = True,
 ) -> argparse.Namespace:
@@ -37,7 +37,8 @@ def start(
     Args:
         name: the node's name (and program name in the usage).
         description: the node's docstring: its first paragraph opens the usage.
-        parameters_file: the node's ``config/<file>``: each key is a private parameter, its value the default.
+        parameters_file: the node's ``config/<file>`` (or files): each key is a private parameter, its value the
+            default.
         parser: the node's own parser, for command-line options; its epilog gets the parameters.
         init: ``rospy.init_node`` (False: the caller inits later, e.g. robot_sim, whose --urdf only prints).
 
@@ -68,13 +69,14 @@ def start(
     return arguments
 
 
-def parameters_help(parameters_file: str = "", parameters: typing.Sequence[Parameter] = ()) -> str:
-    """The usage's list of private parameters: ``~name (default value): meaning``, from the yaml and ``parameters``."""
-    entries = list(parameters)
-    source = ""
-    if parameters_file:
-        entries += file_parameters(parameters_file)
-        source = f"; defaults from config/{parameters_file}"
+def parameters_help(
+    parameters_file: typing.Union[str, typing.Sequence[str]] = "", parameters: typing.Sequence[Parameter] = ()
+) -> str:
+    """The usage's list of private parameters: ``~name (default value): meaning``, from yamls and ``parameters``."""
+    files = [parameters_file] if isinstance(parameters_file, str) else list(parameters_file)
+    files = [name for name in files if name]
+    entries = list(parameters) + [entry for name in files for entry in file_parameters(name)]
+    source = f"; defaults from {', '.join(f'config/{name}' for name in files)}" if files else ""
     if not entries:
         return "parameters: none"
     lines = [f"parameters (private: rosrun teleteach <node> _name:=value, or a launch file's <param>{source}):"]
