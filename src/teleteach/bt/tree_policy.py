@@ -188,9 +188,7 @@ class TreePolicy:
         return True
 
     def _fit(self) -> None:
-        from sklearn.calibration import CalibratedClassifierCV
-        from sklearn.feature_extraction import DictVectorizer
-
+        """Refit on every demonstration; scikit-learn is loaded only once there are two repairs to tell apart."""
         self._templates = [generalise(edits, situation.node) for situation, edits in self.demonstrations]
         features = [situation.features() for situation, _ in self.demonstrations]
         self._categories = {situation.failure.category for situation, _ in self.demonstrations}
@@ -203,6 +201,9 @@ class TreePolicy:
         self._model = None
         if len(self.repairs) < 2:
             return
+        from sklearn.calibration import CalibratedClassifierCV
+        from sklearn.feature_extraction import DictVectorizer
+
         self._vectoriser = DictVectorizer(sparse=False)
         rows = self._vectoriser.fit_transform([scaled(values) for values in features])
         labels = np.array([self.repairs.index(template) for template in self._templates])
