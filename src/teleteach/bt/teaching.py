@@ -16,10 +16,10 @@ The edits that answered a help request are remembered (:mod:`teleteach.bt.repair
 same node and reason suggests them, and ``repair`` applies them as one edit. With a tree policy
 (:mod:`teleteach.bt.tree_policy`) the failure is also described as a situation and the policy asked
 (:mod:`teleteach.bt.decisions` says who acts): confident, the tree applies the proposal itself right after the tick
-(never during one), stays paused for the veto window and then goes on by itself; an undo within the window is a veto
-(the tree is restored and asks). Unsure, the help request carries the proposal, and ``repair`` applies it when no
-repair is remembered. The operator's answer (their
-accepted edits, a confirmed proposal included) becomes a demonstration and the policy is saved.
+(never during one), stays paused for the veto window and then goes on by itself, unless the operator edits or pauses
+it first; an undo of the proposal is a veto (the tree is restored and asks). Unsure, the help request carries the
+proposal, and ``repair`` applies it when no repair is remembered. The operator's answer (their accepted edits, a
+confirmed proposal included) becomes a demonstration and the policy is saved.
 
 Pausing and the arm (:meth:`TeachingTree.execution_state`): a pause suspends the running skill with its goal out, so
 that it finishes what it was doing (the thesis: the tree pauses after its running skill); after ``preempt_after``
