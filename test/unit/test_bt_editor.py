@@ -5,7 +5,7 @@ import pytest
 from bt_support import CONFIG, THESIS_SEQUENCE, SkillWorld, leaf_names, status_of, thesis_tree
 from py_trees.common import Status
 
-from teleteach.bt.editor import OPERATIONS, TreeEditor, snapshot
+from teleteach.bt.editor import OPERATIONS, EditRequest, TreeEditor, snapshot
 from teleteach.bt.library import SkillLibrary
 from teleteach.bt.tree import create_root, parse_tree
 
@@ -235,3 +235,26 @@ def test_bad_request_changes_nothing_and_says_what_was_wrong(request_, message):
     assert tree.editor.nodes == names
     assert tree.revision == revision
     assert world.names("cancel") == []
+
+
+@pytest.mark.parametrize(
+    "request_",
+    [
+        EditRequest("PickItem", "remove"),
+        EditRequest("PickItem", "wrap", node_type="retry", parameter=3.0),
+        EditRequest("PlaceItem", "wrap", node_type="timeout", parameter=2.5),
+        EditRequest("LookToShelf", "wrap", node_type="inverter"),
+        EditRequest("SelectorPickItem", "convert", node_type="sequence"),
+        EditRequest("LookToShelf", "insert", 4, parent="SelectorPickItem"),
+        EditRequest("ProductInHand", "prepend", parent="SelectorPickItem"),
+        EditRequest("PickItem2", "add"),
+        EditRequest("InverterLookToShelf", "unwrap"),
+    ],
+)
+def test_a_described_request_is_read_back_from_its_line(request_):
+    # Expect the line a help request carries to give back the request it was written for
+    assert EditRequest.from_line(request_.describe()) == request_
+
+
+def test_a_line_no_request_wrote_is_no_request():
+    assert EditRequest.from_line("the robot is confused") is None

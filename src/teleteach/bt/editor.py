@@ -525,6 +525,31 @@ class EditRequest(typing.NamedTuple):
             text += f" in {self.parent}"
         return text
 
+    @classmethod
+    def from_line(cls, line: str) -> typing.Optional["EditRequest"]:
+        """The request :meth:`describe` wrote ``line`` for (a help request carries edits as lines); None if none."""
+        found = _DESCRIBED.fullmatch(line.strip())
+        if found is None:
+            return None
+        parameter, index = found["parameter"], found["index"]
+        return cls(
+            found["node_name"],
+            found["operation"],
+            index=int(index) if index else 0,
+            parent=found["parent"] or "",
+            node_type=found["node_type"] or "",
+            parameter=float(parameter) if parameter else 0.0,
+        )
+
+
+# What EditRequest.describe writes: "wrap PickItem in a retry (3)", "insert LookToShelf at index 1 in SelectorPick"
+_DESCRIBED = re.compile(
+    r"(?P<operation>\w+) (?P<node_name>\S*)"
+    r"(?: (?:in|to) an? (?P<node_type>\w+)(?: \((?P<parameter>[^)]+)\))?)?"
+    r"(?: at index (?P<index>-?\d+))?"
+    r"(?: in (?P<parent>\S+))?"
+)
+
 
 def inverse(edit: EditRecord) -> EditRecord:
     """The edit that undoes ``edit`` (a copy: the history keeps the original)."""
