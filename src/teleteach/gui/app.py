@@ -28,9 +28,9 @@ from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.guidance import GuidanceDesigner, HeldPose
 from teleteach.gui.high_level import ros as high_level_tab
 from teleteach.gui.low_level import ros as low_level_tab
+from teleteach.gui.proposal import HelpRequestView
 from teleteach.gui.recording import PathRecorder, StiffnessRecorder
 from teleteach.gui.ros import ServiceCaller, WindowTopics, log
-from teleteach.gui.selection import REPAIR_CHOICE
 from teleteach.gui.session import Action, TeachingSession
 from teleteach.gui.shared_control import ros as shared_control_tab
 from teleteach.gui.start import ros as start_tab
@@ -45,6 +45,8 @@ from teleteach.srv import StudyInput, StudyInputRequest
 
 # The window's tabs in their order (teleteach.core.active_tab.Tab): each one package's build(window) (gui/adapter.py)
 TABS = (start_tab.build, high_level_tab.build, low_level_tab.build, shared_control_tab.build, teleop_tab.build)
+HELP_STYLE = "background: #d22828; color: white; font-size: 15pt; font-weight: bold; padding: 8px;"  # the robot asks
+APPLIED_STYLE = "background: #e65100; color: white; font-size: 15pt; font-weight: bold; padding: 8px;"  # it acted
 
 
 def _banner(style: str) -> QLabel:
@@ -109,9 +111,11 @@ class MainWindow(QMainWindow):
         self.resize(1180, 880)
         central = QWidget()
         column = QVBoxLayout(central)
-        self.help_banner = _banner(
-            "background: #d22828; color: white; font-size: 15pt; font-weight: bold; padding: 8px;"
-        )
+        self.help_banner = _banner(HELP_STYLE)
+        self._help_request = HelpRequestView("")
+        self._veto_deadline = 0.0  # [s] time.monotonic() when the veto window of an applied proposal closes
+        self._veto_countdown = QTimer(self)
+        self._veto_countdown.timeout.connect(self._show_help)
         self.study_banner = _banner(
             "background: #1a237e; color: white; font-size: 14pt; font-weight: bold; padding: 6px;"
         )
@@ -221,18 +225,27 @@ class MainWindow(QMainWindow):
         self.library_names = [skill.name for skill in library]
         self.high_level.on_library(library)
 
-    def _on_help(self, node_name: str, reason: str, suggestion: Sequence[str] = ()) -> None:
-        self.carry_out(self.session.help_requested(node_name))
-        self.high_level.set_repair(node_name, suggestion)
-        if not node_name:  # the tree clears its request with an empty node name once answered
-            self.help_banner.hide()
-            return
-        text = f"The robot asks for help: {node_name} failed ({reason}). Change the tree."
-        if suggestion:
-            text += f" Last time: {'; '.join(suggestion)}. HIGH-LEVEL: select \u201c{REPAIR_CHOICE}\u201d and click."
+    def _on_help(self, help_request: HelpRequestView) -> None:
+        """The robot asks (with its proposal preselected in HIGH-LEVEL), or applied its proposal, or was answered."""
+        self.carry_out(self.session.help_requested(help_request.node_name))
+        self.high_level.set_help(help_request)
+        self._help_request = help_request
+        self._veto_deadline = time.monotonic() + help_request.veto_left
+        self.help_banner.setStyleSheet(APPLIED_STYLE if help_request.applied else HELP_STYLE)
+        self._show_help()
+        if help_request.veto_left > 0.0:
+            self._veto_countdown.start(250)
+        if help_request.node_name:
+            self.statusBar().showMessage(f"help requested by {help_request.node_name}: {help_request.reason}", 30000)
+
+    def _show_help(self) -> None:
+        """The banner with what is left of the veto window now (the countdown stops at its end)."""
+        left = max(0.0, self._veto_deadline - time.monotonic())
+        if left == 0.0:
+            self._veto_countdown.stop()
+        text = self._help_request.banner(left)
         self.help_banner.setText(text)
-        self.help_banner.show()
-        self.statusBar().showMessage(f"help requested by {node_name}: {reason}", 30000)
+        self.help_banner.setVisible(bool(text))
 
     # user study ---------------------------------------------------------------------------------------
     def _on_study_state(self, status: StudyView) -> None:

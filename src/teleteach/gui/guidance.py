@@ -4,10 +4,10 @@ The thesis' operator fights the device: selecting with X the hand drifts in Y (F
 the current step does not use and puts a detent at every position the step can stop at:
 
 - START: detents at the left / right choices along X and at the "up" choice (SHARED CONTROL) along Y;
-- HIGH-LEVEL step 1: a detent at each button along X, Y and Z held; step 2: a detent at each operation of the page
-  along Y, X held where the node was confirmed, roll free (it turns the page); step 3: a detent at each dial
-  position in roll, X and Y held; Z is held in every step, so pushing it down or pulling it up (undo, redo) is a
-  deliberate act against a spring;
+- HIGH-LEVEL step 1 (and the robot's proposal preselected): a detent at each button along X, Y and Z held; step 2: a
+  detent at each operation of the page along Y, X held where the node was confirmed, roll free (it turns the page);
+  step 3: a detent at each dial position in roll, X and Y held; Z is held in every step, so pushing it down or
+  pulling it up (undo, redo) is a deliberate act against a spring;
 - LOW-LEVEL modes X, Y, Z: everything held where it was when the mode began, except the selected axis' translation
   (free) and rotation (a detent where it began, ``guidance_mode_angle_*``: the thesis (IV) found length and
   rotation of an axis coupled, "changing the axis length unavoidably leads to slight changes in orientation"; a
@@ -109,7 +109,7 @@ class GuidanceDesigner:
         reach, turn = self.config.device_range, self.config.device_angle_range
         nodes = bin_centres(max(1, len(flow.choices)), reach)
         node_x = nodes[min(flow.node_index, len(nodes) - 1)]
-        if flow.step is Step.NODE:
+        if flow.step in (Step.NODE, Step.PROPOSAL):  # a preselection is left by moving to another button
             return self._guidance(
                 x=self._detents(nodes, 2.0 * reach / len(nodes)), y=self._hold(0.0), z=self._hold(0.0)
             )

@@ -5,8 +5,10 @@ insert an index (dial, device rotation about X); each click confirms one step, t
 
 Beyond the thesis, without changing its gestures: in step 2, rolling the handle beyond ``page_turn`` shows a second
 page of operations (unwrap, wrap in a decorator or composite, convert a composite), whose retry and timeout take
-their value from the step-3 dial; and a click with the handle pushed down (device Z below ``-edit_push``) undoes
-the last edit, pulled up redoes it, from any step.
+their value from the step-3 dial; a click with the handle pushed down (device Z below ``-edit_push``) undoes
+the last edit, pulled up redoes it, from any step; and the robot's proposal (teleteach.gui.proposal) comes
+preselected: its node and operation are shown chosen and a click confirms it, until the handle moves to another
+button, which selects as in step 1 (the operator corrects the robot with the same gestures as ever).
 """
 
 import dataclasses
@@ -16,6 +18,7 @@ from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple
 from teleteach.bt.editor import EditRequest
 from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import DeviceSample, scale_to_index
+from teleteach.gui.proposal import REPAIR_CHOICE, Offer
 from teleteach.msg import Behaviour
 
 # Bottom to top on the vertical slider: moving the device towards -Y goes towards "remove" (thesis Fig. 5, phase C).
@@ -34,8 +37,6 @@ MORE_OPERATIONS = (
     "target",  # add, prepend and insert put nodes into the selected composite (again on it: back to the default)
 )
 PAGES = (OPERATIONS, MORE_OPERATIONS)
-# The first button while a help request suggests a remembered repair: selecting it and clicking applies the repair.
-REPAIR_CHOICE = "Repair as last time"
 DEFAULT_PARENT = "BehaviorExecution"
 COMPOSITE_TYPES = (2, 3, 4)  # teleteach/Behaviour SEQUENCE, SELECTOR, PARALLEL: what add, prepend and insert can fill
 
@@ -128,6 +129,7 @@ class Step(enum.Enum):
     INDEX = 3
     WAITING = 4
     PARAMETER = 5  # step 3 for a retry's attempts or a timeout's seconds
+    PROPOSAL = 6  # the robot's proposal preselected: a click confirms it, the handle on another button leaves it
 
 
 class SelectionFlow:
@@ -150,6 +152,9 @@ class SelectionFlow:
         self.parameter_index = 0
         self.height = 0.0  # device Z of the latest sample: a click with the handle pushed or pulled undoes / redoes
         self.repair_node = ""  # the failed node whose help request suggests a remembered repair ("" if none)
+        self.offer: Optional[Offer] = None  # the robot's proposal to preselect, until it is sent or withdrawn
+        self._offer_button: Optional[int] = None  # the button under the handle when the preselection was first felt
+        self._sent_offer: Optional[Offer] = None  # the offer the operator confirmed last
         self.answer = ""
 
     def set_choices(
@@ -173,6 +178,36 @@ class SelectionFlow:
             if self.step in (Step.OPERATION, Step.INDEX, Step.PARAMETER):
                 self.step = Step.NODE
         self.index = min(self.index, self.insert_slots - 1)
+        self._offer_button = None  # the buttons moved: the handle's place is felt again
+        if self.step is Step.PROPOSAL:
+            self._preselect()
+
+    def set_offer(self, offer: Optional[Offer]) -> None:
+        """The robot's proposal of the open help request (None: none, or withdrawn); a new one is preselected."""
+        if offer is None:
+            self._sent_offer = None  # a later failure may bring the same proposal again: a new offer
+        elif offer == self._sent_offer:
+            return  # the help request still carries the proposal the operator confirmed
+        if offer == self.offer:
+            return  # the same proposal again: a preselection the operator left stays left
+        self.offer = offer
+        if offer is not None and self.step in (Step.NODE, Step.PROPOSAL):
+            self._preselect()
+        elif offer is None and self.step is Step.PROPOSAL:
+            self.step = Step.NODE
+
+    def _preselect(self) -> None:
+        """Show the offer chosen: its node under the node slider, its operation (and page) under the other."""
+        shown = self.offer.shown
+        self.step, self._offer_button = Step.PROPOSAL, None
+        if shown.node_name in self.choices:
+            self.node_index = self.choices.index(shown.node_name)
+        operation = " ".join(part for part in (shown.operation, shown.node_type) if part)
+        for page, operations in enumerate(PAGES):
+            if operation in operations:
+                self.page, self.operation_index = page, operations.index(operation)
+        if shown.operation == "insert":
+            self.index = min(shown.index, self.insert_slots - 1)
 
     @property
     def insert_slots(self) -> int:
@@ -212,14 +247,26 @@ class SelectionFlow:
         return values[min(self.parameter_index, len(values) - 1)]
 
     def reset(self) -> None:
-        """Back to step 1, adding into DEFAULT_PARENT again (entering the tab, returning to START)."""
+        """Back to step 1, adding into DEFAULT_PARENT again (entering the tab, returning to START).
+
+        An offer still open comes preselected again: the operator who looked elsewhere first finds it as it came.
+        """
         self.step = Step.NODE
         self.page = 0
         self.target = ""
+        if self.offer is not None:
+            self._preselect()
 
     def device(self, sample: DeviceSample) -> None:
         """Move the control of the current step only; the others stay where they are (greyed out)."""
         self.height = sample.z
+        if self.step is Step.PROPOSAL and self.choices:
+            button = scale_to_index(sample.x, self.config.device_range, len(self.choices))
+            if self._offer_button is None:
+                self._offer_button = button  # where the handle was when the preselection was first felt
+            if button == self._offer_button:
+                return
+            self.step, self.page = Step.NODE, 0  # the handle went to another button: the operator selects
         if self.step is Step.NODE and self.choices:
             self.node_index = scale_to_index(sample.x, self.config.device_range, len(self.choices))
         elif self.step is Step.OPERATION:
@@ -251,12 +298,14 @@ class SelectionFlow:
         """What a click now confirms, as (step, choice); None when it confirms nothing.
 
         ("node", "PlaceItem"), ("operation", "remove"), ("index", "3"), ("parameter", "2"), ("undo", ""), ("redo", ""),
-        ("repair", the failed node).
+        ("repair", the failed node), ("proposal", the robot's request in words).
         """
         if self.step is Step.WAITING:
             return None
         if self.edit_gesture:
             return self.edit_gesture, ""
+        if self.step is Step.PROPOSAL:
+            return "proposal", self.offer.request.describe()
         if self.step is Step.NODE:
             if self.repair_node and self.selected_node == REPAIR_CHOICE:
                 return "repair", self.repair_node
@@ -272,6 +321,10 @@ class SelectionFlow:
         if self.step is not Step.WAITING and self.edit_gesture:
             self.step = Step.WAITING
             return EditRequest("", self.edit_gesture)
+        if self.step is Step.PROPOSAL:
+            request, self._sent_offer = self.offer.request, self.offer
+            self.step, self.offer = Step.WAITING, None  # sent: the same offer is not preselected again
+            return request
         if self.step is Step.NODE:
             if self.repair_node and self.selected_node == REPAIR_CHOICE:
                 self.step = Step.WAITING

@@ -26,6 +26,7 @@ from teleteach.gui.arm import ArmListener
 from teleteach.gui.device import DeviceFilter, EdgeDetector, parse_pose
 from teleteach.gui.ellipsoid import EllipsoidCommand
 from teleteach.gui.perception import Perception
+from teleteach.gui.proposal import HelpRequestView
 from teleteach.gui.recording import StiffnessRecorder
 from teleteach.gui.selection import LibrarySkill, TreeNode, TreeSnapshot
 from teleteach.gui.study import study_view
@@ -61,7 +62,7 @@ class RosWorker(QObject):
     gripper_opened = pyqtSignal()
     tree_received = pyqtSignal(object)  # TreeSnapshot
     library_received = pyqtSignal(object)  # list of LibrarySkill
-    help_requested = pyqtSignal(str, str, object)  # node, reason, the remembered repair (lines, may be empty)
+    help_requested = pyqtSignal(object)  # HelpRequestView: the failure, the remembered repair, the robot's proposal
     health = pyqtSignal(str)  # "" when all inputs are alive, else what is missing
     study_state = pyqtSignal(object)  # StudyView of a user study (study/state)
     _tab_changed = pyqtSignal()  # to the worker's own thread, where its timers live
@@ -273,7 +274,21 @@ class RosWorker(QObject):
         self.library_received.emit([LibrarySkill(*skill) for skill in zip(message.names, kinds, files, problems)])
 
     def _on_help(self, message: HelpRequest) -> None:
-        self.help_requested.emit(message.node_name, message.reason, list(message.suggestion))
+        veto_left = 0.0
+        if message.veto_window > 0.0:  # the window opened at the stamp: what is left of it now
+            age = (rospy.Time.now() - message.header.stamp).to_sec()
+            veto_left = min(message.veto_window, max(0.0, message.veto_window - age))
+        view = HelpRequestView(
+            message.node_name,
+            message.reason,
+            tuple(message.suggestion),
+            tuple(message.proposal),
+            message.confidence,
+            message.why,
+            message.applied,
+            veto_left,
+        )
+        self.help_requested.emit(view)
 
     def _on_execution(self, message: TreeExecution) -> None:
         self._execution = message

@@ -33,6 +33,7 @@ from teleteach.gui.high_level.styles import (
     button_size,
 )
 from teleteach.gui.high_level.tree_view import TreeView
+from teleteach.gui.proposal import HelpRequestView
 from teleteach.gui.selection import (
     COMPOSITE_TYPES,
     DEFAULT_PARENT,
@@ -186,11 +187,13 @@ class HighLevelTab(QWidget):
         self.tree_view.show_tree(tree)
         self._rebuild()
 
-    def set_repair(self, node_name: str, suggestion: Sequence[str]) -> None:
-        """A help request suggests a remembered repair (a first button applies it), or no longer does."""
-        self.flow.repair_node = node_name if suggestion else ""
-        self.repair_tooltip = "; ".join(suggestion)
+    def set_help(self, help_request: HelpRequestView) -> None:
+        """A help request's remembered repair (a first button applies it) and the robot's proposal (preselected)."""
+        self.flow.repair_node = help_request.node_name if help_request.suggestion else ""
+        self.repair_tooltip = "; ".join(help_request.suggestion)
+        self.flow.set_offer(help_request.offer())
         self._rebuild()
+        self.refresh()
 
     def on_library(self, library: Sequence[LibrarySkill]) -> None:
         """The skill library changed (a demonstrated skill appears here, thesis III-E; a broken one is greyed)."""
@@ -316,7 +319,7 @@ class HighLevelTab(QWidget):
         """Show the flow's state; controls of other steps are greyed out."""
         flow = self.flow
         for box, steps in (
-            (self.step1, (Step.NODE,)),
+            (self.step1, (Step.NODE, Step.PROPOSAL)),
             (self.step2, (Step.OPERATION,)),
             (self.step3, (Step.INDEX, Step.PARAMETER)),
         ):
@@ -377,6 +380,8 @@ class HighLevelTab(QWidget):
             Step.INDEX: f"{node}: insert at index {flow.index}",
             Step.PARAMETER: f"{node}: {flow.selected_operation} {flow.parameter:g}",
             Step.WAITING: "waiting for /change_tree...",
+            Step.PROPOSAL: f"the robot proposes {flow.offer.text if flow.offer else '-'}: click to apply it,"
+            " or move to another button and select yourself",
         }[flow.step]
         if flow.target and flow.step in (Step.NODE, Step.OPERATION):
             step_text += f"  (adding into {flow.target})"
