@@ -4,6 +4,7 @@ The GUI runs in the X server pytest-xvfb starts (real Mesa OpenGL); the test pro
 hosts the GUI and plays the operator (it publishes the /sigma7 topics the sigma7 node would publish).
 """
 
+import collections
 import gc
 import os
 import pathlib
@@ -160,7 +161,11 @@ def pump_until(qapp, predicate, timeout, what):
 
 
 class DeviceStandIn:
-    """Publishes the /sigma7 topics like the sigma7 node (pose, gripper, emulated button) at 200 Hz."""
+    """Publishes the /sigma7 topics like the sigma7 node (pose, gripper, emulated button) at 200 Hz.
+
+    The button goes out from the stream's thread only, each press and release of a click at least once and in order
+    (``_edges``): a stream starved through a whole 80 ms press still sends it, and a double click stays two.
+    """
 
     def __init__(self):
         import rospy
@@ -170,13 +175,14 @@ class DeviceStandIn:
         self._rospy = rospy
         self._pose = rospy.Publisher("/sigma7/pose", PoseStamped, queue_size=10)
         self._gripper = rospy.Publisher("/sigma7/gripper_angle", Float64, queue_size=10)
-        self._button = rospy.Publisher("/sigma7/button", Bool, queue_size=10)
+        self._button = rospy.Publisher("/sigma7/button", Bool, queue_size=200)  # 1 s: no edge dropped
         self._messages = (PoseStamped, Float64, Bool)
         self._lock = threading.Lock()
         self.position = [0.0, 0.0, 0.0]
         self.quaternion = [0.0, 0.0, 0.0, 1.0]
         self.gripper = 0.25
         self.pressed = False
+        self._edges = collections.deque()  # button states set by click() and not yet published
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
@@ -193,12 +199,11 @@ class DeviceStandIn:
             self.position, self.quaternion = list(position), list(quaternion)
 
     def click(self, hold=0.08):
-        with self._lock:
-            self.pressed = True
-        time.sleep(hold)
-        with self._lock:
-            self.pressed = False
-        time.sleep(hold)
+        for pressed in (True, False):
+            with self._lock:
+                self.pressed = pressed
+                self._edges.append(pressed)
+            time.sleep(hold)
 
     def set_gripper(self, angle):
         with self._lock:
@@ -214,7 +219,8 @@ class DeviceStandIn:
                 p, q = message.pose.position, message.pose.orientation
                 p.x, p.y, p.z = self.position
                 q.x, q.y, q.z, q.w = self.quaternion
-                gripper, pressed = self.gripper, self.pressed
+                gripper = self.gripper
+                pressed = self._edges.popleft() if self._edges else self.pressed
             self._pose.publish(message)
             self._gripper.publish(float_class(gripper))
             self._button.publish(bool_class(pressed))
