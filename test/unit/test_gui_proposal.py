@@ -1,5 +1,6 @@
 """The robot's proposal in the GUI, without a display: teleteach.gui.proposal and its preselection (issue 52)."""
 
+from teleteach.bt.decisions import VETOED
 from teleteach.bt.editor import EditRequest
 from teleteach.core.gui_config import GuiConfig
 from teleteach.gui.device import DeviceSample
@@ -52,6 +53,7 @@ def test_what_one_request_cannot_confirm_is_not_offered():
     assert beside_another.offer() is None
     assert beside_another._replace(suggestion=()).offer().request == EditRequest("PickItem", "repair")
     assert UNSURE._replace(applied=True).offer() is None  # applied already: vetoed, not confirmed
+    assert UNSURE._replace(why=f"{VETOED} (the tree is as before): remove").offer() is None  # just said no to it
     assert UNSURE._replace(proposal=()).offer() is None
     assert UNSURE._replace(node_name="").offer() is None  # answered
 

@@ -21,6 +21,8 @@ from teleteach.bt.situations import Situation, Spec, describe
 from teleteach.bt.tree_policy import TreePolicy
 from teleteach.core.scene import Scene, SceneError
 
+VETOED = "vetoed by the operator"  # how a help request's ``why`` begins after a veto: the GUI does not offer it again
+
 
 class Advice(typing.NamedTuple):
     """The policy's proposal for a failure, its confidence and reason, and whether the robot applies it alone."""

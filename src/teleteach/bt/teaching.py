@@ -43,7 +43,7 @@ import yaml
 from py_trees.common import Status
 
 from teleteach.bt.behaviours import PAUSE_KEY, SkillLeaf
-from teleteach.bt.decisions import TaskKnowledge, advise
+from teleteach.bt.decisions import VETOED, TaskKnowledge, advise
 from teleteach.bt.editor import ChangeResult, EditRequest, TreeEditor
 from teleteach.bt.library import LibraryError, SkillEntry, SkillLibrary
 from teleteach.bt.repairs import RepairError, RepairMemory
@@ -501,7 +501,7 @@ class TeachingTree:
             return
         self._close_veto_window()
         if request.operation == "undo" and not self._answer:
-            why = f"vetoed by the operator (the tree is as before): {self.help_request.why}"
+            why = f"{VETOED} (the tree is as before): {self.help_request.why}"
             self.help_request = self.help_request._replace(applied=False, why=why)
 
     def _close_veto_window(self) -> None:

@@ -235,7 +235,9 @@ class MainWindow(QMainWindow):
         self._show_help()
         if help_request.veto_left > 0.0:
             self._veto_countdown.start(250)
-        if help_request.node_name:
+        if help_request.applied:
+            self.statusBar().showMessage(f"the robot applied its proposal for {help_request.node_name}", 30000)
+        elif help_request.node_name:
             self.statusBar().showMessage(f"help requested by {help_request.node_name}: {help_request.reason}", 30000)
 
     def _show_help(self) -> None:

@@ -7,12 +7,14 @@ The tree policy's confidence decides who acts (teleteach.bt.decisions); the GUI 
   remembered repair is the proposal), else the proposal's one edit itself. A proposal of several edits beside another
   remembered repair cannot be one request: it is only told, the operator builds it or takes the remembered one.
 - confident, the robot applied its proposal alone: the banner says so and counts the veto window down; the undo
-  gesture (a click with the handle pushed down) vetoes it within the window, as it undoes any edit.
+  gesture (a click with the handle pushed down) vetoes it within the window, as it undoes any edit. The robot then
+  asks, its proposal told but not preselected: the operator has just said no to it.
 """
 
 import math
 from typing import NamedTuple, Optional, Tuple
 
+from teleteach.bt.decisions import VETOED
 from teleteach.bt.editor import EditRequest
 
 REPAIR_CHOICE = "Repair as last time"  # HIGH-LEVEL's first button while a remembered repair is suggested
@@ -49,8 +51,8 @@ class HelpRequestView(NamedTuple):
         return f"{'; '.join(self.proposal)}, {percent(self.confidence)} sure"
 
     def offer(self) -> Optional[Offer]:
-        """What HIGH-LEVEL preselects for one click, or None (nothing asked, nothing proposed, applied already)."""
-        if not self.node_name or not self.proposal or self.applied:
+        """What HIGH-LEVEL preselects for one click, or None (nothing asked or proposed, applied, or just vetoed)."""
+        if not self.node_name or not self.proposal or self.applied or self.why.startswith(VETOED):
             return None
         edits = [EditRequest.from_line(line) for line in self.proposal]
         if None in edits:
@@ -67,15 +69,15 @@ class HelpRequestView(NamedTuple):
         """The red banner's text (``seconds_left`` of the veto window now); "" once the request is answered."""
         if not self.node_name:
             return ""
-        failed = f"{self.node_name} failed ({self.reason})"
+        failed = f"{self.node_name} failed: {self.reason}."
         if self.applied and seconds_left > 0.0:
             return (
-                f"The robot applied its proposal: {self.proposal_text} ({failed}). Undo within"
+                f"{failed} The robot applied its proposal: {self.proposal_text}. Undo within"
                 f" {math.ceil(seconds_left)} s to veto (HIGH-LEVEL: click with the handle pushed down)."
             )
         if self.applied:
-            return f"The robot applied its proposal: {self.proposal_text} ({failed}). Change the tree or go on."
-        text = f"The robot asks for help: {failed}. Change the tree."
+            return f"{failed} The robot applied its proposal: {self.proposal_text}. Change the tree or go on."
+        text = f"The robot asks for help: {self.node_name} failed ({self.reason}). Change the tree."
         if self.suggestion:
             remembered = "; ".join(self.suggestion)
             text += f" Last time: {remembered}. HIGH-LEVEL: select \u201c{REPAIR_CHOICE}\u201d and click."

@@ -380,7 +380,7 @@ class HighLevelTab(QWidget):
             Step.INDEX: f"{node}: insert at index {flow.index}",
             Step.PARAMETER: f"{node}: {flow.selected_operation} {flow.parameter:g}",
             Step.WAITING: "waiting for /change_tree...",
-            Step.PROPOSAL: f"the robot proposes {flow.offer.text if flow.offer else '-'}: click to apply it,"
+            Step.PROPOSAL: f"the robot proposes: {flow.offer.text if flow.offer else '-'}. Click to apply it,"
             " or move to another button and select yourself",
         }[flow.step]
         if flow.target and flow.step in (Step.NODE, Step.OPERATION):
