@@ -1,9 +1,10 @@
 """HIGH-LEVEL teaching with the real GUI and the real behaviour tree node (thesis III-B, III-E), checked over ROS."""
 
+import re
 import time
 
 import pytest
-from conftest import pump_until, start_bt, stop
+from conftest import pump, pump_until, start_bt, stop
 
 from teleteach.core.active_tab import Tab
 from teleteach.gui.selection import MORE_OPERATIONS, OPERATIONS, REPAIR_CHOICE, Step
@@ -423,3 +424,119 @@ def test_step_two_shows_no_operation_before_it_is_reached_and_undo_is_cued_befor
     assert high.flow.edit_gesture == ""
     device.move(y=-0.09, z=-0.06)
     pump_until(qapp, lambda: high.selected_label.text() == "click to undo the last edit (handle down)", 5, "undo")
+
+
+@pytest.fixture
+def bt_node_with_a_policy(ros_master, data_root, request):
+    """The impatient node with the tree policy's act_confidence (the indirect parameter, else the yaml's 0.9) and a
+    long veto window, as bt.launch's arguments would set them. An act_confidence of 0 makes the robot apply even a
+    proposal it is unsure of, so the GUI's applied case comes after one demonstration (how confident the policy gets
+    is test_tree_policy's and the rostest's matter)."""
+    import rospy
+
+    parameters = {"act_confidence": getattr(request, "param", 0.9), "veto_window": VETO_WINDOW}
+    for name, value in parameters.items():
+        rospy.set_param(f"/behaviour_tree/{name}", value)
+    process = start_bt(data_root, server_timeout=1.0)
+    yield process
+    stop(process)
+    for name in parameters:
+        rospy.delete_param(f"/behaviour_tree/{name}")
+
+
+VETO_WINDOW = 12.0  # [s] long enough for the gestures on a loaded 2-core machine, short enough to see it count
+
+
+def execution_names(tree_log):
+    tree = tree_log.last()
+    return [child.name for child in execution_children(tree)] if tree is not None else []
+
+
+def demonstrate_a_removal(qapp, window, device):
+    """The operator answers LookToShelf's failure (no server) by removing it and returns to START: the tree learns
+    "remove the failed node" and goes on to PickItem, which has no server either."""
+    high = window.high_level
+    pump_until(qapp, lambda: "LookToShelf" in window.help_banner.text(), 20, "LookToShelf's help request")
+    assert high.flow.offer is None  # nothing demonstrated yet: nothing proposed
+    open_high_level(qapp, window, device)
+    select_node(qapp, window, device, high.flow.choices.index("LookToShelf"))
+    select_operation(qapp, window, device, "remove")
+    device.click()
+    pump_until(qapp, lambda: high.flow.answer.startswith("done"), 10, "the removal")
+    device.set_gripper(0.5)
+    pump_until(qapp, lambda: window.tabs.currentIndex() == Tab.START, 5, "START after opening the gripper")
+    device.set_gripper(0.25)
+
+
+def test_an_unsure_proposal_is_preselected_and_confirmed_with_one_click(
+    qapp, bt_node_with_a_policy, device, make_window, topic_log, artifacts_dir
+):
+    tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
+    window = make_window()
+    high = window.high_level
+    demonstrate_a_removal(qapp, window, device)
+    # Expect PickItem to ask with the removal proposed (one kind of repair shown: 0 % sure), preselected in HIGH-LEVEL
+    proposed = "The robot proposes: remove PickItem, 0 % sure"
+    pump_until(qapp, lambda: proposed in window.help_banner.text(), 20, "the proposal in the banner")
+    open_high_level(qapp, window, device)
+    preselected = (high.flow.step, high.flow.selected_node, high.flow.selected_operation)
+    assert preselected == (Step.PROPOSAL, "PickItem", "remove")
+    selected = high.buttons[high.flow.node_index]
+    assert selected.text() == "PickItem" and "ffd54f" in selected.styleSheet()  # the selected button's colour
+    assert high.selected_label.text().startswith("the robot proposes: remove PickItem, 0 % sure. Click to apply it")
+    pump(qapp, 0.5)  # the handle rests where it entered the tab: the preselection stays
+    assert high.flow.step is Step.PROPOSAL
+    window.screenshot().save(str(artifacts_dir / "gui_tree_policy_proposal.png"))
+    assert "PickItem" in execution_names(tree_log)
+    device.click()
+    # Expect the one click to remove PickItem (/change_tree repair applies the proposal), seen in the published tree
+    pump_until(qapp, lambda: "PickItem" not in execution_names(tree_log), 15, "PickItem removed by the one click")
+    pump_until(qapp, lambda: high.flow.answer.startswith("done"), 10, "the answer")
+    assert high.flow.step is Step.NODE  # confirmed: not preselected again
+
+
+@pytest.mark.parametrize("bt_node_with_a_policy", [0.0], indirect=True, ids=["act_alone"])
+def test_an_applied_proposal_counts_its_veto_window_down_and_the_undo_gesture_vetoes_it(
+    qapp, bt_node_with_a_policy, device, make_window, topic_log, artifacts_dir
+):
+    tree_log = topic_log("/behaviour_tree/log/tree", BehaviourTree)
+    window = make_window()
+    demonstrate_a_removal(qapp, window, device)
+    banner = window.help_banner.text
+    pump_until(qapp, lambda: "applied its proposal: remove PickItem" in banner(), 20, "the applied proposal announced")
+    # Expect PickItem removed by the robot and the banner counting the window down, second by second
+    pump_until(qapp, lambda: "PickItem" not in execution_names(tree_log), 10, "PickItem removed by the robot")
+    trees = [[child.name for child in execution_children(tree)] for tree in tree_log.since(0.0)]
+    with_pick = next(names for names in reversed(trees) if "PickItem" in names)  # the tree the robot changed
+    assert "LookToShelf" not in with_pick
+    first = seconds_to_veto(banner())
+    window.screenshot().save(str(artifacts_dir / "gui_tree_policy_applied.png"))
+    pump(qapp, 1.6)
+    assert 0 < seconds_to_veto(banner()) < first <= VETO_WINDOW
+    # The veto: HIGH-LEVEL, the handle pushed down, a click (undo)
+    open_high_level(qapp, window, device)
+    device.move(x=-0.05, z=-0.07)
+    pump_until(qapp, lambda: window.high_level.flow.edit_gesture == "undo", 5, "the handle pushed down")
+    device.click()
+    # Expect the tree as before the proposal, and the robot asking again, the proposal told but not preselected
+    pump_until(
+        qapp,
+        lambda: execution_names(tree_log) == with_pick,
+        15,
+        lambda: f"the tree restored by the veto: {execution_names(tree_log)} instead of {with_pick}, answer"
+        f" {window.high_level.flow.answer!r}",
+    )
+    pump_until(qapp, lambda: "The robot asks for help: PickItem failed" in banner(), 10, "the request asking again")
+    assert "Undo within" not in banner()
+    assert "The robot proposes: remove PickItem" in banner() and "preselected" not in banner()
+    device.move(x=-0.05)
+    pump_until(qapp, lambda: not window.high_level.flow.edit_gesture, 5, "the handle back in the middle")
+    assert window.high_level.flow.step is Step.NODE
+    window.screenshot().save(str(artifacts_dir / "gui_tree_policy_vetoed.png"))
+
+
+def seconds_to_veto(banner):
+    """The countdown's seconds in the banner's "Undo within N s to veto"."""
+    found = re.search(r"Undo within (\d+) s to veto", banner)
+    assert found, banner
+    return int(found.group(1))
