@@ -103,6 +103,13 @@ def test_the_undo_gesture_works_while_a_proposal_is_preselected():
     assert flow.click() == EditRequest("", "undo")
 
 
+def test_an_insert_is_preselected_on_the_library_button_at_its_index():
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices([*CHOICES, "LookToShelf", "PickItem"], len(CHOICES) + 1)  # the tree's nodes, then the library
+    flow.set_offer(UNSURE._replace(proposal=("insert LookToShelf at index 2",)).offer())
+    assert (flow.node_index, flow.selected_operation, flow.index) == (len(CHOICES), "insert", 2)
+
+
 def test_a_wrap_is_preselected_on_the_second_page_with_its_value():
     flow = flow_with(UNSURE._replace(proposal=("wrap PickItem in a retry (3)",)).offer())
     assert (flow.page, flow.selected_operation) == (1, "wrap retry")

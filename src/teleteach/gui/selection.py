@@ -200,8 +200,9 @@ class SelectionFlow:
         """Show the offer chosen: its node under the node slider, its operation (and page) under the other."""
         shown = self.offer.shown
         self.step, self._offer_button = Step.PROPOSAL, None
-        if shown.node_name in self.choices:
-            self.node_index = self.choices.index(shown.node_name)
+        buttons = [index for index, name in enumerate(self.choices) if name == shown.node_name]
+        if buttons:  # a skill added from the library is its button there, the last one of that name
+            self.node_index = buttons[-1] if shown.operation in ("add", "prepend", "insert") else buttons[0]
         operation = " ".join(part for part in (shown.operation, shown.node_type) if part)
         for page, operations in enumerate(PAGES):
             if operation in operations:
