@@ -131,3 +131,18 @@ def test_the_preselection_feels_like_step_one():
     preselected = designer.high_level(flow)
     flow.set_offer(None)
     assert preselected == designer.high_level(flow)
+
+
+def test_the_remembered_repair_scenario_still_clicks_its_repair_button():
+    # config/scenarios/remembered_repair.yaml's second request: the proposal is the remembered repair; the script
+    # enters HIGH-LEVEL at x = -0.05, moves to x = -0.098 (button 0 of 25) and clicks
+    remembered = ("wrap PickItem in a retry (2)",)
+    request = HelpRequestView("PickItem", "product_pick_1 is not on the table", remembered, remembered, 0.0)
+    flow = SelectionFlow(CONFIG)
+    flow.repair_node = "PickItem"
+    flow.set_choices([REPAIR_CHOICE, *(f"Node{index}" for index in range(24))], 10)
+    flow.set_offer(request.offer())
+    flow.reset()  # entering the tab
+    for x in (-0.05, -0.07, -0.098):
+        flow.device(at(x))
+    assert flow.confirmation() == ("repair", "PickItem")
