@@ -399,6 +399,31 @@ def test_every_button_fits_the_visible_width_at_any_window_size(qapp, artifacts_
     tab.close()
 
 
+def test_a_long_proposal_wraps_and_does_not_widen_the_tab(qapp):
+    from teleteach.core.gui_config import GuiConfig
+    from teleteach.gui.high_level.view import HighLevelTab
+    from teleteach.gui.proposal import HelpRequestView
+    from teleteach.gui.selection import TreeNode, TreeSnapshot
+
+    nodes = [
+        TreeNode("Root", "PausableSelector", "r", "", ("b",), 3, 2),
+        TreeNode("BehaviorExecution", "EditableSequence", "b", "r", ("l",), 2, 2),
+        TreeNode("PickItem", "PickItem", "l", "b", (), 1, 3),
+    ]
+    tab = HighLevelTab(GuiConfig.load())
+    tab.on_tree(TreeSnapshot(nodes))
+    tab.show()
+    qapp.processEvents()
+    narrowest = tab.minimumSizeHint().width()
+    edits = ("insert LookToShelf at index 0", "wrap PickItem in a retry (3)", "insert ProductInHand at index 1")
+    tab.set_help(HelpRequestView("PickItem", "product_pick_1 is not on the table", (), edits, 0.41, "two demos"))
+    qapp.processEvents()
+    # Expect the three edits preselected and told, in as many lines as the width needs
+    assert tab.flow.step is Step.PROPOSAL and "insert ProductInHand at index 1" in tab.selected_label.text()
+    assert tab.selected_label.minimumSizeHint().width() <= narrowest  # unwrapped, one line would need 1700 px
+    tab.close()
+
+
 def test_step_two_shows_no_operation_before_it_is_reached_and_undo_is_cued_before_its_threshold(
     qapp, bt_node, device, make_window, artifacts_dir
 ):
@@ -483,7 +508,7 @@ def test_an_unsure_proposal_is_preselected_and_confirmed_with_one_click(
     assert preselected == (Step.PROPOSAL, "PickItem", "remove")
     selected = high.buttons[high.flow.node_index]
     assert selected.text() == "PickItem" and "ffd54f" in selected.styleSheet()  # the selected button's colour
-    assert high.selected_label.text().startswith("the robot proposes: remove PickItem, 0 % sure. Click to apply it")
+    assert high.selected_label.text().startswith("the robot proposes: remove PickItem, 0 % sure. Click: apply it")
     pump(qapp, 0.5)  # the handle rests where it entered the tab: the preselection stays
     assert high.flow.step is Step.PROPOSAL
     window.screenshot().save(str(artifacts_dir / "gui_tree_policy_proposal.png"))

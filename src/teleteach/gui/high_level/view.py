@@ -72,6 +72,7 @@ class HighLevelTab(QWidget):
         self.step1 = self._node_step()
         self.selected_label = big(QLabel("waiting for the behaviour tree..."), 13)
         self.selected_label.setStyleSheet("color: #1b5e20;")
+        self.selected_label.setWordWrap(True)  # a proposal of several edits must not widen the window
         column.addWidget(self.selected_label)
         column.addWidget(self.step1, 1)  # the buttons get the room; the steps below keep their size
         self.step2, self.step3 = self._operation_step(), self._index_step()
@@ -380,8 +381,8 @@ class HighLevelTab(QWidget):
             Step.INDEX: f"{node}: insert at index {flow.index}",
             Step.PARAMETER: f"{node}: {flow.selected_operation} {flow.parameter:g}",
             Step.WAITING: "waiting for /change_tree...",
-            Step.PROPOSAL: f"the robot proposes: {flow.offer.text if flow.offer else '-'}. Click to apply it,"
-            " or move to another button and select yourself",
+            Step.PROPOSAL: f"the robot proposes: {flow.offer.text if flow.offer else '-'}. Click: apply it;"
+            " another button: choose yourself",
         }[flow.step]
         if flow.target and flow.step in (Step.NODE, Step.OPERATION):
             step_text += f"  (adding into {flow.target})"
