@@ -18,9 +18,11 @@ FULL_RUN_ONLY = ("rostest", "gui", "system", "slow")  # markers (pyproject.toml)
 # (worker_environment), every master is on a free port (own_roscore, rostest), every X server on a display it picks
 # (-displayfd: pytest-xvfb's, one per worker, and start_xvfb's); the solver cache is shared (written atomically).
 SPREAD_ONE_BY_ONE = ("test/test_rostests.py",)
-# What cannot run side by side: a test of ALONE holds the run's lock file exclusively (SystemLock), so no other
-# `system` test runs beside it; the other workers run the tests that need no system meanwhile. test/e2e is one unit,
-# run first (the workers' collection puts it first, then the files without a `system` test).
+# What cannot run side by side: a test of ALONE holds the run's `system` lock exclusively, so no other `system` test
+# runs beside it; of those, the ones that measure rates (MEASURES_RATES) also hold the `rates` lock exclusively. A test
+# of LIGHT holds only `rates` shared: it runs beside the e2e systems as a test that needs no system does, where the
+# other `system` tests hold `system` shared. test/e2e is one unit, run first (the workers' collection puts it first,
+# then the files without a `system` test, then LIGHT, then the other `system` tests: run_order).
 ALONE = {
     "test/e2e/": "whole systems (simulation, GUI, tree, device, recorder: about 1.5 of 2 cores) with waits bounded on"
     " the wall clock: three at once missed them (the study timed out at 420 s, teach_placement at 480 s, the thesis run"
@@ -31,7 +33,37 @@ ALONE = {
     " loop: beside another system test the guidance went stale and a click's push confirmed a neighbour (CI), under"
     " two busy loops three clicks in a row were not taken",
 }
+MEASURES_RATES = (
+    "test/test_rostests.py::test_rostest[shared_control_boundary]",
+    "test/gui/test_bench_haptic_guidance.py",
+)
+LIGHT = {  # a master and a few nodes of the tree or the runtime, the longest 23 s (docs/benchmarks.md)
+    **{
+        f"test/test_rostests.py::test_rostest[{name}]": "the tree node and the skill test server (a sleep per skill),"
+        " no simulation, GUI or device loop"
+        for name in (
+            "bt_change_tree",
+            "bt_help",
+            "bt_pause",
+            "bt_persistence",
+            "bt_recovery",
+            "bt_respawn",
+            "bt_sequence",
+            "bt_server_lost",
+            "bt_startup",
+            "bt_tree_policy",
+        )
+    },
+    "test/test_rostests.py::test_rostest[one_goal_action_server]": "an action server and its client",
+    "test/test_rostests.py::test_rostest[stiffness_bridge]": "the stiffness bridge and a check",
+    "test/ros/test_bt_action_internals.py": "an action server and client in one node",
+    "test/ros/test_node_init.py": "a node's start against a master",
+    "test/unit/test_experiment.py": "a master, an Xvfb and child processes that end on their own",
+    "test/unit/test_learning_command.py": "the learn_skill command",
+    "test/unit/test_node_start.py": "nodes started and stopped at once",
+}
 E2E = "test/e2e/"
+LOCKS = ("system", "rates")  # taken in this order, so no two workers wait on each other
 
 
 def pytest_addoption(parser):
@@ -51,7 +83,7 @@ def pytest_configure(config):
     worker = getattr(config, "workerinput", {}).get("workerid")  # "gw0", "gw1", ...: an xdist worker
     if worker:
         os.environ.update(worker_environment(config, worker))
-        config.teleteach_system_lock = SystemLock(run_folder(config) / "system.lock")
+        config.teleteach_locks = RunLocks(run_folder(config))
 
 
 def run_folder(config) -> pathlib.Path:
@@ -60,42 +92,54 @@ def run_folder(config) -> pathlib.Path:
     return pathlib.Path(config.option.basetemp).parent  # xdist sets it in every worker
 
 
-class SystemLock:
-    """One lock file of the run, held by a worker's ALONE tests exclusively and by its other `system` tests shared."""
+class RunLocks:
+    """The run's lock files (LOCKS), each held by a worker's test exclusively or shared, as locks_needed says."""
 
-    def __init__(self, path: pathlib.Path):
-        self.file = open(path, "a")  # open for the worker's life: the OS releases the lock when a worker dies
-        self.held = None  # None, "exclusive" or "shared"
+    def __init__(self, folder: pathlib.Path):
+        # open for the worker's life: the OS releases a dead worker's locks
+        self.files = {name: open(folder / f"{name}.lock", "a") for name in LOCKS}
+        self.held = {}  # name -> "exclusive" | "shared"
 
-    def hold(self, how: str):
-        if self.held != how:
-            fcntl.flock(self.file, fcntl.LOCK_EX if how == "exclusive" else fcntl.LOCK_SH)
-            self.held = how
+    def hold(self, needed: dict):
+        """Release what ``needed`` does not name, then take what it names in LOCKS' order."""
+        for name in [name for name in self.held if name not in needed]:
+            fcntl.flock(self.files[name], fcntl.LOCK_UN)
+            del self.held[name]
+        for name in LOCKS:
+            if name in needed and self.held.get(name) != needed[name]:
+                fcntl.flock(self.files[name], fcntl.LOCK_EX if needed[name] == "exclusive" else fcntl.LOCK_SH)
+                self.held[name] = needed[name]
 
     def release(self):
-        if self.held is not None:
-            fcntl.flock(self.file, fcntl.LOCK_UN)
-            self.held = None
+        self.hold({})
 
 
 def alone(item) -> bool:
     return item.nodeid.startswith(tuple(ALONE))
 
 
+def locks_needed(item) -> dict:
+    """ALONE: `system` exclusively (and `rates`, if it measures them); LIGHT: `rates` shared; another `system` test:
+    `system` shared; a test that needs no system: nothing."""
+    if alone(item):
+        rates = {"rates": "exclusive"} if item.nodeid.startswith(MEASURES_RATES) else {}
+        return {"system": "exclusive", **rates}
+    if item.nodeid.startswith(tuple(LIGHT)):
+        return {"rates": "shared"}
+    return {"system": "shared"} if item.get_closest_marker("system") else {}
+
+
 @pytest.hookimpl(hookwrapper=True, tryfirst=True)  # outside pytest-timeout's: the wait for the lock is no test's time
 def pytest_runtest_protocol(item, nextitem):
-    """In a worker: a test of ALONE holds the system lock exclusively (from the first of consecutive ones to the last),
-    another `system` test shared."""
-    lock = getattr(item.config, "teleteach_system_lock", None)
-    if lock is not None and alone(item):
-        lock.hold("exclusive")
-    elif lock is not None and item.get_closest_marker("system"):
-        lock.hold("shared")
+    """In a worker: the test holds the locks it needs (from the first of consecutive ALONE tests to the last)."""
+    locks = getattr(item.config, "teleteach_locks", None)
+    if locks is not None:
+        locks.hold(locks_needed(item))
     try:
         yield
     finally:
-        if lock is not None and not (alone(item) and nextitem is not None and alone(nextitem)):
-            lock.release()
+        if locks is not None and not (alone(item) and nextitem is not None and alone(nextitem)):
+            locks.release()
 
 
 def worker_environment(config, worker: str) -> dict:
@@ -123,7 +167,7 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.system)
     if hasattr(config, "workerinput"):  # the order the scheduler hands the units out in: the longest first
         with_system = {item.path for item in items if item.get_closest_marker("system")}
-        items.sort(key=lambda item: 0 if item.nodeid.startswith(E2E) else 2 if item.path in with_system else 1)
+        items.sort(key=lambda item: run_order(item, with_system))
     if not config.getoption("fast"):
         return
     kept, left_out = [], []
@@ -132,6 +176,15 @@ def pytest_collection_modifyitems(config, items):
     if left_out:
         config.hook.pytest_deselected(items=left_out)
         items[:] = kept
+
+
+def run_order(item, with_system: set) -> int:
+    """test/e2e first, then the files without a `system` test, LIGHT, and the other `system` tests."""
+    if item.nodeid.startswith(E2E):
+        return 0
+    if item.path not in with_system:
+        return 1
+    return 2 if item.nodeid.startswith(tuple(LIGHT)) else 3
 
 
 @pytest.hookimpl(optionalhook=True)
