@@ -37,7 +37,15 @@ from teleteach.runtime.processes import (
     start_xvfb,
 )
 
-SCENARIOS = ["thesis_III_B", "thesis_III_C", "thesis_III_D", "thesis_III_E", "thesis_full", "remembered_repair"]
+SCENARIOS = [
+    "thesis_III_B",
+    "thesis_III_C",
+    "thesis_III_D",
+    "thesis_III_E",
+    "thesis_full",
+    "remembered_repair",
+    "learned_repairs",
+]
 
 
 def recorded_skill(kx_insertion=2100.0, ky_alignment=2200.0):
