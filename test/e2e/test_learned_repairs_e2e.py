@@ -29,7 +29,19 @@ from teleteach.runtime.processes import full_launch
 SCENARIO = ROOT / "config" / "scenarios" / "learned_repairs.yaml"
 TREE = ROOT / "config" / "scenarios" / "learned_repairs_tree.yaml"
 PICKS = {"PickTea": "product_pick_1", "PickMilk": "product_shelf_6", "PickJuice": "product_shelf_13"}
+LEFT = ["PickItem2", "Idle"]  # the execution sequence once the three picks are removed
 RUN_TIMEOUT = 240.0  # [s] wall: start-up, the scenario and its waits
+COMPLETION_TIMEOUT = 90.0  # [s] wall: the veto window, then PickItem2 (about 10 s of simulated time) and Idle
+COMPLETED = [  # ends with the first tree log whose execution sequence succeeded
+    "rostopic",
+    "echo",
+    "-n",
+    "1",
+    "--filter",
+    "any(b.name == 'BehaviorExecution' and b.status == 3 for b in m.behaviours)",  # 3: teleteach/Behaviour SUCCESS
+    "/behaviour_tree/log/tree",
+]
+LIFTED = 0.05  # [m] a picked product stands at least this much higher than on the table
 POLICY = PolicyConfig.from_yaml()  # config/tree_policy.yaml: the run keeps its thresholds (act_confidence 0.9)
 
 
@@ -159,9 +171,12 @@ def run(tmp_path_factory):
     with Experiment(data, data) as experiment:
         experiment.own_display()
         experiment.own_launch(lambda port: full_launch(arguments, port), log)
-        done = experiment.wait_until(lambda: execution_children(saved_tree(data)) == ["Idle"], RUN_TIMEOUT, poll=0.5)
+        done = experiment.wait_until(lambda: execution_children(saved_tree(data)) == LEFT, RUN_TIMEOUT, poll=0.5)
         assert done, f"the three picks are not all removed: {log.read_text()[-3000:]}"
-        time.sleep(POLICY.veto_window + 3.0)  # nobody vetoes: the tree goes on and the bag gets it
+        watcher = experiment.start("rostopic", COMPLETED, data / "completed.log")
+        completed = experiment.wait_until(lambda: watcher.poll() is not None, COMPLETION_TIMEOUT)
+        assert completed, f"the tree did not complete after the veto window: {log.read_text()[-3000:]}"
+        time.sleep(1.0)  # the completed tree reaches the bag
     bags = sorted((data / "bags").glob("learned*.bag"))
     assert len(bags) == 1, list((data / "bags").iterdir())
     return data, bags[0], write_summary(data, bags[0])
@@ -171,7 +186,7 @@ def test_the_saved_tree_has_the_three_removals_the_last_two_as_one_edit_each(run
     data, _, summary = run
     tree = saved_tree(data)
     # Expect the three picks removed: the operator's edit, then the confirmed proposal and the robot's, each a group
-    assert execution_children(tree) == ["Idle"]
+    assert execution_children(tree) == LEFT
     assert [edit["edit"] for edit in tree["history"]["undo"]] == ["remove", "group", "group"], tree["history"]
     assert summary["tree_completed"]
 
@@ -212,9 +227,9 @@ def test_asked_then_proposed_and_confirmed_with_one_click_then_applied_alone(run
 
 def test_the_products_are_where_they_should_be(run):
     _, _, summary = run
-    # Expect product_pick_1 absent, the shelf's products and product_pick_2 where the scene put them: nothing grabbed
-    assert summary["products"]["product_pick_1"] is None
-    assert all(
-        summary["products"][name] is not None for name in ("product_pick_2", "product_shelf_6", "product_shelf_13")
-    )
-    assert summary["moved_products"] == []
+    products, table = summary["products"], load_scene().product("product_pick_2").position
+    # Expect product_pick_1 absent, the shelf's products where the scene put them, product_pick_2 picked: lifted
+    assert products["product_pick_1"] is None
+    assert products["product_shelf_6"] is not None and products["product_shelf_13"] is not None
+    assert summary["moved_products"] == ["product_pick_2"]
+    assert products["product_pick_2"][2] > table[2] + LIFTED, products["product_pick_2"]
