@@ -262,6 +262,19 @@ def test_thesis_full_drives_the_gui_to_the_expected_buttons():
     assert scale_to_index(by_time[38.1].rpy[0], turn, 10) == 8
 
 
+def test_learned_repairs_drives_the_gui_to_the_expected_buttons():
+    scenario = load_scenario(ROOT / "config" / "scenarios" / "learned_repairs.yaml")
+    reach = yaml.safe_load((ROOT / "config" / "gui.yaml").read_text())["device_range"]
+    by_time = {frame.time: frame for frame in scenario.keyframes}
+    # First request: 18 buttons (PauseCondition, the tree's 5 leaves, the library's 12); HIGH-LEVEL entered on button 4,
+    # PickTea is button 1 (leaving the preselected proposal), "remove" the lowest of 4 operations
+    assert scale_to_index(by_time[1.5].position[0], reach, 18) == 4
+    assert scale_to_index(by_time[3.5].position[0], reach, 18) == 1
+    assert OPERATIONS[scale_to_index(by_time[5.5].position[1], reach, len(OPERATIONS))] == "remove"
+    # Second request: the click where HIGH-LEVEL was entered confirms the preselected proposal
+    assert list(by_time[14.5].position) == list(by_time[12.5].position)
+
+
 @pytest.mark.system
 def test_free_port_and_xvfb_on_a_display_it_picked(tmp_path):
     port = free_port()
