@@ -22,9 +22,11 @@ import xml.etree.ElementTree as ElementTree
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "test"))
 
-from conftest import ALONE, LIGHT  # noqa: E402
+from bench_scripts import suite_rule  # noqa: E402
 
 from teleteach.run.provenance import provenance  # noqa: E402
+
+RULE = suite_rule()  # test/conftest.py's ALONE and LIGHT
 
 RESULT = ROOT / "bench" / "results" / "suite_time.json"
 GOAL = 15 * 60.0  # [s] issue 50: the full suite on a fresh Debian 12
@@ -59,8 +61,8 @@ def summary(cases, wall: float, workers: int) -> dict:
         tiers[tier]["tests"] += 1
         tiers[tier]["seconds"] += seconds
     total = sum(seconds for _, seconds, _ in cases)
-    alone = sum(seconds for nodeid, seconds, _ in cases if nodeid.startswith(tuple(ALONE)))
-    light = sum(seconds for nodeid, seconds, _ in cases if nodeid.startswith(tuple(LIGHT)))
+    alone = sum(seconds for nodeid, seconds, _ in cases if nodeid.startswith(tuple(RULE.ALONE)))
+    light = sum(seconds for nodeid, seconds, _ in cases if nodeid.startswith(tuple(RULE.LIGHT)))
     least = max(total / workers, alone)
     return {
         "workers": workers,

@@ -6,7 +6,11 @@ import pathlib
 import threading
 
 import pytest
-from conftest import ALONE, LIGHT, MEASURES_RATES, ROOT, RunLocks, locks_needed
+from bench_scripts import suite_rule
+
+RULE = suite_rule()  # test/conftest.py: `conftest` may name another folder's in a worker
+ALONE, LIGHT, MEASURES_RATES, ROOT, RunLocks = RULE.ALONE, RULE.LIGHT, RULE.MEASURES_RATES, RULE.ROOT, RULE.RunLocks
+locks_needed = RULE.locks_needed
 
 WAIT = 1.0  # [s] for a lock that is free
 
