@@ -371,6 +371,7 @@ class BehaviourTreeNode:
             task=TaskKnowledge(load_scene(), config_values("skills_motion.yaml", "skills")),
             start_paused=config.start_paused,
             preempt_after=config.pause_preempt_after,
+            clock=rospy.get_time,  # in simulation the simulated: the veto window counts from the request's stamp
         )
         if not tree.started:
             rospy.loginfo(

@@ -369,7 +369,7 @@ class TeachingTree:
         task: what the tree knows of the task, to describe a failure's product, gap and base (None: left out)
         start_paused: wait, paused, for :meth:`start` before running anything
         preempt_after: [s] of pause after which a skill goal still out is cancelled (inf: never)
-        clock: [s] monotonic time for ``preempt_after``
+        clock: [s] the time ``preempt_after`` and the veto window are measured on (the node's: ROS time)
 
     Blackboard Variables:
         * **pause** (:obj:`bool`)[w]: written by :meth:`set_pause` and by help requests
