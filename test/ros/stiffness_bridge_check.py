@@ -72,11 +72,22 @@ class StiffnessBridgeTest(unittest.TestCase):
         half = math.sqrt(0.5)
         # Expect nothing until both topics have spoken, then the diagonal of V Sigma V^T: turned a quarter about z,
         # the ellipsoid's y (3000 N/m) lies along base x; rotational 30 Nm/rad; nullspace 0.5 (config)
-        bridge.send_values(1000.0, 3000.0, 2000.0)
-        bridge.send_vectors(0.0, 0.0, half, half)
-        received = bridge.wait("received", 1)
-        self.assertEqual(len(received), 1)
-        np.testing.assert_allclose(received[0], [3000.0, 1000.0, 2000.0, 30.0, 30.0, 30.0, 0.5], atol=1e-3)
+        # (sent again until /stiffness comes: our subscription counts its connection before the bridge's publisher
+        # has taken it, and what the bridge sends meanwhile is lost; a fresh run saw nothing in 10 s)
+        pairs, received = 0, []
+        while not received and pairs < 10:
+            bridge.send_values(1000.0, 3000.0, 2000.0)
+            bridge.send_vectors(0.0, 0.0, half, half)
+            pairs += 1
+            received = bridge.wait("received", 1, timeout=1.0)
+        while len(received) < len(more := bridge.wait("received", len(received) + 1, timeout=1.0)):
+            received = more  # the later pairs' /stiffness, until none for 1 s
+        self.assertGreaterEqual(len(received), 1)
+        if pairs == 1:  # the eigenvalues alone sent nothing (after more pairs the first one's may have been lost)
+            self.assertEqual(len(received), 1)
+        for values in received:
+            np.testing.assert_allclose(values, [3000.0, 1000.0, 2000.0, 30.0, 30.0, 30.0, 0.5], atol=1e-3)
+        good = len(received)
         # Expect: NaN, a negative stiffness, a zero quaternion and another frame are each rejected with a log line,
         # nothing is sent for them, and the next good message is bridged
         # (the bridge logs one rejection per second at most, and two topics' callbacks run in no fixed order: each
@@ -95,9 +106,9 @@ class StiffnessBridgeTest(unittest.TestCase):
         bridge.send_values(1.0, 1.0, 1.0, frame="world")
         logs = bridge.wait_for_log("frame 'world' is wrong", timeout=5.0)
         bridge.send_values(500.0, 600.0, 700.0)
-        received = bridge.wait("received", 2)
-        self.assertEqual(len(received), 2, received)
-        np.testing.assert_allclose(received[1][:3], [600.0, 500.0, 700.0], atol=1e-3)
+        received = bridge.wait("received", good + 1)
+        self.assertEqual(len(received), good + 1, received)  # nothing for the four rejected messages
+        np.testing.assert_allclose(received[good][:3], [600.0, 500.0, 700.0], atol=1e-3)
         rejections = [line for line in logs if "rejected" in line]
         # Expect each of the four rejections logged, on its topic, with its reason
         for said in (
@@ -109,8 +120,8 @@ class StiffnessBridgeTest(unittest.TestCase):
             self.assertTrue(any(said in line for line in rejections), (said, logs))
         # Expect: a turned ellipsoid (45 degrees about z) sends its diagonal and says what the controller cannot take
         bridge.send_vectors(0.0, 0.0, math.sin(math.pi / 8), math.cos(math.pi / 8))
-        received = bridge.wait("received", 3)
-        np.testing.assert_allclose(received[2][:3], [550.0, 550.0, 700.0], atol=1e-3)
+        received = bridge.wait("received", good + 2)
+        np.testing.assert_allclose(received[good + 1][:3], [550.0, 550.0, 700.0], atol=1e-3)
         logs = bridge.wait_for_log("50 N/m off the diagonal")
         self.assertTrue(any("50 N/m off the diagonal" in line for line in logs), logs)
         self.assertFalse(any("bad callback" in line for line in logs), logs)
