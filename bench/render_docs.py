@@ -334,6 +334,50 @@ def ray_workers(results: dict) -> list:
     return [*table(header, rows), "", ratio_line]
 
 
+def suite_time(results: dict) -> list:
+    """The full suite's tiers (the tests' own times), what ran alone and beside, the wall time and its floor."""
+    result = results["suite_time.json"]
+    tiers = sorted(result["tiers"].items(), key=lambda item: -item[1]["seconds"])
+    rows = [[tier, figures["tests"], f"{figures['seconds']:.0f} s"] for tier, figures in tiers]
+    rows.append(["all", result["tests"], f"{result['tests_total_s']:.0f} s"])
+    lines = [
+        f"- pytest's wall time {result['wall_s']:.0f} s on {result['workers']} workers, "
+        f"{100 * result['busy_fraction']:.0f} % of their time busy; {len(result['failed'])} failed",
+        f"- alone (`ALONE`): {result['alone_s']:.0f} s; beside them (`LIGHT`): {result['light_s']:.0f} s",
+        f"- the least wall time any schedule of these tests allows: {result['least_wall_s']:.0f} s",
+    ]
+    return [*table(["tier", "tests", "their own time"], rows), "", *lines, *goal_lines([result["goal"]])]
+
+
+def tree_policy(results: dict) -> list:
+    """The tree policy's held-out figures with their Wilson intervals, beside the repair memory's, and what decides."""
+    held_out = results["tree_policy.json"]["held_out"]
+    counts = held_out["counts"]
+
+    def rate(name: str, of: str) -> str:
+        figure = held_out[name]
+        low, high = (100 * value for value in figure["interval"])
+        return f"{100 * figure['rate']:.0f} % ({low:.0f}-{high:.0f} %) {of}"
+
+    rows = [
+        ["the proposal is the operator's edit", rate("proposal_accuracy", f"of {counts['proposals']}"), ">= 90 %"],
+        ["right when it acts without asking", rate("accuracy_when_acting", f"of {counts['acted']}"), ">= 97 %"],
+        ["acts without asking", rate("acts", f"of {counts['proposals']}"), ""],
+        ["the repair memory's suggestion is the edit", rate("memory_accuracy", f"of {counts['proposals']}"), ""],
+        ["asks where no demonstration had the failure", rate("asks_when_novel", f"of {counts['novel']}"), ""],
+    ]
+    deciding = ", ".join(f"{name} {weight:.2f}" for name, weight in held_out["deciding_features"][:6])
+    return [
+        *table(["held out (95 % interval)", "measured", "goal"], rows),
+        "",
+        f"- model {held_out['model']} (chosen on the development part), act_confidence {held_out['act_confidence']}, "
+        f"novelty_margin {held_out['novelty_margin']}, {counts['demonstrations']} demonstrations, gaps "
+        f"{', '.join(held_out['gaps'])}",
+        f"- what decides (permutation importance: accuracy lost on the demonstrations when a feature is shuffled): "
+        f"{deciding}",
+    ]
+
+
 def mutation_scores(results: dict) -> list:
     """The README's line: the modules with their score, the best first, those of equal score together."""
     by_score = {}
@@ -351,6 +395,8 @@ FIGURES = {
     "mutation": Figure("mutation", ("mutation.json",), mutation),
     "mutation_scores": Figure("mutation", ("mutation.json",), mutation_scores),
     "ray_workers": Figure("ray_workers", ("ray_workers.json",), ray_workers),
+    "suite_time": Figure("suite_time", ("suite_time.json",), suite_time),
+    "tree_policy": Figure("tree_policy", ("tree_policy.json",), tree_policy),
     "teleop_assistance_exact_perception": Figure(
         "teleop_assistance", ("teleop_assistance_exact_perception.json",), teleop_assistance
     ),
