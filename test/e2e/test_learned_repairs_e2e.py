@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
+from main_job import bag_messages, saved_tree
 
 from teleteach.bt.decisions import TaskKnowledge
 from teleteach.bt.editor import EditRequest
@@ -22,7 +23,6 @@ from teleteach.core.observed import TRUE_SCENE_TOPIC, product_positions
 from teleteach.core.paths import config_file, config_values
 from teleteach.core.scene import load_scene
 from teleteach.msg import Behaviour
-from teleteach.recording.session import open_bag
 from teleteach.runtime.experiment import Experiment
 from teleteach.runtime.processes import full_launch
 
@@ -63,27 +63,9 @@ def earlier_session_policy():
     return policy_yaml(policy)
 
 
-def saved_tree(data):
-    """The behaviour tree node's saved tree, or None while it is being replaced or not written yet."""
-    try:
-        return yaml.safe_load((data / "trees" / "current_tree.yaml").read_text())
-    except (OSError, yaml.YAMLError):
-        return None
-
-
 def execution_children(tree):
     """The names of the saved tree's BehaviorExecution children ([] before the tree is saved)."""
     return [child["name"] for child in (tree or {}).get("root", {}).get("children", [{}, {}])[1].get("children", [])]
-
-
-def bag_messages(bag, topic):
-    """(time [s], message) of every message on ``topic``, in the bag's order."""
-    with open_bag(bag) as reader:
-        connections = [connection for connection in reader.connections if connection.topic == topic]
-        return [
-            (stamp * 1e-9, reader.deserialize(raw, connection.msgtype))
-            for connection, stamp, raw in reader.messages(connections)
-        ]
 
 
 def stamped(message):

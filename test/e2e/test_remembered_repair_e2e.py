@@ -7,22 +7,14 @@ import time
 import pytest
 import yaml
 from conftest import ROOT
+from main_job import bag_messages, saved_tree
 
-from teleteach.recording.session import open_bag
 from teleteach.runtime.experiment import Experiment
 from teleteach.runtime.processes import full_launch
 
 SCENARIO = ROOT / "config" / "scenarios" / "remembered_repair.yaml"
 FAILURE = ("PickItem", "product_pick_1 is not on the table")
 RUN_TIMEOUT = 300.0  # [s] wall: start-up, the scenario and its waits
-
-
-def saved_tree(data):
-    """The behaviour tree node's saved tree, or None while it is being replaced or not written yet."""
-    try:
-        return yaml.safe_load((data / "trees" / "current_tree.yaml").read_text())
-    except (OSError, yaml.YAMLError):
-        return None
 
 
 def undone_repair(tree):
@@ -55,12 +47,6 @@ def run(tmp_path_factory):
     return data, bags[0]
 
 
-def bag_messages(bag, topic):
-    with open_bag(bag) as reader:
-        connections = [connection for connection in reader.connections if connection.topic == topic]
-        return [reader.deserialize(raw, connection.msgtype) for connection, _, raw in reader.messages(connections)]
-
-
 def test_the_operator_s_wrap_is_in_the_saved_tree_and_the_repair_undone(run):
     data, _ = run
     tree = saved_tree(data)
@@ -88,7 +74,7 @@ def test_the_repair_is_remembered_in_the_data_directory(run):
 
 def test_the_bag_shows_the_suggestion_and_the_applied_then_undone_repair(run):
     _, bag = run
-    requests = [message for message in bag_messages(bag, "/behaviour_tree/help_request") if message.node_name]
+    requests = [message for _, message in bag_messages(bag, "/behaviour_tree/help_request") if message.node_name]
     # Expect the first help request without a suggestion, the same failure later with the remembered repair
     assert (requests[0].node_name, requests[0].reason, list(requests[0].suggestion)) == (*FAILURE, [])
     suggested = [message for message in requests if list(message.suggestion)]
@@ -96,7 +82,7 @@ def test_the_bag_shows_the_suggestion_and_the_applied_then_undone_repair(run):
     assert list(suggested[0].suggestion) == ["wrap PickItem in a retry (2)"]
     names = [
         {behaviour.name for behaviour in message.behaviours}
-        for message in bag_messages(bag, "/behaviour_tree/log/tree")
+        for _, message in bag_messages(bag, "/behaviour_tree/log/tree")
     ]
     applied = [index for index, tree in enumerate(names) if "RetryPickItem_2" in tree]
     # Expect the repair's decorator to appear in the live tree once and be gone again after the undo

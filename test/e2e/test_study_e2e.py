@@ -21,10 +21,10 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
+from main_job import bag_messages
 
 from teleteach.haptics.guidance import Wrench
 from teleteach.haptics.hand import HandModel, HandParameters
-from teleteach.recording.session import open_bag
 
 STUDY = ROOT / "test" / "data" / "study_e2e.yaml"
 CONDITIONS = {"guided": True, "unguided": False}  # teaching_gui/guidance
@@ -122,15 +122,6 @@ def results(folder):
     return [json.loads(path.read_text()) for path in sorted(folder.glob("P0*/trials/*/result.json"))]
 
 
-def messages(bag, topic):
-    with open_bag(bag) as reader:
-        connections = [connection for connection in reader.connections if connection.topic == topic]
-        return [
-            (stamp * 1e-9, reader.deserialize(raw, connection.msgtype))
-            for connection, stamp, raw in reader.messages(connections)
-        ]
-
-
 def test_the_report_counts_every_trial_and_questionnaire_of_both_participants(run):
     report = run["folder"] / "report"
     markdown = (report / "report.md").read_text()
@@ -189,10 +180,10 @@ def test_each_condition_s_parameters_reached_the_nodes(run):
         assert result["parameters_seen"]["teaching_gui/guidance"] is guidance
         assert result["parameters_seen"]["sigma7_node/hand/seed"] == int(result["participant"][1:])
         bag = run["folder"] / result["participant"] / "trials" / result["step"] / "trial.bag"
-        modes = {mode for _, message in messages(bag, "/sigma7/guidance") for mode in message.modes}
+        modes = {mode for _, message in bag_messages(bag, "/sigma7/guidance") for mode in message.modes}
         forces = [
             np.linalg.norm([m.wrench.force.x, m.wrench.force.y, m.wrench.force.z])
-            for _, m in messages(bag, "/sigma7/force")
+            for _, m in bag_messages(bag, "/sigma7/force")
         ]
         print(result["step"], result["participant"], sorted(modes), f"largest force {max(forces):.3f} N")
         if guidance:
@@ -221,9 +212,9 @@ def test_the_hand_model_trembled_in_the_device_s_pose(run):
     for participant in ("P01", "P02"):
         result = next(r for r in results(run["folder"]) if r["participant"] == participant)
         bag = run["folder"] / participant / "trials" / result["step"] / "trial.bag"
-        states = messages(bag, "/study/state")
+        states = bag_messages(bag, "/study/state")
         start = next(stamp for stamp, message in states if message.phase == message.INSTRUCTIONS)
-        poses = [(stamp, message.pose.position) for stamp, message in messages(bag, "/sigma7/pose")]
+        poses = [(stamp, message.pose.position) for stamp, message in bag_messages(bag, "/sigma7/pose")]
         # the scripted hand rests at the centre during the instructions: what moves the device there is its tremor
         resting = np.array([[p.x, p.y] for stamp, p in poses if start <= stamp <= start + 0.8])
         jitter = float(np.std(resting[:, 0]))
