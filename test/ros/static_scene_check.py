@@ -19,13 +19,15 @@ from teleteach.msg import ExecuteSkillAction, ExecuteSkillGoal
 
 SKILL_TIMEOUT = 120.0  # [s] sim time per skill
 AGREEMENT = 0.02  # [m] belief and world agree on a product's centre within this
+SETTLE = 0.5  # [s] sim time after a skill's end: the scenes compared are stamped at least this much later
+SCENE_WAIT = 30.0  # [s] wall time to wait for such scenes (a loaded machine runs every process late)
 
 
 class Scenes:
     """The latest believed (teleteach/scene) and true (/true_scene) scenes."""
 
     def __init__(self):
-        self.lock = threading.Lock()
+        self.lock = threading.Condition()
         self.latest = {}
         self.rejected = []  # (which scene, marker rejected): asserted by the test, not in the callback's thread
         rospy.Subscriber("/teleteach/scene", MarkerArray, self._keep, "believed", queue_size=1)
@@ -36,10 +38,13 @@ class Scenes:
         with self.lock:
             self.latest[which] = scene
             self.rejected += [(which, marker) for marker in rejected]
+            self.lock.notify_all()
 
-    def get(self, which):
-        rospy.sleep(0.5)  # [s] sim time: a scene published after the skill ended
+    def get(self, which, after):
+        """The latest scene of which, once one stamped after `after` [s] (the robot's clock) has come."""
         with self.lock:
+            fresh = self.lock.wait_for(lambda: which in self.latest and self.latest[which].stamp >= after, SCENE_WAIT)
+            assert fresh, f"no {which} scene stamped after {after:.2f} s came in {SCENE_WAIT:.0f} s"
             assert self.rejected == [], self.rejected  # every marker of both scenes is one the skills can read
             return self.latest[which]
 
@@ -59,7 +64,8 @@ class StaticSceneTest(unittest.TestCase):
             self.assertTrue(client.wait_for_result(rospy.Duration(SKILL_TIMEOUT)), name)
             state, message = client.get_state(), client.get_result().message
             rospy.loginfo(f"{name}: {state} {message}")
-            believed, true = scenes.get("believed"), scenes.get("true")
+            after = rospy.get_time() + SETTLE
+            believed, true = scenes.get("believed", after), scenes.get("true", after)
             held = believed.product("product_pick_1").position
             actual = true.product("product_pick_1").position
             # Expect: belief and world agree where product_pick_1 is after every skill

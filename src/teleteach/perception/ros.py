@@ -69,13 +69,13 @@ class StaticSceneNode:
                 self._width = float(sum(positions[name] for name in self.finger_joints))
 
     def _tcp(self):
-        """The TCP pose in world (position, quaternion), or None while TF does not have it."""
+        """The newest TCP pose in world as (stamp [s], position, quaternion), or None while TF does not have it."""
         try:
             transform = self._tf_buffer.lookup_transform(WORLD_FRAME, self.tcp_frame, rospy.Time(0))
         except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException):
             return None
         t, r = transform.transform.translation, transform.transform.rotation
-        return (t.x, t.y, t.z), (r.x, r.y, r.z, r.w)
+        return transform.header.stamp.to_sec(), (t.x, t.y, t.z), (r.x, r.y, r.z, r.w)
 
     def _on_grasp(self, msg):
         if msg.status.status != GoalStatus.SUCCEEDED or not msg.result.success:
@@ -87,17 +87,22 @@ class StaticSceneNode:
                     f"static_scene: a grasp succeeded, but the TCP ({self.tcp_frame}) or the fingers are unknown"
                 )
                 return
-            name = self.scene.grasped(*tcp, self._width)
+            name = self.scene.grasped(*tcp[1:], self._width)
         if name:
             rospy.loginfo(f"static_scene: {name} is in the hand")
         else:
             rospy.logwarn("static_scene: a grasp succeeded with no product of the scene file at the TCP")
 
     def _tick(self, _event):
+        """Publish the belief, stamped with the time of the TF it was computed from.
+
+        A loaded process holds TF from before the arm or the base stopped while its clock says now: stamped now, a
+        carried product would look out of the hand in a scene that skills (skills.ros) and checks take as fresh.
+        """
         tcp = self._tcp()
         with self._lock:
-            released = None if tcp is None or self._width is None else self.scene.follow(*tcp, self._width)
-            observed = self.scene.observed(rospy.get_time())
+            released = None if tcp is None or self._width is None else self.scene.follow(*tcp[1:], self._width)
+            observed = self.scene.observed(rospy.get_time() if tcp is None else tcp[0])
         if released:
             rospy.loginfo(f"static_scene: {released} released where the hand left it")
         self._publisher.publish(scene_markers(observed, observed.stamp))
