@@ -199,6 +199,32 @@ def test_three_step_flow_removes_the_selected_node():
     assert flow.step is Step.NODE and flow.answer.startswith("done")
 
 
+def test_each_step_begins_where_the_handle_is_and_a_click_without_moving_confirms_what_it_shows():
+    """Samples come only when the handle moves: a step that began from the last edit's control showed 'remove' while
+    a click with the handle still at y = 0 confirmed 'prepend' (issue 54, found again in a walk-through)."""
+    flow = SelectionFlow(CONFIG)
+    flow.set_choices(["LookToShelf", "PickItem", "Skill_1"], 4)
+    flow.device(sample(x=x_for(2, 3), y=x_for(OPERATIONS.index("prepend"), 4), roll=x_for(1, 4, half_range=1.0)))
+    flow.click()
+    # Expect: step 2 shows the operation under the handle at once, and a click confirms that one
+    assert (flow.step, flow.selected_operation) == (Step.OPERATION, "prepend")
+    assert flow.click() == EditRequest("Skill_1", "prepend")
+    flow.answered(True, "prepended")
+    flow.click()
+    flow.device(sample(x=x_for(2, 3), y=x_for(OPERATIONS.index("insert"), 4), roll=x_for(2, 4, half_range=1.0)))
+    # Expect: the dial of step 3 starts at the roll the handle holds (index 2), not where the last insert left it
+    flow.index = 0
+    assert flow.click() is None and (flow.step, flow.index) == (Step.INDEX, 2)
+    attempts = CONFIG.retry_attempts
+    flow.answered(True, "")
+    flow.click()
+    flow.device(sample(y=x_for(MORE_OPERATIONS.index("wrap retry"), len(MORE_OPERATIONS)), roll=0.7))
+    flow.parameter_index = 0
+    # Expect: the retry's attempts start at the roll held (0.7 rad), not at the first value
+    assert flow.click() is None and flow.step is Step.PARAMETER
+    assert flow.parameter_index == scale_to_index(0.7, CONFIG.device_angle_range, len(attempts)) != 0
+
+
 def test_three_step_flow_inserts_at_the_dial_index():
     flow = SelectionFlow(CONFIG)
     flow.set_choices(["A", "B", "Skill_1"], 4)

@@ -151,6 +151,7 @@ class SelectionFlow:
         self.index = 0
         self.parameter_index = 0
         self.height = 0.0  # device Z of the latest sample: a click with the handle pushed or pulled undoes / redoes
+        self._sample: Optional[DeviceSample] = None  # the latest device sample: a step that begins starts from it
         self.repair_node = ""  # the failed node whose help request suggests a remembered repair ("" if none)
         self.offer: Optional[Offer] = None  # the robot's proposal to preselect, until it is sent or withdrawn
         self._offer_button: Optional[int] = None  # the button under the handle when the preselection was first felt
@@ -260,6 +261,7 @@ class SelectionFlow:
 
     def device(self, sample: DeviceSample) -> None:
         """Move the control of the current step only; the others stay where they are (greyed out)."""
+        self._sample = sample
         self.height = sample.z
         if self.step is Step.PROPOSAL and self.choices:
             button = scale_to_index(sample.x, self.config.device_range, len(self.choices))
@@ -318,7 +320,20 @@ class SelectionFlow:
         return "parameter", f"{self.parameter:g}"
 
     def click(self) -> Optional[EditRequest]:
-        """Confirm the current step; returns the request once the flow is complete."""
+        """Confirm the current step; returns the request once the flow is complete.
+
+        A step that begins takes its control from where the handle is now (samples come only when the handle moves),
+        so what it shows before the handle moves is what a click confirms: step 2 showed the operation left from the
+        last edit, and a click with the handle still then confirmed the one under it.
+        """
+        before = self.step
+        request = self._confirm()
+        if self.step is not before and self.step in (Step.OPERATION, Step.INDEX, Step.PARAMETER) and self._sample:
+            self.device(self._sample)
+        return request
+
+    def _confirm(self) -> Optional[EditRequest]:
+        """The click's transition: the next step, or the request of the last one."""
         if self.step is not Step.WAITING and self.edit_gesture:
             self.step = Step.WAITING
             return EditRequest("", self.edit_gesture)
