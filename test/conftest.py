@@ -62,6 +62,7 @@ LIGHT = {  # a master and a few nodes of the tree or the runtime, the longest 23
     "test/test_rostests.py::test_rostest[stiffness_bridge]": "the stiffness bridge and a check",
     "test/ros/test_bt_action_internals.py": "an action server and client in one node",
     "test/ros/test_node_init.py": "a node's start against a master",
+    "test/ros/test_scene_labels.py": "the scene_labels node and a probe",
     "test/unit/test_experiment.py": "a master, an Xvfb and child processes that end on their own",
     "test/unit/test_learning_command.py": "the learn_skill command",
     "test/unit/test_node_start.py": "nodes started and stopped at once",

@@ -136,6 +136,18 @@ def ellipsoid_marker(description: str) -> ExitStatus:
     return 0
 
 
+def scene_labels(description: str) -> ExitStatus:
+    """Publish the scene as RViz draws it until shutdown."""
+    start("scene_labels", description)
+    import rospy
+
+    from teleteach.viz.ros import SceneLabelsPublisher
+
+    SceneLabelsPublisher()
+    rospy.spin()
+    return 0
+
+
 def stiffness_bridge(description: str) -> ExitStatus:
     """Bridge the eigen-decomposed stiffness to the Franka controller's message until shutdown."""
     start("stiffness_bridge", description, "stiffness_bridge.yaml")

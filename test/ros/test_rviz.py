@@ -1,5 +1,6 @@
 """RViz with the teleteach layout: a valid config, and a real RViz under Xvfb showing the simulated robot, the
-supermarket scene and the stiffness ellipsoid for 10 s without errors (screenshots kept in test-artifacts/).
+supermarket scene and the stiffness ellipsoid for 10 s without errors and with no display in warning (screenshots kept
+in test-artifacts/).
 
 What RViz shows is read from its screenshot: the 3D view is where RViz's background colour is, the robot is its white
 links, the shelf is brown, and the ellipsoid is the red that goes away when the commanded stiffness shrinks it
@@ -22,6 +23,7 @@ ERROR_LINE = re.compile(r"\[ *(ERROR|FATAL)\]|has died|Segmentation fault|Traceb
 
 
 BACKGROUND = 48  # RViz's background colour (48; 48; 48), the layout's Background Color
+WARNING = (192, 128, 0)  # the colour RViz paints a display's name in the Displays panel while its status warns
 MIN_PIXELS = {"robot": 1000, "shelf": 10000, "ellipsoid": 1000}  # a fifth or less of what an 820x690 view shows
 
 
@@ -38,7 +40,8 @@ def test_rviz_config_is_valid_yaml_with_every_display():
     assert shown["RobotModel"]["Class"] == "rviz/RobotModel"
     assert shown["RobotModel"]["Robot Description"] == "robot_description"
     # topics relative to RViz's namespace: in <group ns="robot_2"> it shows robot_2's
-    assert shown["Scene"] == {**shown["Scene"], "Class": "rviz/MarkerArray", "Marker Topic": "teleteach/scene"}
+    # the scene as viz.scene draws it (scene_labels): the names as labels, not in the shapes' text, which RViz ignores
+    assert shown["Scene"] == {**shown["Scene"], "Class": "rviz/MarkerArray", "Marker Topic": "teleteach/scene_rviz"}
     assert shown["StiffnessEllipsoid"]["Marker Topic"] == "visualization_marker"
     assert shown["EquilibriumPose"] == {**shown["EquilibriumPose"], "Class": "rviz/Pose", "Topic": "equilibrium_pose"}
     assert shown["TF"]["Class"] == "rviz/TF"
@@ -115,6 +118,9 @@ def test_rviz_shows_robot_scene_and_ellipsoid_without_errors(tmp_path, artifacts
         "ellipsoid": int(red(large).sum() - red(small).sum()),
     }
     assert all(seen[part] >= MIN_PIXELS[part] for part in seen), f"pixels seen {seen}, expected at least {MIN_PIXELS}"
+    # Expect no display in warning: the Scene display warned "Non-empty text is ignored" while it drew the perception
+    # topic itself (names in the boxes' text); it draws teleteach/scene_rviz, the names as labels (scene_labels)
+    assert warning_pixels(tmp_path / "rviz.png") < 20, "a display's name is painted in RViz's warning colour"
 
 
 def screenshot(processes, path):
@@ -128,6 +134,16 @@ def screenshot(processes, path):
     columns = np.flatnonzero(background.sum(axis=0) > 50)
     assert rows.size and columns.size, "no RViz 3D view (background colour) in the screenshot"
     return image[rows[0] : rows[-1] + 1, columns[0] : columns[-1] + 1]
+
+
+def warning_pixels(path):
+    """How many pixels left of the 3D view (the Displays panel) are RViz's warning colour: about 300 per warning."""
+    from PIL import Image
+
+    image = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    columns = np.flatnonzero(np.all(image == BACKGROUND, axis=2).sum(axis=0) > 50)
+    panel = image[:, : columns[0]]
+    return int(np.all(np.abs(panel - np.array(WARNING)) <= 10, axis=2).sum())
 
 
 def white(view):

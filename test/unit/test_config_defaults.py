@@ -184,6 +184,14 @@ def test_no_launch_argument_looks_required_but_has_a_default(launch_file):
     assert empty == []
 
 
+@pytest.mark.parametrize("launch_file", sorted(path.name for path in (ROOT / "launch").glob("*.launch")))
+def test_every_launch_argument_says_what_it_does(launch_file):
+    """roslaunch --ros-args lists each argument a user can set with its doc: none without one."""
+    root = ElementTree.parse(ROOT / "launch" / launch_file).getroot()
+    undocumented = [arg.get("name") for arg in root.iter("arg") if arg.get("value") is None and not arg.get("doc")]
+    assert undocumented == []
+
+
 def test_node_parameters_are_the_yaml_unless_a_private_parameter_overrides_them():
     private = {"~server_timeout": 120.0}
     values = node_parameters("behaviour_tree.yaml", lambda name, default: private.get(name, default))

@@ -429,13 +429,14 @@ def launch_nodes(*args, display=":0"):
 
 def test_full_launch_includes_the_parts_by_its_args():
     everything = {"/robot_sim", "/robot_state_publisher", "/skill_server", "/behaviour_tree", "/teaching_gui"}
-    everything |= {"/sigma7_node", "/ellipsoid_marker", "/rviz", "/shared_control"}
+    everything |= {"/sigma7_node", "/ellipsoid_marker", "/scene_labels", "/rviz", "/shared_control"}
     assert launch_nodes() == everything
     assert launch_nodes(display="") == everything - {"/rviz"}  # RViz by default only where there is a display
     assert launch_nodes("shared_control:=false") == everything - {"/shared_control"}
     # the device on another machine of the same ROS network (docs/real_robot.md: several machines)
     assert launch_nodes("device_node:=false") == everything - {"/sigma7_node"}
-    # headless: no RViz (the ellipsoid marker stays for bags and a later RViz); record: the session recorder
+    # headless: no RViz (the ellipsoid marker and the scene's labels stay for bags and a later RViz, as run_thesis'
+    # own RViz); record: the session recorder
     assert launch_nodes("headless:=true", "record:=true") == everything - {"/rviz"} | {"/session_recorder"}
     # a real robot: no simulation (franka_control.launch brings robot_state_publisher); the skill servers and the
     # stiffness bridge to the variable impedance controller run, and static_scene when there is no perception

@@ -135,34 +135,45 @@ def _box(marker, yaw_only: bool) -> ObservedBox:
     return ObservedBox(marker.text, position, quaternion, tuple(float(value) for value in size))
 
 
+def scene_objects(markers: Iterable) -> Tuple[List[Tuple[Marker, ObservedBox]], List[str]]:
+    """The markers of a ``teleteach/scene`` message that are objects, each with its box, and why others were left out.
+
+    The objects keep the markers' order. Left out with a reason: a marker of the four classes that cannot be an object
+    (other namespaces and DELETEs are skipped). A gap's box is its marker's (scale.x twice the tolerance, scale.y the
+    width). Works on rospy messages and on messages read from a bag with rosbags (same field names).
+    """
+    objects: List[Tuple[Marker, ObservedBox]] = []
+    taken: Dict[str, set] = {PRODUCTS: set(), GAPS: set(), TABLES: set(), SURFACES: set()}
+    rejected: List[str] = []
+    for marker in markers:
+        if marker.action != ADD or marker.ns not in taken:
+            continue
+        try:
+            box = _box(marker, yaw_only=marker.ns in (GAPS, TABLES))
+            if box.name in taken[marker.ns]:
+                raise InvalidCommandError("the name is taken by an earlier marker")
+        except InvalidCommandError as error:
+            rejected.append(f"{marker.ns} marker '{marker.text}': {error}")
+            continue
+        taken[marker.ns].add(box.name)
+        objects.append((marker, box))
+    return objects, rejected
+
+
 def observed_from_markers(markers: Iterable) -> Tuple[ObservedScene, List[str]]:
     """The scene the markers of a ``teleteach/scene`` message describe, and why each left-out marker was left out.
 
     Works on rospy messages and on messages read from a bag with rosbags (same field names).
     """
-    products: Dict[str, ObservedBox] = {}
-    gaps: Dict[str, Gap] = {}
-    tables: Dict[str, ObservedBox] = {}
-    surfaces: Dict[str, ObservedBox] = {}
-    rejected: List[str] = []
-    stamps: List[float] = []
-    for marker in markers:
-        if marker.action != ADD or marker.ns not in (PRODUCTS, GAPS, TABLES, SURFACES):
-            continue
-        taken = {PRODUCTS: products, GAPS: gaps, TABLES: tables, SURFACES: surfaces}[marker.ns]
-        try:
-            box = _box(marker, yaw_only=marker.ns in (GAPS, TABLES))
-            if box.name in taken:
-                raise InvalidCommandError("the name is taken by an earlier marker")
-        except InvalidCommandError as error:
-            rejected.append(f"{marker.ns} marker '{marker.text}': {error}")
-            continue
+    objects, rejected = scene_objects(markers)
+    found: Dict[str, dict] = {PRODUCTS: {}, GAPS: {}, TABLES: {}, SURFACES: {}}
+    for marker, box in objects:
         if marker.ns == GAPS:
-            taken[box.name] = Gap(box.name, tuple(box.position.tolist()), box.yaw, box.size[1], box.size[0] / 2.0)
+            found[GAPS][box.name] = Gap(box.name, tuple(box.position.tolist()), box.yaw, box.size[1], box.size[0] / 2.0)
         else:
-            taken[box.name] = box
-        stamps.append(marker_stamp(marker.header.stamp))
-    return ObservedScene(products, gaps, tables, max(stamps) if stamps else 0.0, surfaces), rejected
+            found[marker.ns][box.name] = box
+    stamp = max((marker_stamp(marker.header.stamp) for marker, _ in objects), default=0.0)
+    return ObservedScene(found[PRODUCTS], found[GAPS], found[TABLES], stamp, found[SURFACES]), rejected
 
 
 def product_poses(markers: Iterable) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:

@@ -1,4 +1,4 @@
-"""The ellipsoid marker's ROS layer: the commanded stiffness in, the RViz marker of ``viz.ellipsoid`` out."""
+"""The ROS layers of what only RViz shows: the stiffness ellipsoid (``viz.ellipsoid``) and the scene (``viz.scene``)."""
 
 import threading
 import time
@@ -6,11 +6,13 @@ import time
 import rosgraph
 import rospy
 from geometry_msgs.msg import PoseStamped, QuaternionStamped, Vector3Stamped
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
+from teleteach.core.observed import SCENE_TOPIC
 from teleteach.core.validation import InvalidCommandError
 from teleteach.runtime.node import node_parameters
 from teleteach.viz.ellipsoid import EllipsoidMarkerBuilder, EllipsoidMarkerConfig, drawn_as
+from teleteach.viz.scene import SCENE_RVIZ_TOPIC, rviz_markers
 
 
 class EllipsoidMarkerPublisher:
@@ -104,3 +106,49 @@ class EllipsoidMarkerPublisher:
         if marker is not None and drawn_as(marker) != self._shown:
             self._shown = drawn_as(marker)
             self.publisher.publish(marker)
+
+
+class SceneLabelsPublisher(rospy.SubscribeListener):
+    """ROS wiring: teleteach/scene in, teleteach/scene_rviz out (:func:`teleteach.viz.scene.rviz_markers`).
+
+    Each scene message becomes one message for RViz, latched, but only while someone subscribes to it (the conversion
+    is a few ms per scene, 10 scenes a second in a simulation): a subscriber that comes later gets the latest scene at
+    once. A named object that is no object (NaN, a tilted gap, a name taken) gets no label, with a warning at most
+    every ``WARN_PERIOD``; its shape is drawn as RViz draws it.
+
+    ROS Subscribers:
+        teleteach/scene (visualization_msgs/MarkerArray)
+
+    ROS Publishers:
+        teleteach/scene_rviz (visualization_msgs/MarkerArray; latched)
+    """
+
+    WARN_PERIOD = 5.0
+    """Seconds between two warnings about markers that got no label."""
+
+    def __init__(self):
+        super().__init__()
+        self._lock = threading.Lock()
+        self._latest = None
+        self.publisher = rospy.Publisher(
+            SCENE_RVIZ_TOPIC, MarkerArray, queue_size=1, latch=True, subscriber_listener=self
+        )
+        self._subscriber = rospy.Subscriber(SCENE_TOPIC, MarkerArray, self._on_scene, queue_size=1)
+
+    def _on_scene(self, message: MarkerArray) -> None:
+        with self._lock:
+            self._latest = message
+            if self.publisher.get_num_connections() > 0:
+                self._publish(message)
+
+    def peer_subscribe(self, topic_name, topic_publish, peer_publish) -> None:
+        """A new subscriber (RViz): the latest scene, converted now (nothing was converted while nobody listened)."""
+        with self._lock:
+            if self._latest is not None:
+                self._publish(self._latest)
+
+    def _publish(self, message: MarkerArray) -> None:
+        markers, rejected = rviz_markers(message.markers)
+        if rejected:
+            rospy.logwarn_throttle(self.WARN_PERIOD, f"scene_labels: no label for {'; '.join(rejected)}")
+        self.publisher.publish(MarkerArray(markers=markers))
