@@ -403,3 +403,16 @@ def test_a_long_function_is_found_by_its_qualified_name():
     body = "\n".join(f"        x{index} = {index}" for index in range(MAX_FUNCTION_LINES))
     tree = ast.parse(f"class A:\n    def long(self):\n{body}\n\n    def short(self):\n        pass\n")
     assert long_functions(tree) == {"A.long": MAX_FUNCTION_LINES + 1}
+
+
+MAX_GUI_FILE_LINES = 400  # issue 56: a GUI file a Qt developer reads whole; a tab that grows past it splits by concern
+
+
+def test_every_gui_file_fits_in_four_hundred_lines():
+    """The GUI is a file per concern (a tab's view and its adapter, the window, the worker): none grows into a heap."""
+    found = {
+        str(path.relative_to(PACKAGE)): len(path.read_text().splitlines()) for path in (PACKAGE / "gui").rglob("*.py")
+    }
+    assert len(found) > 30  # the check saw the tabs' packages too
+    too_long = sorted(f"{path} ({lines} lines)" for path, lines in found.items() if lines > MAX_GUI_FILE_LINES)
+    assert too_long == [], f"longer than {MAX_GUI_FILE_LINES} lines: {', '.join(too_long)}"
