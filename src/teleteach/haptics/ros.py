@@ -56,7 +56,7 @@ from teleteach.haptics.scenario import (
 from teleteach.haptics.topic import TopicInput
 from teleteach.haptics.twist import TwistEstimator
 from teleteach.msg import Behaviour, BehaviourTree, HapticGuidance, HelpRequest, StudyState
-from teleteach.runtime.node import end_parent_launch, node_parameters, server_value, shutting_down
+from teleteach.runtime.node import end_parent_launch, node_parameters, server_has, server_value, shutting_down
 
 BACKENDS = ("dhd", "scenario", "virtual", "topic")
 
@@ -549,7 +549,7 @@ class DeviceMonitorNode:
         )
         rospy.Subscriber("sigma7/gripper_angle", Float64, lambda msg: monitor.on_gripper(rospy.get_time(), msg.data))
         rospy.Subscriber("sigma7/button", Bool, lambda msg: monitor.on_button(rospy.get_time(), msg.data))
-        while not rospy.has_param(self.start_param) and not rospy.is_shutdown():
+        while not server_has(self.start_param) and not rospy.is_shutdown():
             rospy.sleep(0.05)
         monitor.start_time = server_value(self.start_param)
         end = monitor.start_time + self.duration + self.margin

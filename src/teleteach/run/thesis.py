@@ -36,7 +36,7 @@ from teleteach.run.narration import Narration
 from teleteach.run.outcome import RunSummary
 from teleteach.run.pictures import background_colour, rviz_picture
 from teleteach.runtime.experiment import Experiment
-from teleteach.runtime.node import server_value
+from teleteach.runtime.node import server_has, server_value
 from teleteach.runtime.processes import (
     ProcessError,
     closed_bag,
@@ -377,7 +377,7 @@ class ThesisRun:
             if self.experiment.ended():
                 return self._ended_early()
             try:
-                if start is None and rospy.has_param("sigma7_node/scenario_start"):
+                if start is None and server_has("sigma7_node/scenario_start"):
                     start = float(server_value("sigma7_node/scenario_start"))
                     self.say(
                         f"run_thesis: scenario started at simulated t = {start:.2f} s ({duration:.0f} s without waits)"

@@ -204,6 +204,13 @@ def server_value(name: str, default: typing.Any = _NO_DEFAULT) -> typing.Any:
     return rospy.get_param(name) if default is _NO_DEFAULT else rospy.get_param(name, default)
 
 
+def server_has(name: str) -> bool:
+    """Whether another process has left ``name`` on the parameter server yet (its value: :func:`server_value`)."""
+    import rospy
+
+    return rospy.has_param(name)
+
+
 def merged(default: typing.Any, override: typing.Any) -> typing.Any:
     """``override``, except that two mappings merge key by key (nested)."""
     if not (isinstance(default, dict) and isinstance(override, dict)):
