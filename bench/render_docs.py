@@ -24,6 +24,7 @@ from typing import Callable
 import yaml
 
 from teleteach.core.rotations import rpy_rotation
+from teleteach.run.ablation import all_cells
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "bench" / "results"
@@ -298,6 +299,130 @@ def teleop_assistance(results: dict) -> list:
         "success, off / on",
     ]
     return [*table(header, rows), "", f"- {result['goal']}"]
+
+
+def placements(result: dict) -> list:
+    """Per gap, a placing skill replayed N times: success with its Wilson interval, the skill's own verdict, the median
+    peak contact force with its bootstrap interval, the largest neighbour move, and the trials that failed."""
+    taught_at = result["settings"].get("taught_at", "gap_1")
+    rows = []
+    for gap, figures in result["gaps"].items():
+        low, high = (100 * value for value in figures["success_interval"])
+        force_low, force_high = figures["median_peak_force_interval"]
+        failed = [trial for trial in result["trials"][gap] if not trial["success"]]
+        here = ", taught here" if gap == taught_at else ""
+        rows.append(
+            [
+                f"{gap} ({1e3 * result['settings']['clearance_m'][gap]:.0f} mm{here})",
+                f"{round(figures['success_rate'] * figures['trials'])} of {figures['trials']} ({low:.0f}-{high:.0f} %)",
+                f"{100 * figures['skill_success_rate']:.0f} % ({figures['verdicts_disagree']} unlike the world)",
+                f"{figures['median_peak_force_n']:.1f} N ({force_low:.1f}-{force_high:.1f} N)",
+                f"{1e3 * figures['neighbour_max_move_m']:.1f} mm",
+                ", ".join(f"{trial['seed']} ({1e3 * trial['distance_m']:.1f} mm off)" for trial in failed) or "none",
+            ]
+        )
+    header = [
+        "gap (clearance per side)",
+        "placed, from the true world (Wilson 95 %)",
+        "the skill says placed",
+        "median peak contact force (95 %)",
+        "largest neighbour move",
+        "failed: seed (off the gap's centre)",
+    ]
+    return table(header, rows)
+
+
+def skill_reuse(results: dict) -> list:
+    """The skill taught at gap_1 replayed at gap_1 and the held-out gaps, and the goal line."""
+    result = results["skill_reuse.json"]
+    seeds = result["settings"]["seeds"]
+    return [
+        f"The skill `{pathlib.Path(result['settings']['skill_file']).name}`, {result['settings']['trials']} trials per "
+        f"gap, seeds {seeds[0]}-{seeds[-1]}:",
+        "",
+        *placements(result),
+        "",
+        f"- {result['goal']}",
+    ]
+
+
+def taught_placement(results: dict) -> list:
+    """The placement taught by teleoperation (one trial), its skill replayed at gap_1 and held-out gaps; the goal."""
+    result = results["taught_placement.json"]
+    taught, settings = result["taught"], result["settings"]
+    seeds = settings["seeds"]
+    return [
+        f"Taught at gap_1 by teleoperation (seed {settings['teach_seed']}): "
+        f"{'placed' if taught['success'] else '**not placed**'}, "
+        f"{1e3 * taught['lateral_m']:+.1f} mm across, peak force on the neighbours "
+        f"{taught['peak_neighbour_force_n']:.1f} N, {taught['sim_s']:.1f} s of operator time, the skill "
+        f"{taught['skill_duration_s']:.1f} s long. Reused: {settings['trials']} trials per gap, seeds "
+        f"{seeds[0]}-{seeds[-1]}:",
+        "",
+        *placements(result),
+        "",
+        f"- {result['goal']}",
+    ]
+
+
+def stiffness_cell(name: str, result: dict) -> str:
+    """A cell of the stiffness ablation by its insertion stiffness [N/m]: along / across the gap, or vertical."""
+    if name in result["profile_insertion_stiffness"]:
+        along, across = result["profile_insertion_stiffness"][name]
+        return f"{name.replace('_', ' ')} ({along:.0f} / {across:.0f})"
+    kind, *values = name.split("_")
+    if kind == "vertical":
+        return f"taught, vertical {values[0]}"
+    return f"sweep ({values[0]} / {values[1]})"
+
+
+def stiffness_ablation(name: str) -> Callable[[dict], list]:
+    """The renderer of one stored stiffness ablation: per cell its success, the skill's verdict, the median peak force
+    and the largest neighbour move; the goals; the compliant-against-stiff contrast across the gap."""
+
+    def render(results: dict) -> list:
+        result = results[name]
+        settings = result["settings"]
+        rows = []
+        for cell, figures in all_cells(result).items():
+            low, high = (100 * value for value in figures["success_interval"])
+            force_low, force_high = figures["median_peak_force_interval"]
+            rows.append(
+                [
+                    stiffness_cell(cell, result),
+                    f"{round(figures['success_rate'] * figures['trials'])} of {figures['trials']} "
+                    f"({low:.0f}-{high:.0f} %)",
+                    f"{100 * figures['skill_success_rate']:.0f} %",
+                    f"{figures['median_peak_force_n']:.1f} N ({force_low:.1f}-{force_high:.1f} N)",
+                    f"{1e3 * figures['neighbour_max_move_m']:.1f} mm",
+                ]
+            )
+        header = [
+            "cell (insertion stiffness along / across the gap, N/m)",
+            "placed, from the true world (Wilson 95 %)",
+            "the skill says placed",
+            "median peak contact force (95 %)",
+            "largest neighbour move",
+        ]
+        contrasts = [
+            f"- {row['compliant']} against {row['stiff']}: {row['touched']} of {row['trials']} trials moved a "
+            f"neighbour; the compliant one moved it less in {row['compliant_moved_less']} (sign test p = "
+            f"{row['sign_test_p']:.3f})"
+            for row in result["across_contrast"]
+        ]
+        seeds = settings["seeds"]
+        return [
+            f"{settings['trials']} trials per cell at {settings['gap']} ({1e3 * settings['clearance_m']:.0f} mm "
+            f"clearance per side), seeds {seeds[0]}-{seeds[-1]}, uncertainty "
+            f"`{pathlib.Path(settings['uncertainty_file']).name}`:",
+            "",
+            *table(header, rows),
+            "",
+            *(f"- {line}" for line in result["goals"]),
+            *contrasts,
+        ]
+
+    return render
 
 
 def ray_workers(results: dict) -> list:
