@@ -110,4 +110,5 @@ def test_a_selection_flow_says_what_each_click_confirms():
     flow.device(at(y=-0.03))
     assert flow.confirmation() == ("operation", "insert")
     flow.click()
-    assert flow.step is Step.INDEX and flow.confirmation() == ("index", "0")
+    # Expect: the dial begins at the handle's roll (0 rad: the middle of three slots), what a click then confirms
+    assert flow.step is Step.INDEX and flow.confirmation() == ("index", "1")
