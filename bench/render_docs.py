@@ -522,6 +522,7 @@ FIGURES = {
     "ray_workers": Figure("ray_workers", ("ray_workers.json",), ray_workers),
     "suite_time": Figure("suite_time", ("suite_time.json",), suite_time),
     "tree_policy": Figure("tree_policy", ("tree_policy.json",), tree_policy),
+    "skill_reuse": Figure("skill_reuse", ("skill_reuse.json",), skill_reuse),
     "teleop_assistance_exact_perception": Figure(
         "teleop_assistance", ("teleop_assistance_exact_perception.json",), teleop_assistance
     ),
