@@ -55,6 +55,8 @@ def test_a_bad_entry_is_refused_in_one_line(value, message):
 class SdkFrameDevice:
     """A backend reporting in the Force Dimension frame; it keeps what it was told to render."""
 
+    moves_on_wall_clock = False  # as DeviceBackend's default: its twist over the loop's stamps
+
     def __init__(self):
         self.rendered = []
         self.finished = False

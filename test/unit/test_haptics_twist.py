@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from teleteach.haptics.twist import TwistEstimator, rotation_vector_between
+from teleteach.haptics.twist import StampOnWall, TwistEstimator, rotation_vector_between
 
 STEP = 0.001
 
@@ -86,3 +86,29 @@ def test_repeated_time_and_reset():
 def test_bad_cutoff_is_refused(cutoff):
     with pytest.raises(ValueError):
         TwistEstimator(cutoff)
+
+
+def test_the_stamp_on_wall_is_the_line_of_a_late_and_uneven_simulated_clock():
+    """Ticks of 10 ms at half real time, a fifth of them arriving 30-90 ms late: the line gives the stamps' pace
+    (0.5 s per wall second) at every read, where the stamps themselves stand still and then jump."""
+    rng = np.random.default_rng(3)
+    produced = np.arange(400) * 0.02  # tick k (stamp 0.01 k) is made at wall 0.02 k
+    arrival = np.maximum.accumulate(produced + np.where(rng.random(400) < 0.2, rng.uniform(0.03, 0.09, 400), 0.0))
+    line, moments, walls = StampOnWall(), [], np.arange(0.5, 7.5, 0.001)
+    for wall in walls:
+        stamp = 0.01 * (np.searchsorted(arrival, wall, side="right") - 1)
+        moments.append(line(wall, stamp))
+    pace = np.diff(moments[-4000::10]) / 0.01  # over 10 ms of wall time, a twist filter's time constant
+    # Expect: a steady pace of 0.5 (the stamps' own are 0 or 1 over 10 ms, and 3-9 ms behind), never back
+    assert np.all(np.diff(moments) >= 0.0)
+    np.testing.assert_allclose(np.median(pace), 0.5, rtol=0.05)
+    assert 0.4 < np.percentile(pace, 1) and np.percentile(pace, 99) < 0.6, np.percentile(pace, [1, 99])
+
+
+def test_the_stamp_on_wall_is_the_wall_clock_itself_and_starts_over_when_the_clock_goes_back():
+    line = StampOnWall()
+    walls = np.arange(100.0, 102.0, 0.001)
+    # Expect: ROS on the wall clock passes through (the first reads are the stamps themselves)
+    np.testing.assert_allclose([line(wall, wall) for wall in walls], walls, atol=1e-6)
+    # Expect: a clock that went back (a simulation started again) is followed from there, not from the old line
+    assert line(102.0, 0.0) == 0.0 and line(102.001, 0.0) == 0.0

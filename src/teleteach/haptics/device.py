@@ -47,6 +47,11 @@ class DeviceSample:
 class DeviceBackend(abc.ABC):
     """A source of device samples (real device, scripted scenario or virtual window)."""
 
+    moves_on_wall_clock = False
+    """Whether a hand moves it on the wall clock (the Sigma.7, the virtual window), whatever clock ROS runs on; a
+    scenario is evaluated at the loop's stamps instead. The loop differentiates a hand's pose over the stamp clock as a
+    line of the wall clock (:class:`teleteach.haptics.twist.StampOnWall`), not over the late, uneven ticks."""
+
     @abc.abstractmethod
     def read(self, time: float) -> DeviceSample:
         """Returns the sample at ``time`` [s], the instant the loop stamps it with (now).

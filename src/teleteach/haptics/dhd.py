@@ -85,6 +85,8 @@ class DhdBackend(DeviceBackend):
         DeviceUnavailableError: the library or the device is missing.
     """
 
+    moves_on_wall_clock = True  # the operator's hand moves it in real time, whatever clock ROS runs on
+
     def __init__(self, library_path: str = "", native_button: bool = False) -> None:
         self._dhd = load_dhd_library(library_path)
         self._id = self._dhd.dhdOpen()

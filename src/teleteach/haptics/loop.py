@@ -14,7 +14,7 @@ from teleteach.haptics.axes import CONVENTIONS, AxisMapping
 from teleteach.haptics.click import ClickDetector
 from teleteach.haptics.device import DeviceBackend, DeviceReadError
 from teleteach.haptics.guidance import GuidanceRenderer, Wrench
-from teleteach.haptics.twist import TwistEstimator
+from teleteach.haptics.twist import StampOnWall, TwistEstimator
 
 
 @dataclasses.dataclass
@@ -132,7 +132,8 @@ class DeviceLoop:
     Args:
         backend: where samples come from.
         publish: called with each :class:`DeviceState`.
-        clock: [s] time that stamps samples (ROS time in the node).
+        clock: [s] time that stamps samples (ROS time in the node). A hand's twist is differentiated over it as a
+            line of ``wall_clock`` (``DeviceBackend.moves_on_wall_clock``), a scenario's over the stamps themselves.
         click_detector: emulates the button for backends without a native one.
         twist_estimator: filtered velocity from successive poses.
         log_error: receives the (throttled) read-error reports.
@@ -167,6 +168,7 @@ class DeviceLoop:
         self._clock = clock
         self._clicks = click_detector
         self._twist = twist_estimator
+        self._stamp_on_wall = StampOnWall()
         self._log_error = ThrottledLog(log_error, error_log_period, wall_clock)
         self._wall_clock = wall_clock
         self.first_published_at: Optional[float] = None
@@ -179,6 +181,7 @@ class DeviceLoop:
     def step(self) -> bool:
         """Runs one cycle; returns whether a state was published."""
         stamp = self._clock()
+        moment = self._stamp_on_wall(self._wall_clock(), stamp) if self.backend.moves_on_wall_clock else stamp
         try:
             sample = self.backend.read(stamp)
         except DeviceReadError as error:
@@ -200,7 +203,7 @@ class DeviceLoop:
         if button is None:
             self._clicks.catch_up(self.backend.missed_gripper(), stamp)
             button = self._clicks.update(stamp, sample.gripper)
-        linear, angular = self._twist.update(stamp, sample.position, sample.orientation)
+        linear, angular = self._twist.update(moment, sample.position, sample.orientation)
         self._publish(
             DeviceState(stamp, sample.position, sample.orientation, linear, angular, float(sample.gripper), button)
         )

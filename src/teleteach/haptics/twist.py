@@ -1,7 +1,8 @@
 """Device velocity from successive poses: finite differences, low-pass filtered (the one place it is computed)."""
 
+import collections
 import math
-from typing import Optional, Tuple
+from typing import Deque, Optional, Tuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -50,3 +51,50 @@ class TwistEstimator:
             self._angular += weight * (angular - self._angular)
         self._previous = (time, np.array(position, dtype=float), np.array(orientation, dtype=float))
         return self._linear.copy(), self._angular.copy()
+
+
+class StampOnWall:
+    """The stamp clock (ROS time) as a smooth function of the wall clock, for a hand that moves on the wall clock.
+
+    Under a simulation ROS time advances in /clock ticks (10 ms) that reach a loaded process late and unevenly: a tick
+    held back 90 ms, then the next at once. Differentiated over those stamps, a hand's steady motion came out as spikes
+    (a drawn wave's 0.07 m/s as 0.4 m/s), and the shared controller named the wave but left it to the operator. The
+    stamp returned here advances at the pace of the line through the last ``WINDOW`` seconds of (wall, stamp) pairs and
+    drifts onto that line over ``CATCH_UP`` seconds, so the speed is the one the stamps mean (the hand's displacement
+    per simulated second, as the robot sees it) without the ticks' jitter. With ROS on the wall clock it is the clock.
+    """
+
+    WINDOW = 1.0  # [s] of wall time the line is fitted over: many ticks, short against a change of pace
+    SPACING = 0.005  # [s] of wall time between two kept pairs: ROS on the wall clock changes at every read
+    CATCH_UP = 0.5  # [s] of wall time to close a gap between the stamp returned and the line (a refit moves it)
+
+    def __init__(self) -> None:
+        self._pairs: Deque[Tuple[float, float]] = collections.deque()
+        self._line: Optional[Tuple[float, float, float]] = None  # (wall of reference, stamp there, slope)
+        self._last: Optional[Tuple[float, float]] = None  # (wall, stamp returned) of the last call
+
+    def __call__(self, wall: float, stamp: float) -> float:
+        """The stamp at ``wall`` [s]: ``stamp`` itself until the line has three pairs, then smooth, never decreasing."""
+        pairs = self._pairs
+        if pairs and stamp < pairs[-1][1]:
+            pairs.clear()  # the clock went back (a simulation started again): a new line
+            self._line, self._last = None, None
+        if not pairs or (stamp != pairs[-1][1] and wall - pairs[-1][0] >= self.SPACING):
+            pairs.append((wall, stamp))
+            while pairs[0][0] < wall - self.WINDOW:
+                pairs.popleft()
+            if len(pairs) >= 3:
+                walls, stamps = np.array(pairs).T
+                slope, at_wall = np.polyfit(walls - wall, stamps, 1)
+                self._line = (wall, at_wall, slope)
+        if self._line is None or self._last is None:
+            moment = stamp
+        else:
+            reference, at_reference, slope = self._line
+            previous_wall, previous = self._last
+            step = wall - previous_wall
+            on_line = at_reference + slope * (wall - reference)
+            moment = previous + slope * step + min(1.0, step / self.CATCH_UP) * (on_line - previous - slope * step)
+            moment = max(previous, moment)
+        self._last = (wall, moment)
+        return moment

@@ -74,6 +74,7 @@ class VirtualDevice(DeviceBackend):
         self._stroke: Optional[Tuple[str, float, np.ndarray]] = None  # pattern, start time, handle position then
 
     flick_samples = 20  # per scripted flick, for the catch-up after a stall
+    moves_on_wall_clock = True  # keys, the mouse and the drawn strokes move it in real time
 
     def move(self, dx: float = 0.0, dy: float = 0.0, dz: float = 0.0) -> None:
         """Moves the end effector by [m], clamped to the workspace; a stroke being drawn stops where it is."""
