@@ -301,6 +301,14 @@ def teleop_assistance(results: dict) -> list:
     return [*table(header, rows), "", f"- {result['goal']}"]
 
 
+def failure(trial: dict) -> str:
+    """A failed placement trial: its seed, how far from the gap's true centre the product ended, and a neighbour's move
+    when it moved one more than a millimetre."""
+    moved = trial["neighbour_max_move_m"]
+    pushed = f", a neighbour moved {1e3 * moved:.1f} mm" if moved > 1e-3 else ""
+    return f"{trial['seed']} ({1e3 * trial['distance_m']:.1f} mm off{pushed})"
+
+
 def placements(result: dict) -> list:
     """Per gap, a placing skill replayed N times: success with its Wilson interval, the skill's own verdict, the median
     peak contact force with its bootstrap interval, the largest neighbour move, and the trials that failed."""
@@ -318,7 +326,7 @@ def placements(result: dict) -> list:
                 f"{100 * figures['skill_success_rate']:.0f} % ({figures['verdicts_disagree']} unlike the world)",
                 f"{figures['median_peak_force_n']:.1f} N ({force_low:.1f}-{force_high:.1f} N)",
                 f"{1e3 * figures['neighbour_max_move_m']:.1f} mm",
-                ", ".join(f"{trial['seed']} ({1e3 * trial['distance_m']:.1f} mm off)" for trial in failed) or "none",
+                ", ".join(failure(trial) for trial in failed) or "none",
             ]
         )
     header = [
@@ -327,7 +335,7 @@ def placements(result: dict) -> list:
         "the skill says placed",
         "median peak contact force (95 %)",
         "largest neighbour move",
-        "failed: seed (off the gap's centre)",
+        "failed: seed (off the gap's true centre; a neighbour moved)",
     ]
     return table(header, rows)
 
@@ -523,6 +531,7 @@ FIGURES = {
     "suite_time": Figure("suite_time", ("suite_time.json",), suite_time),
     "tree_policy": Figure("tree_policy", ("tree_policy.json",), tree_policy),
     "skill_reuse": Figure("skill_reuse", ("skill_reuse.json",), skill_reuse),
+    "taught_placement": Figure("taught_placement", ("taught_placement.json",), taught_placement),
     "teleop_assistance_exact_perception": Figure(
         "teleop_assistance", ("teleop_assistance_exact_perception.json",), teleop_assistance
     ),
