@@ -532,6 +532,11 @@ FIGURES = {
     "tree_policy": Figure("tree_policy", ("tree_policy.json",), tree_policy),
     "skill_reuse": Figure("skill_reuse", ("skill_reuse.json",), skill_reuse),
     "taught_placement": Figure("taught_placement", ("taught_placement.json",), taught_placement),
+    "stiffness_ablation_vertical": Figure(
+        "stiffness_ablation",
+        ("stiffness_ablation_vertical.json",),
+        stiffness_ablation("stiffness_ablation_vertical.json"),
+    ),
     "teleop_assistance_exact_perception": Figure(
         "teleop_assistance", ("teleop_assistance_exact_perception.json",), teleop_assistance
     ),
