@@ -328,7 +328,8 @@ class SelectionFlow:
         """
         before = self.step
         request = self._confirm()
-        if self.step is not before and self.step in (Step.OPERATION, Step.INDEX, Step.PARAMETER) and self._sample:
+        begun = self.step is not before and self.step in (Step.OPERATION, Step.INDEX, Step.PARAMETER)
+        if begun and self._sample is not None:
             self.device(self._sample)
         return request
 
